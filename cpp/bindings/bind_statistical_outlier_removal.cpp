@@ -1,0 +1,34 @@
+// Binding of pcl_rg::statistical_outlier_removal (see statistical_outlier_removal.hpp).
+#include "bindings.hpp"
+#include "numpy_io.hpp"
+#include "pcl_rg/statistical_outlier_removal.hpp"
+
+namespace pcl_rg::bindings {
+
+void bind_statistical_outlier_removal(py::module_& m) {
+    py::class_<StatisticalOutlierRemovalParams>(m, "StatisticalOutlierRemovalParams")
+        .def(py::init<>())
+        .def_readwrite("mean_k", &StatisticalOutlierRemovalParams::mean_k)
+        .def_readwrite("std_mul", &StatisticalOutlierRemovalParams::std_mul);
+
+    m.def(
+        "statistical_outlier_removal",
+        [](const PointsArray& points, const StatisticalOutlierRemovalParams& params) {
+            const PointsView view = points_view(points);
+            py::array_t<bool> inlier(static_cast<py::ssize_t>(view.size));
+            bool* out = inlier.mutable_data();
+            StatisticalOutlierRemovalResult result;
+            {
+                py::gil_scoped_release release;
+                result = statistical_outlier_removal(view, params, out);
+            }
+            const auto n = static_cast<py::ssize_t>(result.mean_distance.size());
+            return py::make_tuple(inlier, to_numpy(std::move(result.mean_distance), {n}),
+                                  result.threshold);
+        },
+        py::arg("points").noconvert(), py::arg("params"),
+        "Core SOR: (inlier, mean_distance float32, threshold). Use "
+        "pcl_rg.statistical_outlier_removal.");
+}
+
+}  // namespace pcl_rg::bindings

@@ -1,0 +1,13 @@
+// One bind_<stem>() per algorithm; module.cpp calls them all.
+#pragma once
+
+#include <pybind11/pybind11.h>
+
+namespace pcl_rg::bindings {
+
+void bind_voxel_grid(pybind11::module_& m);
+void bind_statistical_outlier_removal(pybind11::module_& m);
+void bind_pcl_filters_baseline(pybind11::module_& m);
+void bind_lzf_codec(pybind11::module_& m);
+
+}  // namespace pcl_rg::bindings

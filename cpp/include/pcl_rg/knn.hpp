@@ -1,0 +1,49 @@
+// k-nearest-neighbour search over float32 points, shared by the algorithms that
+// need neighbourhoods (SOR, normals, region growing).
+#pragma once
+
+// Among neighbours at equal distance, keep the lower index first, so neighbour
+// lists are reproducible and a reference can break ties the same way.
+#ifndef NANOFLANN_FIRST_MATCH
+#define NANOFLANN_FIRST_MATCH
+#endif
+#include <nanoflann.hpp>
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+
+namespace pcl_rg {
+
+/// Exact k-d tree over row-major float32 x, y, z (the buffer must outlive the index).
+/// Squared distances are summed in float over x, y, z in that order, as
+/// pcl::KdTreeFLANN's L2_Simple does, so both return bit-identical distances.
+class KnnIndex {
+   public:
+    KnnIndex(const float* xyz, std::size_t size);
+
+    /// The `k` nearest points to point `query` (itself included, at distance 0),
+    /// ascending by squared distance; returns how many were found (min(k, size)).
+    std::size_t nearest(std::size_t query, std::size_t k, std::uint32_t* indices,
+                        float* squared_distances) const;
+
+    std::size_t size() const { return adaptor_.size; }
+
+   private:
+    struct Adaptor {
+        const float* xyz;
+        std::size_t size;
+        std::size_t kdtree_get_point_count() const { return size; }
+        float kdtree_get_pt(std::size_t i, std::size_t axis) const { return xyz[3 * i + axis]; }
+        template <class Box>
+        bool kdtree_get_bbox(Box&) const {
+            return false;
+        }
+    };
+    using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, Adaptor>,
+                                                     Adaptor, 3, std::uint32_t>;
+    Adaptor adaptor_;
+    std::unique_ptr<Tree> tree_;
+};
+
+}  // namespace pcl_rg

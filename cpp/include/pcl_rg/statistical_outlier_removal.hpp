@@ -1,0 +1,32 @@
+// StatisticalOutlierRemoval with the semantics of PCL 1.13's pcl::StatisticalOutlierRemoval.
+#pragma once
+
+#include <cstddef>
+#include <vector>
+
+#include "pcl_rg/points.hpp"
+
+namespace pcl_rg {
+
+struct StatisticalOutlierRemovalParams {
+    /// Neighbours averaged per point, the point itself excluded (>= 1); PCL setMeanK.
+    int mean_k = 50;
+    /// Inlier when mean distance <= mu + std_mul * sigma (finite, >= 0); PCL setStddevMulThresh.
+    double std_mul = 1.0;
+};
+
+/// Throws std::invalid_argument naming the parameter when a value is out of range.
+void validate(const StatisticalOutlierRemovalParams& params);
+
+struct StatisticalOutlierRemovalResult {
+    std::vector<float> mean_distance;  ///< d_i per point, in float32 as PCL keeps it (m)
+    double threshold = 0.0;            ///< mu + std_mul * sigma (m); NaN when sigma is
+                                       ///< not a number, in which case every point is kept
+};
+
+/// Fills `inlier[i]` for every point and returns the per-point statistics.
+/// Throws std::invalid_argument when mean_k >= number of points (non-empty input).
+StatisticalOutlierRemovalResult statistical_outlier_removal(
+    PointsView points, const StatisticalOutlierRemovalParams& params, bool* inlier);
+
+}  // namespace pcl_rg

@@ -1,0 +1,81 @@
+// Statistical outlier removal, Rusu et al., "Towards 3D Point Cloud Based Object Maps
+// for Household Environments", Robotics and Autonomous Systems 56(11), 2008; the
+// preprocessing step of seed 004. Semantics follow PCL 1.13's
+// pcl::StatisticalOutlierRemoval exactly:
+//   * neighbours come from an exact k-d tree on the float32 cloud, the query point
+//     counted as its own first neighbour and skipped;
+//   * d_i is the double sum of the float square roots of the float squared
+//     distances, divided by mean_k and stored as float;
+//   * mu and sigma use the sample (n - 1) variance, sum and sum of squares taken in
+//     index order, the squares formed in float;
+//   * a point is an inlier when d_i <= mu + std_mul * sigma (so a NaN sigma, which
+//     only arises when all d_i are equal within rounding, keeps every point).
+// The differences are speed only: nanoflann instead of FLANN and the neighbour
+// queries run in parallel.
+#include "pcl_rg/statistical_outlier_removal.hpp"
+
+#include <cmath>
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+
+#include "pcl_rg/knn.hpp"
+
+namespace pcl_rg {
+
+void validate(const StatisticalOutlierRemovalParams& params) {
+    if (params.mean_k < 1)
+        throw std::invalid_argument("mean_k must be >= 1, got " + std::to_string(params.mean_k));
+    if (!std::isfinite(params.std_mul) || params.std_mul < 0.0)
+        throw std::invalid_argument("std_mul must be finite and >= 0, got " +
+                                    std::to_string(params.std_mul));
+}
+
+StatisticalOutlierRemovalResult statistical_outlier_removal(
+    PointsView points, const StatisticalOutlierRemovalParams& params, bool* inlier) {
+    validate(params);
+    StatisticalOutlierRemovalResult result;
+    const std::size_t n = points.size;
+    if (n == 0) return result;
+    const auto mean_k = static_cast<std::size_t>(params.mean_k);
+    if (mean_k >= n)
+        throw std::invalid_argument("mean_k must be < the number of points (" + std::to_string(n) +
+                                    "), got " + std::to_string(mean_k));
+
+    const std::vector<float> local = to_local_float(points, local_origin(points));
+    const KnnIndex index(local.data(), n);
+    result.mean_distance.resize(n);
+    const std::size_t k = mean_k + 1;  // the query point comes back as its own neighbour
+
+#pragma omp parallel
+    {
+        std::vector<std::uint32_t> nn_index(k);
+        std::vector<float> nn_sqdist(k);
+#pragma omp for schedule(dynamic, 1024)
+        for (std::ptrdiff_t i = 0; i < static_cast<std::ptrdiff_t>(n); ++i) {
+            index.nearest(i, k, nn_index.data(), nn_sqdist.data());
+            double sum = 0.0;
+            for (std::size_t j = 1; j < k; ++j) sum += std::sqrt(nn_sqdist[j]);
+            result.mean_distance[i] = static_cast<float>(sum / static_cast<double>(mean_k));
+        }
+    }
+
+    // Serial, in index order: the same rounding as PCL and the same on every run.
+    double sum = 0.0, sum_sq = 0.0;
+    for (const float d : result.mean_distance) {
+        sum += d;
+        sum_sq += d * d;
+    }
+    const double count = static_cast<double>(n);
+    const double mean = sum / count;
+    const double variance = (sum_sq - sum * sum / count) / (count - 1.0);
+    result.threshold = mean + params.std_mul * std::sqrt(variance);
+
+    const auto threshold = result.threshold;
+#pragma omp parallel for schedule(static)
+    for (std::ptrdiff_t i = 0; i < static_cast<std::ptrdiff_t>(n); ++i)
+        inlier[i] = !(result.mean_distance[i] > threshold);
+    return result;
+}
+
+}  // namespace pcl_rg

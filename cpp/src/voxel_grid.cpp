@@ -1,0 +1,195 @@
+// Voxel-grid downsampling (PCL's pcl::VoxelGrid; the simplification step of seed 004,
+// "point cloud simplification" by voxel centroids).
+//
+// Same result as PCL 1.13 where PCL works: one point per occupied voxel at the mean
+// of its points, voxels ordered by (z, y, x) index. Differences, all deliberate:
+//   * voxel indices are computed in float64 on the caller's coordinates, so tiles
+//     and subsets agree; PCL multiplies float32 coordinates by a float32 1/leaf;
+//   * keys are 64-bit (with an exact fallback beyond that), so any extent works
+//     where PCL warns and returns its input unchanged once nx*ny*nz > 2^31 - 1;
+//   * a stable radix sort keeps each voxel's points in index order, so centroids
+//     (summed in float64) are the same on every run.
+#include "pcl_rg/voxel_grid.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numeric>
+#include <omp.h>
+#include <stdexcept>
+#include <string>
+#include <tuple>
+
+namespace pcl_rg {
+
+void validate(const VoxelGridParams& params) {
+    static const char* const axis_name[3] = {"x", "y", "z"};
+    for (int a = 0; a < 3; ++a) {
+        const double leaf = params.leaf_size[a];
+        if (!std::isfinite(leaf) || leaf <= 0.0)
+            throw std::invalid_argument("leaf_size must be finite and > 0 on every axis, got " +
+                                        std::to_string(leaf) + " for " + axis_name[a]);
+    }
+    if (params.min_points_per_voxel < 1)
+        throw std::invalid_argument("min_points_per_voxel must be >= 1, got " +
+                                    std::to_string(params.min_points_per_voxel));
+}
+
+namespace {
+
+// Stable LSD radix sort of (key, point) pairs on the low `key_bits` bits, parallel
+// over contiguous chunks so stability (and therefore index order) is kept.
+void radix_sort_pairs(std::vector<std::uint64_t>& keys, std::vector<std::uint32_t>& ids,
+                      int key_bits) {
+    constexpr int kDigitBits = 11;
+    constexpr std::size_t kBuckets = std::size_t{1} << kDigitBits;
+    const std::size_t n = keys.size();
+    std::vector<std::uint64_t> keys_tmp(n);
+    std::vector<std::uint32_t> ids_tmp(n);
+    const int threads = omp_get_max_threads();
+    std::vector<std::size_t> offsets(static_cast<std::size_t>(threads) * kBuckets);
+
+    for (int shift = 0; shift < key_bits; shift += kDigitBits) {
+        std::fill(offsets.begin(), offsets.end(), 0);
+#pragma omp parallel num_threads(threads)
+        {
+            const int t = omp_get_thread_num();
+            const std::size_t begin = n * t / threads, end = n * (t + 1) / threads;
+            std::size_t* count = &offsets[t * kBuckets];
+            for (std::size_t i = begin; i < end; ++i) ++count[(keys[i] >> shift) & (kBuckets - 1)];
+#pragma omp barrier
+#pragma omp single
+            {
+                std::size_t running = 0;
+                for (std::size_t b = 0; b < kBuckets; ++b)
+                    for (int u = 0; u < threads; ++u) {
+                        const std::size_t c = offsets[u * kBuckets + b];
+                        offsets[u * kBuckets + b] = running;
+                        running += c;
+                    }
+            }
+            for (std::size_t i = begin; i < end; ++i) {
+                const std::size_t dst = count[(keys[i] >> shift) & (kBuckets - 1)]++;
+                keys_tmp[dst] = keys[i];
+                ids_tmp[dst] = ids[i];
+            }
+        }
+        keys.swap(keys_tmp);
+        ids.swap(ids_tmp);
+    }
+}
+
+struct AxisRange {
+    std::int64_t low = 0;
+    std::uint64_t cells = 1;  // number of voxel indices spanned on this axis
+};
+
+std::int64_t voxel_index(double coordinate, double leaf) {
+    return static_cast<std::int64_t>(std::floor(coordinate / leaf));
+}
+
+}  // namespace
+
+VoxelGridResult voxel_grid(PointsView points, const VoxelGridParams& params,
+                           std::int64_t* voxel_of_point) {
+    validate(params);
+    VoxelGridResult result;
+    const std::size_t n = points.size;
+    if (n == 0) return result;
+    if (n > std::numeric_limits<std::uint32_t>::max())
+        throw std::invalid_argument("points: at most 2^32 - 1 points are supported, got " +
+                                    std::to_string(n));
+
+    // Index range per axis; refuse indices that do not fit a signed 64-bit integer.
+    std::array<AxisRange, 3> range;
+    for (int a = 0; a < 3; ++a) {
+        double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+        for (std::size_t i = 0; i < n; ++i) {
+            lo = std::min(lo, points.coord(i, a));
+            hi = std::max(hi, points.coord(i, a));
+        }
+        const double limit = 0x1p62;
+        if (std::abs(lo / params.leaf_size[a]) >= limit || std::abs(hi / params.leaf_size[a]) >= limit)
+            throw std::invalid_argument("leaf_size is too small for the coordinates: voxel indices "
+                                        "exceed 2^62 on axis " + std::to_string(a));
+        range[a].low = voxel_index(lo, params.leaf_size[a]);
+        range[a].cells =
+            static_cast<std::uint64_t>(voxel_index(hi, params.leaf_size[a]) - range[a].low) + 1;
+    }
+
+    // Linear key x + nx * (y + ny * z): ordering by key is PCL's (z, y, x) order.
+    const unsigned __int128 total =
+        static_cast<unsigned __int128>(range[0].cells) * range[1].cells * range[2].cells;
+    const bool fits_64 = total <= std::numeric_limits<std::uint64_t>::max();
+
+    std::vector<std::uint32_t> order(n);
+    std::vector<std::uint64_t> keys(n);
+    if (fits_64) {
+#pragma omp parallel for schedule(static)
+        for (std::ptrdiff_t i = 0; i < static_cast<std::ptrdiff_t>(n); ++i) {
+            std::uint64_t cell[3];
+            for (int a = 0; a < 3; ++a)
+                cell[a] = static_cast<std::uint64_t>(
+                    voxel_index(points.coord(i, a), params.leaf_size[a]) - range[a].low);
+            keys[i] = cell[0] + range[0].cells * (cell[1] + range[1].cells * cell[2]);
+            order[i] = static_cast<std::uint32_t>(i);
+        }
+        const std::uint64_t max_key = static_cast<std::uint64_t>(total - 1);
+        const int key_bits = max_key == 0 ? 0 : 64 - __builtin_clzll(max_key);
+        radix_sort_pairs(keys, order, key_bits);
+    } else {
+        // Beyond 2^64 voxels (absurd extents or leaves): sort the index triples
+        // directly, then number the distinct triples as keys.
+        std::vector<std::array<std::int64_t, 3>> cell(n);
+        for (std::size_t i = 0; i < n; ++i)
+            for (int a = 0; a < 3; ++a) cell[i][a] = voxel_index(points.coord(i, a), params.leaf_size[a]);
+        std::iota(order.begin(), order.end(), 0u);
+        std::stable_sort(order.begin(), order.end(), [&](std::uint32_t p, std::uint32_t q) {
+            return std::tie(cell[p][2], cell[p][1], cell[p][0]) <
+                   std::tie(cell[q][2], cell[q][1], cell[q][0]);
+        });
+        std::uint64_t key = 0;
+        for (std::size_t s = 0; s < n; ++s) {
+            if (s > 0 && cell[order[s]] != cell[order[s - 1]]) ++key;
+            keys[s] = key;
+        }
+    }
+
+    // Runs of equal keys are voxels; keep those with enough points.
+    std::vector<std::size_t> run_start;
+    run_start.reserve(n / 4 + 1);
+    for (std::size_t s = 0; s < n; ++s)
+        if (s == 0 || keys[s] != keys[s - 1]) run_start.push_back(s);
+    run_start.push_back(n);
+    const std::size_t runs = run_start.size() - 1;
+    std::vector<std::int64_t> row_of_run(runs);
+    std::int64_t kept = 0;
+    for (std::size_t r = 0; r < runs; ++r) {
+        const auto size = static_cast<std::int64_t>(run_start[r + 1] - run_start[r]);
+        row_of_run[r] = size >= params.min_points_per_voxel ? kept++ : -1;
+    }
+
+    result.centroids.assign(3 * static_cast<std::size_t>(kept), 0.0);
+    result.counts.assign(static_cast<std::size_t>(kept), 0);
+#pragma omp parallel for schedule(dynamic, 4096)
+    for (std::ptrdiff_t r = 0; r < static_cast<std::ptrdiff_t>(runs); ++r) {
+        const std::int64_t row = row_of_run[r];
+        const std::size_t begin = run_start[r], end = run_start[r + 1];
+        if (row >= 0) {
+            // Sum offsets from the voxel's first point: exact for UTM-sized coordinates.
+            const std::size_t first = order[begin];
+            double sum[3] = {0.0, 0.0, 0.0};
+            for (std::size_t s = begin; s < end; ++s)
+                for (int a = 0; a < 3; ++a)
+                    sum[a] += points.coord(order[s], a) - points.coord(first, a);
+            const double count = static_cast<double>(end - begin);
+            for (int a = 0; a < 3; ++a)
+                result.centroids[3 * row + a] = points.coord(first, a) + sum[a] / count;
+            result.counts[row] = static_cast<std::int64_t>(end - begin);
+        }
+        for (std::size_t s = begin; s < end; ++s) voxel_of_point[order[s]] = row;
+    }
+    return result;
+}
+
+}  // namespace pcl_rg

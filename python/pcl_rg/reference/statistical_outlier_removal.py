@@ -1,0 +1,52 @@
+"""SciPy reference for :func:`pcl_rg.statistical_outlier_removal`."""
+
+from __future__ import annotations
+
+import numpy as np
+import numpy.typing as npt
+from scipy.spatial import cKDTree
+
+from .._validation import as_points, resolve_params
+from ..statistical_outlier_removal import StatisticalOutlierRemovalParams
+
+__all__ = ["statistical_outlier_removal", "mean_neighbour_distance"]
+
+
+def mean_neighbour_distance(points: npt.ArrayLike, mean_k: int) -> np.ndarray:
+    """d_i: mean float64 distance of each point to its `mean_k` nearest others."""
+    xyz = as_points(points)
+    if mean_k >= len(xyz):
+        raise ValueError(f"mean_k must be < the number of points ({len(xyz)}), got {mean_k}")
+    local = xyz - xyz.min(axis=0)
+    # k + 1 neighbours: the nearest is the point itself (or a duplicate), at distance 0.
+    distance, _ = cKDTree(local).query(local, k=mean_k + 1)
+    return distance[:, 1:].mean(axis=1)
+
+
+def statistical_outlier_removal(
+    points: npt.ArrayLike,
+    *,
+    mean_k: int | None = None,
+    std_mul: float | None = None,
+    params: StatisticalOutlierRemovalParams | None = None,
+) -> np.ndarray:
+    """Reference SOR in float64: same signature as the core function.
+
+    It differs from the float32 core (and PCL) only for points whose d_i lies
+    within float32 rounding of the threshold.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from pcl_rg import reference
+    >>> pts = np.vstack([np.random.default_rng(0).uniform(0, 1, (100, 3)), [[9, 9, 9]]])
+    >>> bool(reference.statistical_outlier_removal(pts, mean_k=8, std_mul=2.0)[-1])
+    False
+    """
+    p = resolve_params(StatisticalOutlierRemovalParams, params, mean_k=mean_k, std_mul=std_mul)
+    xyz = as_points(points)
+    if len(xyz) == 0:
+        return np.empty(0, dtype=bool)
+    d = mean_neighbour_distance(xyz, p.mean_k)
+    threshold = d.mean() + p.std_mul * d.std(ddof=1)
+    return d <= threshold

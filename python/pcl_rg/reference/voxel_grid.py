@@ -1,0 +1,48 @@
+"""NumPy reference for :func:`pcl_rg.voxel_grid`."""
+
+from __future__ import annotations
+
+import numpy as np
+import numpy.typing as npt
+
+from .._validation import as_points, resolve_params
+from ..voxel_grid import VoxelGridParams, VoxelGridResult
+
+__all__ = ["voxel_grid"]
+
+
+def voxel_grid(
+    points: npt.ArrayLike,
+    leaf_size: float | tuple[float, float, float] | None = None,
+    *,
+    min_points_per_voxel: int | None = None,
+    params: VoxelGridParams | None = None,
+) -> VoxelGridResult:
+    """Reference VoxelGrid: same signature and result as :func:`pcl_rg.voxel_grid`.
+
+    Examples
+    --------
+    >>> from pcl_rg import reference
+    >>> reference.voxel_grid([[0.1, 0.1, 0.0], [0.3, 0.1, 0.0]], 1.0).counts.tolist()
+    [2]
+    """
+    if leaf_size is None and params is None:
+        raise TypeError("voxel_grid() needs leaf_size (or params)")
+    p = resolve_params(
+        VoxelGridParams, params, leaf_size=leaf_size, min_points_per_voxel=min_points_per_voxel
+    )
+    xyz = as_points(points)
+    n = len(xyz)
+    if n == 0:
+        return VoxelGridResult(np.empty((0, 3)), np.empty(0, np.int64), np.empty(0, np.intp))
+    # The definition: voxel = floor(p / leaf) per axis, in float64.
+    cell = np.floor(xyz / np.asarray(p.leaf_size)).astype(np.int64)
+    # PCL's order: z index first, then y, then x (lexicographic on reversed columns).
+    _, voxel, counts = np.unique(cell[:, ::-1], axis=0, return_inverse=True, return_counts=True)
+    voxel = voxel.ravel()
+    sums = np.stack([np.bincount(voxel, weights=xyz[:, a]) for a in range(3)], axis=1)
+    centroids = sums / counts[:, None]
+    keep = counts >= p.min_points_per_voxel
+    row = np.full(len(counts), -1, dtype=np.intp)
+    row[keep] = np.arange(int(keep.sum()))
+    return VoxelGridResult(centroids[keep], counts[keep].astype(np.int64), row[voxel])

@@ -1,0 +1,105 @@
+"""Statistical outlier removal with the exact semantics of PCL 1.13."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import numpy.typing as npt
+
+from . import _core
+from ._validation import as_points, check_float, check_int, resolve_params
+
+__all__ = ["StatisticalOutlierRemovalParams", "statistical_outlier_removal"]
+
+
+@dataclass(frozen=True, kw_only=True, slots=True)
+class StatisticalOutlierRemovalParams:
+    """Parameters of :func:`statistical_outlier_removal` (mirrors the C++ struct)."""
+
+    mean_k: int = field(
+        default=50,
+        metadata={"help": "neighbours averaged per point, itself excluded (PCL setMeanK)"},
+    )
+    std_mul: float = field(
+        default=1.0,
+        metadata={
+            "help": "inlier when mean distance <= mean + std_mul * std (PCL setStddevMulThresh)"
+        },
+    )
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "mean_k", check_int("mean_k", self.mean_k, minimum=1))
+        object.__setattr__(self, "std_mul", check_float("std_mul", self.std_mul, minimum=0.0))
+
+    def to_core(self) -> _core.StatisticalOutlierRemovalParams:
+        core = _core.StatisticalOutlierRemovalParams()
+        core.mean_k = self.mean_k
+        core.std_mul = self.std_mul
+        return core
+
+
+def statistical_outlier_removal(
+    points: npt.ArrayLike,
+    *,
+    mean_k: int | None = None,
+    std_mul: float | None = None,
+    params: StatisticalOutlierRemovalParams | None = None,
+) -> np.ndarray:
+    """Flag points whose mean neighbour distance is unusually large.
+
+    Parameters
+    ----------
+    points : array_like, shape (N, 3)
+        Coordinates in metres (any real float or integer dtype, C or F order).
+    mean_k : int, optional
+        Number of nearest neighbours averaged per point, the point itself
+        excluded (default 50, PCL's tutorial value). Must be < N.
+    std_mul : float, optional
+        Standard-deviation multiplier of the threshold (default 1.0).
+    params : StatisticalOutlierRemovalParams, optional
+        All parameters at once; keywords given explicitly override it.
+
+    Returns
+    -------
+    numpy.ndarray
+        bool (N,): True for inliers (points to keep).
+
+    Raises
+    ------
+    ValueError
+        Non-finite points, a wrong shape, ``mean_k < 1``, ``mean_k >= N``,
+        or a negative or non-finite ``std_mul``.
+    TypeError
+        Non-numeric points or parameters of the wrong type.
+
+    Notes
+    -----
+    For each point, d_i is the mean Euclidean distance to its `mean_k`
+    nearest neighbours. With mu and sigma the mean and sample standard
+    deviation (n - 1) of all d_i, point i is an inlier when
+    ``d_i <= mu + std_mul * sigma``. This is ``pcl::StatisticalOutlierRemoval``
+    of PCL 1.13 to the bit: distances are computed in float32 after a float64
+    local origin (the minimum corner) is subtracted, and the sums are taken in
+    the same order and precision. Neighbour queries run in parallel on an
+    exact k-d tree (nanoflann) with the GIL released.
+
+    References
+    ----------
+    Seed 004 (Wang et al., ISPRS Archives XLII-3/W10, 2020), section 2.1;
+    Rusu et al., Robotics and Autonomous Systems 56(11), 2008.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import pcl_rg
+    >>> rng = np.random.default_rng(0)
+    >>> pts = np.vstack([rng.uniform(0, 1, (200, 3)), [[10.0, 10.0, 10.0]]])
+    >>> inlier = pcl_rg.statistical_outlier_removal(pts, mean_k=8, std_mul=2.0)
+    >>> bool(inlier[-1]), int(inlier.sum()) > 190
+    (False, True)
+    """
+    p = resolve_params(StatisticalOutlierRemovalParams, params, mean_k=mean_k, std_mul=std_mul)
+    xyz = as_points(points)
+    inlier, _mean_distance, _threshold = _core.statistical_outlier_removal(xyz, p.to_core())
+    return inlier
