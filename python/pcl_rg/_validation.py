@@ -85,6 +85,8 @@ def check_float(
 
 def per_axis(name: str, value: Any, axes: int = 3) -> tuple[float, ...]:
     """A positive scalar or sequence of `axes` positive numbers, as a tuple of floats."""
+    if isinstance(value, (str, bytes)):
+        raise TypeError(f"{name} must be a real number or {axes} numbers, got {value!r}")
     if isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_)):
         values = (value,) * axes
     else:
