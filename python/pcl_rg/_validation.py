@@ -38,9 +38,8 @@ def as_points(points: npt.ArrayLike, name: str = "points") -> np.ndarray:
     if array.ndim != 2 or array.shape[1] != 3:
         raise ValueError(f"{name} must have shape (N, 3), got {array.shape}")
     array = np.ascontiguousarray(array, dtype=np.float64)
-    finite = np.isfinite(array).all(axis=1)
-    if not finite.all():
-        bad = np.flatnonzero(~finite)
+    if not np.isfinite(array).all():  # one pass in the common, clean case
+        bad = np.flatnonzero(~np.isfinite(array).all(axis=1))
         first = ", ".join(str(i) for i in bad[:5])
         more = ", ..." if bad.size > 5 else ""
         raise ValueError(

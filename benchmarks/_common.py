@@ -1,0 +1,68 @@
+"""Benchmark plumbing: each case runs in a fresh child process, so its peak memory
+is its own; timings are medians of repeats, compared side by side in one run."""
+
+from __future__ import annotations
+
+import json
+import multiprocessing as mp
+import platform
+import resource
+import statistics
+import sys
+import time
+from collections.abc import Callable
+from typing import Any
+
+
+def _child(setup: Callable[[], Any], run: Callable[[Any], Any], repeats: int, queue) -> None:
+    try:
+        data = setup()
+        base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+        times = []
+        for _ in range(repeats):
+            start = time.perf_counter()
+            output = run(data)
+            times.append(time.perf_counter() - start)
+            del output
+        peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+        queue.put({"times": times, "peak_mib": (peak - base) / 1024.0})
+    except Exception as error:  # reported in the table, never hidden
+        queue.put({"error": f"{type(error).__name__}: {error}"})
+
+
+def measure(setup: Callable[[], Any], run: Callable[[Any], Any], repeats: int) -> dict:
+    """Median time (s) of `run(setup())` over `repeats`, and peak memory added by it.
+
+    Peak memory is the growth of the child's maximum RSS during the runs (MiB),
+    beyond what the input data already occupied.
+    """
+    ctx = mp.get_context("fork")
+    queue = ctx.Queue()
+    process = ctx.Process(target=_child, args=(setup, run, repeats, queue))
+    process.start()
+    result = queue.get()
+    process.join()
+    if "times" in result:
+        result["median"] = statistics.median(result["times"])
+    return result
+
+
+def machine() -> str:
+    import os
+
+    return (
+        f"{platform.machine()}, {os.cpu_count()} cores, Python {sys.version.split()[0]}, "
+        f"{platform.platform(terse=True)}"
+    )
+
+
+def markdown_table(header: list[str], rows: list[list[str]]) -> str:
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    lines += ["| " + " | ".join(row) + " |" for row in rows]
+    return "\n".join(lines)
+
+
+def dump_json(path: str | None, payload: Any) -> None:
+    if path:
+        with open(path, "w") as handle:
+            json.dump(payload, handle, indent=2)
