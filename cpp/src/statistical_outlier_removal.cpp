@@ -20,6 +20,7 @@
 #include <string>
 
 #include "pcl_rg/knn.hpp"
+#include "pcl_rg/spatial_order.hpp"
 
 namespace pcl_rg {
 
@@ -42,7 +43,15 @@ StatisticalOutlierRemovalResult statistical_outlier_removal(
         throw std::invalid_argument("mean_k must be < the number of points (" + std::to_string(n) +
                                     "), got " + std::to_string(mean_k));
 
-    const std::vector<float> local = to_local_float(points, local_origin(points));
+    // Query in Morton order on a Morton-ordered copy: the same float32 coordinates
+    // (so the same distances), but memory is touched in order.
+    const std::vector<float> unordered = to_local_float(points, local_origin(points));
+    const std::vector<std::uint32_t> order =
+        morton_order(unordered.data(), static_cast<std::uint32_t>(n));
+    std::vector<float> local(3 * n);
+#pragma omp parallel for schedule(static)
+    for (std::ptrdiff_t s = 0; s < static_cast<std::ptrdiff_t>(n); ++s)
+        for (int a = 0; a < 3; ++a) local[3 * s + a] = unordered[3 * order[s] + a];
     const KnnIndex index(local.data(), n);
     result.mean_distance.resize(n);
     const std::size_t k = mean_k + 1;  // the query point comes back as its own neighbour
@@ -52,11 +61,11 @@ StatisticalOutlierRemovalResult statistical_outlier_removal(
         std::vector<std::uint32_t> nn_index(k);
         std::vector<float> nn_sqdist(k);
 #pragma omp for schedule(dynamic, 1024)
-        for (std::ptrdiff_t i = 0; i < static_cast<std::ptrdiff_t>(n); ++i) {
-            index.nearest(i, k, nn_index.data(), nn_sqdist.data());
+        for (std::ptrdiff_t s = 0; s < static_cast<std::ptrdiff_t>(n); ++s) {
+            index.nearest(s, k, nn_index.data(), nn_sqdist.data());
             double sum = 0.0;
             for (std::size_t j = 1; j < k; ++j) sum += std::sqrt(nn_sqdist[j]);
-            result.mean_distance[i] = static_cast<float>(sum / static_cast<double>(mean_k));
+            result.mean_distance[order[s]] = static_cast<float>(sum / static_cast<double>(mean_k));
         }
     }
 

@@ -11,11 +11,12 @@
 //     (summed in float64) are the same on every run.
 #include "pcl_rg/voxel_grid.hpp"
 
+#include "pcl_rg/spatial_order.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <numeric>
-#include <omp.h>
 #include <stdexcept>
 #include <string>
 #include <tuple>
@@ -36,48 +37,6 @@ void validate(const VoxelGridParams& params) {
 }
 
 namespace {
-
-// Stable LSD radix sort of (key, point) pairs on the low `key_bits` bits, parallel
-// over contiguous chunks so stability (and therefore index order) is kept.
-void radix_sort_pairs(std::vector<std::uint64_t>& keys, std::vector<std::uint32_t>& ids,
-                      int key_bits) {
-    constexpr int kDigitBits = 11;
-    constexpr std::size_t kBuckets = std::size_t{1} << kDigitBits;
-    const std::size_t n = keys.size();
-    std::vector<std::uint64_t> keys_tmp(n);
-    std::vector<std::uint32_t> ids_tmp(n);
-    const int threads = omp_get_max_threads();
-    std::vector<std::size_t> offsets(static_cast<std::size_t>(threads) * kBuckets);
-
-    for (int shift = 0; shift < key_bits; shift += kDigitBits) {
-        std::fill(offsets.begin(), offsets.end(), 0);
-#pragma omp parallel num_threads(threads)
-        {
-            const int t = omp_get_thread_num();
-            const std::size_t begin = n * t / threads, end = n * (t + 1) / threads;
-            std::size_t* count = &offsets[t * kBuckets];
-            for (std::size_t i = begin; i < end; ++i) ++count[(keys[i] >> shift) & (kBuckets - 1)];
-#pragma omp barrier
-#pragma omp single
-            {
-                std::size_t running = 0;
-                for (std::size_t b = 0; b < kBuckets; ++b)
-                    for (int u = 0; u < threads; ++u) {
-                        const std::size_t c = offsets[u * kBuckets + b];
-                        offsets[u * kBuckets + b] = running;
-                        running += c;
-                    }
-            }
-            for (std::size_t i = begin; i < end; ++i) {
-                const std::size_t dst = count[(keys[i] >> shift) & (kBuckets - 1)]++;
-                keys_tmp[dst] = keys[i];
-                ids_tmp[dst] = ids[i];
-            }
-        }
-        keys.swap(keys_tmp);
-        ids.swap(ids_tmp);
-    }
-}
 
 struct AxisRange {
     std::int64_t low = 0;

@@ -81,7 +81,7 @@ def top_view(
         keep = np.sort(np.random.default_rng(0).choice(len(xyz), max_points, replace=False))
         xyz = xyz[keep]
         labels = None if labels is None else labels[keep]
-    names = dict(CLASS_COLOURS, **(class_names or {}))
+    names = {**CLASS_COLOURS, **(class_names or {})}
     fig, ax = plt.subplots(figsize=(8, 8), dpi=110)
     try:
         if labels is None:
