@@ -1,4 +1,4 @@
-// Radix sort and Morton order (see spatial_order.hpp).
+// Radix sorts and the Morton order (see spatial_order.hpp).
 #include "pcl_rg/spatial_order.hpp"
 
 #include <omp.h>
@@ -9,46 +9,87 @@
 
 namespace pcl_rg {
 
-void radix_sort_pairs(std::vector<std::uint64_t>& keys, std::vector<std::uint32_t>& ids,
-                      int key_bits) {
-    constexpr int kDigitBits = 11;
-    constexpr std::size_t kBuckets = std::size_t{1} << kDigitBits;
-    const std::size_t n = keys.size();
-    if (n < 2 || key_bits <= 0) return;
-    std::vector<std::uint64_t> keys_tmp(n);
-    std::vector<std::uint32_t> ids_tmp(n);
-    const int threads = std::max(1, std::min<int>(omp_get_max_threads(), static_cast<int>(n / 65536) + 1));
-    std::vector<std::size_t> offsets(static_cast<std::size_t>(threads) * kBuckets);
+namespace {
 
-    for (int shift = 0; shift < key_bits; shift += kDigitBits) {
-        std::fill(offsets.begin(), offsets.end(), 0);
+// One stable counting-sort pass per digit over contiguous per-thread chunks; the
+// bucket-major, thread-minor prefix sums put chunk t's items of a bucket after chunk
+// t-1's, which keeps the sort stable. `Move` copies item i to slot dst.
+template <class DigitOf, class Move>
+void radix_pass(std::size_t n, DigitOf digit_of, Move move, std::size_t buckets,
+                std::vector<std::size_t>& offsets, int threads) {
+    std::fill(offsets.begin(), offsets.end(), 0);
 #pragma omp parallel num_threads(threads)
-        {
-            const int t = omp_get_thread_num();
-            const std::size_t begin = n * t / threads, end = n * (t + 1) / threads;
-            std::size_t* count = &offsets[t * kBuckets];
-            for (std::size_t i = begin; i < end; ++i) ++count[(keys[i] >> shift) & (kBuckets - 1)];
+    {
+        const int t = omp_get_thread_num();
+        const std::size_t begin = n * t / threads, end = n * (t + 1) / threads;
+        std::size_t* count = &offsets[t * buckets];
+        for (std::size_t i = begin; i < end; ++i) ++count[digit_of(i)];
 #pragma omp barrier
 #pragma omp single
-            {
-                // Bucket-major, thread-minor prefix sums: chunk t's items of a bucket
-                // land after chunk t-1's, which is what makes the sort stable.
-                std::size_t running = 0;
-                for (std::size_t b = 0; b < kBuckets; ++b)
-                    for (int u = 0; u < threads; ++u) {
-                        const std::size_t c = offsets[u * kBuckets + b];
-                        offsets[u * kBuckets + b] = running;
-                        running += c;
-                    }
-            }
-            for (std::size_t i = begin; i < end; ++i) {
-                const std::size_t dst = count[(keys[i] >> shift) & (kBuckets - 1)]++;
+        {
+            std::size_t running = 0;
+            for (std::size_t b = 0; b < buckets; ++b)
+                for (int u = 0; u < threads; ++u) {
+                    const std::size_t c = offsets[u * buckets + b];
+                    offsets[u * buckets + b] = running;
+                    running += c;
+                }
+        }
+        for (std::size_t i = begin; i < end; ++i) move(i, count[digit_of(i)]++);
+    }
+}
+
+// Digits of at most 11 bits, as few passes as possible, equal widths.
+int digit_width(int bits) {
+    const int passes = (bits + 10) / 11;
+    return (bits + passes - 1) / passes;
+}
+
+int thread_count(std::size_t n) {
+    // Small inputs are not worth waking threads for.
+    return std::max(1, std::min<int>(omp_get_max_threads(), static_cast<int>(n / 65536) + 1));
+}
+
+}  // namespace
+
+void radix_sort_pairs(std::vector<std::uint64_t>& keys, std::vector<std::uint32_t>& ids,
+                      int key_bits) {
+    const std::size_t n = keys.size();
+    if (n < 2 || key_bits <= 0) return;
+    const int width = digit_width(key_bits);
+    const std::size_t buckets = std::size_t{1} << width, mask = buckets - 1;
+    const int threads = thread_count(n);
+    std::vector<std::size_t> offsets(static_cast<std::size_t>(threads) * buckets);
+    std::vector<std::uint64_t> keys_tmp(n);
+    std::vector<std::uint32_t> ids_tmp(n);
+    for (int shift = 0; shift < key_bits; shift += width) {
+        radix_pass(
+            n, [&](std::size_t i) { return (keys[i] >> shift) & mask; },
+            [&](std::size_t i, std::size_t dst) {
                 keys_tmp[dst] = keys[i];
                 ids_tmp[dst] = ids[i];
-            }
-        }
+            },
+            buckets, offsets, threads);
         keys.swap(keys_tmp);
         ids.swap(ids_tmp);
+    }
+}
+
+void radix_sort_bits(std::vector<std::uint64_t>& values, int first_bit, int last_bit) {
+    const std::size_t n = values.size();
+    const int bits = last_bit - first_bit;
+    if (n < 2 || bits <= 0) return;
+    const int width = digit_width(bits);
+    const std::size_t buckets = std::size_t{1} << width, mask = buckets - 1;
+    const int threads = thread_count(n);
+    std::vector<std::size_t> offsets(static_cast<std::size_t>(threads) * buckets);
+    std::vector<std::uint64_t> tmp(n);
+    for (int shift = first_bit; shift < last_bit; shift += width) {
+        radix_pass(
+            n, [&](std::size_t i) { return (values[i] >> shift) & mask; },
+            [&](std::size_t i, std::size_t dst) { tmp[dst] = values[i]; }, buckets, offsets,
+            threads);
+        values.swap(tmp);
     }
 }
 
@@ -78,11 +119,14 @@ std::vector<std::uint32_t> morton_order(const float* xyz, std::uint32_t size) {
             lo[a] = std::min(lo[a], xyz[3 * i + a]);
             hi[a] = std::max(hi[a], xyz[3 * i + a]);
         }
-    // One scale for all axes keeps the curve's cells cubic.
+    // One scale for all axes keeps the curve's cells cubic; 10 bits per axis (a
+    // 1024^3 grid) is plenty for memory locality, and leaves room to pack the
+    // point index below the 30-bit code and sort single 64-bit words.
+    constexpr int kAxisBits = 10;
     const float extent = std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2], 1e-30f});
-    const double scale = static_cast<double>((1u << 21) - 1) / extent;
-    std::vector<std::uint64_t> keys(size);
-    std::vector<std::uint32_t> order(size);
+    const double scale = static_cast<double>((1u << kAxisBits) - 1) / extent;
+    const int id_bits = std::max(1, bit_width(size));
+    std::vector<std::uint64_t> packed(size);
 #pragma omp parallel for schedule(static)
     for (std::int64_t i = 0; i < static_cast<std::int64_t>(size); ++i) {
         std::uint64_t code = 0;
@@ -90,10 +134,14 @@ std::vector<std::uint32_t> morton_order(const float* xyz, std::uint32_t size) {
             const auto q = static_cast<std::uint64_t>((xyz[3 * i + a] - lo[a]) * scale);
             code |= spread_bits(q) << a;
         }
-        keys[i] = code;
-        order[i] = static_cast<std::uint32_t>(i);
+        packed[i] = code << id_bits | static_cast<std::uint64_t>(i);
     }
-    radix_sort_pairs(keys, order, 63);
+    radix_sort_bits(packed, id_bits, id_bits + 3 * kAxisBits);
+    std::vector<std::uint32_t> order(size);
+    const std::uint64_t id_mask = (std::uint64_t{1} << id_bits) - 1;
+#pragma omp parallel for schedule(static)
+    for (std::int64_t s = 0; s < static_cast<std::int64_t>(size); ++s)
+        order[s] = static_cast<std::uint32_t>(packed[s] & id_mask);
     return order;
 }
 

@@ -59,42 +59,75 @@ VoxelGridResult voxel_grid(PointsView points, const VoxelGridParams& params,
         throw std::invalid_argument("points: at most 2^32 - 1 points are supported, got " +
                                     std::to_string(n));
 
+    // Bounding box in one parallel pass.
+    double lo[3], hi[3];
+    for (int a = 0; a < 3; ++a) lo[a] = hi[a] = points.coord(0, a);
+#pragma omp parallel
+    {
+        double tlo[3] = {lo[0], lo[1], lo[2]}, thi[3] = {hi[0], hi[1], hi[2]};
+#pragma omp for schedule(static) nowait
+        for (std::ptrdiff_t i = 0; i < static_cast<std::ptrdiff_t>(n); ++i)
+            for (int a = 0; a < 3; ++a) {
+                tlo[a] = std::min(tlo[a], points.coord(i, a));
+                thi[a] = std::max(thi[a], points.coord(i, a));
+            }
+#pragma omp critical
+        for (int a = 0; a < 3; ++a) {
+            lo[a] = std::min(lo[a], tlo[a]);
+            hi[a] = std::max(hi[a], thi[a]);
+        }
+    }
+
     // Index range per axis; refuse indices that do not fit a signed 64-bit integer.
     std::array<AxisRange, 3> range;
     for (int a = 0; a < 3; ++a) {
-        double lo = std::numeric_limits<double>::infinity(), hi = -lo;
-        for (std::size_t i = 0; i < n; ++i) {
-            lo = std::min(lo, points.coord(i, a));
-            hi = std::max(hi, points.coord(i, a));
-        }
         const double limit = 0x1p62;
-        if (std::abs(lo / params.leaf_size[a]) >= limit || std::abs(hi / params.leaf_size[a]) >= limit)
+        if (std::abs(lo[a] / params.leaf_size[a]) >= limit ||
+            std::abs(hi[a] / params.leaf_size[a]) >= limit)
             throw std::invalid_argument("leaf_size is too small for the coordinates: voxel indices "
                                         "exceed 2^62 on axis " + std::to_string(a));
-        range[a].low = voxel_index(lo, params.leaf_size[a]);
+        range[a].low = voxel_index(lo[a], params.leaf_size[a]);
         range[a].cells =
-            static_cast<std::uint64_t>(voxel_index(hi, params.leaf_size[a]) - range[a].low) + 1;
+            static_cast<std::uint64_t>(voxel_index(hi[a], params.leaf_size[a]) - range[a].low) + 1;
     }
 
     // Linear key x + nx * (y + ny * z): ordering by key is PCL's (z, y, x) order.
     const unsigned __int128 total =
         static_cast<unsigned __int128>(range[0].cells) * range[1].cells * range[2].cells;
-    const bool fits_64 = total <= std::numeric_limits<std::uint64_t>::max();
+    const auto key_of = [&](std::size_t i) {
+        std::uint64_t cell[3];
+        for (int a = 0; a < 3; ++a)
+            cell[a] = static_cast<std::uint64_t>(
+                voxel_index(points.coord(i, a), params.leaf_size[a]) - range[a].low);
+        return cell[0] + range[0].cells * (cell[1] + range[1].cells * cell[2]);
+    };
+    const int id_bits = std::max(1, bit_width(n - 1));
+    const int key_bits =
+        total <= std::numeric_limits<std::uint64_t>::max() ? bit_width(static_cast<std::uint64_t>(total - 1)) : 65;
 
     std::vector<std::uint32_t> order(n);
     std::vector<std::uint64_t> keys(n);
-    if (fits_64) {
+    if (key_bits + id_bits <= 64) {
+        // The common case: key above index in one word, sorted on the key bits only
+        // (stable, so each voxel's points stay in index order).
+        std::vector<std::uint64_t> packed(n);
+#pragma omp parallel for schedule(static)
+        for (std::ptrdiff_t i = 0; i < static_cast<std::ptrdiff_t>(n); ++i)
+            packed[i] = key_of(i) << id_bits | static_cast<std::uint64_t>(i);
+        radix_sort_bits(packed, id_bits, id_bits + key_bits);
+        const std::uint64_t id_mask = (std::uint64_t{1} << id_bits) - 1;
+#pragma omp parallel for schedule(static)
+        for (std::ptrdiff_t s = 0; s < static_cast<std::ptrdiff_t>(n); ++s) {
+            order[s] = static_cast<std::uint32_t>(packed[s] & id_mask);
+            keys[s] = packed[s] >> id_bits;
+        }
+    } else if (key_bits <= 64) {
+        // Keys too wide to share a word with the index: sort (key, index) pairs.
 #pragma omp parallel for schedule(static)
         for (std::ptrdiff_t i = 0; i < static_cast<std::ptrdiff_t>(n); ++i) {
-            std::uint64_t cell[3];
-            for (int a = 0; a < 3; ++a)
-                cell[a] = static_cast<std::uint64_t>(
-                    voxel_index(points.coord(i, a), params.leaf_size[a]) - range[a].low);
-            keys[i] = cell[0] + range[0].cells * (cell[1] + range[1].cells * cell[2]);
+            keys[i] = key_of(i);
             order[i] = static_cast<std::uint32_t>(i);
         }
-        const std::uint64_t max_key = static_cast<std::uint64_t>(total - 1);
-        const int key_bits = max_key == 0 ? 0 : 64 - __builtin_clzll(max_key);
         radix_sort_pairs(keys, order, key_bits);
     } else {
         // Beyond 2^64 voxels (absurd extents or leaves): sort the index triples
