@@ -13,4 +13,10 @@ PYBIND11_MODULE(_core, m) {
     pcl_rg::bindings::bind_statistical_outlier_removal(m);
     pcl_rg::bindings::bind_pcl_filters_baseline(m);
     pcl_rg::bindings::bind_lzf_codec(m);
+    pcl_rg::bindings::bind_grid_ground(m);
+    pcl_rg::bindings::bind_pcl_pmf_baseline(m);
+    pcl_rg::bindings::bind_normals(m);
+    pcl_rg::bindings::bind_region_growing(m);
+    pcl_rg::bindings::bind_region_growing_pcl(m);
+    pcl_rg::bindings::bind_tin_ground(m);
 }

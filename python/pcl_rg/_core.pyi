@@ -29,3 +29,125 @@ def pcl_statistical_outlier_removal(
 ) -> npt.NDArray[np.bool_]: ...
 def lzf_decompress(data: bytes, expected_size: int) -> bytes: ...
 def lzf_compress(data: bytes) -> bytes: ...
+
+class GridGroundParams:
+    block_size: tuple[float, float]
+    cell_size: tuple[float, float]
+    slope: float
+    height_tolerance: float
+    min_seed_component: int
+    grow_across_blocks: bool
+    filter_passes: int
+    filter_slope: float
+    filter_tolerance: float
+    def __init__(self) -> None: ...
+
+def grid_ground(
+    points: npt.NDArray[np.float64], params: GridGroundParams
+) -> npt.NDArray[np.bool_]: ...
+def pcl_progressive_morphological_filter(
+    points: npt.NDArray[np.float64],
+    origin: npt.NDArray[np.float64],
+    *,
+    max_window_size: int = 20,
+    slope: float = 1.0,
+    initial_distance: float = 0.5,
+    max_distance: float = 3.0,
+    cell_size: float = 1.0,
+    base: float = 2.0,
+    exponential: bool = True,
+) -> npt.NDArray[np.bool_]: ...
+
+class TinGroundParams:
+    max_building_size: float
+    max_terrain_angle: float
+    iteration_angle: float
+    iteration_distance: float
+    reduce_angle_edge: float
+    stop_edge: float
+    near_vertex_distance: float
+    seed_cell: float
+    seed_tolerance: float
+    outlier_depth: float
+    def __init__(self) -> None: ...
+
+def tin_ground(
+    points: npt.NDArray[np.float64], params: TinGroundParams
+) -> tuple[npt.NDArray[np.bool_], dict[str, float]]: ...
+
+class DelaunayTin:
+    quantum: float
+    vertices: npt.NDArray[np.int64]
+    triangles: npt.NDArray[np.int32]
+    neighbors: npt.NDArray[np.int32]
+    def __init__(self, lower_x: float, lower_y: float, upper_x: float, upper_y: float) -> None: ...
+    def insert(self, xy: npt.NDArray[np.float64]) -> npt.NDArray[np.int32]: ...
+    def locate(self, xy: npt.NDArray[np.float64]) -> npt.NDArray[np.int32]: ...
+    def to_grid(self, xy: npt.NDArray[np.float64]) -> npt.NDArray[np.int32]: ...
+
+def delaunay_triangulate(xy: npt.NDArray[np.float64]) -> npt.NDArray[np.int64]: ...
+
+# --- normals, region growing (region_growing.hpp) and the PCL baseline ---------------
+
+QUADRIC_CONDITION_LIMIT: float
+
+class NormalsParams:
+    k: int
+    def __init__(self) -> None: ...
+
+def normals(
+    points: npt.NDArray[np.float64], params: NormalsParams
+) -> tuple[
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
+]: ...
+def neighbour_lists(
+    points: npt.NDArray[np.float64], params: NormalsParams
+) -> npt.NDArray[np.uint32]: ...
+
+class SeedMeasure:
+    curvedness: SeedMeasure
+    gaussian: SeedMeasure
+    mean: SeedMeasure
+    surface_variation: SeedMeasure
+    concavity: SeedMeasure
+    name: str
+    value: int
+
+class RegionGrowingParams:
+    k: int
+    smoothness_deg: float
+    curvature_threshold: float
+    min_cluster_size: int
+    max_cluster_size: int
+    seed_measure: SeedMeasure
+    viewpoint: list[float]
+    def __init__(self) -> None: ...
+
+def region_growing(
+    points: npt.NDArray[np.float64], params: RegionGrowingParams
+) -> tuple[npt.NDArray[np.int32], float, float]: ...
+def grow_regions(
+    neighbours: npt.NDArray[np.uint32],
+    normals: npt.NDArray[np.float64],
+    measure: npt.NDArray[np.float64],
+    params: RegionGrowingParams,
+) -> npt.NDArray[np.int32]: ...
+
+class RegionGrowingPclParams:
+    k: int
+    smoothness_deg: float
+    curvature_threshold: float
+    min_cluster_size: int
+    max_cluster_size: int
+    def __init__(self) -> None: ...
+
+def region_growing_pcl(
+    points: npt.NDArray[np.float64], params: RegionGrowingPclParams
+) -> tuple[
+    npt.NDArray[np.int32], npt.NDArray[np.float32], npt.NDArray[np.float32], float, float
+]: ...

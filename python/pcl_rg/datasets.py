@@ -6,6 +6,10 @@ carries its ASPRS class code, the terrain is available as a function
 (:func:`terrain_height`) and the building footprints and tree crowns are
 returned with the points. Everything is pure NumPy and reproducible from the
 seed alone.
+
+The real benchmark data sets load from here too: :func:`load_isprs` (an ISPRS
+filter-test sample and its ground truth) and :func:`load_mosd` (an mOSD scene
+with its segment labels and pixel indices).
 """
 
 from __future__ import annotations
@@ -16,6 +20,8 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ._isprs import IsprsSample, load_isprs
+from ._mosd import MosdScene, load_mosd
 from ._validation import check_float, check_int
 
 __all__ = [
@@ -23,7 +29,11 @@ __all__ = [
     "GROUND",
     "NOISE",
     "VEGETATION",
+    "IsprsSample",
+    "MosdScene",
     "SyntheticScene",
+    "load_isprs",
+    "load_mosd",
     "synthetic_scene",
     "terrain_height",
 ]

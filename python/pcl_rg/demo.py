@@ -1,10 +1,17 @@
-"""The main job on the built-in synthetic scene: every algorithm, one table, figures."""
+"""The main job on the built-in synthetic scene: every algorithm, one table, files and figures.
+
+``pcl-rg demo`` (and ``make demo``) runs :func:`run_demo`.
+"""
 
 from __future__ import annotations
 
+import contextlib
+import importlib
+import math
 import os
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import AbstractContextManager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -12,6 +19,8 @@ from typing import Any
 import numpy as np
 
 from . import datasets
+from .evaluation import ground_errors
+from .io import write_points
 from .statistical_outlier_removal import statistical_outlier_removal
 from .voxel_grid import voxel_grid
 
@@ -19,49 +28,161 @@ __all__ = ["DemoReport", "run_demo"]
 
 UTM_OFFSET = (500_000.0, 5_000_000.0, 0.0)
 
+# Parameters of the demo, stated once (the table's footnotes print them).
+SOR = {"mean_k": 10, "std_mul": 2.0}
+LEAF = 1.0  # m; the scene has 4 points/m2, so about 4 points per voxel on open ground
+# Grid filter: 1 m cells (twice the point spacing) and the slope of the definition,
+# tan of the steepest terrain; the scene's terrace ramp is at most 25 degrees.
+# A seed must lie in a component of at least 10 points, so the few low outliers
+# SOR misses cannot seed a block.
+GRID = {"block_size": 40.0, "cell_size": 1.0, "slope": 0.5, "min_seed_component": 10}
+TIN: dict[str, float] = {}  # LiDAR360's defaults
+SEGMENT = {"k": 15, "min_cluster_size": 50}
+ROOF_BAND = 0.25  # m below a building's highest point that still counts as its roof
+
 
 @dataclass
 class DemoReport:
-    """Rows of the demo table and the files written."""
+    """Rows of the demo table, its footnotes and the files written."""
 
     rows: list[dict[str, Any]] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
     files: list[Path] = field(default_factory=list)
 
     def table(self) -> str:
-        header = f"{'stage':<28}{'points in':>12}{'points out':>12}{'time s':>9}  result"
+        """The rows as one fixed-width text table, footnotes below."""
+
+        def cell(value: Any, digits: int = 2, percent: bool = True) -> str:
+            if value is None or (isinstance(value, float) and math.isnan(value)):
+                return "-"
+            return f"{100 * value:.{digits}f}" if percent else f"{value:.3f}"
+
+        header = (
+            f"{'stage':<30}{'points in':>11}{'points out':>12}{'time s':>8}"
+            f"{'I %':>7}{'II %':>7}{'tot %':>7}{'kappa':>7}  result"
+        )
         lines = [header, "-" * len(header)]
         for row in self.rows:
             lines.append(
-                f"{row['stage']:<28}{row['points_in']:>12,}{row['points_out']:>12,}"
-                f"{row['seconds']:>9.3f}  {row['result']}"
+                f"{row['stage']:<30}{row['points_in']:>11,}{row['points_out']:>12,}"
+                f"{row['seconds']:>8.2f}{cell(row.get('type_i')):>7}{cell(row.get('type_ii')):>7}"
+                f"{cell(row.get('total')):>7}{cell(row.get('kappa'), percent=False):>7}  "
+                f"{row['result']}"
             )
+        lines.append("")
+        lines.extend(self.notes)
         return "\n".join(lines)
 
+    def as_dict(self) -> dict[str, Any]:
+        """The report as plain data (rows, notes, file paths) for JSON."""
+        return {
+            "rows": [dict(row) for row in self.rows],
+            "notes": list(self.notes),
+            "files": [os.fspath(path) for path in self.files],
+        }
 
-def _timed(function: Callable[[], Any]) -> tuple[Any, float]:
+
+def _no_stage(key: str, description: str) -> AbstractContextManager[None]:
+    return contextlib.nullcontext()
+
+
+def _optional(module: str, name: str) -> Any:
+    try:
+        return getattr(importlib.import_module(f"pcl_rg.{module}"), name)
+    except ModuleNotFoundError as error:
+        if error.name == f"pcl_rg.{module}":
+            return None
+        raise
+
+
+@contextlib.contextmanager
+def _timer(
+    stage: Callable[[str, str], AbstractContextManager[None]], key: str, description: str
+) -> Iterator[list[float]]:
+    box = [0.0]
     start = time.perf_counter()
-    value = function()
-    return value, time.perf_counter() - start
+    with stage(key, description):
+        yield box
+    box[0] = time.perf_counter() - start
 
 
-def run_demo(output: str | os.PathLike = "demo-output", *, seed: int = 0,
-             size: float = 300.0, plots: bool = True) -> DemoReport:
-    """Run every algorithm on the synthetic scene and write figures to `output`.
+def _roofs(points: np.ndarray, labels: np.ndarray, buildings: np.ndarray) -> np.ndarray:
+    """Truth roof id per point (1, 2, ... per building; 0 elsewhere)."""
+    roof = np.zeros(len(points), dtype=np.int64)
+    is_building = labels == datasets.BUILDING
+    for i, (xmin, ymin, xmax, ymax, _) in enumerate(buildings):
+        inside = (
+            is_building
+            & (points[:, 0] >= xmin - 0.01)
+            & (points[:, 0] <= xmax + 0.01)
+            & (points[:, 1] >= ymin - 0.01)
+            & (points[:, 1] <= ymax + 0.01)
+        )
+        if inside.any():
+            top = points[inside, 2].max()
+            roof[inside & (points[:, 2] >= top - ROOF_BAND)] = i + 1
+    return roof
+
+
+def _roof_iou(roof: np.ndarray, labels: np.ndarray) -> float:
+    """Mean over roofs of the IoU (over all points) of the roof and its best region."""
+    sizes = np.bincount(labels[labels >= 0]) if (labels >= 0).any() else np.zeros(0, np.int64)
+    scores = []
+    for roof_id in np.unique(roof[roof > 0]):
+        members = roof == roof_id
+        candidates, inter = np.unique(labels[members & (labels >= 0)], return_counts=True)
+        if len(candidates) == 0:
+            scores.append(0.0)
+            continue
+        union = sizes[candidates] + members.sum() - inter
+        scores.append(float((inter / union).max()))
+    return float(np.mean(scores)) if scores else float("nan")
+
+
+def run_demo(
+    output: str | os.PathLike = "demo-output",
+    *,
+    seed: int = 0,
+    size: float = 300.0,
+    plots: bool = True,
+    stage: Callable[[str, str], AbstractContextManager[None]] | None = None,
+) -> DemoReport:
+    """Run every algorithm on the synthetic scene; write LAZ files and figures to `output`.
 
     Parameters
     ----------
     output : path-like
-        Folder for the figures (created if missing).
+        Folder for the files and figures (created if missing).
     seed, size : int, float
-        Scene seed and side length in metres (density 4 points/m2, at a UTM-sized
-        offset so the local-origin handling is exercised).
+        Scene seed and side length in metres (density 4 points/m2, six buildings,
+        40 trees, 0.2 % noise, at a UTM-sized offset so the local-origin handling
+        is exercised). ``size`` must be at least about 80 m.
     plots : bool
         Write PNG figures (needs matplotlib).
+    stage : callable, optional
+        ``stage(key, description)`` returning a context manager wrapped around
+        each step (the command line shows progress with it).
 
     Returns
     -------
     DemoReport
-        The table rows and the paths written.
+        The table rows (stage, point counts, seconds, ground errors where
+        they apply, a result text), footnotes, and the paths written.
+
+    Notes
+    -----
+    The steps, each timed: statistical outlier removal on the whole scene;
+    voxel grid on the inliers; the grid and TIN ground filters on the inliers;
+    both region growing variants on the voxel centroids, their labels carried
+    back to the points of each voxel; the seed 004 pipeline when
+    :mod:`pcl_rg.pipeline` is available.
+
+    Ground errors (Type I, Type II, total, kappa) are scored on every point of
+    the scene: truth ground is class 2, object is everything else, noise
+    included (noise is never ground); a point that SOR removed counts as
+    predicted object. Segmentations are scored by the mean over buildings of
+    the IoU between the roof (building points within 0.25 m of the highest)
+    and its best-matching region, over all points.
 
     Examples
     --------
@@ -69,43 +190,249 @@ def run_demo(output: str | os.PathLike = "demo-output", *, seed: int = 0,
     >>> from pcl_rg.demo import run_demo
     >>> with tempfile.TemporaryDirectory() as d:
     ...     report = run_demo(d, size=100.0, plots=False)
-    >>> [row["stage"] for row in report.rows][:2]
-    ['StatisticalOutlierRemoval', 'VoxelGrid']
+    >>> [row["stage"] for row in report.rows][:4]
+    ['denoise: SOR', 'downsample: voxel grid', 'ground: grid', 'ground: tin']
     """
+    stage = stage or _no_stage
     out = Path(output)
+    if out.exists() and not out.is_dir():
+        raise ValueError(f"output {os.fspath(output)!r} exists and is not a folder")
     out.mkdir(parents=True, exist_ok=True)
     report = DemoReport()
-    scene = datasets.synthetic_scene(seed=seed, size=size, offset=UTM_OFFSET)
+
+    with _timer(stage, "scene", "building the synthetic scene") as t:
+        scene = datasets.synthetic_scene(seed=seed, size=size, offset=UTM_OFFSET)
     points, labels = scene.points, scene.labels
     n = len(points)
-
-    inlier, seconds = _timed(lambda: statistical_outlier_removal(points, mean_k=10, std_mul=2.0))
     noise = labels == datasets.NOISE
-    caught = int((~inlier & noise).sum())
-    report.rows.append(dict(
-        stage="StatisticalOutlierRemoval", points_in=n, points_out=int(inlier.sum()),
-        seconds=seconds,
-        result=f"{caught}/{int(noise.sum())} noise points removed, "
-               f"{int((~inlier & ~noise).sum())} others",
-    ))
+    truth_ground = labels == datasets.GROUND
+    report.notes.append(
+        f"scene: seed {seed}, {size:g} m x {size:g} m, {n:,} points at offset "
+        f"{UTM_OFFSET[0]:,.0f} E {UTM_OFFSET[1]:,.0f} N ({t[0]:.2f} s): "
+        f"{int(truth_ground.sum()):,} ground, "
+        f"{int((labels == datasets.BUILDING).sum()):,} building, "
+        f"{int((labels == datasets.VEGETATION).sum()):,} vegetation, {int(noise.sum()):,} noise"
+    )
 
+    def save(name: str, xyz: np.ndarray, **fields: np.ndarray) -> Path:
+        path = out / name
+        with stage("write", f"writing {path}"):
+            classification = fields.pop("classification", None)
+            write_points(path, xyz, fields, classification=classification)
+        report.files.append(path)
+        return path
+
+    save("scene_truth.laz", points, classification=labels)
+
+    # 1. Statistical outlier removal.
+    with _timer(stage, "denoise", "statistical outlier removal") as t:
+        inlier = statistical_outlier_removal(points, **SOR)
+    caught = int((~inlier & noise).sum())
+    report.rows.append(
+        dict(
+            stage="denoise: SOR",
+            points_in=n,
+            points_out=int(inlier.sum()),
+            seconds=t[0],
+            result=f"{caught:,} of {int(noise.sum()):,} noise points flagged, "
+            f"{int((~inlier & ~noise).sum()):,} others",
+        )
+    )
     kept = points[inlier]
-    grid, seconds = _timed(lambda: voxel_grid(kept, 1.0))
-    report.rows.append(dict(
-        stage="VoxelGrid", points_in=len(kept), points_out=len(grid.centroids),
-        seconds=seconds, result="leaf 1.0 m",
-    ))
+    kept_index = np.flatnonzero(inlier)
+
+    # 2. Voxel grid on the inliers.
+    with _timer(stage, "downsample", "voxel grid") as t:
+        grid = voxel_grid(kept, LEAF)
+    report.rows.append(
+        dict(
+            stage="downsample: voxel grid",
+            points_in=len(kept),
+            points_out=len(grid.centroids),
+            seconds=t[0],
+            result=f"leaf {LEAF:g} m, mean {len(kept) / len(grid.centroids):.1f} points per voxel",
+        )
+    )
+
+    # 3. Ground filters on the inliers, scored on the whole scene.
+    ground_results = {}
+    for method, params in (("grid", GRID), ("tin", TIN)):
+        function = _optional(f"{method}_ground", f"{method}_ground")
+        if function is None:
+            continue
+        with _timer(stage, f"ground_{method}", f"ground filter ({method})") as t:
+            ground = function(kept, **params)
+        predicted = np.zeros(n, dtype=bool)
+        predicted[kept_index] = ground
+        errors = ground_errors(truth_ground, predicted)
+        ground_results[method] = predicted
+        report.rows.append(
+            dict(
+                stage=f"ground: {method}",
+                points_in=len(kept),
+                points_out=int(ground.sum()),
+                seconds=t[0],
+                type_i=errors.type_i,
+                type_ii=errors.type_ii,
+                total=errors.total,
+                kappa=errors.kappa,
+                result=f"{int(predicted.sum()):,} ground points",
+            )
+        )
+        classes = np.where(predicted, 2, 1).astype(np.uint8)
+        classes[~inlier] = 7
+        save(f"ground_{method}.laz", points, classification=classes)
+
+    # 4. Region growing on the voxel centroids, labels carried back to the points.
+    roof = _roofs(points, labels, scene.buildings)
+    voxel_of_point = np.full(n, -1, dtype=np.int64)
+    voxel_of_point[kept_index] = grid.voxel_of_point
+    segmentations = {}
+    for method, module in (("curvature", "region_growing"), ("pcl", "region_growing_pcl")):
+        function = _optional(module, module)
+        if function is None:
+            continue
+        with _timer(stage, f"segment_{method}", f"region growing ({method})") as t:
+            voxel_labels = np.asarray(function(grid.centroids, **SEGMENT))
+        point_labels = np.where(voxel_of_point >= 0, voxel_labels[voxel_of_point], -1)
+        segmentations[method] = point_labels
+        n_regions = len(np.unique(voxel_labels[voxel_labels >= 0]))
+        report.rows.append(
+            dict(
+                stage=f"segment: {method} (voxels)",
+                points_in=len(grid.centroids),
+                points_out=int((voxel_labels >= 0).sum()),
+                seconds=t[0],
+                roof_iou=_roof_iou(roof, point_labels),
+                regions=n_regions,
+                result=f"{n_regions} regions, roof IoU {_roof_iou(roof, point_labels):.3f}",
+            )
+        )
+        save(
+            f"segments_{method}.laz",
+            points,
+            classification=labels,
+            segment_id=point_labels.astype(np.int32),
+        )
+
+    # 5. The seed 004 pipeline, when available: the same SOR, voxel grid and region
+    # growing, chained by pcl_rg.pipeline.seed004 (its own timings per stage).
+    seed004 = _optional("pipeline", "seed004")
+    if seed004 is not None:
+        from .region_growing import RegionGrowingParams
+        from .statistical_outlier_removal import StatisticalOutlierRemovalParams
+        from .voxel_grid import VoxelGridParams
+
+        with _timer(stage, "pipeline", "seed 004 pipeline") as t:
+            result = seed004(
+                points,
+                sor=StatisticalOutlierRemovalParams(**SOR),
+                voxel=VoxelGridParams(leaf_size=LEAF),
+                region=RegionGrowingParams(**SEGMENT),
+            )
+        point_labels = np.asarray(result.labels).astype(np.int64)
+        n_regions = len(np.unique(point_labels[point_labels >= 0]))
+        iou = _roof_iou(roof, point_labels)
+        split = ", ".join(f"{s.name} {s.seconds:.2f} s" for s in result.report.stages)
+        report.rows.append(
+            dict(
+                stage="pipeline: seed 004",
+                points_in=n,
+                points_out=int((point_labels >= 0).sum()),
+                seconds=t[0],
+                roof_iou=iou,
+                regions=n_regions,
+                result=f"{n_regions} regions, roof IoU {iou:.3f} ({split})",
+            )
+        )
+        segmentations["pipeline"] = point_labels
+        save(
+            "pipeline.laz", points, classification=labels, segment_id=point_labels.astype(np.int32)
+        )
+
+    report.notes += [
+        "ground errors (I = Type I, II = Type II, tot = total, Sithole & Vosselman 2004) on all "
+        "scene points: truth ground = class 2, object = everything else, noise included; points "
+        "removed by SOR count as predicted object.",
+        f"parameters: SOR mean_k {SOR['mean_k']}, std_mul {SOR['std_mul']:g}; voxel leaf "
+        f"{LEAF:g} m; grid block {GRID['block_size']:g} m, cell {GRID['cell_size']:g} m, slope "
+        f"{GRID['slope']:g} (tan of the steepest terrain, 25 deg), min seed component "
+        f"{GRID['min_seed_component']}; tin LiDAR360 defaults; region "
+        f"growing k {SEGMENT['k']}, min cluster {SEGMENT['min_cluster_size']}, other defaults.",
+        f"roof IoU: mean over the {len(scene.buildings)} buildings of the IoU of the roof "
+        f"(building points within {ROOF_BAND:g} m of its top) and its best region, over all "
+        "points.",
+    ]
 
     if plots:
-        from .plot import top_view
-
-        path = out / "scene_classes.png"
-        top_view(points, path, classes=labels,
-                 title=f"synthetic scene: true classes ({n:,} points)")
-        report.files.append(path)
-        path = out / "sor_outliers.png"
-        top_view(points, path, classes=np.where(inlier, 2, 7).astype(np.uint8),
-                 class_names={2: ("kept", "#bbbbbb"), 7: ("SOR outlier", "#d62728")},
-                 title="StatisticalOutlierRemoval (mean_k 10, std_mul 2)")
-        report.files.append(path)
+        with stage("plot", "drawing figures"):
+            _figures(
+                out, report, points, labels, scene.buildings, ground_results, segmentations, inlier
+            )
     return report
+
+
+def _figures(
+    out: Path,
+    report: DemoReport,
+    points: np.ndarray,
+    labels: np.ndarray,
+    buildings: np.ndarray,
+    ground_results: dict[str, np.ndarray],
+    segmentations: dict[str, np.ndarray],
+    inlier: np.ndarray,
+) -> None:
+    from .plot import profile, top_view
+
+    n = len(points)
+    path = out / "truth_classes.png"
+    top_view(points, path, classes=labels, title=f"synthetic scene: true classes ({n:,} points)")
+    report.files.append(path)
+    # The profile runs west-east through the middle of the largest building.
+    xmin, ymin, xmax, ymax, _ = buildings[0]
+    y = (ymin + ymax) / 2
+    lower, upper = points.min(axis=0), points.max(axis=0)
+    line = ((lower[0], y), (upper[0], y))
+    path = out / "truth_profile.png"
+    profile(
+        points,
+        path,
+        *line,
+        width=4.0,
+        classes=labels,
+        title=f"true classes along y = {y:,.1f} (4 m corridor)",
+    )
+    report.files.append(path)
+    names = {1: ("object", "#d62728"), 2: ("ground", "#8c6d31"), 7: ("SOR outlier", "#e377c2")}
+    for method, predicted in ground_results.items():
+        classes = np.where(predicted, 2, 1)
+        classes[~inlier] = 7
+        path = out / f"ground_{method}.png"
+        top_view(
+            points,
+            path,
+            classes=classes,
+            class_names=names,
+            title=f"ground filter '{method}': ground vs object",
+        )
+        report.files.append(path)
+        path = out / f"ground_{method}_profile.png"
+        profile(
+            points,
+            path,
+            *line,
+            width=4.0,
+            classes=classes,
+            class_names=names,
+            title=f"ground filter '{method}' along y = {y:,.1f} (4 m corridor)",
+        )
+        report.files.append(path)
+    for method, segments in segmentations.items():
+        path = out / f"segments_{method}.png"
+        top_view(
+            points,
+            path,
+            segments=segments,
+            title=f"region growing '{method}': {len(np.unique(segments[segments >= 0]))} regions",
+        )
+        report.files.append(path)

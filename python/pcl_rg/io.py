@@ -1,5 +1,10 @@
 """Point-cloud file input and output.
 
+:func:`read_points` and :func:`write_points` handle LAS/LAZ (through laspy and
+lazrs), PLY, PCD and XYZ text, chosen by the file extension and checked against
+the file's first bytes; they keep every per-point attribute and, given the file
+read as a template, its layout (LAS scale, offset, point format, VLRs).
+
 PCD (PCL's Point Cloud Data format, v0.7, also reading v0.5/v0.6 headers) in its
 three encodings ``ascii``, ``binary`` and ``binary_compressed``, in plain NumPy.
 The LZF codec of ``binary_compressed`` comes from the compiled extension
@@ -22,7 +27,17 @@ from numpy.typing import ArrayLike, DTypeLike
 
 from ._validation import check_int
 
-__all__ = ["PointCloudData", "read_pcd", "write_pcd"]
+__all__ = [
+    "EXTENSIONS",
+    "PcdLayout",
+    "PlyLayout",
+    "PointCloudData",
+    "PointFile",
+    "read_pcd",
+    "read_points",
+    "write_pcd",
+    "write_points",
+]
 
 
 class PointCloudData(NamedTuple):
@@ -359,9 +374,7 @@ def _decode_ascii(path: str, header: _Header, data: memoryview) -> dict[str, np.
         )
     except ValueError as exc:
         message = str(exc).split("; use `usecols`")[0]
-        raise _bad(
-            path, f"ascii data, {n_columns} columns per row expected: {message}"
-        ) from None
+        raise _bad(path, f"ascii data, {n_columns} columns per row expected: {message}") from None
     if len(table) != n:
         raise _bad(path, f"ascii data has {len(table)} rows but POINTS is {n}")
     return {f.name: table[f.name] for f in header.fields if f.name != _PAD}
@@ -754,3 +767,1009 @@ def write_pcd(
             _write_chunked(stream, payload)
 
     _atomic_write(name, write)
+
+
+# ================================================================== any format
+#
+# read_points / write_points: one entry point for LAS/LAZ (laspy), PLY, PCD and
+# XYZ text, dispatched by extension and checked against the file's first bytes.
+
+#: File extension -> format name understood by :func:`read_points`/:func:`write_points`.
+EXTENSIONS: dict[str, str] = {
+    ".las": "las",
+    ".laz": "laz",
+    ".ply": "ply",
+    ".pcd": "pcd",
+    ".xyz": "xyz",
+    ".txt": "xyz",
+    ".pts": "xyz",
+}
+_FORMAT_NAMES = {"las": "LAS", "laz": "LAZ", "ply": "PLY", "pcd": "PCD", "xyz": "XYZ text"}
+
+
+class PcdLayout(NamedTuple):
+    """What a PCD file stores besides its values (``PointFile.header`` of a PCD)."""
+
+    encoding: str
+    """``ascii``, ``binary`` or ``binary_compressed``."""
+    xyz_dtype: np.dtype
+    """Storage type of x, y, z (float32 or float64)."""
+    width: int
+    height: int
+    viewpoint: tuple[float, ...]
+
+
+class PlyLayout(NamedTuple):
+    """What a PLY file stores besides its values (``PointFile.header`` of a PLY)."""
+
+    encoding: str
+    """``ascii``, ``binary_little_endian`` or ``binary_big_endian``."""
+    xyz_dtype: np.dtype
+    """Storage type of x, y, z (float32 or float64)."""
+    comments: tuple[str, ...]
+    """The header's ``comment`` lines."""
+
+
+class PointFile:
+    """Points and every per-point attribute of a file, plus what is needed to write it back.
+
+    Attributes
+    ----------
+    points : numpy.ndarray
+        float64 (N, 3): x, y, z in the file's coordinates (LAS scale and offset
+        applied). NaN rows (invalid points of organized PCD clouds) are kept.
+    fields : dict of str to numpy.ndarray
+        Every other per-point attribute by name, shape (N,) or (N, count), in
+        the dtype the file stores. LAS: every dimension of the point format
+        by laspy's name (``intensity``, ``return_number``, ``classification``,
+        ``synthetic``, ``gps_time``, ``red``, ...) and every extra-bytes
+        dimension.
+    format : str
+        ``"las"``, ``"laz"``, ``"ply"``, ``"pcd"`` or ``"xyz"``.
+    header : object or None
+        The layout to write back in: a ``laspy.LasHeader`` (version, point
+        format, scale, offset, VLRs, CRS) for LAS/LAZ, a :class:`PcdLayout`, a
+        :class:`PlyLayout`, or None for XYZ text.
+    path : str or None
+        The file read, if any.
+    """
+
+    __slots__ = ("points", "fields", "format", "header", "path")
+
+    def __init__(
+        self,
+        points: np.ndarray,
+        fields: dict[str, np.ndarray],
+        format: str,
+        header: object | None = None,
+        path: str | None = None,
+    ) -> None:
+        self.points = points
+        self.fields = fields
+        self.format = format
+        self.header = header
+        self.path = path
+
+    def __len__(self) -> int:
+        return len(self.points)
+
+    def __repr__(self) -> str:
+        where = f" from {self.path!r}" if self.path else ""
+        return (
+            f"<PointFile {self.format}{where}: {len(self.points)} points, "
+            f"fields {list(self.fields)}>"
+        )
+
+    @property
+    def classification(self) -> np.ndarray | None:
+        """The ``classification`` field, or None when the file has none."""
+        return self.fields.get("classification")
+
+    def take(self, index: ArrayLike) -> PointFile:
+        """The rows selected by `index` (bool mask or integer indices), same header."""
+        idx = np.asarray(index)
+        if idx.dtype == np.bool_ and idx.shape != (len(self.points),):
+            raise ValueError(f"index mask must have shape ({len(self.points)},), got {idx.shape}")
+        return PointFile(
+            self.points[idx],
+            {name: values[idx] for name, values in self.fields.items()},
+            self.format,
+            self.header,
+            self.path,
+        )
+
+
+def _format_of(path: str, format: str | None) -> str:
+    if format is not None:
+        if format not in _FORMAT_NAMES:
+            raise ValueError(f"format must be one of {', '.join(_FORMAT_NAMES)}, got {format!r}")
+        return format
+    ext = os.path.splitext(path)[1].lower()
+    if ext not in EXTENSIONS:
+        raise ValueError(
+            f"{path!r}: unknown file extension {ext or '(none)'!r}; supported: "
+            f"{', '.join(EXTENSIONS)}"
+        )
+    return EXTENSIONS[ext]
+
+
+def _sniff(head: bytes) -> str:
+    """What the first bytes of a file look like: las, ply, pcd, text, empty or binary."""
+    if not head:
+        return "empty"
+    if head.startswith(b"LASF"):
+        return "las"
+    if head.startswith((b"ply\n", b"ply\r\n")):
+        return "ply"
+    try:
+        text = head.decode("ascii")
+    except UnicodeDecodeError:
+        # PCD headers are ASCII, binary data follows them; a head cut mid-way can
+        # hold binary bytes after the DATA line.
+        text = head.split(b"\nDATA", 1)[0].decode("ascii", errors="replace")
+        if "\ufffd" in text:
+            return "binary"
+    for line in text.splitlines():
+        line = line.strip()
+        if not line:
+            continue
+        if line.startswith("# .PCD"):
+            return "pcd"
+        if line.startswith("#"):  # a comment of PCD or XYZ text: look further
+            continue
+        if line.split()[0] in _KEYWORDS:
+            return "pcd"
+        break
+    printable = all(c.isprintable() or c in "\r\n\t\f\v" for c in text)
+    return "text" if printable else "binary"
+
+
+_KIND_NAMES = {
+    "las": "a LAS/LAZ file",
+    "ply": "a PLY file",
+    "pcd": "a PCD file",
+    "text": "a text file",
+    "binary": "binary data of an unknown format",
+}
+_EXPECTED_KIND = {"las": "las", "laz": "las", "ply": "ply", "pcd": "pcd", "xyz": "text"}
+
+
+def _check_magic(path: str, format: str) -> None:
+    with open(path, "rb") as stream:
+        head = stream.read(4096)
+    kind = _sniff(head)
+    if kind == "empty":
+        raise ValueError(f"{path!r}: file is empty (0 bytes), not a {_FORMAT_NAMES[format]} file")
+    if kind != _EXPECTED_KIND[format]:
+        raise ValueError(
+            f"{path!r}: not a {_FORMAT_NAMES[format]} file: its first bytes "
+            f"({head[:8]!r}) look like {_KIND_NAMES[kind]}; check the file extension"
+        )
+
+
+def read_points(path: str | os.PathLike[str], *, format: str | None = None) -> PointFile:
+    """Read a LAS/LAZ, PLY, PCD or XYZ text file into float64 points and fields.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        File to read. The format comes from the extension (see `EXTENSIONS`:
+        ``.las``, ``.laz``, ``.ply``, ``.pcd``, ``.xyz``, ``.txt``, ``.pts``),
+        and the file's first bytes must agree with it.
+    format : {"las", "laz", "ply", "pcd", "xyz"}, optional
+        Read as this format whatever the extension.
+
+    Returns
+    -------
+    PointFile
+        ``points`` float64 (N, 3), ``fields`` (every other attribute, stored
+        dtype), ``format``, and ``header`` (the layout :func:`write_points`
+        copies when given the result as `template`).
+
+    Raises
+    ------
+    FileNotFoundError, PermissionError, IsADirectoryError
+        If the file cannot be opened.
+    TypeError
+        If `path` is not a str or path-like object.
+    ValueError
+        If the extension is unknown, the file is empty, its first bytes show
+        another format than the extension says, or it is corrupt or truncated.
+        The message names the file and the problem.
+
+    Notes
+    -----
+    LAS 1.0-1.4 and LAZ come through laspy (with the lazrs backend for LAZ);
+    coordinates are the stored integers times the header's scale plus its
+    offset, in float64, so nothing is lost. Scaled extra-bytes dimensions come
+    back scaled (float64).
+
+    PLY: ``ascii``, ``binary_little_endian`` and ``binary_big_endian``; the
+    ``vertex`` element's scalar properties are read (x, y, z must be among
+    them); other elements such as faces are skipped (elements with list
+    properties only after ``vertex``).
+
+    XYZ text: one point per line, ``x y z`` and optional further columns, split
+    on whitespace; blank lines and lines starting with ``#`` or ``//`` are
+    skipped. A comment line right before the data that names every column
+    (``# x y z intensity``) names the fields; otherwise they are ``column_4``,
+    ``column_5``, ... (``.pts``: ``intensity``, then ``red green blue``, Leica's
+    layout, whose optional first line holding the point count is checked).
+    Columns of whole numbers come back as int64, others as float64.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> import numpy as np
+    >>> from pcl_rg.io import read_points, write_points
+    >>> xyz = np.array([[500000.125, 5400000.5, 12.25], [500001.0, 5400001.0, 13.0]])
+    >>> with tempfile.TemporaryDirectory() as folder:
+    ...     path = os.path.join(folder, "two.ply")
+    ...     write_points(path, xyz, {"classification": np.array([2, 1], np.uint8)})
+    ...     cloud = read_points(path)
+    >>> cloud.format, cloud.points.tolist()
+    ('ply', [[500000.125, 5400000.5, 12.25], [500001.0, 5400001.0, 13.0]])
+    >>> cloud.classification.tolist()
+    [2, 1]
+    """
+    name = _fspath(path)
+    fmt = _format_of(name, format)
+    _check_magic(name, fmt)
+    if fmt in ("las", "laz"):
+        return _read_las(name, fmt)
+    if fmt == "ply":
+        return _read_ply(name)
+    if fmt == "pcd":
+        with open(name, "rb") as stream:
+            header = _parse_header(name, stream.read(_MAX_HEADER_BYTES))
+        cloud = read_pcd(name)
+        x_dtype = next(f.dtype for f in header.fields if f.name == "x")
+        layout = PcdLayout(
+            header.data,
+            np.dtype(x_dtype.newbyteorder("=")),
+            cloud.width,
+            cloud.height,
+            cloud.viewpoint,
+        )
+        return PointFile(cloud.points, cloud.fields, "pcd", layout, name)
+    return _read_xyz(name)
+
+
+def write_points(
+    path: str | os.PathLike[str],
+    points: ArrayLike,
+    fields: Mapping[str, ArrayLike] | None = None,
+    *,
+    classification: ArrayLike | None = None,
+    template: PointFile | None = None,
+    format: str | None = None,
+) -> None:
+    """Write points and per-point fields to a LAS/LAZ, PLY, PCD or XYZ text file.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        File to write, format from its extension (as :func:`read_points`);
+        replaced atomically if it exists.
+    points : array_like, shape (N, 3)
+        x, y, z in the caller's (file) coordinates. NaN rows only for PCD,
+        PLY and XYZ; LAS cannot store them.
+    fields : mapping of str to array_like, optional
+        Per-point attributes, shape (N,) or (N, count), e.g. the ``fields`` of
+        a :class:`PointFile` (possibly subset with ``take``).
+    classification : array_like of int, shape (N,), optional
+        Class codes (ASPRS: 1 unclassified, 2 ground, 7 noise); replaces
+        ``fields["classification"]``.
+    template : PointFile, optional
+        A file read before, whose layout is kept when the output has the same
+        format family (LAS/LAZ, PCD or PLY): for LAS the version, point format,
+        scale, offset, VLRs (CRS included), extra-bytes definitions and
+        header fields; for PCD the encoding, x/y/z type, viewpoint and, when N
+        is unchanged, width and height; for PLY the encoding, x/y/z type and
+        comments.
+    format : {"las", "laz", "ply", "pcd", "xyz"}, optional
+        Write as this format whatever the extension.
+
+    Raises
+    ------
+    TypeError
+        Wrong argument types.
+    ValueError
+        Unknown extension; `points` not (N, 3); a field of the wrong length; a
+        value out of range of its LAS dimension (e.g. classification > 31 in
+        point formats 0-5); NaN points or coordinates that do not fit the
+        template's scale and offset in LAS.
+    OSError
+        If the file cannot be written (e.g. the disk is full); the target is
+        then left untouched and no temporary file remains.
+
+    Notes
+    -----
+    Every format is written to a temporary file in the destination folder
+    and renamed over `path` when complete (also on ``KeyboardInterrupt`` no
+    partial file remains).
+
+    LAS/LAZ without a LAS template: version 1.4, point format 6 (7 with
+    ``red``/``green``/``blue``, 8 with ``nir`` too), scale 1 mm (coarser only
+    if the extent needs it), offset the minimum corner rounded down to a
+    metre. Fields named like a dimension of the point format fill it (values
+    are range-checked, never wrapped); any other field is added as an
+    extra-bytes dimension of its dtype (e.g. ``segment_id`` int32). With a
+    template, coordinates are stored as ``round((x - offset) / scale)``, so
+    points read from that file are written back bit for bit.
+
+    PCD, PLY without a template: x, y, z as float32 when that is exact, else
+    float64. Both store fields with their dtype (PLY has no 64-bit integers:
+    int64 becomes int32 when the values fit, else float64; bool becomes
+    uint8); (N, count) fields become ``name_0``, ``name_1``, ... in PLY and
+    XYZ. XYZ text writes a ``# x y z ...`` header comment and every number as
+    the shortest text that reads back to the same value.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> import numpy as np
+    >>> from pcl_rg.io import read_points, write_points
+    >>> xyz = np.array([[500000.125, 5400000.5, 12.25], [500001.0, 5400001.0, 13.0]])
+    >>> with tempfile.TemporaryDirectory() as folder:
+    ...     path = os.path.join(folder, "two.laz")
+    ...     write_points(path, xyz, {"intensity": np.array([10, 20], np.uint16)},
+    ...                  classification=[2, 6])
+    ...     cloud = read_points(path)
+    ...     write_points(os.path.join(folder, "ground.laz"), cloud.points[:1],
+    ...                  {k: v[:1] for k, v in cloud.fields.items()}, template=cloud)
+    ...     ground = read_points(os.path.join(folder, "ground.laz"))
+    >>> cloud.points.tolist(), cloud.classification.tolist(), cloud.fields["intensity"].tolist()
+    ([[500000.125, 5400000.5, 12.25], [500001.0, 5400001.0, 13.0]], [2, 6], [10, 20])
+    >>> len(ground), ground.header.point_format.id, ground.classification.tolist()
+    (1, 6, [2])
+    """
+    name = _fspath(path)
+    fmt = _format_of(name, format)
+    xyz = np.asarray(points)
+    if xyz.dtype.kind not in "fiu":
+        raise TypeError(f"points must be a real float or integer array, got dtype {xyz.dtype}")
+    if xyz.ndim != 2 or xyz.shape[1] != 3:
+        raise ValueError(f"points must have shape (N, 3), got {xyz.shape}")
+    with np.errstate(invalid="ignore"):
+        xyz = np.ascontiguousarray(xyz, dtype=np.float64)
+    n = len(xyz)
+    if fields is not None and not isinstance(fields, Mapping):
+        raise TypeError(f"fields must be a mapping of name to array, got {type(fields).__name__}")
+    columns: dict[str, np.ndarray] = {}
+    for key, values in (fields or {}).items():
+        if not isinstance(key, str) or not key:
+            raise TypeError(f"fields keys must be non-empty str, got {key!r}")
+        if key.lower() in ("x", "y", "z"):
+            raise ValueError(f"fields[{key!r}]: x, y and z are given in points, not fields")
+        array = np.asarray(values)
+        if array.dtype.kind not in "biuf":
+            raise TypeError(
+                f"fields[{key!r}] must be a bool, integer or float array, got dtype {array.dtype}"
+            )
+        if array.ndim not in (1, 2) or array.shape[0] != n:
+            raise ValueError(
+                f"fields[{key!r}] must have shape ({n},) or ({n}, count), got {array.shape}"
+            )
+        columns[key] = array
+    if classification is not None:
+        codes = np.asarray(classification)
+        if codes.dtype.kind not in "iu":
+            raise TypeError(f"classification must be an integer array, got dtype {codes.dtype}")
+        if codes.shape != (n,):
+            raise ValueError(f"classification must have shape ({n},), got {codes.shape}")
+        if n and (codes.min() < 0 or codes.max() > 255):
+            raise ValueError(
+                f"classification must be in [0, 255], got values from {codes.min()} to "
+                f"{codes.max()}"
+            )
+        existing = columns.get("classification")
+        dtype = existing.dtype if existing is not None else np.dtype(np.uint8)
+        columns["classification"] = codes.astype(dtype)
+    if template is not None and not isinstance(template, PointFile):
+        raise TypeError(f"template must be a PointFile, got {type(template).__name__}")
+
+    if fmt in ("las", "laz"):
+        header = None
+        if template is not None and template.format in ("las", "laz"):
+            header = template.header
+        _write_las(name, xyz, columns, header, compress=fmt == "laz")
+    elif fmt == "ply":
+        layout = template.header if template is not None and template.format == "ply" else None
+        _write_ply(name, xyz, columns, layout)
+    elif fmt == "pcd":
+        layout = template.header if template is not None and template.format == "pcd" else None
+        _write_pcd_points(name, xyz, columns, layout)
+    else:
+        _write_xyz(name, xyz, columns)
+
+
+def _exact_float32(xyz: np.ndarray) -> bool:
+    with np.errstate(invalid="ignore", over="ignore"):
+        back = xyz.astype(np.float32).astype(np.float64)
+    return bool(np.array_equal(back, xyz, equal_nan=True))
+
+
+def _split_columns(columns: Mapping[str, np.ndarray]) -> list[tuple[str, np.ndarray]]:
+    """(name, 1-D array) pairs, (N, count) fields split into name_0, name_1, ..."""
+    out = []
+    for key, array in columns.items():
+        key = re.sub(r"\s+", "_", key.strip())
+        if array.ndim == 1:
+            out.append((key, array))
+        else:
+            out.extend((f"{key}_{i}", array[:, i]) for i in range(array.shape[1]))
+    return out
+
+
+# ----------------------------------------------------------------------- PCD
+
+
+def _write_pcd_points(
+    path: str, xyz: np.ndarray, columns: dict[str, np.ndarray], layout: PcdLayout | None
+) -> None:
+    fields = {}
+    for key, array in columns.items():
+        key = re.sub(r"\s+", "_", key.strip())
+        if array.dtype == np.bool_:
+            array = array.astype(np.uint8)
+        elif array.dtype.kind == "f" and array.dtype.itemsize < 4:
+            array = array.astype(np.float32)
+        fields[key] = array
+    n = len(xyz)
+    if layout is not None:
+        organized = layout.width * layout.height == n
+        write_pcd(
+            path,
+            xyz,
+            fields,
+            encoding=layout.encoding,
+            width=layout.width if organized else n,
+            height=layout.height if organized else 1,
+            viewpoint=layout.viewpoint,
+            xyz_dtype=layout.xyz_dtype,
+        )
+    else:
+        write_pcd(
+            path,
+            xyz,
+            fields,
+            xyz_dtype=np.float32 if _exact_float32(xyz) else np.float64,
+        )
+
+
+# ----------------------------------------------------------------------- LAS
+
+
+def _laspy():
+    try:
+        import laspy
+    except ImportError as error:  # pragma: no cover - depends on the environment
+        raise ImportError(
+            "reading and writing LAS/LAZ needs laspy with lazrs: pip install 'pcl_rg[las]'"
+        ) from error
+    return laspy
+
+
+def _read_las(path: str, fmt: str) -> PointFile:
+    laspy = _laspy()
+    try:
+        with open(path, "rb") as stream:
+            las = laspy.read(stream, closefd=False)
+    except OSError as error:
+        if error.errno is not None:  # a real I/O error, not a decoder's complaint
+            raise
+        raise _bad_las(path, error) from None
+    except Exception as error:  # laspy, lazrs and NumPy raise many kinds on corrupt data
+        raise _bad_las(path, error) from None
+    header = las.header
+    if len(las.points) != header.point_count:
+        raise ValueError(
+            f"invalid LAS file {path!r}: header says {header.point_count} points, "
+            f"the file holds {len(las.points)} (truncated?)"
+        )
+    points = np.column_stack([np.asarray(las.x), np.asarray(las.y), np.asarray(las.z)]).astype(
+        np.float64
+    )
+    fields = {}
+    for dim in header.point_format.dimensions:
+        if dim.name in ("X", "Y", "Z"):
+            continue
+        fields[dim.name] = np.array(las[dim.name])
+    return PointFile(points, fields, fmt, header, path)
+
+
+def _bad_las(path: str, error: BaseException) -> ValueError:
+    detail = str(error) or type(error).__name__
+    return ValueError(f"invalid LAS/LAZ file {path!r}: {detail}")
+
+
+def _new_las_header(laspy, xyz: np.ndarray, names: set[str]):
+    point_format = 6
+    if {"red", "green", "blue"} <= names:
+        point_format = 8 if "nir" in names else 7
+    header = laspy.LasHeader(version="1.4", point_format=point_format)
+    if len(xyz):
+        lower = np.floor(xyz.min(axis=0))
+        extent = xyz.max(axis=0) - lower
+    else:
+        lower = np.zeros(3)
+        extent = np.zeros(3)
+    scale = np.full(3, 0.001)
+    # Stored integers are int32: coarsen the scale by 10 until the extent fits.
+    while np.any(extent / scale > 2**31 - 2):
+        scale = np.where(extent / scale > 2**31 - 2, scale * 10, scale)
+    header.offsets = lower
+    header.scales = scale
+    return header
+
+
+def _write_las(
+    path: str, xyz: np.ndarray, columns: dict[str, np.ndarray], template, compress: bool
+) -> None:
+    import copy
+
+    laspy = _laspy()
+    finite = np.isfinite(xyz).all(axis=1)
+    if not finite.all():
+        raise ValueError(
+            f"points has {int((~finite).sum())} row(s) with NaN or Inf coordinates, which "
+            "LAS cannot store; drop them or write PCD, PLY or XYZ"
+        )
+    if template is not None:
+        header = copy.deepcopy(template)
+    else:
+        header = _new_las_header(laspy, xyz, set(columns))
+    standard = {d.name: d for d in header.point_format.dimensions}
+    new_dims = []
+    for key, array in columns.items():
+        if key in standard:
+            continue
+        array = np.asarray(array)
+        base = np.dtype(np.uint8) if array.dtype == np.bool_ else array.dtype
+        if base.kind == "f" and base.itemsize < 4:
+            base = np.dtype(np.float32)
+        if array.ndim == 2 and array.shape[1] not in (1, 2, 3):
+            raise ValueError(
+                f"fields[{key!r}] has {array.shape[1]} values per point; LAS extra bytes "
+                "hold 1, 2 or 3"
+            )
+        kind = base.newbyteorder("<").str.lstrip("<|=")
+        type_str = kind if array.ndim == 1 or array.shape[1] == 1 else f"{array.shape[1]}{kind}"
+        new_dims.append(laspy.ExtraBytesParams(name=key, type=type_str))
+    if new_dims:
+        try:
+            header.add_extra_dims(new_dims)
+        except Exception as error:
+            raise ValueError(
+                f"cannot add extra-bytes dimensions to the LAS header: {error}"
+            ) from None
+        standard = {d.name: d for d in header.point_format.dimensions}
+
+    n = len(xyz)
+    record = laspy.ScaleAwarePointRecord.zeros(n, header=header)
+    scales = np.asarray(header.scales, dtype=np.float64)
+    offsets = np.asarray(header.offsets, dtype=np.float64)
+    for i, axis in enumerate("XYZ"):
+        stored = np.round((xyz[:, i] - offsets[i]) / scales[i])
+        if n and (stored.min() < -(2**31) or stored.max() > 2**31 - 1):
+            raise ValueError(
+                f"{'xyz'[i]} coordinates from {xyz[:, i].min()} to {xyz[:, i].max()} do not fit "
+                f"LAS int32 storage with scale {scales[i]} and offset {offsets[i]}"
+            )
+        record[axis] = stored.astype(np.int32)
+    for key, array in columns.items():
+        dim = standard[key]
+        values = np.asarray(array)
+        if values.dtype == np.bool_:
+            values = values.astype(np.uint8)
+        if values.ndim == 2 and values.shape[1] == 1:
+            values = values[:, 0]
+        if n and dim.kind != laspy.DimensionKind.FloatingPoint and not dim.is_scaled:
+            if values.dtype.kind == "f":
+                if not np.array_equal(values, np.round(values)):
+                    raise ValueError(
+                        f"fields[{key!r}] holds fractional values but LAS stores {key} as integers"
+                    )
+            low, high = values.min(), values.max()
+            if low < dim.min or high > dim.max:
+                raise ValueError(
+                    f"fields[{key!r}] has values from {low} to {high}, outside the range "
+                    f"[{dim.min}, {dim.max}] of LAS point format {header.point_format.id}"
+                )
+            values = values.astype(np.int64)
+        try:
+            record[key] = values
+        except (OverflowError, ValueError) as error:
+            raise ValueError(f"fields[{key!r}] cannot be stored in LAS: {error}") from None
+    las = laspy.LasData(header=header, points=record)
+
+    def write(stream: BinaryIO) -> None:
+        recorder = _RecordingStream(stream)
+        try:
+            las.write(recorder, do_compress=compress)
+        except Exception:
+            # lazrs turns an exception of the stream (e.g. ENOSPC) into its own
+            # LazrsError; surface the original.
+            if recorder.error is not None:
+                raise recorder.error from None
+            raise
+        if recorder.error is not None:
+            raise recorder.error
+
+    _atomic_write(path, write)
+
+
+class _RecordingStream:
+    """A binary stream that remembers the first exception its write() raised."""
+
+    def __init__(self, stream: BinaryIO) -> None:
+        self._stream = stream
+        self.error: BaseException | None = None
+
+    def write(self, data) -> int:
+        try:
+            return self._stream.write(data)
+        except BaseException as error:
+            if self.error is None:
+                self.error = error
+            raise
+
+    def __getattr__(self, name: str):
+        return getattr(self._stream, name)
+
+
+# ----------------------------------------------------------------------- PLY
+
+_PLY_TYPES = {
+    "char": "i1",
+    "int8": "i1",
+    "uchar": "u1",
+    "uint8": "u1",
+    "short": "i2",
+    "int16": "i2",
+    "ushort": "u2",
+    "uint16": "u2",
+    "int": "i4",
+    "int32": "i4",
+    "uint": "u4",
+    "uint32": "u4",
+    "float": "f4",
+    "float32": "f4",
+    "double": "f8",
+    "float64": "f8",
+}
+_PLY_NAMES = {
+    "i1": "char",
+    "u1": "uchar",
+    "i2": "short",
+    "u2": "ushort",
+    "i4": "int",
+    "u4": "uint",
+    "f4": "float",
+    "f8": "double",
+}
+_PLY_ENCODINGS = {"ascii": "", "binary_little_endian": "<", "binary_big_endian": ">"}
+
+
+class _PlyElement(NamedTuple):
+    name: str
+    count: int
+    properties: list[tuple[str, str]]  # (name, dtype code) for scalars
+    has_list: bool
+    list_types: list[tuple[str, str, str]]  # (name, count type, item type)
+
+
+def _bad_ply(path: str, problem: str) -> ValueError:
+    return ValueError(f"invalid PLY file {path!r}: {problem}")
+
+
+def _parse_ply_header(path: str, raw: bytes) -> tuple[str, list[_PlyElement], tuple[str, ...], int]:
+    end = -1
+    for marker in (b"end_header\r\n", b"end_header\n"):
+        found = raw.find(marker)
+        if found >= 0 and (end < 0 or found < end):
+            end = found
+            end_len = len(marker)
+    if end < 0:
+        raise _bad_ply(path, "no 'end_header' line (header truncated or not a PLY file)")
+    try:
+        lines = raw[:end].decode("ascii").splitlines()
+    except UnicodeDecodeError:
+        raise _bad_ply(path, "header is not ASCII text") from None
+    if not lines or lines[0].strip() != "ply":
+        raise _bad_ply(path, "first line is not 'ply'")
+    encoding = None
+    elements: list[_PlyElement] = []
+    comments = []
+    for number, line in enumerate(lines[1:], start=2):
+        tokens = line.split()
+        if not tokens:
+            continue
+        key = tokens[0]
+        if key == "format":
+            if len(tokens) != 3 or tokens[1] not in _PLY_ENCODINGS or tokens[2] != "1.0":
+                raise _bad_ply(path, f"line {number}: unsupported format line {line.strip()!r}")
+            encoding = tokens[1]
+        elif key == "comment":
+            comments.append(line.strip()[len("comment") :].strip())
+        elif key == "obj_info":
+            continue
+        elif key == "element":
+            if len(tokens) != 3:
+                raise _bad_ply(path, f"line {number}: 'element' needs a name and a count")
+            try:
+                count = int(tokens[2])
+            except ValueError:
+                raise _bad_ply(
+                    path, f"line {number}: element count {tokens[2]!r} is not an integer"
+                ) from None
+            if count < 0:
+                raise _bad_ply(path, f"line {number}: element count {count} is negative")
+            elements.append(_PlyElement(tokens[1], count, [], False, []))
+        elif key == "property":
+            if not elements:
+                raise _bad_ply(path, f"line {number}: property before any element")
+            element = elements[-1]
+            if len(tokens) == 5 and tokens[1] == "list":
+                if tokens[2] not in _PLY_TYPES or tokens[3] not in _PLY_TYPES:
+                    raise _bad_ply(path, f"line {number}: unknown list types in {line.strip()!r}")
+                element.list_types.append((tokens[4], _PLY_TYPES[tokens[2]], _PLY_TYPES[tokens[3]]))
+                elements[-1] = element._replace(has_list=True)
+            elif len(tokens) == 3:
+                if tokens[1] not in _PLY_TYPES:
+                    raise _bad_ply(path, f"line {number}: unknown property type {tokens[1]!r}")
+                element.properties.append((tokens[2], _PLY_TYPES[tokens[1]]))
+            else:
+                raise _bad_ply(path, f"line {number}: malformed property line {line.strip()!r}")
+        else:
+            raise _bad_ply(path, f"line {number}: unknown header keyword {key!r}")
+    if encoding is None:
+        raise _bad_ply(path, "header has no 'format' line")
+    return encoding, elements, tuple(comments), end + end_len
+
+
+def _read_ply(path: str) -> PointFile:
+    with open(path, "rb") as stream:
+        raw = stream.read()
+    encoding, elements, comments, offset = _parse_ply_header(path, raw[:_MAX_HEADER_BYTES])
+    vertex_at = next((i for i, e in enumerate(elements) if e.name == "vertex"), None)
+    if vertex_at is None:
+        raise _bad_ply(path, "no 'vertex' element")
+    vertex = elements[vertex_at]
+    if vertex.has_list:
+        raise _bad_ply(path, "the vertex element has list properties, which are not supported")
+    names = [name for name, _ in vertex.properties]
+    for axis in "xyz":
+        if axis not in names:
+            raise _bad_ply(
+                path, f"the vertex element has no {axis!r} property (got {' '.join(names)})"
+            )
+    if len(set(names)) != len(names):
+        raise _bad_ply(path, f"the vertex element repeats a property name ({' '.join(names)})")
+    n = vertex.count
+    last = vertex_at == len(elements) - 1
+    data = memoryview(raw)[offset:]
+    if encoding == "ascii":
+        try:
+            text = bytes(data).decode("ascii")
+        except UnicodeDecodeError as exc:
+            raise _bad_ply(
+                path, f"ascii data has a non-ASCII byte at offset {offset + exc.start}"
+            ) from None
+        lines = text.splitlines()
+        skip = sum(e.count for e in elements[:vertex_at])
+        rows = lines[skip : skip + n]
+        if len(rows) < n:
+            raise _bad_ply(
+                path, f"header says {n} vertices but the data hold {max(len(rows), 0)} (truncated?)"
+            )
+        if last and any(line.strip() for line in lines[skip + n :]):
+            raise _bad_ply(path, f"more data rows than the {n} vertices the header says")
+        record = np.dtype([(name, code) for name, code in vertex.properties])
+        if n == 0:
+            table = np.zeros(0, dtype=record)
+        else:
+            try:
+                table = np.loadtxt(rows, dtype=record, ndmin=1, comments=None)
+            except ValueError as exc:
+                message = str(exc).split("; use `usecols`")[0]
+                raise _bad_ply(
+                    path, f"ascii vertex data, {len(names)} values per row expected: {message}"
+                ) from None
+    else:
+        order = _PLY_ENCODINGS[encoding]
+        skip = 0
+        for element in elements[:vertex_at]:
+            if element.has_list:
+                raise _bad_ply(
+                    path,
+                    f"element {element.name!r} with list properties comes before 'vertex' "
+                    "in a binary file, which is not supported",
+                )
+            skip += element.count * sum(np.dtype(c).itemsize for _, c in element.properties)
+        record = np.dtype([(name, order + code) for name, code in vertex.properties])
+        need = skip + n * record.itemsize
+        if len(data) < need:
+            raise _bad_ply(
+                path,
+                f"binary data is {len(data)} bytes but {n} vertices x {record.itemsize} "
+                f"bytes need {need} (truncated?)",
+            )
+        if last and len(data) > need and bytes(data[need:]).strip(b"\r\n\x00 "):
+            raise _bad_ply(path, f"{len(data) - need} bytes after the {n} vertices the header says")
+        table = np.frombuffer(data, dtype=record, count=n, offset=skip)
+    points = np.empty((n, 3), dtype=np.float64)
+    for i, axis in enumerate("xyz"):
+        points[:, i] = table[axis]
+    fields = {
+        name: np.array(table[name], dtype=np.dtype(code))
+        for name, code in vertex.properties
+        if name not in ("x", "y", "z")
+    }
+    xyz_codes = {code for name, code in vertex.properties if name in ("x", "y", "z")}
+    xyz_dtype = np.dtype("f8") if xyz_codes - {"f4"} else np.dtype("f4")
+    return PointFile(points, fields, "ply", PlyLayout(encoding, xyz_dtype, comments), path)
+
+
+def _ply_column(array: np.ndarray) -> np.ndarray:
+    if array.dtype == np.bool_:
+        return array.astype(np.uint8)
+    if array.dtype.kind in "iu" and array.dtype.itemsize == 8:
+        info = np.iinfo(np.int32)
+        if len(array) == 0 or (array.min() >= info.min and array.max() <= info.max):
+            return array.astype(np.int32)
+        return array.astype(np.float64)
+    if array.dtype.kind == "f" and array.dtype.itemsize < 4:
+        return array.astype(np.float32)
+    return array
+
+
+def _write_ply(
+    path: str, xyz: np.ndarray, columns: dict[str, np.ndarray], layout: PlyLayout | None
+) -> None:
+    n = len(xyz)
+    if layout is not None:
+        encoding, xyz_dtype, comments = layout.encoding, layout.xyz_dtype, layout.comments
+    else:
+        encoding = "binary_little_endian"
+        xyz_dtype = np.dtype("f4") if _exact_float32(xyz) else np.dtype("f8")
+        comments = ("written by pcl_rg",)
+    with np.errstate(invalid="ignore", over="ignore"):
+        data = [
+            ("x", xyz[:, 0].astype(xyz_dtype)),
+            ("y", xyz[:, 1].astype(xyz_dtype)),
+            ("z", xyz[:, 2].astype(xyz_dtype)),
+        ]
+    data += [(key, _ply_column(array)) for key, array in _split_columns(columns)]
+    names = [key for key, _ in data]
+    if len(set(names)) != len(names):
+        raise ValueError(f"PLY property names must be unique, got {names}")
+    lines = ["ply", f"format {encoding} 1.0"]
+    lines += [f"comment {c}" for c in comments]
+    lines.append(f"element vertex {n}")
+    for key, array in data:
+        lines.append(f"property {_PLY_NAMES[array.dtype.str[1:]]} {key}")
+    lines.append("end_header")
+    head = ("\n".join(lines) + "\n").encode("ascii")
+    if encoding == "ascii":
+
+        def write(stream: BinaryIO) -> None:
+            stream.write(head)
+            _write_ascii(stream, [array for _, array in data], n)
+    else:
+        order = _PLY_ENCODINGS[encoding]
+        record = np.dtype([(key, order + array.dtype.str[1:]) for key, array in data])
+        table = np.empty(n, dtype=record)
+        for key, array in data:
+            table[key] = array
+
+        def write(stream: BinaryIO) -> None:
+            stream.write(head)
+            _write_chunked(stream, memoryview(table.view(np.uint8)))
+
+    _atomic_write(path, write)
+
+
+# ----------------------------------------------------------------------- XYZ
+
+_PTS_NAMES = {
+    4: ["intensity"],
+    6: ["red", "green", "blue"],
+    7: ["intensity", "red", "green", "blue"],
+}
+
+
+def _bad_xyz(path: str, problem: str) -> ValueError:
+    return ValueError(f"invalid XYZ text file {path!r}: {problem}")
+
+
+def _read_xyz(path: str) -> PointFile:
+    with open(path, "rb") as stream:
+        raw = stream.read()
+    try:
+        text = raw.decode("ascii")
+    except UnicodeDecodeError as exc:
+        raise _bad_xyz(path, f"non-ASCII byte at offset {exc.start} (binary data?)") from None
+    lines = text.splitlines()
+    # The last comment line before the first data line may name the columns.
+    header_names = None
+    first = len(lines)
+    for number, line in enumerate(lines):
+        stripped = line.strip()
+        if not stripped:
+            continue
+        if stripped.startswith(("#", "//")):
+            header_names = re.split(r"[\s,;]+", stripped.lstrip("#/").strip())
+            continue
+        first = number
+        break
+    body = lines[first:]
+    count_line = None
+    if body:
+        tokens = body[0].split()
+        if len(tokens) == 1 and re.fullmatch(r"\d+", tokens[0]):
+            count_line = int(tokens[0])
+            body = body[1:]
+    rows = [line for line in body if line.strip() and not line.lstrip().startswith(("#", "//"))]
+    if not rows:
+        if count_line:
+            raise _bad_xyz(path, f"first line announces {count_line} points but none follow")
+        named = header_names is not None and [h.lower() for h in header_names[:3]] == [
+            "x",
+            "y",
+            "z",
+        ]
+        if not named:
+            raise _bad_xyz(path, "no data rows (need x y z per line)")
+        # No rows under a "# x y z ..." header: an empty cloud, as write_points writes it.
+        empty = {key: np.zeros(0) for key in header_names[3:]}
+        return PointFile(np.zeros((0, 3)), empty, "xyz", None, path)
+    try:
+        table = np.loadtxt(rows, dtype=np.float64, ndmin=2, comments=None)
+    except ValueError as exc:
+        message = str(exc).split("; use `usecols`")[0]
+        raise _bad_xyz(
+            path,
+            f"cannot read the rows as numbers (x y z [more] per line, whitespace-separated, "
+            f"the same count on every line): {message}",
+        ) from None
+    if table.shape[1] < 3:
+        raise _bad_xyz(path, f"rows hold {table.shape[1]} numbers, x y z need 3")
+    if count_line is not None and count_line != len(table):
+        raise _bad_xyz(path, f"first line announces {count_line} points but {len(table)} follow")
+    width = table.shape[1]
+    ext = os.path.splitext(path)[1].lower()
+    if (
+        header_names is not None
+        and len(header_names) == width
+        and [h.lower() for h in header_names[:3]] == ["x", "y", "z"]
+        and len(set(header_names)) == width
+    ):
+        names = header_names[3:]
+    elif ext == ".pts" and width in _PTS_NAMES:
+        names = _PTS_NAMES[width]
+    else:
+        names = [f"column_{i + 1}" for i in range(3, width)]
+    fields = {}
+    for i, key in enumerate(names, start=3):
+        column = table[:, i]
+        whole = np.isfinite(column).all() and np.array_equal(column, np.round(column))
+        if whole and np.abs(column).max() <= 2.0**53:
+            fields[key] = column.astype(np.int64)
+        else:
+            fields[key] = column.copy()
+    return PointFile(np.ascontiguousarray(table[:, :3]), fields, "xyz", None, path)
+
+
+def _write_xyz(path: str, xyz: np.ndarray, columns: dict[str, np.ndarray]) -> None:
+    data = [("x", xyz[:, 0]), ("y", xyz[:, 1]), ("z", xyz[:, 2])]
+    for key, array in _split_columns(columns):
+        data.append((key, array.astype(np.uint8) if array.dtype == np.bool_ else array))
+    head = ("# " + " ".join(key for key, _ in data) + "\n").encode("ascii", errors="replace")
+
+    def write(stream: BinaryIO) -> None:
+        stream.write(head)
+        _write_ascii(stream, [array for _, array in data], len(xyz))
+
+    _atomic_write(path, write)

@@ -1,25 +1,57 @@
-"""Pictures of point clouds: top views and vertical profiles, to PNG (matplotlib)."""
+"""Pictures of point clouds: top views and vertical profiles, to PNG (matplotlib).
+
+Needs the optional extra ``plot`` (``pip install 'pcl_rg[plot]'``); matplotlib is
+imported only when a figure is drawn, with the non-interactive Agg backend.
+"""
 
 from __future__ import annotations
 
 import os
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 import numpy.typing as npt
 
-from ._validation import as_points
+from ._validation import as_points, check_float, check_int
 
-__all__ = ["CLASS_COLOURS", "top_view"]
+__all__ = ["CLASS_COLOURS", "profile", "segment_colours", "top_view"]
 
 # ASPRS classes as used in pcl_rg's outputs and synthetic scenes.
 CLASS_COLOURS: dict[int, tuple[str, str]] = {
+    0: ("never classified", "#7f7f7f"),
     1: ("unclassified / object", "#d62728"),
     2: ("ground", "#8c6d31"),
     5: ("vegetation", "#2ca02c"),
     6: ("building", "#1f77b4"),
     7: ("noise", "#e377c2"),
 }
+
+# Categorical colours for segments: Tableau 10 and its light variants (tab20),
+# reordered so that consecutive labels (neighbouring regions are often numbered
+# close together) get contrasting colours.
+_SEGMENT_PALETTE = (
+    "#1f77b4",
+    "#ff7f0e",
+    "#2ca02c",
+    "#d62728",
+    "#9467bd",
+    "#8c564b",
+    "#e377c2",
+    "#bcbd22",
+    "#17becf",
+    "#aec7e8",
+    "#ffbb78",
+    "#98df8a",
+    "#ff9896",
+    "#c5b0d5",
+    "#c49c94",
+    "#f7b6d2",
+    "#dbdb8d",
+    "#9edae5",
+    "#393b79",
+    "#637939",
+)
+_UNASSIGNED = "#c7c7c7"
 
 
 def _pyplot():
@@ -29,10 +61,110 @@ def _pyplot():
         matplotlib.use("Agg", force=False)
         import matplotlib.pyplot as plt
     except ImportError as error:  # pragma: no cover - depends on the environment
-        raise ImportError(
-            "pcl_rg.plot needs matplotlib: pip install 'pcl_rg[plot]'"
-        ) from error
+        raise ImportError("pcl_rg.plot needs matplotlib: pip install 'pcl_rg[plot]'") from error
     return plt
+
+
+def segment_colours(labels: npt.ArrayLike) -> np.ndarray:
+    """RGBA colours (N, 4) for segment labels: a fixed palette by label, grey for -1.
+
+    Parameters
+    ----------
+    labels : array_like of int, shape (N,)
+        Segment per point, negative for unassigned.
+
+    Returns
+    -------
+    numpy.ndarray
+        float64 (N, 4) RGBA in [0, 1]. Label ``l >= 0`` gets colour
+        ``l % 20`` of a 20-colour categorical palette (the same label always
+        gets the same colour); negative labels are light grey.
+
+    Examples
+    --------
+    >>> from pcl_rg.plot import segment_colours
+    >>> c = segment_colours([0, 1, -1, 20])
+    >>> c.shape, bool((c[0] == c[3]).all()), bool((c[0] == c[1]).all())
+    ((4, 4), True, False)
+    """
+    from matplotlib.colors import to_rgba_array
+
+    values = np.asarray(labels)
+    if values.dtype.kind not in "iu":
+        raise TypeError(f"labels must be an integer array, got dtype {values.dtype}")
+    palette = to_rgba_array(list(_SEGMENT_PALETTE))
+    colours = np.empty((values.size, 4))
+    flat = values.ravel()
+    assigned = flat >= 0
+    colours[assigned] = palette[flat[assigned] % len(palette)]
+    colours[~assigned] = to_rgba_array([_UNASSIGNED])[0]
+    return colours
+
+
+def _labels(name: str, values: npt.ArrayLike | None, n: int) -> np.ndarray | None:
+    if values is None:
+        return None
+    array = np.asarray(values).ravel()
+    if array.dtype.kind not in "iu":
+        raise TypeError(f"{name} must be an integer array, got dtype {array.dtype}")
+    if len(array) != n:
+        raise ValueError(f"{name} must have one entry per point ({n}), got {len(array)}")
+    return array
+
+
+def _subsample(n: int, max_points: int) -> np.ndarray | None:
+    if n <= max_points:
+        return None
+    return np.sort(np.random.default_rng(0).choice(n, max_points, replace=False))
+
+
+def _marker_size(n: int, width_in: float, height_in: float) -> float:
+    """Marker diameter in points so that n points roughly tile the axes, within [0.5, 4]."""
+    area = width_in * height_in * 72.0**2
+    return float(np.clip(0.7 * np.sqrt(area / max(n, 1)), 0.5, 4.0))
+
+
+def _draw(ax, fig, u, v, z, classes, segments, names, size):
+    """Draw u, v coloured by class (legend), segment (palette) or z (colour bar).
+
+    Groups of one colour go through ``Axes.plot`` (markers without lines), which
+    is several times faster than ``scatter`` for hundreds of thousands of points.
+    """
+    marker = {"linestyle": "none", "marker": "o", "markersize": size, "markeredgewidth": 0}
+    if segments is not None:
+        unassigned = segments < 0
+        ax.plot(
+            u[unassigned],
+            v[unassigned],
+            color=_UNASSIGNED,
+            label=f"unassigned ({int(unassigned.sum()):,})",
+            **marker,
+        )
+        slot = np.where(unassigned, -1, segments % len(_SEGMENT_PALETTE))
+        for i, colour in enumerate(_SEGMENT_PALETTE):
+            sel = slot == i
+            if sel.any():
+                ax.plot(u[sel], v[sel], color=colour, **marker)
+        n_segments = len(np.unique(segments[~unassigned]))
+        ax.plot(
+            [],
+            [],
+            color=_SEGMENT_PALETTE[0],
+            label=f"{n_segments:,} segments (one colour each, repeating)",
+            **marker,
+        )
+        ax.legend(loc="upper right", fontsize=8, markerscale=max(6 / size, 1))
+    elif classes is not None:
+        # Draw the most common class first so rarer ones stay visible on top.
+        codes, counts = np.unique(classes, return_counts=True)
+        for code in codes[np.argsort(-counts, kind="stable")]:
+            sel = classes == code
+            label, colour = names.get(int(code), (f"class {code}", None))
+            ax.plot(u[sel], v[sel], color=colour, label=f"{label} ({int(sel.sum()):,})", **marker)
+        ax.legend(markerscale=max(6 / size, 1), loc="upper right", fontsize=8)
+    else:
+        sc = ax.scatter(u, v, c=z, s=size * size, cmap="viridis", linewidths=0)
+        fig.colorbar(sc, ax=ax, label="z (m)", shrink=0.8)
 
 
 def top_view(
@@ -40,6 +172,7 @@ def top_view(
     path: str | os.PathLike,
     *,
     classes: npt.ArrayLike | None = None,
+    segments: npt.ArrayLike | None = None,
     class_names: Mapping[int, tuple[str, str]] | None = None,
     title: str = "",
     max_points: int = 400_000,
@@ -54,13 +187,24 @@ def top_view(
         Output PNG file.
     classes : array_like of int, shape (N,), optional
         A class per point (ASPRS codes, see `CLASS_COLOURS`), drawn in its
-        colour with a legend. Without it, points are coloured by height.
+        colour with a legend.
+    segments : array_like of int, shape (N,), optional
+        A segment label per point (-1 for none), drawn with a categorical
+        palette (see :func:`segment_colours`); takes precedence over `classes`.
+        Without either, points are coloured by height.
     class_names : mapping, optional
         Code -> (label, colour) overriding `CLASS_COLOURS`.
     title : str
         Figure title.
     max_points : int
         At most this many points are drawn (an even, seeded subsample).
+
+    Raises
+    ------
+    ValueError
+        Wrong shapes, non-finite points or ``max_points < 1``.
+    TypeError
+        Non-integer `classes` or `segments`.
 
     Examples
     --------
@@ -69,33 +213,34 @@ def top_view(
     >>> pts = np.random.default_rng(0).uniform(0, 10, (100, 3))
     >>> with tempfile.TemporaryDirectory() as d:
     ...     top_view(pts, os.path.join(d, "v.png"), classes=np.full(100, 2))
+    ...     top_view(pts, os.path.join(d, "s.png"), segments=np.arange(100) % 7 - 1)
     ...     os.path.getsize(os.path.join(d, "v.png")) > 0
     True
     """
-    plt = _pyplot()
     xyz = as_points(points)
-    labels = None if classes is None else np.asarray(classes).ravel()
-    if labels is not None and len(labels) != len(xyz):
-        raise ValueError(f"classes must have one entry per point ({len(xyz)}), got {len(labels)}")
-    if len(xyz) > max_points:
-        keep = np.sort(np.random.default_rng(0).choice(len(xyz), max_points, replace=False))
+    max_points = check_int("max_points", max_points, minimum=1)
+    classes = _labels("classes", classes, len(xyz))
+    segments = _labels("segments", segments, len(xyz))
+    plt = _pyplot()
+    keep = _subsample(len(xyz), max_points)
+    if keep is not None:
         xyz = xyz[keep]
-        labels = None if labels is None else labels[keep]
+        classes = None if classes is None else classes[keep]
+        segments = None if segments is None else segments[keep]
     names = {**CLASS_COLOURS, **(class_names or {})}
     fig, ax = plt.subplots(figsize=(8, 8), dpi=110)
     try:
-        if labels is None:
-            sc = ax.scatter(xyz[:, 0], xyz[:, 1], c=xyz[:, 2], s=0.3, cmap="viridis", linewidths=0)
-            fig.colorbar(sc, ax=ax, label="z (m)", shrink=0.8)
-        else:
-            # Draw the most common class first so rarer ones stay visible on top.
-            codes, counts = np.unique(labels, return_counts=True)
-            for code in codes[np.argsort(-counts)]:
-                sel = labels == code
-                label, colour = names.get(int(code), (f"class {code}", None))
-                ax.scatter(xyz[sel, 0], xyz[sel, 1], s=0.3, color=colour, linewidths=0,
-                           label=f"{label} ({sel.sum():,})")
-            ax.legend(markerscale=20, loc="upper right", fontsize=8)
+        _draw(
+            ax,
+            fig,
+            xyz[:, 0],
+            xyz[:, 1],
+            xyz[:, 2],
+            classes,
+            segments,
+            names,
+            _marker_size(len(xyz), 7.0, 7.0),
+        )
         ax.set_aspect("equal")
         ax.set_xlabel("x (m)")
         ax.set_ylabel("y (m)")
@@ -104,3 +249,123 @@ def top_view(
         fig.savefig(os.fspath(path), bbox_inches="tight")
     finally:
         plt.close(fig)
+
+
+def profile(
+    points: npt.ArrayLike,
+    path: str | os.PathLike,
+    start: Sequence[float],
+    end: Sequence[float],
+    *,
+    width: float = 2.0,
+    classes: npt.ArrayLike | None = None,
+    segments: npt.ArrayLike | None = None,
+    class_names: Mapping[int, tuple[str, str]] | None = None,
+    vertical_exaggeration: float = 1.0,
+    title: str = "",
+    max_points: int = 200_000,
+) -> int:
+    """Write a vertical profile along a line to a PNG file.
+
+    The points within a corridor of `width` metres centred on the segment
+    from `start` to `end` (in XY) are drawn as distance along the line
+    (horizontal axis) against z.
+
+    Parameters
+    ----------
+    points : array_like, shape (N, 3)
+        Coordinates in metres.
+    path : str or path-like
+        Output PNG file.
+    start, end : sequence of 2 float
+        x, y of the line's ends A and B, in the points' coordinates (metres).
+    width : float, default 2.0
+        Corridor width in metres (> 0): points at most ``width / 2`` from the
+        line, and between its ends, are drawn.
+    classes, segments, class_names : optional
+        Colouring as in :func:`top_view`.
+    vertical_exaggeration : float, default 1.0
+        Ratio of the vertical to the horizontal scale (> 0).
+    title : str
+        Figure title; the default names A, B and the width.
+    max_points : int
+        At most this many points are drawn (an even, seeded subsample).
+
+    Returns
+    -------
+    int
+        Number of points in the corridor (the figure is written even when 0).
+
+    Raises
+    ------
+    ValueError
+        Wrong shapes, non-finite values, ``start == end``, ``width <= 0``.
+    TypeError
+        Non-integer `classes` or `segments`.
+
+    Examples
+    --------
+    >>> import numpy as np, tempfile, os
+    >>> from pcl_rg.plot import profile
+    >>> rng = np.random.default_rng(0)
+    >>> pts = np.c_[rng.uniform(0, 10, (500, 2)), rng.uniform(0, 1, 500)]
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     n = profile(pts, os.path.join(d, "p.png"), (0, 5), (10, 5), width=1.0,
+    ...                 classes=np.full(500, 2))
+    >>> 30 < n < 70   # about a tenth of the points lie within 0.5 m of y = 5
+    True
+    """
+    xyz = as_points(points)
+    a = np.asarray(start, dtype=np.float64)
+    b = np.asarray(end, dtype=np.float64)
+    for name, value in (("start", a), ("end", b)):
+        if value.shape != (2,) or not np.isfinite(value).all():
+            raise ValueError(f"{name} must be 2 finite numbers (x, y), got {value.tolist()!r}")
+    length = float(np.hypot(*(b - a)))
+    if length == 0.0:
+        raise ValueError("start and end must differ")
+    width = check_float("width", width, positive=True)
+    vertical_exaggeration = check_float(
+        "vertical_exaggeration", vertical_exaggeration, positive=True
+    )
+    max_points = check_int("max_points", max_points, minimum=1)
+    classes = _labels("classes", classes, len(xyz))
+    segments = _labels("segments", segments, len(xyz))
+    direction = (b - a) / length
+    rel = xyz[:, :2] - a
+    along = rel @ direction
+    across = rel[:, 0] * direction[1] - rel[:, 1] * direction[0]
+    inside = (np.abs(across) <= width / 2) & (along >= 0) & (along <= length)
+    selected = np.flatnonzero(inside)
+    n_inside = len(selected)
+    keep = _subsample(n_inside, max_points)
+    if keep is not None:
+        selected = selected[keep]
+    plt = _pyplot()
+    names = {**CLASS_COLOURS, **(class_names or {})}
+    fig, ax = plt.subplots(figsize=(12, 4.5), dpi=110)
+    try:
+        _draw(
+            ax,
+            fig,
+            along[selected],
+            xyz[selected, 2],
+            xyz[selected, 2],
+            None if classes is None else classes[selected],
+            None if segments is None else segments[selected],
+            names,
+            min(2.0, _marker_size(len(selected), 11.0, 3.0)),
+        )
+        ax.set_aspect(vertical_exaggeration)
+        ax.set_xlim(0, length)
+        ax.set_xlabel("distance along the line from A (m)")
+        ax.set_ylabel("z (m)")
+        ax.set_title(
+            title
+            or f"profile A ({a[0]:.2f}, {a[1]:.2f}) to B ({b[0]:.2f}, {b[1]:.2f}), "
+            f"corridor {width:g} m, {n_inside:,} points"
+        )
+        fig.savefig(os.fspath(path), bbox_inches="tight")
+    finally:
+        plt.close(fig)
+    return n_inside

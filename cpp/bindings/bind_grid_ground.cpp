@@ -1,0 +1,49 @@
+// Binding of pcl_rg::grid_ground (see cpp/include/pcl_rg/grid_ground.hpp).
+#include "bindings.hpp"
+#include "numpy_io.hpp"
+#include "pcl_rg/grid_ground.hpp"
+
+namespace pcl_rg::bindings {
+
+void bind_grid_ground(py::module_& m) {
+    py::class_<GridGroundParams>(m, "GridGroundParams")
+        .def(py::init<>())
+        // (x, y) tuples, as the dataclass holds them.
+        .def_property(
+            "block_size",
+            [](const GridGroundParams& p) {
+                return py::make_tuple(p.block_size[0], p.block_size[1]);
+            },
+            [](GridGroundParams& p, const std::array<double, 2>& v) { p.block_size = v; })
+        .def_property(
+            "cell_size",
+            [](const GridGroundParams& p) {
+                return py::make_tuple(p.cell_size[0], p.cell_size[1]);
+            },
+            [](GridGroundParams& p, const std::array<double, 2>& v) { p.cell_size = v; })
+        .def_readwrite("slope", &GridGroundParams::slope)
+        .def_readwrite("height_tolerance", &GridGroundParams::height_tolerance)
+        .def_readwrite("min_seed_component", &GridGroundParams::min_seed_component)
+        .def_readwrite("grow_across_blocks", &GridGroundParams::grow_across_blocks)
+        .def_readwrite("filter_passes", &GridGroundParams::filter_passes)
+        .def_readwrite("filter_slope", &GridGroundParams::filter_slope)
+        .def_readwrite("filter_tolerance", &GridGroundParams::filter_tolerance);
+
+    m.def(
+        "grid_ground",
+        [](const PointsArray& points, const GridGroundParams& params) {
+            const PointsView view = points_view(points);
+            validate(params);  // before allocating, so bad parameters cost nothing
+            py::array_t<bool> ground(static_cast<py::ssize_t>(view.size));
+            bool* out = ground.mutable_data();
+            {
+                py::gil_scoped_release release;
+                grid_ground(view, params, out);
+            }
+            return ground;
+        },
+        py::arg("points").noconvert(), py::arg("params"),
+        "Core grid region-growing ground filter: bool ground mask. Use pcl_rg.grid_ground.");
+}
+
+}  // namespace pcl_rg::bindings

@@ -1,0 +1,53 @@
+// Binding of pcl_rg::normals (see cpp/include/pcl_rg/normals.hpp).
+#include "bindings.hpp"
+#include "numpy_io.hpp"
+#include "pcl_rg/normals.hpp"
+
+namespace pcl_rg::bindings {
+
+void bind_normals(py::module_& m) {
+    py::class_<NormalsParams>(m, "NormalsParams")
+        .def(py::init<>())
+        .def_readwrite("k", &NormalsParams::k);
+    m.attr("QUADRIC_CONDITION_LIMIT") = kQuadricConditionLimit;
+
+    m.def(
+        "normals",
+        [](const PointsArray& points, const NormalsParams& params) {
+            const PointsView view = points_view(points);
+            const auto n = static_cast<py::ssize_t>(view.size);
+            py::array_t<double> normal({n, py::ssize_t{3}});
+            py::array_t<double> surface_variation(n), gaussian(n), mean(n), k1(n), k2(n);
+            NormalsOutput out;
+            out.normal = normal.mutable_data();
+            out.surface_variation = surface_variation.mutable_data();
+            out.gaussian_curvature = gaussian.mutable_data();
+            out.mean_curvature = mean.mutable_data();
+            out.k1 = k1.mutable_data();
+            out.k2 = k2.mutable_data();
+            {
+                py::gil_scoped_release release;
+                normals(view, params, out);
+            }
+            return py::make_tuple(normal, surface_variation, gaussian, mean, k1, k2);
+        },
+        py::arg("points").noconvert(), py::arg("params"),
+        "Core normals: (normal, surface_variation, gaussian, mean, k1, k2). Use "
+        "pcl_rg.normals.");
+    m.def(
+        "neighbour_lists",
+        [](const PointsArray& points, const NormalsParams& params) {
+            const PointsView view = points_view(points);
+            std::vector<std::uint32_t> lists;
+            {
+                py::gil_scoped_release release;
+                lists = neighbour_lists(view, params);
+            }
+            const auto rows = static_cast<py::ssize_t>(view.size);
+            return to_numpy(std::move(lists), {rows, static_cast<py::ssize_t>(params.k)});
+        },
+        py::arg("points").noconvert(), py::arg("params"),
+        "uint32 (N, k) neighbour lists of pcl_rg.normals and pcl_rg.region_growing.");
+}
+
+}  // namespace pcl_rg::bindings

@@ -1,0 +1,130 @@
+// Incremental 2-D Delaunay triangulation with exact integer predicates: the TIN of the
+// progressive TIN densification ground filter (tin_ground.hpp), usable on its own.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+namespace pcl_rg {
+
+/// Largest grid coordinate a Delaunay vertex may have; every coordinate lies in
+/// [0, kMaxGridCoordinate], which keeps the predicates exact (see delaunay.cpp).
+inline constexpr std::int32_t kMaxGridCoordinate = std::int32_t{1} << 30;
+
+/// Maps XY coordinates in [lower, upper] (metres, float64) to the integer grid of a
+/// Delaunay box: g = rint((v - lower) / quantum) + 1, so every point of the extent
+/// lies strictly inside the box [0, width] x [0, height].
+struct GridFrame {
+    double lower_x = 0.0;     ///< x of the extent's lower corner (m)
+    double lower_y = 0.0;     ///< y of the extent's lower corner (m)
+    double quantum = 1.0;     ///< grid step (m): a power of two, at most extent / 2^29
+    std::int32_t width = 2;   ///< box corner x (grid units): rint(extent_x / quantum) + 2
+    std::int32_t height = 2;  ///< box corner y (grid units): rint(extent_y / quantum) + 2
+
+    std::int32_t grid_x(double x) const;
+    std::int32_t grid_y(double y) const;
+};
+
+/// Frame of the extent [lower_x, upper_x] x [lower_y, upper_y] (m). The quantum is the
+/// smallest power of two >= max(extent) / 2^29 and >= 2^-40 m. Throws
+/// std::invalid_argument when the bounds are not finite or not ordered.
+GridFrame make_grid_frame(double lower_x, double lower_y, double upper_x, double upper_y);
+
+/// Twice the signed area of (a, b, c): > 0 counter-clockwise, 0 collinear. Exact for
+/// coordinates in [0, kMaxGridCoordinate] (see delaunay.cpp for the bounds).
+inline std::int64_t orient2d(std::int64_t ax, std::int64_t ay, std::int64_t bx, std::int64_t by,
+                             std::int64_t cx, std::int64_t cy) {
+    return (bx - ax) * (cy - ay) - (by - ay) * (cx - ax);
+}
+
+/// > 0 when d lies strictly inside the circumcircle of the counter-clockwise triangle
+/// (a, b, c), 0 on it, < 0 outside. Exact for coordinates in [0, kMaxGridCoordinate].
+inline int incircle(std::int64_t ax, std::int64_t ay, std::int64_t bx, std::int64_t by,
+                    std::int64_t cx, std::int64_t cy, std::int64_t dx, std::int64_t dy) {
+    const std::int64_t adx = ax - dx, ady = ay - dy;
+    const std::int64_t bdx = bx - dx, bdy = by - dy;
+    const std::int64_t cdx = cx - dx, cdy = cy - dy;
+    const std::int64_t alift = adx * adx + ady * ady;
+    const std::int64_t blift = bdx * bdx + bdy * bdy;
+    const std::int64_t clift = cdx * cdx + cdy * cdy;
+    const __int128 det = static_cast<__int128>(alift) * (bdx * cdy - bdy * cdx) +
+                         static_cast<__int128>(blift) * (cdx * ady - cdy * adx) +
+                         static_cast<__int128>(clift) * (adx * bdy - ady * bdx);
+    return det > 0 ? 1 : (det < 0 ? -1 : 0);
+}
+
+/// Point order along a 2-D Morton (Z-order) curve of grid coordinates in the box
+/// [0, width] x [0, height], stable: neighbours in XY end up close in memory and in
+/// walking distance.
+std::vector<std::uint32_t> morton_order_2d(const std::int32_t* gx, const std::int32_t* gy,
+                                           std::size_t n, std::int32_t width, std::int32_t height);
+
+/// Delaunay triangulation of integer points inside the box [0, width] x [0, height],
+/// built by incremental insertion (Lawson flips) with exact predicates.
+///
+/// Vertices 0..3 are the box corners (0,0), (width,0), (width,height), (0,height);
+/// they make the convex hull, so every point of the box lies in some triangle.
+/// Triangles are counter-clockwise vertex triples; neighbour i lies across the edge
+/// opposite vertex i (-1 on the box). Triangle slots are never freed: an insertion
+/// rewrites the slots it destroys and appends the rest, so a slot id stays a valid
+/// (and nearby) place to start a walk. Every slot written records the current stamp and
+/// is listed in touched().
+class Delaunay {
+   public:
+    Delaunay(std::int32_t width, std::int32_t height);
+
+    /// The triangle containing p + (eps, eps^2) for an infinitesimal eps > 0: the one
+    /// triangle holding p in its closure that is chosen the same way whatever the walk,
+    /// so points on edges and vertices are located deterministically. Walks from
+    /// `start` (any triangle id). p must lie strictly inside the box.
+    std::int32_t locate(std::int32_t x, std::int32_t y, std::int32_t start) const;
+
+    /// Inserts p (strictly inside the box) and restores the Delaunay property; returns
+    /// its vertex id. A point equal to an existing vertex is not inserted: that
+    /// vertex's id is returned and *inserted is set to false.
+    std::int32_t insert(std::int32_t x, std::int32_t y, std::int32_t start, bool* inserted);
+
+    std::size_t vertex_count() const { return xy_.size(); }
+    std::size_t triangle_count() const { return tri_.size(); }
+    std::int32_t vertex_x(std::int32_t v) const { return xy_[v].x; }
+    std::int32_t vertex_y(std::int32_t v) const { return xy_[v].y; }
+    /// Vertex k (0..2) of triangle t, counter-clockwise.
+    std::int32_t triangle_vertex(std::int32_t t, int k) const { return tri_[t].v[k]; }
+    /// Triangle across the edge opposite vertex k of t, or -1 on the box.
+    std::int32_t neighbour(std::int32_t t, int k) const { return tri_[t].n[k]; }
+    /// Some triangle having v as a vertex.
+    std::int32_t vertex_triangle(std::int32_t v) const { return vt_[v]; }
+    /// The stamp recorded on every slot written from now on; also empties touched().
+    void set_stamp(std::int32_t stamp) {
+        stamp_ = stamp;
+        touched_.clear();
+    }
+    /// Slots given new vertices since the last set_stamp(), each once, in order.
+    const std::vector<std::int32_t>& touched() const { return touched_; }
+
+   private:
+    void write(std::int32_t t, std::int32_t a, std::int32_t b, std::int32_t c, std::int32_t na,
+               std::int32_t nb, std::int32_t nc);
+    void relink(std::int32_t t, std::int32_t from, std::int32_t to);
+    std::int32_t new_slot();
+    void legalize(std::int32_t t);
+
+    struct Vertex {
+        std::int32_t x, y;  // grid coordinates
+    };
+    struct Triangle {
+        std::int32_t v[3];  // vertices, counter-clockwise
+        std::int32_t n[3];  // n[k]: across the edge opposite v[k]
+    };
+    // Interleaved so that a walk step touches one cache line per record.
+    std::vector<Vertex> xy_;
+    std::vector<std::int32_t> vt_;  // one incident triangle per vertex
+    std::vector<Triangle> tri_;
+    std::vector<std::int32_t> ts_;       // stamp per triangle
+    std::vector<std::int32_t> stack_;    // edges to legalize
+    std::vector<std::int32_t> touched_;  // slots written under the current stamp
+    std::int32_t stamp_ = 0;
+};
+
+}  // namespace pcl_rg

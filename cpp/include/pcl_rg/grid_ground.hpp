@@ -1,0 +1,59 @@
+// Grid region-growing ground filter (seed 000; algorithms.md section 3).
+#pragma once
+
+#include <array>
+#include <cstdint>
+
+#include "pcl_rg/points.hpp"
+
+namespace pcl_rg {
+
+/// Defaults were chosen once by the mean total error over the seven ISPRS samples
+/// (benchmarks/ground_isprs.py --search). The definition of algorithms.md section 3 is
+/// min_seed_component = 1, grow_across_blocks = false, filter_passes = 0, and its pure
+/// slope rule height_tolerance = 0.
+struct GridGroundParams {
+    /// Block edge lengths along x, y (> 0, m): one seed per block; should exceed the
+    /// largest building. The block grid is anchored at the input's minimum corner.
+    std::array<double, 2> block_size{30.0, 30.0};
+    /// Cell edge lengths along x, y (> 0, m, at most the block size): links reach the
+    /// 3 x 3 cells around a point. Cells are anchored at the minimum corner too.
+    std::array<double, 2> cell_size{3.0, 3.0};
+    /// S, tangent of the steepest terrain (>= 0, finite): p, q are linked when
+    /// |z_p - z_q| <= slope * d_xy(p, q) + height_tolerance.
+    double slope = 0.3;
+    /// t, height difference always allowed between linked points (>= 0, finite, m).
+    double height_tolerance = 0.3;
+    /// Robust seed (>= 1): the seed is the lowest point of the block whose connected
+    /// component holds at least this many points (1: the lowest point, the seed's rule).
+    /// When no component is that large the lowest point's component is ground.
+    std::int64_t min_seed_component = 30;
+    /// Links also join points of different blocks (cells still 3 x 3); the seeds stay
+    /// one per block and ground is the union of their components.
+    bool grow_across_blocks = true;
+    /// Slope pre-filter passes (>= 0; 0 = off). Pass 1 drops every point p that lies
+    /// higher than some point q of its 3 x 3 cells (any block) by more than
+    /// filter_slope * d_xy + filter_tolerance; pass k > 1 tests only against the ground
+    /// of pass k - 1. Dropped points are object and never link; the growth runs per pass.
+    std::int64_t filter_passes = 3;
+    /// Slope of the pre-filter (>= 0, finite).
+    double filter_slope = 1.0;
+    /// Height tolerance of the pre-filter (>= 0, finite, m).
+    double filter_tolerance = 0.3;
+};
+
+/// Throws std::invalid_argument naming the parameter when a value is out of range.
+void validate(const GridGroundParams& params);
+
+/// Fills `ground[i]` (N entries) with the ground mask of algorithms.md section 3 and the
+/// options above. In float64 local coordinates l = p - min corner, block = floor(l /
+/// block_size) and cell = floor(l / cell_size) per axis (x, y); p, q are neighbours when
+/// their cells differ by at most 1 on x and on y, and linked when they are neighbours in
+/// the same block (any block with grow_across_blocks), both pass the pre-filter, and
+/// |lz_p - lz_q| <= slope * sqrt(dx * dx + dy * dy) + height_tolerance (that operation
+/// order; dx, dy differences of local coordinates). Ground is the union of the connected
+/// components of the blocks' seeds. Parallel (OpenMP) and deterministic: the result
+/// depends on the point order only through the tie rule of the seed (lowest index).
+void grid_ground(PointsView points, const GridGroundParams& params, bool* ground);
+
+}  // namespace pcl_rg

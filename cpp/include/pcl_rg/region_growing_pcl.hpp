@@ -1,0 +1,42 @@
+// PCL's own pcl::NormalEstimation + pcl::RegionGrowing behind a plain function: the
+// baseline the curvature-seeded method is compared with.
+#pragma once
+
+#include <cstdint>
+#include <limits>
+
+#include "pcl_rg/points.hpp"
+#include "pcl_rg/region_growing.hpp"
+
+namespace pcl_rg {
+
+struct RegionGrowingPclParams {
+    /// Neighbours for the normals and the growth, the point itself included (>= 3, < N);
+    /// NormalEstimation::setKSearch and RegionGrowing::setNumberOfNeighbours.
+    int k = 10;
+    /// Smoothness angle in degrees, in (0, 180); setSmoothnessThreshold (radians, float).
+    double smoothness_deg = 16.0;
+    /// Surface-variation gate for further seeds (finite, >= 0); setCurvatureThreshold.
+    /// Tuned on the mOSD learn scenes at k 10, 16 deg (RESULTS.md).
+    double curvature_threshold = 0.025;
+    /// Regions with fewer points are dropped (>= 1); setMinClusterSize.
+    std::int64_t min_cluster_size = 20;
+    /// Regions with more points are dropped (>= min_cluster_size, <= 2^32 - 1);
+    /// setMaxClusterSize.
+    std::int64_t max_cluster_size = std::numeric_limits<std::uint32_t>::max();
+};
+
+/// Throws std::invalid_argument naming the parameter when a value is out of range.
+void validate(const RegionGrowingPclParams& params);
+
+/// pcl::NormalEstimation (k-NN, PCL's viewpoint flip towards the local origin) and
+/// pcl::RegionGrowing (smooth mode, curvature test on, residual test off) on the points
+/// minus the local origin as float32. Fills `labels` (N entries, -1 for points of
+/// dropped regions, clusters numbered by smallest member index); when not null,
+/// `normal` (3 * N) and `curvature` (N) receive PCL's float32 normals and surface
+/// variation. Throws std::invalid_argument when k >= N (non-empty input).
+RegionGrowingTimings region_growing_pcl(PointsView points, const RegionGrowingPclParams& params,
+                                        std::int32_t* labels, float* normal = nullptr,
+                                        float* curvature = nullptr);
+
+}  // namespace pcl_rg

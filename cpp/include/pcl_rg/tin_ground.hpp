@@ -1,0 +1,69 @@
+// Progressive TIN densification ground filter (Axelsson 2000; LiDAR360's parameters).
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+#include "pcl_rg/points.hpp"
+
+namespace pcl_rg {
+
+struct TinGroundParams {
+    /// Seed-grid cell (m, > 0): the lowest point of each cell is a seed. LiDAR360 "Max
+    /// Building Size"; must exceed the largest building, or its flat roof becomes ground.
+    double max_building_size = 20.0;
+    /// Steepest triangle a point may form with its triangle's vertices (deg, (0, 90)).
+    /// LiDAR360 "Max Terrain Angle".
+    double max_terrain_angle = 88.0;
+    /// Largest angle between the triangle's plane and the lines from its vertices to a
+    /// point (deg, (0, 90]). LiDAR360 "Iteration Angle".
+    double iteration_angle = 8.0;
+    /// Largest distance from a point to the triangle's plane (m, > 0). LiDAR360
+    /// "Iteration Distance".
+    double iteration_distance = 1.4;
+    /// In triangles whose longest XY edge L is shorter (m, > 0), the angle limit is
+    /// iteration_angle * L / reduce_angle_edge. LiDAR360 "Reduce Iteration Angle When
+    /// Edge Length <".
+    double reduce_angle_edge = 5.0;
+    /// Triangles whose longest XY edge is shorter (m, > 0) accept ground points without
+    /// inserting them. LiDAR360 "Stop Triangulation When Edge Length <".
+    double stop_edge = 2.0;
+    /// Improvement, off by default (0): in the angle test the 3-D distance from a point
+    /// to a vertex counts as at least this much (m, >= 0), so a point (nearly) above a
+    /// vertex is judged by its distance to the plane, d <= sin(limit) * this, instead
+    /// of an angle near 90 deg minus the slope. Helps on data with coarse or repeated XY.
+    double near_vertex_distance = 0.0;
+    /// Improvement, off by default (0): seeds from a morphological opening instead of
+    /// one per max_building_size cell. The lowest point of every seed_cell cell (m, >= 0)
+    /// is a seed when it lies at most seed_tolerance above the grey opening of the
+    /// cells' lowest heights by a square window of max_building_size, in the manner of
+    /// Zhao et al. 2016's morphological seeds: dense seeds on open terrain, none on roofs.
+    double seed_cell = 0.0;
+    /// Height above the opened surface up to which a seed_cell cell's lowest point is a
+    /// seed (m, >= 0); used only when seed_cell > 0.
+    double seed_tolerance = 0.5;
+    /// Improvement, off by default (0): a seed_cell cell whose lowest point lies more than
+    /// this (m, >= 0) below the 9th lowest of the 25 cells of its 5 x 5 window gives no
+    /// seed (low outliers, peeled repeatedly); used only when seed_cell > 0.
+    double outlier_depth = 0.0;
+};
+
+/// Throws std::invalid_argument naming the parameter when a value is out of range.
+void validate(const TinGroundParams& params);
+
+/// What a run did, for benchmarks and tests.
+struct TinGroundStats {
+    std::int64_t seeds = 0;               ///< lowest points of the seed cells
+    std::int64_t iterations = 0;          ///< densification passes, the last adding nothing
+    std::int64_t tin_vertices = 0;        ///< final TIN vertices, the 4 virtual corners included
+    std::int64_t tests = 0;               ///< point-in-triangle tests evaluated (after skipping)
+    double prepare_seconds = 0.0;         ///< snapping, spatial sort, seeds
+    double triangulation_seconds = 0.0;   ///< Delaunay insertions
+    double classification_seconds = 0.0;  ///< point location and acceptance tests
+};
+
+/// Fills `ground[i]` for every point (true: ground). Empty input is fine; 1 or 2
+/// points, or points all collinear in XY, throw std::invalid_argument.
+TinGroundStats tin_ground(PointsView points, const TinGroundParams& params, bool* ground);
+
+}  // namespace pcl_rg

@@ -1,0 +1,274 @@
+// Incremental Delaunay triangulation: Lawson, "Software for C1 surface interpolation",
+// Mathematical Software III, 1977 (insertion by splitting and edge flips); point
+// location by the visibility walk (Devillers, Pion and Teillaud, "Walking in a
+// triangulation", IJFCS 13(2), 2002), which terminates on Delaunay triangulations.
+// The TIN of Axelsson's progressive densification (tin_ground.cpp). Written for this
+// project (BSD-3-Clause).
+//
+// Exactness. Vertices live on an integer grid, every coordinate in [0, 2^30]
+// (GridFrame snaps metres to it with a power-of-two quantum, so the snap itself is
+// an exact division followed by one rounding). Then, with |differences| <= 2^30:
+//   * orient2d: two products of at most 2^60 each, their difference at most 2^61 in
+//     magnitude: exact in int64 (bound 2^63).
+//   * incircle: squared lengths at most 2^61, the 2x2 minors at most 2^61, so each
+//     of the three products is at most 2^122 and their sum at most 3 * 2^122 < 2^124:
+//     exact in signed __int128 (bound 2^127); the minors and lifts are exact in int64.
+// No floating point is involved, hence no filter and no fallback are needed: every
+// predicate is exact, and the triangulation is a true Delaunay triangulation of the
+// snapped points, robust to duplicates, collinear and co-circular points alike.
+//
+// Degeneracies.
+//   * Duplicates: a point equal to a vertex is located on it and not inserted.
+//   * Points on an edge split both triangles of the edge (2 -> 4).
+//   * Co-circular points: an edge is flipped only when the opposite vertex lies
+//     strictly inside the circumcircle, so ties keep the existing diagonal; the
+//     result is one of the valid Delaunay triangulations, chosen by insertion order.
+//   * Location: the walk answers for p + (eps, eps^2), eps -> 0+, a symbolic
+//     perturbation that puts every point strictly inside exactly one triangle, so a
+//     point on an edge or vertex gets the same triangle whichever way it is reached.
+#include "pcl_rg/delaunay.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+#include "pcl_rg/spatial_order.hpp"
+
+namespace pcl_rg {
+
+std::int32_t GridFrame::grid_x(double x) const {
+    return static_cast<std::int32_t>(std::nearbyint((x - lower_x) / quantum)) + 1;
+}
+
+std::int32_t GridFrame::grid_y(double y) const {
+    return static_cast<std::int32_t>(std::nearbyint((y - lower_y) / quantum)) + 1;
+}
+
+GridFrame make_grid_frame(double lower_x, double lower_y, double upper_x, double upper_y) {
+    if (!std::isfinite(lower_x) || !std::isfinite(lower_y) || !std::isfinite(upper_x) ||
+        !std::isfinite(upper_y))
+        throw std::invalid_argument("the XY bounds must be finite");
+    if (upper_x < lower_x || upper_y < lower_y)
+        throw std::invalid_argument("the XY bounds must satisfy lower <= upper");
+    const double ex = upper_x - lower_x, ey = upper_y - lower_y;
+    if (!std::isfinite(ex) || !std::isfinite(ey))
+        throw std::invalid_argument("points: the XY extent is too large (not finite in float64)");
+    // Smallest power of two q >= extent / 2^29 (and >= 2^-40 m): extent / q <= 2^29.
+    const double target = std::ldexp(std::max(ex, ey), -29);
+    double quantum = std::ldexp(1.0, -40);
+    if (target > quantum) {
+        int exponent = 0;
+        const double mantissa = std::frexp(target, &exponent);  // target = m * 2^e, m in [0.5, 1)
+        quantum = std::ldexp(1.0, mantissa == 0.5 ? exponent - 1 : exponent);
+    }
+    GridFrame frame;
+    frame.lower_x = lower_x;
+    frame.lower_y = lower_y;
+    frame.quantum = quantum;
+    frame.width = static_cast<std::int32_t>(std::nearbyint(ex / quantum)) + 2;
+    frame.height = static_cast<std::int32_t>(std::nearbyint(ey / quantum)) + 2;
+    return frame;
+}
+
+namespace {
+
+// Orientation of (a, b, p + (eps, eps^2)): the exact orientation when non-zero, else
+// the sign of its eps term (ay - by), else of its eps^2 term (bx - ax). Never zero for
+// a != b, and antisymmetric in (a, b), so the perturbed point is on one side of
+// every edge.
+int orient_perturbed(std::int64_t ax, std::int64_t ay, std::int64_t bx, std::int64_t by,
+                     std::int64_t px, std::int64_t py) {
+    const std::int64_t o = orient2d(ax, ay, bx, by, px, py);
+    if (o != 0) return o > 0 ? 1 : -1;
+    if (ay != by) return ay > by ? 1 : -1;
+    return bx > ax ? 1 : -1;
+}
+
+}  // namespace
+
+std::vector<std::uint32_t> morton_order_2d(const std::int32_t* gx, const std::int32_t* gy,
+                                           std::size_t n, std::int32_t width, std::int32_t height) {
+    // 10 bits per axis (a 1024^2 grid over the box) is plenty for locality; the point
+    // index rides below the 20-bit code in one 64-bit word (radix_sort_bits).
+    constexpr int kAxisBits = 10;
+    int shift = 0;
+    while ((std::max(width, height) >> shift) >= (1 << kAxisBits)) ++shift;
+    const int id_bits = std::max(1, bit_width(n));
+    std::vector<std::uint64_t> packed(n);
+#pragma omp parallel for schedule(static)
+    for (std::int64_t i = 0; i < static_cast<std::int64_t>(n); ++i) {
+        std::uint64_t code = 0;
+        const auto x = static_cast<std::uint32_t>(gx[i] >> shift);
+        const auto y = static_cast<std::uint32_t>(gy[i] >> shift);
+        for (int b = 0; b < kAxisBits; ++b)
+            code |= static_cast<std::uint64_t>((x >> b & 1u) | (y >> b & 1u) << 1) << (2 * b);
+        packed[i] = code << id_bits | static_cast<std::uint64_t>(i);
+    }
+    radix_sort_bits(packed, id_bits, id_bits + 2 * kAxisBits);
+    std::vector<std::uint32_t> order(n);
+    const std::uint64_t id_mask = (std::uint64_t{1} << id_bits) - 1;
+    for (std::size_t k = 0; k < n; ++k) order[k] = static_cast<std::uint32_t>(packed[k] & id_mask);
+    return order;
+}
+
+Delaunay::Delaunay(std::int32_t width, std::int32_t height) {
+    if (width < 2 || height < 2 || width > kMaxGridCoordinate || height > kMaxGridCoordinate)
+        throw std::invalid_argument("Delaunay box must be within [2, 2^30] grid units, got " +
+                                    std::to_string(width) + " x " + std::to_string(height));
+    xy_ = {{0, 0}, {width, 0}, {width, height}, {0, height}};
+    // (0, 1, 2) and (0, 2, 3), both counter-clockwise, sharing the diagonal 0-2.
+    tri_ = {{{0, 1, 2}, {-1, 1, -1}}, {{0, 2, 3}, {-1, -1, 0}}};
+    vt_ = {0, 0, 0, 1};
+    ts_ = {stamp_, stamp_};
+}
+
+void Delaunay::write(std::int32_t t, std::int32_t a, std::int32_t b, std::int32_t c,
+                     std::int32_t na, std::int32_t nb, std::int32_t nc) {
+    tri_[t] = Triangle{{a, b, c}, {na, nb, nc}};
+    if (ts_[t] != stamp_) {
+        ts_[t] = stamp_;
+        touched_.push_back(t);
+    }
+    vt_[a] = vt_[b] = vt_[c] = t;
+}
+
+void Delaunay::relink(std::int32_t t, std::int32_t from, std::int32_t to) {
+    if (t < 0) return;
+    for (int k = 0; k < 3; ++k)
+        if (tri_[t].n[k] == from) {
+            tri_[t].n[k] = to;
+            return;
+        }
+    throw std::logic_error("Delaunay: broken neighbour link");
+}
+
+std::int32_t Delaunay::new_slot() {
+    if (tri_.size() >= static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max()))
+        throw std::length_error("Delaunay: too many triangles for 32-bit ids");
+    const auto t = static_cast<std::int32_t>(tri_.size());
+    tri_.push_back(Triangle{{-1, -1, -1}, {-1, -1, -1}});
+    ts_.push_back(stamp_ - 1);  // so that write() lists it as touched
+    return t;
+}
+
+std::int32_t Delaunay::locate(std::int32_t x, std::int32_t y, std::int32_t start) const {
+    const auto triangles = static_cast<std::int32_t>(tri_.size());
+    std::int32_t t = (start >= 0 && start < triangles) ? start : 0;
+    std::int32_t previous = -1;
+    // Visibility walk: cross any edge that has the point strictly on its far side. On a
+    // Delaunay triangulation this cannot cycle (Edelsbrunner's acyclicity of the
+    // in-front relation), and the answer does not depend on the path.
+    const std::int64_t limit = 4 * static_cast<std::int64_t>(triangles) + 64;
+    for (std::int64_t step = 0; step < limit; ++step) {
+        const Triangle& tr = tri_[t];
+        int cross = -1;
+        for (int e = 0; e < 3 && cross < 0; ++e) {
+            if (tr.n[e] == previous) continue;  // the side we came from holds the point
+            const Vertex a = xy_[tr.v[e == 2 ? 0 : e + 1]], b = xy_[tr.v[e == 0 ? 2 : e - 1]];
+            if (orient_perturbed(a.x, a.y, b.x, b.y, x, y) < 0) cross = e;
+        }
+        if (cross < 0) return t;
+        if (tr.n[cross] < 0) throw std::logic_error("Delaunay: point outside the box");
+        previous = t;
+        t = tr.n[cross];
+    }
+    throw std::logic_error("Delaunay: point location did not terminate");
+}
+
+std::int32_t Delaunay::insert(std::int32_t x, std::int32_t y, std::int32_t start, bool* inserted) {
+    if (x <= 0 || y <= 0 || x >= xy_[2].x || y >= xy_[2].y)
+        throw std::invalid_argument("Delaunay: a point must lie strictly inside the box");
+    const std::int32_t t = locate(x, y, start);
+    const Triangle tr = tri_[t];
+    const Vertex p0 = xy_[tr.v[0]], p1 = xy_[tr.v[1]], p2 = xy_[tr.v[2]];
+    // p + (eps, eps^2) is strictly inside t, so p is in its closure: o_k >= 0.
+    const std::int64_t o[3] = {orient2d(p1.x, p1.y, p2.x, p2.y, x, y),
+                               orient2d(p2.x, p2.y, p0.x, p0.y, x, y),
+                               orient2d(p0.x, p0.y, p1.x, p1.y, x, y)};
+    const int zeros = (o[0] == 0) + (o[1] == 0) + (o[2] == 0);
+    if (zeros >= 2) {  // two edge lines meet only at their common vertex: p is a vertex
+        *inserted = false;
+        for (int k = 0; k < 3; ++k)
+            if (o[k] != 0) return tr.v[k];
+        throw std::logic_error("Delaunay: degenerate triangle");
+    }
+    if (xy_.size() >= static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max()))
+        throw std::length_error("Delaunay: too many vertices for 32-bit ids");
+    const auto p = static_cast<std::int32_t>(xy_.size());
+    xy_.push_back({x, y});
+    vt_.push_back(t);
+    *inserted = true;
+
+    if (zeros == 0) {  // strictly inside: split t into three, p first in each
+        const std::int32_t v0 = tr.v[0], v1 = tr.v[1], v2 = tr.v[2];
+        const std::int32_t n0 = tr.n[0], n1 = tr.n[1], n2 = tr.n[2];
+        const std::int32_t a = t, b = new_slot(), c = new_slot();
+        write(a, p, v0, v1, n2, b, c);
+        write(b, p, v1, v2, n0, c, a);
+        write(c, p, v2, v0, n1, a, b);
+        relink(n0, t, b);
+        relink(n1, t, c);
+        stack_ = {a, b, c};
+    } else {  // on the edge opposite vertex k of t: split t and its neighbour u
+        const int k = o[0] == 0 ? 0 : (o[1] == 0 ? 1 : 2);
+        const std::int32_t w0 = tr.v[k], w1 = tr.v[(k + 1) % 3], w2 = tr.v[(k + 2) % 3];
+        const std::int32_t u = tr.n[k];
+        const std::int32_t n1 = tr.n[(k + 1) % 3], n2 = tr.n[(k + 2) % 3];
+        if (u < 0) throw std::logic_error("Delaunay: point on the box edge");
+        const Triangle ur = tri_[u];
+        int j = 0;
+        while (ur.n[j] != t) ++j;
+        const std::int32_t d = ur.v[j];
+        // u = (d, w2, w1): its neighbour across (d, w2) is opposite w1, across (w1, d) opposite w2.
+        std::int32_t m1 = -1, m2 = -1;
+        for (int i = 0; i < 3; ++i) {
+            if (ur.v[i] == w1) m1 = ur.n[i];
+            if (ur.v[i] == w2) m2 = ur.n[i];
+        }
+        const std::int32_t t1 = t, t2 = new_slot(), u1 = u, u2 = new_slot();
+        write(t1, p, w0, w1, n2, u2, t2);
+        write(t2, p, w2, w0, n1, t1, u1);
+        write(u1, p, d, w2, m1, t2, u2);
+        write(u2, p, w1, d, m2, u1, t1);
+        relink(n1, t, t2);
+        relink(m2, u, u2);
+        stack_ = {t1, t2, u1, u2};
+    }
+    legalize(p);
+    return p;
+}
+
+void Delaunay::legalize(std::int32_t p) {
+    // Every triangle on the stack has p as vertex 0; check the edge opposite p.
+    const Vertex pv = xy_[p];
+    while (!stack_.empty()) {
+        const std::int32_t t = stack_.back();
+        stack_.pop_back();
+        const Triangle tr = tri_[t];
+        const std::int32_t a = tr.v[1], b = tr.v[2], u = tr.n[0];
+        if (u < 0) continue;
+        const Triangle ur = tri_[u];
+        int j = 0;
+        while (ur.n[j] != t) ++j;
+        const std::int32_t d = ur.v[j];
+        const Vertex av = xy_[a], bv = xy_[b], dv = xy_[d];
+        if (incircle(pv.x, pv.y, av.x, av.y, bv.x, bv.y, dv.x, dv.y) <= 0) continue;
+        // Flip a-b to p-d. Old t = (p, a, b), u = (d, b, a) up to rotation.
+        const std::int32_t t_pa = tr.n[2], t_bp = tr.n[1];
+        std::int32_t u_ad = -1, u_db = -1;
+        for (int i = 0; i < 3; ++i) {
+            if (ur.v[i] == b) u_ad = ur.n[i];
+            if (ur.v[i] == a) u_db = ur.n[i];
+        }
+        write(t, p, a, d, u_ad, u, t_pa);
+        write(u, p, d, b, u_db, t_bp, t);
+        relink(u_ad, u, t);
+        relink(t_bp, t, u);
+        stack_.push_back(t);
+        stack_.push_back(u);
+    }
+}
+
+}  // namespace pcl_rg

@@ -1,0 +1,523 @@
+// Grid region-growing ground filter after the seed 000 blog post ("point cloud filtering
+// based on region growing", reproducing "LiDAR point cloud data filtering based on
+// regional growth" with the slope rule of G. Vosselman, "Slope based filtering of laser
+// altimetry data", IAPRS 33(B3), 2000); the exact definition is algorithms.md section 3:
+//   1. split the XY extent into blocks of dx by dy (anchored at the minimum corner);
+//   2. grid the points into cells of bx by by, so neighbours are found in O(1);
+//   3. the seed of a block is its lowest point (ties: lowest index);
+//   4. p, q of one block are linked when q lies in p's cell or one of the 8 around it and
+//      |z_p - z_q| <= S * d_xy(p, q) + t; ground is the seed's connected component.
+// Options measured on the ISPRS samples (benchmarks/ground_isprs.py), each off in the
+// definition: a robust seed (the lowest point whose component is large enough, against
+// low outliers), growth across block borders, and Vosselman's slope filter as a
+// pre-filter (a point far above a neighbour is an object point and never links),
+// repeated against the previous pass's ground so low outliers stop masking terrain.
+//
+// Exactness: links are symmetric, so the components do not depend on the visiting order
+// and the NumPy reference (scipy connected_components) agrees point for point. Both
+// evaluate every test in float64 on l = p - min corner with the same operations in the
+// same order (CMake sets -ffp-contract=off, so no FMA changes a rounding).
+//
+// Speed: one stable counting sort of the points into a flat CSR cell grid (dense, or
+// sorted occupied cells when the extent is far larger than the cloud), so a point's
+// 3 x 3 cells are found in O(1); then the pre-filter in parallel over cells (a cell is
+// skipped when the point is within the tolerance of the cell's lowest point, which is
+// exact: no test in it can fail), and the link tests in parallel over blocks feeding a
+// lock-free union-find (Afforest: most pairs are never tested); seeds are picked per
+// block in parallel. The components, not a BFS from each seed, are computed because the
+// robust seed needs their sizes and growth across blocks merges them.
+#include "pcl_rg/grid_ground.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstddef>
+#include <limits>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace pcl_rg {
+
+void validate(const GridGroundParams& params) {
+    static const char* const axis_name[2] = {"x", "y"};
+    for (int a = 0; a < 2; ++a) {
+        const double block = params.block_size[a], cell = params.cell_size[a];
+        if (!std::isfinite(block) || block <= 0.0)
+            throw std::invalid_argument("block_size must be finite and > 0 on x and y, got " +
+                                        std::to_string(block) + " for " + axis_name[a]);
+        if (!std::isfinite(cell) || cell <= 0.0)
+            throw std::invalid_argument("cell_size must be finite and > 0 on x and y, got " +
+                                        std::to_string(cell) + " for " + axis_name[a]);
+        if (cell > block)
+            throw std::invalid_argument("cell_size must be <= block_size, got " +
+                                        std::to_string(cell) + " > " + std::to_string(block) +
+                                        " for " + axis_name[a]);
+    }
+    const auto non_negative = [](const char* name, double value) {
+        if (!std::isfinite(value) || value < 0.0)
+            throw std::invalid_argument(std::string(name) + " must be finite and >= 0, got " +
+                                        std::to_string(value));
+    };
+    non_negative("slope", params.slope);
+    non_negative("height_tolerance", params.height_tolerance);
+    non_negative("filter_slope", params.filter_slope);
+    non_negative("filter_tolerance", params.filter_tolerance);
+    if (params.min_seed_component < 1)
+        throw std::invalid_argument("min_seed_component must be >= 1, got " +
+                                    std::to_string(params.min_seed_component));
+    if (params.filter_passes < 0)
+        throw std::invalid_argument("filter_passes must be >= 0, got " +
+                                    std::to_string(params.filter_passes));
+}
+
+namespace {
+
+// Cell and block indices stay below this on every axis, so floor() results are exact
+// integers and neighbour arithmetic cannot overflow.
+constexpr double kMaxIndex = 0x1p40;
+constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
+// Below this many points a call takes about 0.1 s on one core, and threads cost more
+// than they save: every parallel loop ends in a barrier, which stalls whenever another
+// process holds one of the cores.
+constexpr std::size_t kParallelMin = 500000;
+
+std::int64_t grid_index(double local, double size) {
+    return static_cast<std::int64_t>(std::floor(local / size));
+}
+
+// Disjoint sets that many threads may unite at once (lock-free): a root is only ever
+// linked, by compare-and-swap, under a smaller root, and path halving only shortens
+// paths, so every pointer ever seen joins two members of one set. The partition at the
+// end is the same whatever the interleaving; only the representatives may differ.
+class ConcurrentDisjointSets {
+public:
+    explicit ConcurrentDisjointSets(std::size_t n) : parent_(n) {}
+
+    void reset() {
+        const auto n = static_cast<std::ptrdiff_t>(parent_.size());
+        const bool parallel = parent_.size() >= kParallelMin;
+#pragma omp parallel for schedule(guided) if (parallel)
+        for (std::ptrdiff_t i = 0; i < n; ++i)
+            parent_[i].store(static_cast<std::uint32_t>(i), std::memory_order_relaxed);
+    }
+
+    std::uint32_t find(std::uint32_t x) {
+        for (;;) {
+            std::uint32_t p = parent_[x].load(std::memory_order_acquire);
+            if (p == x) return x;
+            const std::uint32_t grand = parent_[p].load(std::memory_order_acquire);
+            if (grand != p)
+                parent_[x].compare_exchange_weak(p, grand, std::memory_order_acq_rel,
+                                                 std::memory_order_relaxed);
+            x = grand;
+        }
+    }
+
+    void unite(std::uint32_t a, std::uint32_t b) {
+        for (;;) {
+            a = find(a);
+            b = find(b);
+            if (a == b) return;
+            if (a < b) std::swap(a, b);
+            std::uint32_t expected = a;  // a must still be a root to be linked under b
+            if (parent_[a].compare_exchange_strong(expected, b, std::memory_order_acq_rel,
+                                                   std::memory_order_relaxed))
+                return;
+        }
+    }
+
+private:
+    std::vector<std::atomic<std::uint32_t>> parent_;
+};
+
+// A point in local coordinates (x, y, z together: one cache line per test).
+struct Local {
+    double x, y, z;
+};
+
+// The points in cell order (a CSR grid) with everything the passes read.
+struct CellGrid {
+    std::vector<Local> p;              // local coordinates, by sorted position
+    std::vector<std::uint32_t> id;     // input index of each position
+    std::vector<std::uint32_t> block;  // block number of each position
+    std::vector<std::uint32_t> cell;   // cell number of each position
+    std::vector<std::size_t> start;    // positions of cell c: [start[c], start[c + 1])
+    std::size_t blocks = 0;
+    std::vector<std::size_t> block_start;    // members of block b: block_member[
+    std::vector<std::uint32_t> block_member;  //   block_start[b] .. block_start[b + 1])
+    // Cell numbering: dense c = cy * width + cx, or the index in `occupied` (sorted).
+    bool dense = true;
+    std::int64_t width = 0, height = 0;
+    std::vector<std::pair<std::int64_t, std::int64_t>> occupied;  // (cy, cx)
+
+    std::size_t cells() const { return start.size() - 1; }
+
+    std::pair<std::int64_t, std::int64_t> cell_xy(std::size_t c) const {
+        if (dense)
+            return {static_cast<std::int64_t>(c) % width, static_cast<std::int64_t>(c) / width};
+        return {occupied[c].second, occupied[c].first};
+    }
+
+    // Cell number of (cx, cy), or -1 when no point lies in it.
+    std::ptrdiff_t find(std::int64_t cx, std::int64_t cy) const {
+        if (cx < 0 || cy < 0 || cx >= width || cy >= height) return -1;
+        if (dense) {
+            const auto c = static_cast<std::size_t>(cy * width + cx);
+            return start[c] == start[c + 1] ? -1 : static_cast<std::ptrdiff_t>(c);
+        }
+        const auto key = std::make_pair(cy, cx);
+        const auto it = std::lower_bound(occupied.begin(), occupied.end(), key);
+        if (it == occupied.end() || *it != key) return -1;
+        return it - occupied.begin();
+    }
+
+    // The occupied cells of the 3 x 3 neighbourhood of cell c; returns their count.
+    int neighbours(std::size_t c, std::ptrdiff_t out[9]) const {
+        const auto [cx, cy] = cell_xy(c);
+        int count = 0;
+        for (int dv = -1; dv <= 1; ++dv)
+            for (int du = -1; du <= 1; ++du) {
+                const std::ptrdiff_t other = find(cx + du, cy + dv);
+                if (other >= 0) out[count++] = other;
+            }
+        return count;
+    }
+};
+
+// Steps 1 and 2: block and cell of every point, and the counting sorts.
+CellGrid build_grid(PointsView points, const GridGroundParams& params,
+                    const std::array<double, 3>& origin, const std::array<double, 2>& extent) {
+    const std::size_t n = points.size;
+    const auto count = static_cast<std::ptrdiff_t>(n);
+    const bool parallel = n >= kParallelMin;
+    CellGrid grid;
+    grid.width = grid_index(extent[0], params.cell_size[0]) + 1;
+    grid.height = grid_index(extent[1], params.cell_size[1]) + 1;
+    // Dense numbering while the grid is at most a few times the cloud (or 2^20).
+    const double limit = std::max(4.0 * static_cast<double>(n), 1048576.0);
+    grid.dense = static_cast<double>(grid.width) * static_cast<double>(grid.height) <= limit;
+
+    std::vector<std::uint32_t> key(n);  // cell number, then block number, per input point
+    std::size_t cells;
+    if (grid.dense) {
+        cells = static_cast<std::size_t>(grid.width * grid.height);
+#pragma omp parallel for schedule(guided) if (parallel)
+        for (std::ptrdiff_t i = 0; i < count; ++i) {
+            const std::int64_t cx = grid_index(points.coord(i, 0) - origin[0], params.cell_size[0]);
+            const std::int64_t cy = grid_index(points.coord(i, 1) - origin[1], params.cell_size[1]);
+            key[i] = static_cast<std::uint32_t>(cy * grid.width + cx);
+        }
+    } else {
+        std::vector<std::pair<std::int64_t, std::int64_t>> cell(n);
+#pragma omp parallel for schedule(guided) if (parallel)
+        for (std::ptrdiff_t i = 0; i < count; ++i)
+            cell[i] = {grid_index(points.coord(i, 1) - origin[1], params.cell_size[1]),
+                       grid_index(points.coord(i, 0) - origin[0], params.cell_size[0])};
+        grid.occupied = cell;
+        std::sort(grid.occupied.begin(), grid.occupied.end());
+        grid.occupied.erase(std::unique(grid.occupied.begin(), grid.occupied.end()),
+                            grid.occupied.end());
+        cells = grid.occupied.size();
+#pragma omp parallel for schedule(guided) if (parallel)
+        for (std::ptrdiff_t i = 0; i < count; ++i)
+            key[i] = static_cast<std::uint32_t>(
+                std::lower_bound(grid.occupied.begin(), grid.occupied.end(), cell[i]) -
+                grid.occupied.begin());
+    }
+
+    // Stable counting sort by cell: within a cell, input order.
+    grid.start.assign(cells + 1, 0);
+    for (std::size_t i = 0; i < n; ++i) ++grid.start[key[i] + 1];
+    for (std::size_t c = 0; c < cells; ++c) grid.start[c + 1] += grid.start[c];
+    grid.id.resize(n);
+    {
+        std::vector<std::size_t> fill(grid.start.begin(), grid.start.end() - 1);
+        for (std::size_t i = 0; i < n; ++i)
+            grid.id[fill[key[i]]++] = static_cast<std::uint32_t>(i);
+    }
+    grid.p.resize(n);
+    grid.cell.resize(n);
+#pragma omp parallel for schedule(guided) if (parallel)
+    for (std::ptrdiff_t s = 0; s < count; ++s) {
+        const std::size_t i = grid.id[s];
+        grid.p[s] = {points.coord(i, 0) - origin[0], points.coord(i, 1) - origin[1],
+                     points.coord(i, 2) - origin[2]};
+        grid.cell[s] = key[i];
+    }
+
+    // Blocks, numbered densely unless the block grid is far larger than the cloud.
+    const std::int64_t nbx = grid_index(extent[0], params.block_size[0]) + 1;
+    const std::int64_t nby = grid_index(extent[1], params.block_size[1]) + 1;
+    grid.block.resize(n);
+    if (static_cast<double>(nbx) * static_cast<double>(nby) <= limit) {
+        grid.blocks = static_cast<std::size_t>(nbx * nby);
+#pragma omp parallel for schedule(guided) if (parallel)
+        for (std::ptrdiff_t s = 0; s < count; ++s)
+            grid.block[s] = static_cast<std::uint32_t>(
+                grid_index(grid.p[s].y, params.block_size[1]) * nbx +
+                grid_index(grid.p[s].x, params.block_size[0]));
+    } else {
+        std::vector<std::pair<std::int64_t, std::int64_t>> block(n);
+#pragma omp parallel for schedule(guided) if (parallel)
+        for (std::ptrdiff_t s = 0; s < count; ++s)
+            block[s] = {grid_index(grid.p[s].y, params.block_size[1]),
+                        grid_index(grid.p[s].x, params.block_size[0])};
+        std::vector<std::pair<std::int64_t, std::int64_t>> occupied(block);
+        std::sort(occupied.begin(), occupied.end());
+        occupied.erase(std::unique(occupied.begin(), occupied.end()), occupied.end());
+        grid.blocks = occupied.size();
+#pragma omp parallel for schedule(guided) if (parallel)
+        for (std::ptrdiff_t s = 0; s < count; ++s)
+            grid.block[s] = static_cast<std::uint32_t>(
+                std::lower_bound(occupied.begin(), occupied.end(), block[s]) - occupied.begin());
+    }
+    grid.block_start.assign(grid.blocks + 1, 0);
+    for (std::size_t s = 0; s < n; ++s) ++grid.block_start[grid.block[s] + 1];
+    for (std::size_t b = 0; b < grid.blocks; ++b) grid.block_start[b + 1] += grid.block_start[b];
+    grid.block_member.resize(n);
+    {
+        std::vector<std::size_t> fill(grid.block_start.begin(), grid.block_start.end() - 1);
+        for (std::size_t s = 0; s < n; ++s)
+            grid.block_member[fill[grid.block[s]]++] = static_cast<std::uint32_t>(s);
+    }
+    return grid;
+}
+
+// Pre-filter: candidate[s] = 0 when s lies higher than a point q of its 3 x 3 cells with
+// against[q] set by more than filter_slope * d + filter_tolerance. Points with
+// kept_by_all[s] set passed against every point, so they pass against any subset too and
+// are not tested again (null: test everything).
+void slope_filter(const CellGrid& grid, const GridGroundParams& params,
+                  const std::vector<unsigned char>& against,
+                  const std::vector<unsigned char>* kept_by_all,
+                  std::vector<unsigned char>& candidate) {
+    const double slope = params.filter_slope, tolerance = params.filter_tolerance;
+    const bool parallel = grid.p.size() >= kParallelMin;
+    const auto cells = static_cast<std::ptrdiff_t>(grid.cells());
+    // Lowest tested point per cell: if z_s - lowest <= tolerance no test in the cell can
+    // fail, since z_s - z_q <= z_s - lowest and slope * d + tolerance >= tolerance hold
+    // after rounding too (rounding is monotone).
+    std::vector<double> lowest(grid.cells());
+#pragma omp parallel for schedule(guided) if (parallel)
+    for (std::ptrdiff_t c = 0; c < cells; ++c) {
+        double low = std::numeric_limits<double>::infinity();
+        for (std::size_t q = grid.start[c]; q < grid.start[c + 1]; ++q)
+            if (against[q]) low = std::min(low, grid.p[q].z);
+        lowest[c] = low;
+    }
+#pragma omp parallel for schedule(dynamic, 256) if (parallel)
+    for (std::ptrdiff_t c = 0; c < cells; ++c) {
+        std::ptrdiff_t around[9];
+        const int k = grid.neighbours(static_cast<std::size_t>(c), around);
+        for (std::size_t s = grid.start[c]; s < grid.start[c + 1]; ++s) {
+            if (kept_by_all && (*kept_by_all)[s]) {
+                candidate[s] = 1;
+                continue;
+            }
+            const double sx = grid.p[s].x, sy = grid.p[s].y, sz = grid.p[s].z;
+            bool keep = true;
+            for (int a = 0; a < k && keep; ++a) {
+                const std::ptrdiff_t other = around[a];
+                if (sz - lowest[other] <= tolerance) continue;
+                for (std::size_t q = grid.start[other]; q < grid.start[other + 1]; ++q) {
+                    if (!against[q]) continue;
+                    const double dx = sx - grid.p[q].x, dy = sy - grid.p[q].y;
+                    const double d = std::sqrt(dx * dx + dy * dy);
+                    if (sz - grid.p[q].z > slope * d + tolerance) {
+                        keep = false;
+                        break;
+                    }
+                }
+            }
+            candidate[s] = keep ? 1 : 0;
+        }
+    }
+}
+
+// The link test, as in the reference: same operations, same order (symmetric in s, q).
+inline bool linked(const CellGrid& grid, std::size_t s, std::size_t q, double slope,
+                   double tolerance) {
+    const double dx = grid.p[s].x - grid.p[q].x, dy = grid.p[s].y - grid.p[q].y;
+    const double d = std::sqrt(dx * dx + dy * dy);
+    return std::abs(grid.p[s].z - grid.p[q].z) <= slope * d + tolerance;
+}
+
+// Calls visit(s, around, k) for every candidate position s with the k occupied cells of
+// its 3 x 3 neighbourhood, block by block in parallel: threads then mostly work on
+// disjoint trees of the union-find instead of contending for the same roots.
+template <class Visit>
+void for_each_candidate(const CellGrid& grid, const std::vector<unsigned char>& candidate,
+                        bool parallel, Visit visit) {
+    const auto blocks = static_cast<std::ptrdiff_t>(grid.blocks);
+#pragma omp parallel for schedule(dynamic, 1) if (parallel)
+    for (std::ptrdiff_t b = 0; b < blocks; ++b) {
+        std::ptrdiff_t around[9];
+        int k = 0;
+        std::uint32_t current = kNone;
+        for (std::size_t m = grid.block_start[b]; m < grid.block_start[b + 1]; ++m) {
+            const std::uint32_t s = grid.block_member[m];
+            if (!candidate[s]) continue;
+            if (grid.cell[s] != current) {  // members come in cell order: few recomputes
+                current = grid.cell[s];
+                k = grid.neighbours(current, around);
+            }
+            visit(s, around, k);
+        }
+    }
+}
+
+// Components of the link graph among the candidates, in `sets`, after Afforest (Sutton,
+// Ben-Nun and Barak, "Optimizing parallel graph connectivity computation via subgraph
+// sampling", IPDPS 2018): (1) each candidate unites with its first two linked neighbours,
+// which already joins most of every large component; (2) a snapshot of the roots lets
+// the full pass skip, without a test, every pair already joined; (3) across blocks the
+// terrain is mostly one giant component, the most frequent root of a sample, and points
+// in it are skipped altogether, which is exact: an edge between the giant and another
+// point is tested from that point, whose pass visits all its neighbours.
+void label_components(const CellGrid& grid, const GridGroundParams& params,
+                      const std::vector<unsigned char>& candidate, ConcurrentDisjointSets& sets) {
+    const std::size_t n = grid.p.size();
+    const double slope = params.slope, tolerance = params.height_tolerance;
+    const bool across = params.grow_across_blocks;
+    const bool parallel = n >= kParallelMin;
+    const auto joinable = [&](std::size_t s, std::size_t q) {
+        return candidate[q] && (across || grid.block[q] == grid.block[s]) &&
+               linked(grid, s, q, slope, tolerance);
+    };
+    sets.reset();
+    for_each_candidate(grid, candidate, parallel,
+                       [&](std::size_t s, const std::ptrdiff_t* around, int k) {
+        int links = 0;
+        for (int a = 0; a < k && links < 2; ++a)
+            for (std::size_t q = grid.start[around[a]]; q < grid.start[around[a] + 1]; ++q)
+                if (q != s && joinable(s, q)) {
+                    sets.unite(static_cast<std::uint32_t>(s), static_cast<std::uint32_t>(q));
+                    if (++links == 2) break;
+                }
+    });
+    std::vector<std::uint32_t> root(n);
+    const auto count = static_cast<std::ptrdiff_t>(n);
+#pragma omp parallel for schedule(guided) if (parallel)
+    for (std::ptrdiff_t s = 0; s < count; ++s) root[s] = sets.find(static_cast<std::uint32_t>(s));
+    if (!across) {
+        // Many mid-sized components, one or more per block: every unordered pair once,
+        // from its smaller position.
+        for_each_candidate(grid, candidate, parallel,
+                           [&](std::size_t s, const std::ptrdiff_t* around, int k) {
+            for (int a = 0; a < k; ++a)
+                for (std::size_t q = std::max(grid.start[around[a]], s + 1);
+                     q < grid.start[around[a] + 1]; ++q)
+                    if (root[q] != root[s] && joinable(s, q))
+                        sets.unite(static_cast<std::uint32_t>(s), static_cast<std::uint32_t>(q));
+        });
+        return;
+    }
+    std::vector<std::uint32_t> sample;
+    const std::size_t step = std::max<std::size_t>(1, n / 4096);
+    for (std::size_t s = 0; s < n; s += step)
+        if (candidate[s]) sample.push_back(root[s]);
+    std::sort(sample.begin(), sample.end());
+    std::uint32_t giant = kNone;
+    std::size_t best = 0;
+    for (std::size_t i = 0, j; i < sample.size(); i = j) {
+        for (j = i; j < sample.size() && sample[j] == sample[i]; ++j) {}
+        if (j - i > best) best = j - i, giant = sample[i];
+    }
+    for_each_candidate(grid, candidate, parallel,
+                       [&](std::size_t s, const std::ptrdiff_t* around, int k) {
+        if (root[s] == giant) return;
+        for (int a = 0; a < k; ++a)
+            for (std::size_t q = grid.start[around[a]]; q < grid.start[around[a] + 1]; ++q)
+                if (root[q] != root[s] && joinable(s, q))
+                    sets.unite(static_cast<std::uint32_t>(s), static_cast<std::uint32_t>(q));
+    });
+}
+
+// Steps 3 and 4 on the candidates: components of the link graph, one seed per block,
+// ground[s] = 1 for the members of the seeds' components.
+void grow(const CellGrid& grid, const GridGroundParams& params,
+          const std::vector<unsigned char>& candidate, ConcurrentDisjointSets& sets,
+          std::vector<unsigned char>& ground) {
+    const std::size_t n = grid.p.size();
+    const auto count = static_cast<std::ptrdiff_t>(n);
+    const bool parallel = n >= kParallelMin;
+    label_components(grid, params, candidate, sets);
+    std::vector<std::uint32_t> root(n);
+#pragma omp parallel for schedule(guided) if (parallel)
+    for (std::ptrdiff_t s = 0; s < count; ++s)
+        root[s] = sets.find(static_cast<std::uint32_t>(s));
+    std::vector<std::uint32_t> size(n, 0);
+    for (std::size_t s = 0; s < n; ++s)
+        if (candidate[s]) ++size[root[s]];
+
+    // Step 3, robust: the lowest candidate (ties: lowest input index) whose component
+    // is large enough, else the lowest candidate.
+    const auto min_size = static_cast<std::uint64_t>(params.min_seed_component);
+    std::vector<std::uint32_t> seed(grid.blocks, kNone);
+#pragma omp parallel for schedule(dynamic, 64) if (parallel)
+    for (std::ptrdiff_t b = 0; b < static_cast<std::ptrdiff_t>(grid.blocks); ++b) {
+        std::uint32_t lowest = kNone, lowest_large = kNone;
+        const auto lower = [&](std::uint32_t s, std::uint32_t than) {
+            return than == kNone || grid.p[s].z < grid.p[than].z ||
+                   (grid.p[s].z == grid.p[than].z && grid.id[s] < grid.id[than]);
+        };
+        for (std::size_t m = grid.block_start[b]; m < grid.block_start[b + 1]; ++m) {
+            const std::uint32_t s = grid.block_member[m];
+            if (!candidate[s]) continue;
+            if (lower(s, lowest)) lowest = s;
+            if (size[root[s]] >= min_size && lower(s, lowest_large)) lowest_large = s;
+        }
+        seed[b] = lowest_large != kNone ? lowest_large : lowest;
+    }
+    std::vector<unsigned char> seeded(n, 0);
+    for (const std::uint32_t s : seed)
+        if (s != kNone) seeded[root[s]] = 1;
+#pragma omp parallel for schedule(guided) if (parallel)
+    for (std::ptrdiff_t s = 0; s < count; ++s)
+        ground[s] = candidate[s] && seeded[root[s]] ? 1 : 0;
+}
+
+}  // namespace
+
+void grid_ground(PointsView points, const GridGroundParams& params, bool* ground) {
+    validate(params);
+    const std::size_t n = points.size;
+    if (n == 0) return;
+    if (n > static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max()))
+        throw std::invalid_argument("points: at most 2^31 - 1 points are supported, got " +
+                                    std::to_string(n));
+    const std::array<double, 3> origin = local_origin(points);
+    const bool parallel = n >= kParallelMin;
+    double extent_x = 0.0, extent_y = 0.0;
+#pragma omp parallel for schedule(guided) if (parallel) reduction(max : extent_x, extent_y)
+    for (std::ptrdiff_t i = 0; i < static_cast<std::ptrdiff_t>(n); ++i) {
+        extent_x = std::max(extent_x, points.coord(i, 0) - origin[0]);
+        extent_y = std::max(extent_y, points.coord(i, 1) - origin[1]);
+    }
+    const std::array<double, 2> extent{extent_x, extent_y};
+    for (int a = 0; a < 2; ++a)
+        if (!(extent[a] / params.cell_size[a] < kMaxIndex))
+            throw std::invalid_argument(
+                "cell_size is too small for the extent of points: more than 2^40 cells on " +
+                std::string(a == 0 ? "x" : "y"));
+
+    const CellGrid grid = build_grid(points, params, origin, extent);
+    std::vector<unsigned char> candidate(n, 1), against(n, 1), result(n, 0), kept_by_all;
+    ConcurrentDisjointSets sets(n);
+    const std::int64_t passes = std::max<std::int64_t>(params.filter_passes, 1);
+    for (std::int64_t pass = 0; pass < passes; ++pass) {
+        if (params.filter_passes > 0) {
+            if (pass > 0) against.swap(result);  // test only against the last ground
+            slope_filter(grid, params, against, pass > 0 ? &kept_by_all : nullptr, candidate);
+            if (pass == 0 && passes > 1) kept_by_all = candidate;
+        }
+        grow(grid, params, candidate, sets, result);
+    }
+    const auto count = static_cast<std::ptrdiff_t>(n);
+#pragma omp parallel for schedule(guided) if (parallel)
+    for (std::ptrdiff_t s = 0; s < count; ++s) ground[grid.id[s]] = result[s] != 0;
+}
+
+}  // namespace pcl_rg

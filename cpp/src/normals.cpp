@@ -1,0 +1,180 @@
+// Normals and curvatures of seed 004 (Wang et al., "Point cloud segmentation based on
+// improved region growing", ISPRS Archives XLII-3/W10, 2020, sections 3.1 and 3.2):
+// the least-squares (PCA) normal, the eigenvector of the smallest eigenvalue of the
+// neighbourhood covariance, and the Gaussian and mean curvatures of Besl & Jain (1986)
+// from a quadric z = f(x, y) fitted in the point's tangent frame (a Monge patch).
+// PCL's surface variation (Pauly et al., 2002) comes out beside them.
+//
+// Precision: neighbours are searched on float32 coordinates relative to a float64
+// local origin (shared KnnIndex), but every geometric quantity is computed in float64
+// from the caller's coordinates relative to the query point, so UTM-sized coordinates
+// lose nothing. Each point is independent: an OpenMP loop, same result on every run.
+#include "pcl_rg/normals.hpp"
+
+#include <Eigen/Dense>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+#include "pcl_rg/knn.hpp"
+
+namespace pcl_rg {
+
+void validate(const NormalsParams& params) {
+    if (params.k < 3)
+        throw std::invalid_argument("k must be >= 3, got " + std::to_string(params.k));
+}
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+struct PointGeometry {
+    Eigen::Vector3d normal{kNaN, kNaN, kNaN};
+    double surface_variation = kNaN;
+    double gaussian = kNaN, mean = kNaN, k1 = kNaN, k2 = kNaN;
+};
+
+// Unoriented normals get one deterministic sign: "up" (n_z > 0), with ties broken on
+// y then x, so both the core and the reference pick the same one.
+void orient_up(Eigen::Vector3d& n) {
+    const bool flip =
+        n.z() < 0.0 || (n.z() == 0.0 && (n.y() < 0.0 || (n.y() == 0.0 && n.x() < 0.0)));
+    if (flip) n = -n;
+}
+
+// rel: the k neighbours relative to the query point (float64). Loops rather than
+// Eigen expressions on dynamic matrices: no allocation per point.
+PointGeometry point_geometry(const std::vector<Eigen::Vector3d>& rel) {
+    PointGeometry g;
+    const std::size_t k = rel.size();
+    const double inv_k = 1.0 / static_cast<double>(k);
+    // Step 1: covariance about the neighbourhood centroid, two-pass in float64.
+    Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+    for (const auto& r : rel) centroid += r;
+    centroid *= inv_k;
+    Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
+    for (const auto& r : rel) {
+        const Eigen::Vector3d c = r - centroid;
+        covariance.noalias() += c * c.transpose();
+    }
+    covariance *= inv_k;
+    const double trace = covariance.trace();
+    if (!(trace > 0.0)) return g;  // all neighbours coincide: nothing is defined
+
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(covariance);
+    // Eigenvalues ascending; lambda0 may come out as -1e-20 on exact planes.
+    g.surface_variation = std::max(eigen.eigenvalues()(0), 0.0) / trace;
+    Eigen::Vector3d n = eigen.eigenvectors().col(0).normalized();
+    orient_up(n);
+    g.normal = n;
+
+    // Step 2: quadric in the tangent frame (x: largest-variance axis, y = n x x, z = n),
+    // centred at the point itself. Six unknowns need six neighbours.
+    if (k < 6) return g;
+    const Eigen::Vector3d x_axis = eigen.eigenvectors().col(2).normalized();
+    const Eigen::Vector3d y_axis = n.cross(x_axis);
+    // Scale the tangent coordinates to unit RMS radius so the design is well
+    // conditioned whatever the units: w/s = A u'^2 + B u'v' + C v'^2 + D u' + E v' + F
+    // with u' = u/s, v' = v/s gives a = A/s, b = B/s, c = C/s, d = D, e = E.
+    double radius2 = 0.0;
+    for (const auto& r : rel) {
+        const double u = r.dot(x_axis), v = r.dot(y_axis);
+        radius2 += u * u + v * v;
+    }
+    const double s = std::sqrt(radius2 * inv_k);
+    if (!(s > 0.0)) return g;
+    const double inv_s = 1.0 / s;
+    Eigen::Matrix<double, 6, 6> normal_matrix = Eigen::Matrix<double, 6, 6>::Zero();
+    Eigen::Matrix<double, 6, 1> rhs = Eigen::Matrix<double, 6, 1>::Zero();
+    for (const auto& r : rel) {
+        const double u = r.dot(x_axis) * inv_s, v = r.dot(y_axis) * inv_s, w = r.dot(n) * inv_s;
+        Eigen::Matrix<double, 6, 1> row;
+        row << u * u, u * v, v * v, u, v, 1.0;
+        normal_matrix.noalias() += row * row.transpose();
+        rhs.noalias() += row * w;
+    }
+    // Rank test and solve with one Cholesky factorisation of the normal matrix divided
+    // by k. Its pivots are unique (any correct Cholesky gives them): pivot j squared is
+    // the mean squared distance of design column j from the span of columns 0..j-1.
+    // With u, v scaled to unit RMS radius every column has a mean square of order 1
+    // when the neighbours spread in both directions, so a tiny pivot means a column
+    // the data do not determine (e.g. v = 0 up to rounding for collinear points).
+    const Eigen::LLT<Eigen::Matrix<double, 6, 6>> cholesky(normal_matrix * inv_k);
+    if (cholesky.info() != Eigen::Success) return g;
+    const Eigen::Matrix<double, 6, 6> l = cholesky.matrixL();
+    for (int j = 0; j < 6; ++j)
+        if (!(l(j, j) * l(j, j) > kQuadricConditionLimit)) return g;  // rank deficient
+    const Eigen::Matrix<double, 6, 1> q = cholesky.solve(rhs * inv_k);
+    const double a = q(0) * inv_s, b = q(1) * inv_s, c = q(2) * inv_s, d = q(3), e = q(4);
+    const double m = 1.0 + d * d + e * e;
+    g.gaussian = (4.0 * a * c - b * b) / (m * m);
+    g.mean = ((1.0 + e * e) * a - d * e * b + (1.0 + d * d) * c) / (m * std::sqrt(m));
+    const double root = std::sqrt(std::max(g.mean * g.mean - g.gaussian, 0.0));
+    g.k1 = g.mean + root;
+    g.k2 = g.mean - root;
+    return g;
+}
+
+}  // namespace
+
+std::vector<std::uint32_t> neighbour_lists(PointsView points, const NormalsParams& params) {
+    validate(params);
+    const std::size_t n = points.size;
+    if (n == 0) return {};
+    const auto k = static_cast<std::size_t>(params.k);
+    if (k >= n)
+        throw std::invalid_argument("k must be < the number of points (" + std::to_string(n) +
+                                    "), got " + std::to_string(k));
+    const std::vector<float> local = to_local_float(points, local_origin(points));
+    const KnnIndex index(local.data(), n);
+    std::vector<std::uint32_t> lists(n * k);
+#pragma omp parallel
+    {
+        std::vector<float> sqdist(k);
+#pragma omp for schedule(dynamic, 1024)
+        for (std::ptrdiff_t i = 0; i < static_cast<std::ptrdiff_t>(n); ++i)
+            index.nearest(i, k, lists.data() + i * k, sqdist.data());
+    }
+    return lists;
+}
+
+void normals(PointsView points, const NormalsParams& params, const NormalsOutput& out,
+             std::vector<std::uint32_t>* neighbours) {
+    validate(params);
+    const std::size_t n = points.size;
+    if (neighbours) neighbours->clear();
+    if (n == 0) return;
+    const auto k = static_cast<std::size_t>(params.k);
+    if (k >= n)
+        throw std::invalid_argument("k must be < the number of points (" + std::to_string(n) +
+                                    "), got " + std::to_string(k));
+
+    const std::vector<float> local = to_local_float(points, local_origin(points));
+    const KnnIndex index(local.data(), n);
+    if (neighbours) neighbours->resize(n * k);
+
+#pragma omp parallel
+    {
+        std::vector<std::uint32_t> own_index(k);
+        std::vector<float> sqdist(k);
+        std::vector<Eigen::Vector3d> rel(k);
+#pragma omp for schedule(dynamic, 512)
+        for (std::ptrdiff_t i = 0; i < static_cast<std::ptrdiff_t>(n); ++i) {
+            std::uint32_t* nn = neighbours ? neighbours->data() + i * k : own_index.data();
+            index.nearest(i, k, nn, sqdist.data());
+            for (std::size_t j = 0; j < k; ++j)
+                for (int a = 0; a < 3; ++a) rel[j](a) = points.coord(nn[j], a) - points.coord(i, a);
+            const PointGeometry g = point_geometry(rel);
+            for (int a = 0; a < 3; ++a) out.normal[3 * i + a] = g.normal(a);
+            if (out.surface_variation) out.surface_variation[i] = g.surface_variation;
+            if (out.gaussian_curvature) out.gaussian_curvature[i] = g.gaussian;
+            if (out.mean_curvature) out.mean_curvature[i] = g.mean;
+            if (out.k1) out.k1[i] = g.k1;
+            if (out.k2) out.k2[i] = g.k2;
+        }
+    }
+}
+
+}  // namespace pcl_rg

@@ -1,0 +1,638 @@
+// Progressive TIN densification: Axelsson, "DEM generation from laser scanner data
+// using adaptive TIN models", International Archives of Photogrammetry and Remote
+// Sensing XXXIII-B4, 2000; with the parameters of LiDAR360's "Classify Ground Points"
+// (seed 002), which follows Zhao et al., "Improved progressive TIN densification
+// filtering algorithm for airborne LiDAR data in forested areas", ISPRS J.
+// Photogrammetry and Remote Sensing 117, 2016. Definition: docs/algorithms.md section 4.
+//
+// The steps, and the choices that make the result exact and order-independent (the
+// NumPy reference in pcl_rg/reference/tin_ground.py implements the same):
+//   1. XY is snapped to the integer grid of a GridFrame over the extent (delaunay.hpp;
+//      quantum <= extent / 2^29, micrometres for kilometre tiles), in which the TIN's
+//      predicates are exact. Heights stay float64 relative to the minimum corner.
+//   2. Seeds: the lowest point (ties: smallest index) of each max_building_size cell,
+//      cells anchored at the minimum corner. The four corners of the extent, one grid
+//      step outside it, are virtual vertices at the height of their nearest seed
+//      (exact squared grid distance, ties: smallest index), so every point lies inside
+//      the TIN. Seeds are ground; of seeds sharing an XY, the smallest index is inserted.
+//   3. Each iteration tests every unclassified point against the TIN as it was when
+//      the iteration began, in the triangle holding p + (eps, eps^2) (delaunay.hpp):
+//        d = distance from p to the triangle's plane,
+//        accepted when d <= iteration_distance, d <= sin(limit) * |p - v_i| for each
+//        vertex (that is asin(d / |p - v_i|) <= limit), limit = iteration_angle, times
+//        L / reduce_angle_edge when the longest XY edge L is shorter than
+//        reduce_angle_edge, and none of the triangles (p, v_i, v_j) with non-zero XY
+//        area is steeper than max_terrain_angle (the triangles p would form if
+//        inserted into its triangle; a steep point stays unclassified for now).
+//      In a triangle with L < stop_edge every accepted point becomes ground, none is
+//      inserted. In any other triangle only the accepted point with the smallest d
+//      (ties: smallest index) becomes ground and is inserted, as Axelsson adds one
+//      point per facet per iteration; the other accepted points are tested again in
+//      the next iteration, against the densified TIN. Then the chosen points are
+//      inserted (a point equal in XY to a vertex is ground but not inserted).
+//   4. Stop when an iteration adds no ground point.
+// The floating-point formulas take each triangle's vertices counter-clockwise from the
+// lexicographically smallest (x, y), so the result does not depend on how a triangle is
+// stored; sin/cos come from the C library, as Python's math module does.
+//
+// Improvements, each off by default (TinGroundParams), for data such as the ISPRS
+// samples:
+//   * near_vertex_distance: |p - v_i| counts as at least this in the angle test, so a
+//     point (nearly) above a vertex, common where XY is coarse or repeated, is judged
+//     by its distance to the plane rather than an angle of ~90 deg minus the slope.
+//   * seed_cell: seeds are the lowest points of small cells lying within
+//     seed_tolerance of the grey opening of those heights by a max_building_size
+//     window (Zhao et al.'s morphological seeds): dense on open terrain, none on roofs.
+//   * outlier_depth: before the opening, cells far below the 9th lowest of their 5 x 5
+//     window are dropped, repeatedly, so clusters of low outliers give no seeds.
+//
+// Speed: points are processed in Morton order; each unclassified point sits in a list
+// of the triangle slot it was last tested in, and only the points of slots an
+// insertion rewrote (Delaunay::touched) and the accepted-but-not-chosen ones are
+// tested again: a failed test against a triangle that is still there would fail
+// again. Location walks from the point's previous slot; tests run in parallel and
+// write only their own point's entries; insertions are serial in Morton order, so the
+// result does not depend on the number of threads.
+#include "pcl_rg/tin_ground.hpp"
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <exception>
+#include <limits>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "pcl_rg/delaunay.hpp"
+
+namespace pcl_rg {
+
+namespace {
+
+constexpr double kDegToRad = 3.141592653589793 / 180.0;
+
+std::string number(double v) {
+    char buffer[32];
+    std::snprintf(buffer, sizeof buffer, "%g", v);
+    return buffer;
+}
+
+void require_positive(const char* name, double value) {
+    if (!std::isfinite(value) || value <= 0.0)
+        throw std::invalid_argument(std::string(name) + " must be finite and > 0, got " +
+                                    number(value));
+}
+
+void require_non_negative(const char* name, double value) {
+    if (!std::isfinite(value) || value < 0.0)
+        throw std::invalid_argument(std::string(name) + " must be finite and >= 0, got " +
+                                    number(value));
+}
+
+// Column * ncy + row of point i in square cells of side `cell` anchored at the origin.
+std::int64_t cell_key(PointsView points, const std::array<double, 3>& origin, double cell,
+                      std::int64_t ncy, std::size_t i) {
+    const auto cx = static_cast<std::int64_t>(std::floor((points.coord(i, 0) - origin[0]) / cell));
+    const auto cy = static_cast<std::int64_t>(std::floor((points.coord(i, 1) - origin[1]) / cell));
+    return cx * ncy + cy;
+}
+
+// Point a comes before point b: lower z, then smaller index.
+bool lower(PointsView points, std::size_t a, std::size_t b) {
+    const double za = points.coord(a, 2), zb = points.coord(b, 2);
+    return za < zb || (za == zb && a < b);
+}
+
+// Lowest point (ties: smallest index) of every cell of a dense ncx x ncy grid of square
+// cells anchored at the origin, row-major by x then y; -1 for an empty cell.
+std::vector<std::int64_t> lowest_in_cells(PointsView points, const std::array<double, 3>& origin,
+                                          double cell, std::int64_t ncx, std::int64_t ncy) {
+    std::vector<std::int64_t> lowest(static_cast<std::size_t>(ncx * ncy), -1);
+    for (std::size_t i = 0; i < points.size; ++i) {
+        std::int64_t& b = lowest[static_cast<std::size_t>(cell_key(points, origin, cell, ncy, i))];
+        if (b < 0 || lower(points, i, static_cast<std::size_t>(b)))
+            b = static_cast<std::int64_t>(i);
+    }
+    return lowest;
+}
+
+// The lowest point of every occupied cell, in index order: through the dense grid when
+// it is small, else by sorting (cell, z, index), so that any cell size works.
+std::vector<std::uint32_t> lowest_points(PointsView points, const std::array<double, 3>& origin,
+                                         double cell, std::int64_t ncx, std::int64_t ncy) {
+    const auto n = static_cast<std::int64_t>(points.size);
+    std::vector<std::uint32_t> lowest;
+    if (ncx <= (4 * n + 4096) / ncy) {
+        for (const std::int64_t b : lowest_in_cells(points, origin, cell, ncx, ncy))
+            if (b >= 0) lowest.push_back(static_cast<std::uint32_t>(b));
+    } else {
+        std::vector<std::pair<std::int64_t, std::uint32_t>> keyed(points.size);
+        for (std::size_t i = 0; i < points.size; ++i)
+            keyed[i] = {cell_key(points, origin, cell, ncy, i), static_cast<std::uint32_t>(i)};
+        std::sort(keyed.begin(), keyed.end(), [&](const auto& a, const auto& b) {
+            return a.first < b.first || (a.first == b.first && lower(points, a.second, b.second));
+        });
+        for (std::size_t k = 0; k < keyed.size(); ++k)
+            if (k == 0 || keyed[k].first != keyed[k - 1].first) lowest.push_back(keyed[k].second);
+    }
+    std::sort(lowest.begin(), lowest.end());
+    return lowest;
+}
+
+// Square min or max filter of half-width r over an ncx x ncy raster (+inf = no value,
+// ignored; windows clipped at the border), separably by y then x: exact, as min and
+// max are.
+std::vector<double> square_filter(const std::vector<double>& a, std::int64_t ncx, std::int64_t ncy,
+                                  std::int64_t r, bool take_max) {
+    const double none = std::numeric_limits<double>::infinity();
+    auto better = [take_max, none](double u, double v) {  // u replaces v
+        if (u == none) return false;
+        if (v == none) return true;
+        return take_max ? u > v : u < v;
+    };
+    std::vector<double> along_y(a.size(), none), out(a.size(), none);
+#pragma omp parallel for schedule(static)
+    for (std::int64_t x = 0; x < ncx; ++x)
+        for (std::int64_t y = 0; y < ncy; ++y) {
+            double v = none;
+            for (std::int64_t k = std::max<std::int64_t>(0, y - r); k <= std::min(ncy - 1, y + r);
+                 ++k)
+                if (better(a[x * ncy + k], v)) v = a[x * ncy + k];
+            along_y[x * ncy + y] = v;
+        }
+#pragma omp parallel for schedule(static)
+    for (std::int64_t x = 0; x < ncx; ++x)
+        for (std::int64_t y = 0; y < ncy; ++y) {
+            double v = none;
+            for (std::int64_t k = std::max<std::int64_t>(0, x - r); k <= std::min(ncx - 1, x + r);
+                 ++k)
+                if (better(along_y[k * ncy + y], v)) v = along_y[k * ncy + y];
+            out[x * ncy + y] = v;
+        }
+    return out;
+}
+
+// The rank-th smallest (0-based) of the (2r+1)^2 values of each cell's square window,
+// cells outside the raster and empty ones (+inf) included as +inf.
+std::vector<double> rank_filter(const std::vector<double>& a, std::int64_t ncx, std::int64_t ncy,
+                                std::int64_t r, std::size_t rank) {
+    const double none = std::numeric_limits<double>::infinity();
+    std::vector<double> out(a.size(), none);
+#pragma omp parallel
+    {
+        std::vector<double> window;
+#pragma omp for schedule(static)
+        for (std::int64_t x = 0; x < ncx; ++x)
+            for (std::int64_t y = 0; y < ncy; ++y) {
+                window.clear();
+                for (std::int64_t i = x - r; i <= x + r; ++i)
+                    for (std::int64_t j = y - r; j <= y + r; ++j)
+                        window.push_back(i < 0 || j < 0 || i >= ncx || j >= ncy ? none
+                                                                                : a[i * ncy + j]);
+                std::nth_element(window.begin(), window.begin() + static_cast<std::ptrdiff_t>(rank),
+                                 window.end());
+                out[x * ncy + y] = window[rank];
+            }
+    }
+    return out;
+}
+
+// Zhao-style seeds (TinGroundParams::seed_cell): lowest points of seed_cell cells close
+// to the grey opening of their heights, after dropping low outliers (rank test).
+std::vector<std::uint32_t> morphological_seeds(PointsView points,
+                                               const std::array<double, 3>& origin, double ex,
+                                               double ey, const TinGroundParams& params) {
+    const double cell = params.seed_cell;
+    const double limit = 4.0 * static_cast<double>(points.size) + 4194304.0;
+    if (!((std::floor(ex / cell) + 1.0) * (std::floor(ey / cell) + 1.0) <= limit))
+        throw std::invalid_argument(
+            "seed_cell is too small for the XY extent (more than 4 cells "
+            "per point), got " +
+            number(cell));
+    const auto ncx = static_cast<std::int64_t>(std::floor(ex / cell)) + 1;
+    const auto ncy = static_cast<std::int64_t>(std::floor(ey / cell)) + 1;
+    const std::vector<std::int64_t> lowest = lowest_in_cells(points, origin, cell, ncx, ncy);
+    const double none = std::numeric_limits<double>::infinity();
+    std::vector<double> height(lowest.size(), none);
+    for (std::size_t k = 0; k < lowest.size(); ++k)
+        if (lowest[k] >= 0)
+            height[k] = points.coord(static_cast<std::size_t>(lowest[k]), 2) - origin[2];
+    if (params.outlier_depth > 0.0) {
+        // Low outliers: a cell more than outlier_depth below the 9th lowest of the 25
+        // cells of its 5 x 5 window (empty ones counting as +inf) loses its seed; repeat
+        // until none is found, so that clusters of outliers are peeled from the rim in.
+        for (bool changed = true; changed;) {
+            const std::vector<double> ninth = rank_filter(height, ncx, ncy, 2, 8);
+            changed = false;
+            for (std::size_t k = 0; k < height.size(); ++k)
+                if (height[k] != none && ninth[k] != none &&
+                    height[k] < ninth[k] - params.outlier_depth) {
+                    height[k] = none;
+                    changed = true;
+                }
+        }
+    }
+    const auto r = static_cast<std::int64_t>(std::floor(params.max_building_size / (2.0 * cell)));
+    const std::vector<double> opened =
+        square_filter(square_filter(height, ncx, ncy, r, false), ncx, ncy, r, true);
+    std::vector<std::uint32_t> seeds;
+    for (std::size_t k = 0; k < height.size(); ++k)
+        if (height[k] != none && height[k] - opened[k] <= params.seed_tolerance)
+            seeds.push_back(static_cast<std::uint32_t>(lowest[k]));
+    std::sort(seeds.begin(), seeds.end());
+    return seeds;
+}
+
+double seconds_since(std::chrono::steady_clock::time_point start) {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+// Everything one acceptance test needs, fixed for a run.
+struct Limits {
+    double quantum;
+    double iteration_distance;
+    double iteration_angle;
+    double reduce_angle_edge;
+    double stop_edge;
+    double near_vertex_distance;
+    double sin_angle;    // sin(iteration_angle)
+    double cos_terrain;  // cos(max_terrain_angle)
+};
+
+struct Verdict {
+    bool accepted = false;
+    bool stop = false;  // longest edge < stop_edge
+    double d = 0.0;
+};
+
+// A triangle with its vertices counter-clockwise from the lexicographically smallest
+// (x, y), so that the floating-point results do not depend on how it is stored.
+struct Facet {
+    std::array<std::int32_t, 3> v;
+    double x[3], y[3], z[3];  // metres, local frame
+    double longest;           // longest XY edge (m)
+};
+
+Facet facet(const Delaunay& tin, const std::vector<double>& vz, double quantum, std::int32_t t) {
+    Facet f;
+    f.v = {tin.triangle_vertex(t, 0), tin.triangle_vertex(t, 1), tin.triangle_vertex(t, 2)};
+    int first = 0;
+    for (int k = 1; k < 3; ++k) {
+        const std::int32_t a = f.v[k], b = f.v[first];
+        if (tin.vertex_x(a) < tin.vertex_x(b) ||
+            (tin.vertex_x(a) == tin.vertex_x(b) && tin.vertex_y(a) < tin.vertex_y(b)))
+            first = k;
+    }
+    std::rotate(f.v.begin(), f.v.begin() + first, f.v.end());
+    for (int k = 0; k < 3; ++k) {
+        f.x[k] = static_cast<double>(tin.vertex_x(f.v[k]) - 1) * quantum;
+        f.y[k] = static_cast<double>(tin.vertex_y(f.v[k]) - 1) * quantum;
+        f.z[k] = vz[f.v[k]];
+    }
+    double longest2 = 0.0;
+    for (int k = 0; k < 3; ++k) {
+        const int j = (k + 1) % 3;
+        const double dx = f.x[j] - f.x[k], dy = f.y[j] - f.y[k];
+        longest2 = std::max(longest2, dx * dx + dy * dy);
+    }
+    f.longest = std::sqrt(longest2);
+    return f;
+}
+
+// Distance d from p to the facet's plane and Axelsson's test: d <= iteration_distance
+// and asin(d / |p - v_i|) <= the (reduced) iteration angle for every vertex.
+bool plane_test(const Facet& f, const Limits& lim, double px, double py, double pz, double* d_out) {
+    const double ux = f.x[1] - f.x[0], uy = f.y[1] - f.y[0], uz = f.z[1] - f.z[0];
+    const double wx = f.x[2] - f.x[0], wy = f.y[2] - f.y[0], wz = f.z[2] - f.z[0];
+    const double nx = uy * wz - uz * wy;
+    const double ny = uz * wx - ux * wz;
+    const double nz = ux * wy - uy * wx;
+    const double num = nx * (px - f.x[0]) + ny * (py - f.y[0]) + nz * (pz - f.z[0]);
+    const double d = std::fabs(num) / std::sqrt(nx * nx + ny * ny + nz * nz);
+    *d_out = d;
+    if (!(d <= lim.iteration_distance)) return false;
+    double sin_limit = lim.sin_angle;
+    if (f.longest < lim.reduce_angle_edge)
+        sin_limit = std::sin(lim.iteration_angle * f.longest / lim.reduce_angle_edge * kDegToRad);
+    for (int k = 0; k < 3; ++k) {
+        const double dx = px - f.x[k], dy = py - f.y[k], dz = pz - f.z[k];
+        const double r = std::max(std::sqrt(dx * dx + dy * dy + dz * dz), lim.near_vertex_distance);
+        if (!(d <= sin_limit * r)) return false;
+    }
+    return true;
+}
+
+// No triangle (p, v_k, v_j) of non-zero XY area steeper than max_terrain_angle.
+bool terrain_test(const Delaunay& tin, const Facet& f, const Limits& lim, std::int32_t pgx,
+                  std::int32_t pgy, double px, double py, double pz) {
+    for (int k = 0; k < 3; ++k) {
+        const int j = (k + 1) % 3;
+        if (orient2d(tin.vertex_x(f.v[k]), tin.vertex_y(f.v[k]), tin.vertex_x(f.v[j]),
+                     tin.vertex_y(f.v[j]), pgx, pgy) == 0)
+            continue;  // p on this edge: no triangle would be formed with it
+        const double ax = f.x[k] - px, ay = f.y[k] - py, az = f.z[k] - pz;
+        const double bx = f.x[j] - px, by = f.y[j] - py, bz = f.z[j] - pz;
+        const double mx = ay * bz - az * by;
+        const double my = az * bx - ax * bz;
+        const double mz = ax * by - ay * bx;
+        if (std::fabs(mz) < lim.cos_terrain * std::sqrt(mx * mx + my * my + mz * mz)) return false;
+    }
+    return true;
+}
+
+// The acceptance test of point p (grid xy, local z) located in triangle t.
+Verdict evaluate(const Delaunay& tin, const std::vector<double>& vz, const Limits& lim,
+                 std::int32_t pgx, std::int32_t pgy, double pz, std::int32_t t) {
+    const Facet f = facet(tin, vz, lim.quantum, t);
+    const double px = static_cast<double>(pgx - 1) * lim.quantum;
+    const double py = static_cast<double>(pgy - 1) * lim.quantum;
+    Verdict out;
+    out.stop = f.longest < lim.stop_edge;
+    const bool pass = plane_test(f, lim, px, py, pz, &out.d);
+    out.accepted = pass && terrain_test(tin, f, lim, pgx, pgy, px, py, pz);
+    return out;
+}
+
+}  // namespace
+
+void validate(const TinGroundParams& params) {
+    require_positive("max_building_size", params.max_building_size);
+    require_positive("iteration_distance", params.iteration_distance);
+    require_positive("reduce_angle_edge", params.reduce_angle_edge);
+    require_positive("stop_edge", params.stop_edge);
+    require_non_negative("near_vertex_distance", params.near_vertex_distance);
+    require_non_negative("seed_cell", params.seed_cell);
+    require_non_negative("seed_tolerance", params.seed_tolerance);
+    require_non_negative("outlier_depth", params.outlier_depth);
+    if (!std::isfinite(params.iteration_angle) || params.iteration_angle <= 0.0 ||
+        params.iteration_angle > 90.0)
+        throw std::invalid_argument("iteration_angle must be in (0, 90] degrees, got " +
+                                    number(params.iteration_angle));
+    if (!std::isfinite(params.max_terrain_angle) || params.max_terrain_angle <= 0.0 ||
+        params.max_terrain_angle >= 90.0)
+        throw std::invalid_argument("max_terrain_angle must be in (0, 90) degrees, got " +
+                                    number(params.max_terrain_angle));
+}
+
+TinGroundStats tin_ground(PointsView points, const TinGroundParams& params, bool* ground) {
+    validate(params);
+    TinGroundStats stats;
+    const std::size_t n = points.size;
+    if (n == 0) return stats;
+    if (n < 3)
+        throw std::invalid_argument("points must hold at least 3 points for a TIN, got " +
+                                    std::to_string(n));
+    if (n > static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max()) - 8)
+        throw std::invalid_argument("points: at most 2^31 - 9 points are supported, got " +
+                                    std::to_string(n));
+    auto clock = std::chrono::steady_clock::now();
+    std::fill(ground, ground + n, false);
+
+    // --- 1. local frame and integer grid -------------------------------------------
+    const std::array<double, 3> origin = local_origin(points);
+    std::array<double, 3> upper = origin;
+    for (std::size_t i = 0; i < n; ++i)
+        for (int a = 0; a < 3; ++a) upper[a] = std::max(upper[a], points.coord(i, a));
+    const double ex = upper[0] - origin[0], ey = upper[1] - origin[1];
+    if (!std::isfinite(upper[2] - origin[2]))
+        throw std::invalid_argument("points: the z extent is too large (not finite in float64)");
+    if (!std::isfinite(ex) || !std::isfinite(ey))
+        throw std::invalid_argument("points: the XY extent is too large (not finite in float64)");
+    const GridFrame frame = make_grid_frame(0.0, 0.0, ex, ey);
+
+    std::vector<std::int32_t> gx(n), gy(n);
+#pragma omp parallel for schedule(static)
+    for (std::ptrdiff_t i = 0; i < static_cast<std::ptrdiff_t>(n); ++i) {
+        gx[i] = frame.grid_x(points.coord(i, 0) - origin[0]);
+        gy[i] = frame.grid_y(points.coord(i, 1) - origin[1]);
+    }
+
+    // A TIN needs three points not on one line (exact test on the grid).
+    {
+        std::size_t second = 0;
+        while (second < n && gx[second] == gx[0] && gy[second] == gy[0]) ++second;
+        bool spread = false;
+        for (std::size_t k = second + 1; k < n && second < n && !spread; ++k)
+            spread = orient2d(gx[0], gy[0], gx[second], gy[second], gx[k], gy[k]) != 0;
+        if (!spread)
+            throw std::invalid_argument(
+                "points are all collinear in XY (or fewer than 3 distinct XY positions): "
+                "a TIN needs 3 points not on one line");
+    }
+
+    // --- 2. seeds: lowest point per max_building_size cell --------------------------
+    const double cell = params.max_building_size;
+    if (!(ex / cell < 0x1p31) || !(ey / cell < 0x1p31))
+        throw std::invalid_argument(
+            "max_building_size is too small for the XY extent (more than "
+            "2^31 seed cells per axis), got " +
+            number(cell));
+    const std::vector<std::uint32_t> seeds =
+        params.seed_cell > 0.0
+            ? morphological_seeds(points, origin, ex, ey, params)
+            : lowest_points(points, origin, cell,
+                            static_cast<std::int64_t>(std::floor(ex / cell)) + 1,
+                            static_cast<std::int64_t>(std::floor(ey / cell)) + 1);
+    stats.seeds = static_cast<std::int64_t>(seeds.size());
+    for (const std::uint32_t s : seeds) ground[s] = true;
+
+    // Of seeds sharing an XY position only the smallest index becomes a vertex.
+    std::vector<std::uint8_t> vertex_seed(n, 0);
+    {
+        std::vector<std::uint32_t> by_xy = seeds;
+        std::sort(by_xy.begin(), by_xy.end(), [&](std::uint32_t a, std::uint32_t b) {
+            return gx[a] < gx[b] ||
+                   (gx[a] == gx[b] && (gy[a] < gy[b] || (gy[a] == gy[b] && a < b)));
+        });
+        for (std::size_t k = 0; k < by_xy.size(); ++k)
+            if (k == 0 || gx[by_xy[k]] != gx[by_xy[k - 1]] || gy[by_xy[k]] != gy[by_xy[k - 1]])
+                vertex_seed[by_xy[k]] = 1;
+    }
+
+    // Virtual corners one grid step outside the extent, at the height of the nearest
+    // seed (exact squared grid distance, ties: smallest index).
+    const std::int64_t corner_x[4] = {0, frame.width, frame.width, 0};
+    const std::int64_t corner_y[4] = {0, 0, frame.height, frame.height};
+    std::array<double, 4> corner_z{};
+    for (int c = 0; c < 4; ++c) {
+        std::int64_t best_d2 = std::numeric_limits<std::int64_t>::max();
+        std::uint32_t best = 0;
+        for (const std::uint32_t i : seeds) {  // in index order: the first of equals wins
+            const std::int64_t dx = gx[i] - corner_x[c], dy = gy[i] - corner_y[c];
+            const std::int64_t d2 = dx * dx + dy * dy;
+            if (d2 < best_d2) best_d2 = d2, best = i;
+        }
+        corner_z[c] = points.coord(best, 2) - origin[2];
+    }
+
+    // Points in Morton order: local arrays indexed by sorted position.
+    const std::vector<std::uint32_t> order =
+        morton_order_2d(gx.data(), gy.data(), n, frame.width, frame.height);
+    std::vector<std::int32_t> sx(n), sy(n);
+    std::vector<double> sz(n);
+#pragma omp parallel for schedule(static)
+    for (std::ptrdiff_t s = 0; s < static_cast<std::ptrdiff_t>(n); ++s) {
+        const std::uint32_t i = order[s];
+        sx[s] = gx[i];
+        sy[s] = gy[i];
+        sz[s] = points.coord(i, 2) - origin[2];
+    }
+    std::vector<std::int32_t>().swap(gx);
+    std::vector<std::int32_t>().swap(gy);
+    stats.prepare_seconds = seconds_since(clock);
+    clock = std::chrono::steady_clock::now();
+
+    // --- 3. initial TIN: virtual corners, then the seeds ------------------------------
+    Delaunay tin(frame.width, frame.height);
+    std::vector<double> vz(corner_z.begin(), corner_z.end());
+    {
+        std::int32_t last = 0;
+        for (std::size_t s = 0; s < n; ++s) {
+            if (!vertex_seed[order[s]]) continue;
+            bool inserted = false;
+            const std::int32_t v = tin.insert(sx[s], sy[s], last, &inserted);
+            if (inserted) vz.push_back(sz[s]);
+            last = tin.vertex_triangle(v);
+        }
+    }
+    std::vector<std::uint8_t>().swap(vertex_seed);
+    stats.triangulation_seconds += seconds_since(clock);
+
+    // --- 4. densification -------------------------------------------------------------
+    const Limits lim{frame.quantum,
+                     params.iteration_distance,
+                     params.iteration_angle,
+                     params.reduce_angle_edge,
+                     params.stop_edge,
+                     params.near_vertex_distance,
+                     std::sin(params.iteration_angle * kDegToRad),
+                     std::cos(params.max_terrain_angle * kDegToRad)};
+    // Per sorted position: ground flag, the triangle slot the point was last located in,
+    // its verdict there, and its place in the doubly linked list of the unclassified
+    // points of that slot. A point is tested again only when its slot was rewritten
+    // (its triangle is gone) or it was accepted but not chosen: a failed test against
+    // a triangle that is still there would fail again.
+    std::vector<std::uint8_t> is_ground(n, 0), accepted(n, 0), stop(n, 0);
+    std::vector<std::int32_t> tri(n, -1), next(n, -1), prev(n, -1), queued(n, -1);
+    std::vector<double> dist(n, 0.0);
+    std::vector<std::int32_t> head;     // per triangle slot: first unclassified point
+    std::vector<std::int32_t> best_of;  // per triangle slot: chosen point
+    std::vector<std::uint32_t> work, chosen, pending;
+    for (std::size_t s = 0; s < n; ++s) {
+        is_ground[s] = ground[order[s]];
+        if (!is_ground[s]) work.push_back(static_cast<std::uint32_t>(s));
+    }
+    auto link = [&](std::uint32_t s) {
+        const std::int32_t t = tri[s];
+        prev[s] = -1;
+        next[s] = head[t];
+        if (head[t] >= 0) prev[head[t]] = static_cast<std::int32_t>(s);
+        head[t] = static_cast<std::int32_t>(s);
+    };
+    auto unlink = [&](std::uint32_t s) {
+        if (prev[s] >= 0)
+            next[prev[s]] = next[s];
+        else
+            head[tri[s]] = next[s];
+        if (next[s] >= 0) prev[next[s]] = prev[s];
+    };
+
+    for (std::int32_t iteration = 0;; ++iteration) {
+        clock = std::chrono::steady_clock::now();
+        std::exception_ptr failure;
+        const auto m = static_cast<std::ptrdiff_t>(work.size());
+#pragma omp parallel if (m > 4096)
+        {
+            std::int32_t last = 0;
+#pragma omp for schedule(dynamic, 1024)
+            for (std::ptrdiff_t k = 0; k < m; ++k) {
+                const std::uint32_t s = work[k];
+                try {
+                    const std::int32_t t = tin.locate(sx[s], sy[s], tri[s] >= 0 ? tri[s] : last);
+                    const Verdict verdict = evaluate(tin, vz, lim, sx[s], sy[s], sz[s], t);
+                    last = tri[s] = t;
+                    accepted[s] = verdict.accepted;
+                    stop[s] = verdict.stop;
+                    dist[s] = verdict.d;
+                } catch (...) {
+#pragma omp critical(pcl_rg_tin_ground_failure)
+                    if (!failure) failure = std::current_exception();
+                }
+            }
+        }
+        if (failure) std::rethrow_exception(failure);
+        stats.tests += m;
+
+        // One chosen point per densifiable triangle: smallest d, then smallest index.
+        best_of.resize(tin.triangle_count(), -1);
+        std::int64_t added = 0;
+        for (const std::uint32_t s : work) {
+            if (!accepted[s]) continue;
+            if (stop[s]) {
+                is_ground[s] = 1;
+                ++added;
+                continue;
+            }
+            std::int32_t& b = best_of[tri[s]];
+            if (b < 0 || dist[s] < dist[b] || (dist[s] == dist[b] && order[s] < order[b]))
+                b = static_cast<std::int32_t>(s);
+        }
+        chosen.clear();
+        pending.clear();
+        for (const std::uint32_t s : work) {
+            if (!accepted[s] || stop[s]) continue;
+            if (best_of[tri[s]] == static_cast<std::int32_t>(s)) {
+                chosen.push_back(s);
+                is_ground[s] = 1;
+                ++added;
+            } else {
+                pending.push_back(s);  // accepted, not chosen: try again on the denser TIN
+            }
+        }
+        for (const std::uint32_t s : chosen) best_of[tri[s]] = -1;
+        head.resize(tin.triangle_count(), -1);
+        for (const std::uint32_t s : work)
+            if (!is_ground[s]) link(s);
+        stats.classification_seconds += seconds_since(clock);
+        stats.iterations = iteration + 1;
+        if (added == 0) break;
+
+        // Insert the chosen points in Morton order, each walking from its own triangle.
+        clock = std::chrono::steady_clock::now();
+        tin.set_stamp(iteration + 1);
+        std::sort(chosen.begin(), chosen.end());
+        for (const std::uint32_t s : chosen) {
+            bool inserted = false;
+            tin.insert(sx[s], sy[s], tri[s], &inserted);
+            if (inserted) vz.push_back(sz[s]);
+        }
+        stats.triangulation_seconds += seconds_since(clock);
+
+        // Next work: the points of rewritten slots, and the pending ones.
+        clock = std::chrono::steady_clock::now();
+        work.clear();
+        head.resize(tin.triangle_count(), -1);
+        for (const std::int32_t t : tin.touched()) {
+            for (std::int32_t s = head[t]; s >= 0; s = next[s]) {
+                work.push_back(static_cast<std::uint32_t>(s));
+                queued[s] = iteration;
+            }
+            head[t] = -1;
+        }
+        for (const std::uint32_t s : pending)
+            if (queued[s] != iteration) {
+                unlink(s);
+                work.push_back(s);
+                queued[s] = iteration;
+            }
+        stats.classification_seconds += seconds_since(clock);
+    }
+    for (std::size_t s = 0; s < n; ++s) ground[order[s]] = is_ground[s];
+    stats.tin_vertices = static_cast<std::int64_t>(tin.vertex_count());
+    return stats;
+}
+
+}  // namespace pcl_rg

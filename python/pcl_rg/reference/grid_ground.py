@@ -1,0 +1,163 @@
+"""NumPy/SciPy reference for :func:`pcl_rg.grid_ground`."""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+import numpy.typing as npt
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+from scipy.spatial import cKDTree
+
+from .._validation import as_points, resolve_params
+from ..grid_ground import GridGroundParams
+
+__all__ = ["GridNeighbours", "grid_ground", "grid_neighbours"]
+
+
+class GridNeighbours(NamedTuple):
+    """Every neighbour pair of :func:`grid_neighbours`, each once (i < j)."""
+
+    i: np.ndarray
+    """intp (P,): first point of each pair."""
+    j: np.ndarray
+    """intp (P,): second point of each pair."""
+    d: np.ndarray
+    """float64 (P,): ``sqrt(dx*dx + dy*dy)`` of the local x, y differences."""
+    dz: np.ndarray
+    """float64 (P,): ``l_z(i) - l_z(j)``."""
+    same_block: np.ndarray
+    """bool (P,): both points in one block."""
+    block: np.ndarray
+    """intp (N,): block number of every point."""
+    z: np.ndarray
+    """float64 (N,): local z of every point."""
+
+
+def grid_neighbours(points: npt.ArrayLike, params: GridGroundParams) -> GridNeighbours:
+    """All pairs of points whose cells differ by at most 1 on x and on y.
+
+    In float64 local coordinates ``l = p - min corner``: block
+    ``floor(l_xy / block_size)``, cell ``floor(l_xy / cell_size)``.
+    """
+    xyz = as_points(points)
+    local = xyz - xyz.min(axis=0)
+    block_xy = np.floor(local[:, :2] / np.asarray(params.block_size)).astype(np.int64)
+    block = np.unique(block_xy, axis=0, return_inverse=True)[1].ravel().astype(np.intp)
+    scaled = local[:, :2] / np.asarray(params.cell_size)
+    cell = np.floor(scaled).astype(np.int64)
+    # Cells at most 1 apart hold points less than 2 cell widths apart on each axis, so
+    # the Chebyshev pairs within 2 (in cell units) are a superset of the neighbours.
+    pairs = cKDTree(scaled).query_pairs(2.0, p=np.inf, output_type="ndarray")
+    i, j = pairs[:, 0].astype(np.intp), pairs[:, 1].astype(np.intp)
+    near = (np.abs(cell[i] - cell[j]) <= 1).all(axis=1)
+    i, j = i[near], j[near]
+    order = np.lexsort((j, i))
+    i, j = i[order], j[order]
+    # Same operations in the same order as the core.
+    dx = local[i, 0] - local[j, 0]
+    dy = local[i, 1] - local[j, 1]
+    d = np.sqrt(dx * dx + dy * dy)
+    dz = local[i, 2] - local[j, 2]
+    return GridNeighbours(i, j, d, dz, block[i] == block[j], block, local[:, 2])
+
+
+def _slope_filter(nb: GridNeighbours, p: GridGroundParams, against: np.ndarray) -> np.ndarray:
+    """Candidates: no tested neighbour lies lower by more than the filter allows."""
+    threshold = p.filter_slope * nb.d + p.filter_tolerance
+    i_too_high = (nb.dz > threshold) & against[nb.j]
+    j_too_high = (-nb.dz > threshold) & against[nb.i]
+    candidate = np.ones(len(nb.z), dtype=bool)
+    candidate[nb.i[i_too_high]] = False
+    candidate[nb.j[j_too_high]] = False
+    return candidate
+
+
+def _grow(nb: GridNeighbours, p: GridGroundParams, candidate: np.ndarray) -> np.ndarray:
+    """Union of the components of the blocks' seeds, among the candidates."""
+    n = len(nb.z)
+    linked = np.abs(nb.dz) <= p.slope * nb.d + p.height_tolerance
+    linked &= candidate[nb.i] & candidate[nb.j]
+    if not p.grow_across_blocks:
+        linked &= nb.same_block
+    graph = coo_matrix(
+        (np.ones(int(linked.sum()), dtype=np.int8), (nb.i[linked], nb.j[linked])), shape=(n, n)
+    )
+    _, component = connected_components(graph, directed=False)
+    size = np.bincount(component[candidate], minlength=component.max() + 1)
+
+    # Seeds: candidates in (block, z, index) order; per block the first whose
+    # component is large enough, else the first.
+    order = np.lexsort((np.arange(n), nb.z, nb.block))
+    order = order[candidate[order]]
+    blocks = nb.block[order]
+    first = np.flatnonzero(np.r_[True, blocks[1:] != blocks[:-1]]) if len(order) else order
+    end = np.r_[first[1:], len(order)]
+    seed_component = component[order[first]]
+    large = np.flatnonzero(size[component[order]] >= p.min_seed_component)
+    k = np.searchsorted(large, first)
+    found = k < len(large)
+    found[found] = large[k[found]] < end[found]
+    seed_component[found] = component[order[large[k[found]]]]
+
+    seeded = np.zeros(len(size), dtype=bool)
+    seeded[seed_component] = True
+    return candidate & seeded[component]
+
+
+def grid_ground(
+    points: npt.ArrayLike,
+    *,
+    block_size: float | tuple[float, float] | None = None,
+    cell_size: float | tuple[float, float] | None = None,
+    slope: float | None = None,
+    height_tolerance: float | None = None,
+    min_seed_component: int | None = None,
+    grow_across_blocks: bool | None = None,
+    filter_passes: int | None = None,
+    filter_slope: float | None = None,
+    filter_tolerance: float | None = None,
+    params: GridGroundParams | None = None,
+) -> np.ndarray:
+    """Reference grid ground filter: same signature and result as :func:`pcl_rg.grid_ground`.
+
+    Builds the whole neighbour graph (candidate pairs from a k-d tree,
+    filtered by cell), applies the pre-filter and the link rule to it, labels
+    the connected components with SciPy and takes per block the component of
+    the seed.
+
+    Examples
+    --------
+    >>> from pcl_rg import reference
+    >>> from pcl_rg import GridGroundParams
+    >>> pts = [[0, 0, 0.0], [1, 0, 0.5], [2, 0, 5.0]]
+    >>> plain = GridGroundParams.definition(block_size=10, cell_size=1, slope=1.0)
+    >>> reference.grid_ground(pts, params=plain).tolist()
+    [True, True, False]
+    """
+    p = resolve_params(
+        GridGroundParams,
+        params,
+        block_size=block_size,
+        cell_size=cell_size,
+        slope=slope,
+        height_tolerance=height_tolerance,
+        min_seed_component=min_seed_component,
+        grow_across_blocks=grow_across_blocks,
+        filter_passes=filter_passes,
+        filter_slope=filter_slope,
+        filter_tolerance=filter_tolerance,
+    )
+    xyz = as_points(points)
+    n = len(xyz)
+    if n == 0:
+        return np.empty(0, dtype=bool)
+    nb = grid_neighbours(xyz, p)
+    candidate = np.ones(n, dtype=bool)
+    ground = np.ones(n, dtype=bool)  # pass 1 tests against every point
+    for _ in range(max(p.filter_passes, 1)):
+        if p.filter_passes > 0:
+            candidate = _slope_filter(nb, p, against=ground)
+        ground = _grow(nb, p, candidate)
+    return ground

@@ -1,0 +1,331 @@
+"""NumPy/SciPy reference for :func:`pcl_rg.tin_ground`.
+
+Follows section 4 of the algorithms document and the choices stated in
+``cpp/src/tin_ground.cpp`` step by step, but rebuilds the TIN with
+:class:`scipy.spatial.Delaunay` (qhull) in every iteration instead of inserting
+points, and tests every unclassified point in every iteration. The floating-point
+formulas are the core's, operation for operation, on the same snapped grid, so
+the two agree point for point whenever qhull picks the same Delaunay
+triangulation; they can differ only where it is not unique (four or more
+co-circular vertices, frequent on gridded data such as the ISPRS samples).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import numpy.typing as npt
+from scipy import ndimage
+from scipy.spatial import Delaunay, cKDTree
+
+from .._validation import as_points, resolve_params
+from ..tin_ground import TinGroundParams
+
+__all__ = ["grid_quantum", "locate", "tin_ground", "triangulate"]
+
+_DEG_TO_RAD = math.pi / 180.0
+
+
+def grid_quantum(extent: float) -> float:
+    """The core's grid step for an XY extent: the smallest power of two >= extent / 2^29
+    and >= 2^-40 (``make_grid_frame`` in ``delaunay.cpp``)."""
+    target = math.ldexp(extent, -29)
+    quantum = math.ldexp(1.0, -40)
+    if target > quantum:
+        mantissa, exponent = math.frexp(target)
+        quantum = math.ldexp(1.0, exponent - 1 if mantissa == 0.5 else exponent)
+    return quantum
+
+
+def _orient(ax, ay, bx, by, px, py):  # type: ignore[no-untyped-def]
+    """Exact orientation on the integer grid (|coordinates| <= 2^30: fits int64)."""
+    return (bx - ax) * (py - ay) - (by - ay) * (px - ax)
+
+
+def _orient_perturbed(ax, ay, bx, by, px, py):  # type: ignore[no-untyped-def]
+    """Sign of orient(a, b, p + (eps, eps^2)): never 0 for a != b."""
+    sign = np.sign(_orient(ax, ay, bx, by, px, py))
+    tie = sign == 0
+    sign[tie] = np.where(ay[tie] != by[tie], np.sign(ay[tie] - by[tie]), np.sign(bx[tie] - ax[tie]))
+    return sign
+
+
+def triangulate(vx: np.ndarray, vy: np.ndarray, quantum: float) -> tuple:
+    """qhull's Delaunay triangulation of integer vertices (given to qhull in metres).
+
+    Returns ``(tri, neighbors, vertex_to_simplex)``: the triangles (T, 3)
+    counter-clockwise, each starting at its lexicographically smallest (x, y) vertex,
+    the triangle across the edge opposite each vertex (-1 on the hull), and one
+    triangle per vertex. qhull's triangulated output may hold zero-area rows where
+    four or more points are co-circular; they are kept for walking but can hold no
+    point.
+    """
+    dt = Delaunay(np.c_[vx, vy].astype(np.float64) * quantum)
+    s = dt.simplices.astype(np.int64)
+    nb = dt.neighbors.astype(np.int64)
+    o = _orient(vx[s[:, 0]], vy[s[:, 0]], vx[s[:, 1]], vy[s[:, 1]], vx[s[:, 2]], vy[s[:, 2]])
+    cw = o < 0
+    s[cw] = s[cw][:, [0, 2, 1]]
+    nb[cw] = nb[cw][:, [0, 2, 1]]
+    key = vx[s] * (1 << 31) + vy[s]  # lexicographic (x, y); vx < 2^31
+    turn = (np.argmin(key, axis=1)[:, None] + np.arange(3)) % 3
+    rows = np.arange(len(s))[:, None]
+    return s[rows, turn], nb[rows, turn], dt.vertex_to_simplex.astype(np.int64)
+
+
+def locate(
+    tri: np.ndarray,
+    neighbors: np.ndarray,
+    vertex_to_simplex: np.ndarray,
+    vx: np.ndarray,
+    vy: np.ndarray,
+    px: np.ndarray,
+    py: np.ndarray,
+) -> np.ndarray:
+    """Row of the triangle holding each p + (eps, eps^2), found as the core finds it.
+
+    A visibility walk, all points at once, from a triangle of each point's nearest
+    vertex: step across the first edge (in the row's order) that has p + (eps, eps^2)
+    strictly on its outer side, until none has.
+    """
+    _, near = cKDTree(np.c_[vx, vy].astype(np.float64)).query(np.c_[px, py].astype(np.float64))
+    current = vertex_to_simplex[near]
+    result = np.full(len(px), -1, dtype=np.int64)
+    todo = np.arange(len(px))
+    for _ in range(4 * len(tri) + 64):
+        t = current[todo]
+        a, b, c = tri[t, 0], tri[t, 1], tri[t, 2]
+        x, y = px[todo], py[todo]
+        side = np.stack(
+            [
+                _orient_perturbed(vx[b], vy[b], vx[c], vy[c], x, y),
+                _orient_perturbed(vx[c], vy[c], vx[a], vy[a], x, y),
+                _orient_perturbed(vx[a], vy[a], vx[b], vy[b], x, y),
+            ],
+            axis=1,
+        )
+        inside = (side > 0).all(axis=1)
+        result[todo[inside]] = t[inside]
+        out = ~inside
+        current[todo[out]] = neighbors[t[out], np.argmax(side[out] < 0, axis=1)]
+        todo = todo[out]
+        if todo.size == 0:
+            return result
+    raise RuntimeError("point location did not terminate")  # pragma: no cover
+
+
+def _lowest_in_cells(xyz: np.ndarray, local: np.ndarray, cell: float, ncy: int) -> tuple:
+    """(cell key per point, lowest point (ties: index) of each occupied cell, its key)."""
+    key = np.floor(local[:, 0] / cell).astype(np.int64) * ncy + np.floor(local[:, 1] / cell).astype(
+        np.int64
+    )
+    by_cell = np.lexsort((np.arange(len(xyz)), xyz[:, 2], key))
+    first = by_cell[np.r_[True, key[by_cell][1:] != key[by_cell][:-1]]]
+    return key, first, key[first]
+
+
+def _morphological_seeds(
+    xyz: np.ndarray, local: np.ndarray, ex: float, ey: float, p: TinGroundParams
+) -> np.ndarray:
+    """Seeds of the ``seed_cell`` option (``morphological_seeds`` in tin_ground.cpp)."""
+    cell = p.seed_cell
+    if (
+        not (math.floor(ex / cell) + 1.0) * (math.floor(ey / cell) + 1.0)
+        <= 4.0 * len(xyz) + 4194304.0
+    ):
+        raise ValueError(
+            f"seed_cell is too small for the XY extent (more than 4 cells per point), got {cell:g}"
+        )
+    ncx, ncy = math.floor(ex / cell) + 1, math.floor(ey / cell) + 1
+    _, lowest, cells = _lowest_in_cells(xyz, local, cell, ncy)
+    height = np.full(ncx * ncy, np.inf)
+    height[cells] = local[lowest, 2]
+    height = height.reshape(ncx, ncy)
+    if p.outlier_depth > 0:
+        while True:  # peel low outliers: below the 9th lowest of the 5 x 5 window
+            ninth = ndimage.rank_filter(height, rank=8, size=5, mode="constant", cval=np.inf)
+            bad = np.isfinite(height) & np.isfinite(ninth) & (height < ninth - p.outlier_depth)
+            if not bad.any():
+                break
+            height[bad] = np.inf
+    size = 2 * math.floor(p.max_building_size / (2.0 * cell)) + 1
+    eroded = ndimage.minimum_filter(height, size=size, mode="constant", cval=np.inf)
+    opened = ndimage.maximum_filter(
+        np.where(np.isinf(eroded), -np.inf, eroded), size=size, mode="constant", cval=-np.inf
+    )
+    keep = (np.isfinite(height) & (height - opened <= p.seed_tolerance)).ravel()[cells]
+    return np.sort(lowest[keep])
+
+
+def _evaluate(tri, vx, vy, vz, q, px, py, pz, p: TinGroundParams):  # type: ignore[no-untyped-def]
+    """(accepted, stop, d) per point; the formulas of ``evaluate`` in tin_ground.cpp."""
+    x = (vx[tri] - 1).astype(np.float64) * q
+    y = (vy[tri] - 1).astype(np.float64) * q
+    z = vz[tri]
+    pxm = (px - 1).astype(np.float64) * q
+    pym = (py - 1).astype(np.float64) * q
+    longest2 = np.zeros(len(tri))
+    for k in range(3):
+        j = (k + 1) % 3
+        dx = x[:, j] - x[:, k]
+        dy = y[:, j] - y[:, k]
+        longest2 = np.maximum(longest2, dx * dx + dy * dy)
+    longest = np.sqrt(longest2)
+    stop = longest < p.stop_edge
+
+    ux, uy, uz = x[:, 1] - x[:, 0], y[:, 1] - y[:, 0], z[:, 1] - z[:, 0]
+    wx, wy, wz = x[:, 2] - x[:, 0], y[:, 2] - y[:, 0], z[:, 2] - z[:, 0]
+    nx = uy * wz - uz * wy
+    ny = uz * wx - ux * wz
+    nz = ux * wy - uy * wx
+    num = nx * (pxm - x[:, 0]) + ny * (pym - y[:, 0]) + nz * (pz - z[:, 0])
+    d = np.abs(num) / np.sqrt(nx * nx + ny * ny + nz * nz)
+    accepted = d <= p.iteration_distance
+
+    # math.sin, as the core calls the C library's sin (NumPy may use its own).
+    sin_limit = np.full(len(tri), math.sin(p.iteration_angle * _DEG_TO_RAD))
+    reduced = np.flatnonzero(longest < p.reduce_angle_edge)
+    sin_limit[reduced] = [
+        math.sin(p.iteration_angle * float(L) / p.reduce_angle_edge * _DEG_TO_RAD)
+        for L in longest[reduced]
+    ]
+    for k in range(3):
+        dx, dy, dz = pxm - x[:, k], pym - y[:, k], pz - z[:, k]
+        r = np.maximum(np.sqrt(dx * dx + dy * dy + dz * dz), p.near_vertex_distance)
+        accepted &= d <= sin_limit * r
+
+    cos_terrain = math.cos(p.max_terrain_angle * _DEG_TO_RAD)
+    for k in range(3):
+        j = (k + 1) % 3
+        a, b = tri[:, k], tri[:, j]
+        flat = _orient(vx[a], vy[a], vx[b], vy[b], px, py) == 0
+        ax, ay, az = x[:, k] - pxm, y[:, k] - pym, z[:, k] - pz
+        bx, by, bz = x[:, j] - pxm, y[:, j] - pym, z[:, j] - pz
+        mx = ay * bz - az * by
+        my = az * bx - ax * bz
+        mz = ax * by - ay * bx
+        steep = np.abs(mz) < cos_terrain * np.sqrt(mx * mx + my * my + mz * mz)
+        accepted &= flat | ~steep
+    return accepted, stop, d
+
+
+def tin_ground(
+    points: npt.ArrayLike,
+    *,
+    max_building_size: float | None = None,
+    max_terrain_angle: float | None = None,
+    iteration_angle: float | None = None,
+    iteration_distance: float | None = None,
+    reduce_angle_edge: float | None = None,
+    stop_edge: float | None = None,
+    near_vertex_distance: float | None = None,
+    seed_cell: float | None = None,
+    seed_tolerance: float | None = None,
+    outlier_depth: float | None = None,
+    params: TinGroundParams | None = None,
+) -> np.ndarray:
+    """Reference progressive TIN densification: same signature and result as the core.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from pcl_rg import reference
+    >>> rng = np.random.default_rng(1)
+    >>> pts = np.c_[rng.uniform(0, 40, (500, 2)), rng.normal(0, 0.05, 500)]
+    >>> pts[:20, 2] += 5.0  # twenty points well above a flat terrain
+    >>> ground = reference.tin_ground(pts, iteration_angle=30.0, reduce_angle_edge=0.01)
+    >>> bool(ground[:20].any()), bool(ground[20:].mean() > 0.95)
+    (False, True)
+    """
+    p = resolve_params(
+        TinGroundParams,
+        params,
+        max_building_size=max_building_size,
+        max_terrain_angle=max_terrain_angle,
+        iteration_angle=iteration_angle,
+        iteration_distance=iteration_distance,
+        reduce_angle_edge=reduce_angle_edge,
+        stop_edge=stop_edge,
+        near_vertex_distance=near_vertex_distance,
+        seed_cell=seed_cell,
+        seed_tolerance=seed_tolerance,
+        outlier_depth=outlier_depth,
+    )
+    xyz = as_points(points)
+    n = len(xyz)
+    if n == 0:
+        return np.zeros(0, dtype=bool)
+    if n < 3:
+        raise ValueError(f"points must hold at least 3 points for a TIN, got {n}")
+
+    # 1. Local frame and integer grid.
+    local = xyz - xyz.min(axis=0)
+    ex, ey, ez = local.max(axis=0)
+    if not (math.isfinite(ex) and math.isfinite(ey)):
+        raise ValueError("points: the XY extent is too large (not finite in float64)")
+    if not math.isfinite(ez):
+        raise ValueError("points: the z extent is too large (not finite in float64)")
+    q = grid_quantum(max(ex, ey))
+    gx = np.rint(local[:, 0] / q).astype(np.int64) + 1
+    gy = np.rint(local[:, 1] / q).astype(np.int64) + 1
+    width, height = int(np.rint(ex / q)) + 2, int(np.rint(ey / q)) + 2
+    pz = local[:, 2]
+    other = np.flatnonzero((gx != gx[0]) | (gy != gy[0]))
+    if other.size == 0 or not _orient(gx[0], gy[0], gx[other[0]], gy[other[0]], gx, gy).any():
+        raise ValueError(
+            "points are all collinear in XY (or fewer than 3 distinct XY positions): "
+            "a TIN needs 3 points not on one line"
+        )
+
+    # 2. Seeds: lowest point (ties: index) of each max_building_size cell.
+    cell = p.max_building_size
+    if not (ex / cell < 2.0**31 and ey / cell < 2.0**31):
+        raise ValueError(
+            "max_building_size is too small for the XY extent (more than 2^31 seed cells "
+            f"per axis), got {cell:g}"
+        )
+    if p.seed_cell > 0:
+        seeds = _morphological_seeds(xyz, local, ex, ey, p)
+    else:
+        seeds = np.sort(_lowest_in_cells(xyz, local, cell, math.floor(ey / cell) + 1)[1])
+    ground = np.zeros(n, dtype=bool)
+    ground[seeds] = True
+    by_xy = seeds[np.lexsort((seeds, gy[seeds], gx[seeds]))]
+    first = np.r_[True, (gx[by_xy][1:] != gx[by_xy][:-1]) | (gy[by_xy][1:] != gy[by_xy][:-1])]
+    vertex_seeds = by_xy[first]
+
+    # Virtual corners at the height of the nearest seed (exact distance, ties: index).
+    corner_x = np.array([0, width, width, 0], dtype=np.int64)
+    corner_y = np.array([0, 0, height, height], dtype=np.int64)
+    corner_z = np.empty(4)
+    for c in range(4):
+        d2 = (gx[seeds] - corner_x[c]) ** 2 + (gy[seeds] - corner_y[c]) ** 2
+        corner_z[c] = pz[seeds[np.lexsort((seeds, d2))[0]]]
+    vx = np.r_[corner_x, gx[vertex_seeds]]
+    vy = np.r_[corner_y, gy[vertex_seeds]]
+    vz = np.r_[corner_z, pz[vertex_seeds]]
+
+    # 3. Densify until an iteration adds no ground point.
+    while True:
+        unclassified = np.flatnonzero(~ground)
+        if unclassified.size == 0:
+            break
+        tri, neighbors, vertex_to_simplex = triangulate(vx, vy, q)
+        px, py = gx[unclassified], gy[unclassified]
+        t = locate(tri, neighbors, vertex_to_simplex, vx, vy, px, py)
+        accepted, stop, d = _evaluate(tri[t], vx, vy, vz, q, px, py, pz[unclassified], p)
+        stopped = unclassified[accepted & stop]
+        cand = accepted & ~stop
+        ci, ct, cd = unclassified[cand], t[cand], d[cand]
+        order = np.lexsort((ci, cd, ct))
+        chosen = ci[order][np.r_[True, ct[order][1:] != ct[order][:-1]]] if ci.size else ci
+        if stopped.size == 0 and chosen.size == 0:
+            break
+        ground[stopped] = True
+        ground[chosen] = True
+        new = ~np.isin(gx[chosen] * (1 << 31) + gy[chosen], vx * (1 << 31) + vy)
+        vx = np.r_[vx, gx[chosen[new]]]
+        vy = np.r_[vy, gy[chosen[new]]]
+        vz = np.r_[vz, pz[chosen[new]]]
+    return ground

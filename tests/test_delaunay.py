@@ -1,0 +1,217 @@
+"""The TIN of tin_ground: incremental Delaunay triangulation with exact predicates.
+
+Every check is exact: the triangulation lives on an integer grid, and the tests
+compute orientations and in-circle determinants with Python integers.
+"""
+
+from __future__ import annotations
+
+import math
+from fractions import Fraction
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from pcl_rg import _core
+
+
+def orient(a, b, c):
+    """Exact orientation (twice the signed area) with Python ints or Fractions."""
+    return (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+
+
+def incircle(a, b, c, d) -> int:
+    """Exact in-circle determinant with Python ints: > 0 when d is strictly inside."""
+    rows = []
+    for p in (a, b, c):
+        dx, dy = int(p[0]) - int(d[0]), int(p[1]) - int(d[1])
+        rows.append((dx, dy, dx * dx + dy * dy))
+    (a0, a1, a2), (b0, b1, b2), (c0, c1, c2) = rows
+    return a0 * (b1 * c2 - b2 * c1) - a1 * (b0 * c2 - b2 * c0) + a2 * (b0 * c1 - b1 * c0)
+
+
+def check_triangulation(tin: _core.DelaunayTin) -> None:
+    """Valid, counter-clockwise, covering the box, neighbours consistent, Delaunay."""
+    v = tin.vertices.tolist()
+    tri = tin.triangles.tolist()
+    nbr = tin.neighbors.tolist()
+    width, height = v[2]
+    assert len(tri) == 2 * len(v) - 6  # Euler, with the 4 box corners on the hull
+    twice_area = 0
+    for t, (a, b, c) in enumerate(tri):
+        area = orient(v[a], v[b], v[c])
+        assert area > 0, f"triangle {t} is not counter-clockwise"
+        twice_area += area
+        for k in range(3):
+            u = nbr[t][k]
+            edge = {tri[t][(k + 1) % 3], tri[t][(k + 2) % 3]}
+            if u < 0:  # on the box: both ends on the same box side
+                p, q = (v[i] for i in edge)
+                assert p[0] == q[0] in (0, width) or p[1] == q[1] in (0, height)
+            else:
+                assert t in nbr[u] and edge <= set(tri[u])
+    assert twice_area == 2 * width * height
+    # Global Delaunay property: no vertex strictly inside any circumcircle.
+    for a, b, c in tri:
+        assert all(incircle(v[a], v[b], v[c], p) <= 0 for p in v)
+
+
+def located_in_closure(tin: _core.DelaunayTin, grid, triangles) -> None:
+    v = tin.vertices.tolist()
+    tri = tin.triangles.tolist()
+    for p, t in zip(grid.tolist(), triangles.tolist()):
+        a, b, c = (v[i] for i in tri[t])
+        assert orient(a, b, p) >= 0 and orient(b, c, p) >= 0 and orient(c, a, p) >= 0
+
+
+def build(points: np.ndarray, lower=(0.0, 0.0), upper=(10.0, 10.0)) -> tuple:
+    tin = _core.DelaunayTin(lower[0], lower[1], upper[0], upper[1])
+    ids = tin.insert(np.ascontiguousarray(points, dtype=np.float64))
+    return tin, ids
+
+
+def check_vertices(tin: _core.DelaunayTin, points: np.ndarray, ids: np.ndarray) -> None:
+    """Each point sits on its vertex; equal grid positions share one vertex."""
+    grid = tin.to_grid(np.ascontiguousarray(points, dtype=np.float64))
+    np.testing.assert_array_equal(tin.vertices[ids], grid)
+    assert len(tin.vertices) == 4 + len(np.unique(grid, axis=0))
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_random_points(seed: int) -> None:
+    points = np.random.default_rng(seed).uniform(0.0, 10.0, (150, 2))
+    tin, ids = build(points)
+    check_triangulation(tin)
+    check_vertices(tin, points, ids)
+    grid = tin.to_grid(points)
+    located_in_closure(tin, grid, tin.locate(points))
+
+
+def test_gridded_points_are_cocircular_everywhere() -> None:
+    # A square lattice: every cell's four corners are co-circular, so the
+    # triangulation is one of many valid ones; it must still be valid and Delaunay.
+    xs = np.arange(1.0, 10.0)
+    points = np.array([(x, y) for x in xs for y in xs])
+    tin, _ = build(points[np.random.default_rng(4).permutation(len(points))])
+    check_triangulation(tin)
+    assert len(tin.vertices) == 4 + len(points)
+
+
+def test_collinear_points_then_one_off_the_line() -> None:
+    line = np.c_[np.linspace(1.0, 9.0, 40), np.linspace(1.0, 9.0, 40)]
+    tin, ids = build(line)
+    check_triangulation(tin)  # the box corners make every step a proper triangulation
+    ids2 = tin.insert(np.array([[2.0, 8.0]]))
+    check_triangulation(tin)
+    assert len(set(ids.tolist() + ids2.tolist())) == 41
+
+
+def test_duplicates_are_located_on_their_vertex() -> None:
+    points = np.random.default_rng(5).uniform(0.0, 10.0, (60, 2))
+    tin, ids = build(np.vstack([points, points[::-1], points[:10]]))
+    check_triangulation(tin)
+    assert len(tin.vertices) == 64
+    n = len(points)
+    np.testing.assert_array_equal(ids[n : 2 * n], ids[:n][::-1])
+    np.testing.assert_array_equal(ids[2 * n :], ids[:10])
+
+
+def test_points_on_edges_and_box_sides() -> None:
+    # Midpoints of a lattice lie on existing edges; bound points lie one grid step
+    # inside the box sides.
+    lattice = np.array([(x, y) for x in (2.0, 4.0, 6.0) for y in (2.0, 4.0, 6.0)])
+    tin, _ = build(lattice)
+    mids = np.array([(3.0, 2.0), (2.0, 3.0), (3.0, 3.0), (5.0, 5.0), (0.0, 0.0), (10.0, 5.0)])
+    tin.insert(mids)
+    check_triangulation(tin)
+
+
+def test_location_breaks_ties_by_the_perturbation() -> None:
+    """A point on an edge or vertex is located where p + (eps, eps^2) lies."""
+    points = np.random.default_rng(6).uniform(0.0, 10.0, (40, 2))
+    tin, _ = build(points)
+    v = tin.vertices.tolist()
+    tri = tin.triangles.tolist()
+    # Queries exactly on vertices and on edge midpoints (when representable).
+    queries = [v[i] for i in range(4, len(v))]
+    queries += [((v[a][0] + v[b][0]) // 2, (v[a][1] + v[b][1]) // 2) for a, b, _ in tri]
+    q = tin.quantum
+    xy = np.array([((gx - 1) * q, (gy - 1) * q) for gx, gy in queries])
+    keep = (xy >= 0).all(axis=1) & (xy <= 10.0).all(axis=1)
+    xy = xy[keep]
+    grid = tin.to_grid(xy).tolist()
+    eps = Fraction(1, 2**40)  # small enough for coordinates below 2^31 (see delaunay.cpp)
+    for p, t in zip(grid, tin.locate(xy).tolist()):
+        pp = (p[0] + eps, p[1] + eps * eps)
+        a, b, c = (v[i] for i in tri[t])
+        assert orient(a, b, pp) > 0 and orient(b, c, pp) > 0 and orient(c, a, pp) > 0
+
+
+def test_the_grid_is_fine_and_exact() -> None:
+    for extent in (1e-9, 1e-3, 1.0, 250.0, 4321.5, 3e6):
+        tin = _core.DelaunayTin(5e5, 5e6, 5e5 + extent, 5e6 + extent)
+        q = tin.quantum
+        assert math.frexp(q)[0] == 0.5  # a power of two
+        assert q >= extent / 2**29 and (q == 2.0**-40 or q / 2 < extent / 2**29)
+        xy = np.array([[5e5, 5e6], [5e5 + extent, 5e6 + extent / 3]])
+        grid = tin.to_grid(xy)
+        assert grid.min() >= 1 and tin.vertices.max() <= 2**30
+        back = (grid - 1) * q + np.array([5e5, 5e6])
+        assert np.all(np.abs(back - xy) <= q / 2 + 1e-9 * np.abs(xy))
+
+
+def test_delaunay_triangulate_indexes_input_rows() -> None:
+    rng = np.random.default_rng(7)
+    xy = rng.uniform(-50.0, 50.0, (300, 2))
+    xy = np.vstack([xy, xy[:5]])  # duplicates come back as their first row
+    tri = _core.delaunay_triangulate(xy)
+    assert tri.dtype == np.int64 and tri.shape[1] == 3 and len(tri) > 0
+    assert tri.max() < 300
+    tin = _core.DelaunayTin(*xy.min(axis=0), *xy.max(axis=0))
+    g = tin.to_grid(xy).tolist()
+    for a, b, c in tri.tolist():
+        assert orient(g[a], g[b], g[c]) > 0
+    # Delaunay among the input points (the box corners were left out of the answer).
+    sample = tri[rng.choice(len(tri), 60, replace=False)].tolist()
+    for a, b, c in sample:
+        assert all(incircle(g[a], g[b], g[c], p) <= 0 for p in g)
+    assert _core.delaunay_triangulate(np.zeros((0, 2))).shape == (0, 3)
+
+
+def test_errors() -> None:
+    with pytest.raises(ValueError, match="finite"):
+        _core.DelaunayTin(0.0, float("nan"), 1.0, 1.0)
+    with pytest.raises(ValueError, match="lower <= upper"):
+        _core.DelaunayTin(2.0, 0.0, 1.0, 1.0)
+    with pytest.raises(ValueError, match="too large"):
+        _core.DelaunayTin(-1e308, 0.0, 1e308, 1.0)
+    tin = _core.DelaunayTin(0.0, 0.0, 1.0, 1.0)
+    with pytest.raises(ValueError, match="outside the bounds"):
+        tin.insert(np.array([[0.5, 1.5]]))
+    with pytest.raises(ValueError, match="outside the bounds"):
+        tin.locate(np.array([[np.nan, 0.5]]))
+    with pytest.raises(ValueError, match=r"shape \(M, 2\)"):
+        tin.insert(np.zeros((3, 3)))
+    with pytest.raises(TypeError):
+        tin.insert(np.zeros((3, 2), dtype=np.float32))  # no silent conversion
+    assert len(tin.vertices) == 4  # nothing was inserted by the failed calls
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.lists(
+        st.tuples(st.integers(0, 6), st.integers(0, 6))
+        | st.tuples(st.floats(0, 6), st.floats(0, 6)),
+        min_size=1,
+        max_size=40,
+    )
+)
+def test_hypothesis_any_point_set_gives_a_valid_delaunay_tin(points) -> None:
+    # Small integer lattices make duplicates, collinear and co-circular points common.
+    xy = np.array(points, dtype=np.float64)
+    tin, ids = build(xy, upper=(6.0, 6.0))
+    check_triangulation(tin)
+    check_vertices(tin, xy, ids)
+    located_in_closure(tin, tin.to_grid(xy), tin.locate(xy))

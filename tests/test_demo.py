@@ -1,0 +1,104 @@
+"""Tests of the demo (pcl_rg.demo.run_demo and `pcl-rg demo`): every algorithm runs,
+the table agrees with the files written, the figures exist."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+import pcl_rg.cli as cli
+from pcl_rg.demo import run_demo
+from pcl_rg.evaluation import ground_errors
+from pcl_rg.io import read_points
+
+STAGES = [
+    "denoise: SOR",
+    "downsample: voxel grid",
+    "ground: grid",
+    "ground: tin",
+    "segment: curvature (voxels)",
+    "segment: pcl (voxels)",
+    "pipeline: seed 004",
+]
+
+
+@pytest.fixture(scope="module")
+def demo(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("demo")
+    return folder, run_demo(folder, seed=1, size=100.0, plots=True)
+
+
+def test_every_algorithm_runs(demo):
+    _, report = demo
+    assert [row["stage"] for row in report.rows] == STAGES
+    for row in report.rows:
+        assert row["seconds"] >= 0 and row["points_out"] <= row["points_in"], row["stage"]
+
+
+def test_table_matches_the_files(demo):
+    folder, report = demo
+    truth = read_points(folder / "scene_truth.laz")
+    rows = {row["stage"]: row for row in report.rows}
+    for method in ("grid", "tin"):
+        written = read_points(folder / f"ground_{method}.laz")
+        np.testing.assert_allclose(written.points, truth.points)
+        errors = ground_errors(truth.classification == 2, written.classification == 2)
+        row = rows[f"ground: {method}"]
+        for key in ("type_i", "type_ii", "total", "kappa"):
+            assert row[key] == pytest.approx(getattr(errors, key)), (method, key)
+        # SOR outliers are class 7 in both ground files, and only they are.
+        denoise = rows["denoise: SOR"]
+        assert (written.classification == 7).sum() == denoise["points_in"] - denoise["points_out"]
+    # The grid filter with the demo's stated parameters separates this scene well.
+    assert rows["ground: grid"]["kappa"] > 0.9
+    for name in ("segments_curvature", "segments_pcl", "pipeline"):
+        segments = read_points(folder / f"{name}.laz").fields["segment_id"]
+        assert segments.dtype == np.int32 and len(segments) == len(truth)
+        assert (segments >= 0).any()
+    table = report.table()
+    assert table.count("\n" + "-" * 20) == 1
+    for stage in STAGES:
+        assert sum(line.startswith(stage) for line in table.splitlines()) == 1, stage
+
+
+def test_figures(demo):
+    folder, report = demo
+    pngs = [p for p in report.files if p.suffix == ".png"]
+    names = {p.name for p in pngs}
+    assert {
+        "truth_classes.png",
+        "truth_profile.png",
+        "ground_grid.png",
+        "ground_tin.png",
+        "ground_grid_profile.png",
+        "segments_curvature.png",
+    } <= names
+    for path in report.files:
+        assert path.parent == folder and path.stat().st_size > 0
+    for path in pngs:
+        assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_demo_command(capsys, tmp_path):
+    code = cli.main(
+        ["demo", "--output", str(tmp_path / "out"), "--size", "90", "--no-plots", "--json", "-q"]
+    )
+    captured = capsys.readouterr()
+    assert code == 0, captured.err
+    result = json.loads(captured.out)
+    assert [row["stage"] for row in result["rows"]] == STAGES
+    assert all((tmp_path / "out").joinpath(p).exists() for p in result["files"])
+    assert not any(p.endswith(".png") for p in result["files"])
+    code = cli.main(
+        ["demo", "--output", str(tmp_path / "out"), "--size", "90", "--no-plots", "--seed", "2"]
+    )
+    captured = capsys.readouterr()
+    assert code == 0
+    assert captured.out.splitlines()[0].startswith("stage")
+    assert f"output folder: {tmp_path / 'out'}" in captured.out
+    (tmp_path / "file").write_text("x")
+    code = cli.main(["demo", "--output", str(tmp_path / "file"), "-q"])
+    assert code == 2
+    assert "exists and is not a folder" in capsys.readouterr().err

@@ -1,0 +1,650 @@
+"""Tests of pcl_rg.io.read_points / write_points: LAS/LAZ, PLY, PCD and XYZ text
+round trips, layouts kept from a template, magic-byte checks, corrupt files and
+atomic writes."""
+
+from __future__ import annotations
+
+import errno
+import os
+import struct
+
+import laspy
+import numpy as np
+import pytest
+
+import pcl_rg.io as pio
+from conftest import shared_data
+from pcl_rg import datasets
+from pcl_rg.io import PointFile, read_pcd, read_points, write_pcd, write_points
+
+LAS_LAYOUTS = [("1.2", 0), ("1.2", 1), ("1.2", 3), ("1.3", 1), ("1.4", 6), ("1.4", 7), ("1.4", 8)]
+
+
+def random_las(
+    version: str, point_format: int, n: int, seed: int, extra: bool = True
+) -> laspy.LasData:
+    """A LAS file with every dimension filled with seeded random values in range."""
+    rng = np.random.default_rng(seed)
+    header = laspy.LasHeader(version=version, point_format=point_format)
+    header.scales = [0.01, 0.01, 0.001]
+    header.offsets = [512000.0, 5403000.0, 100.0]
+    if extra:
+        header.add_extra_dims(
+            [
+                laspy.ExtraBytesParams(name="amplitude", type=np.float32),
+                laspy.ExtraBytesParams(name="deviation", type=np.uint16),
+                laspy.ExtraBytesParams(name="echo_width", type=np.int8),
+                laspy.ExtraBytesParams(name="normal", type="3f8"),
+            ]
+        )
+    header.vlrs.append(
+        laspy.VLR(
+            user_id="pcl_rg_test",
+            record_id=42,
+            description="kept",
+            record_data=bytes(rng.integers(0, 256, 37, dtype=np.uint8)),
+        )
+    )
+    las = laspy.LasData(header)
+    las.x = 512000.0 + rng.uniform(0, 200, n)
+    las.y = 5403000.0 + rng.uniform(0, 200, n)
+    las.z = 100.0 + rng.uniform(-5, 40, n)
+    for dim in las.point_format.dimensions:
+        if dim.name in ("X", "Y", "Z"):
+            continue
+        if dim.kind == laspy.DimensionKind.FloatingPoint:
+            las[dim.name] = rng.uniform(
+                -1e6, 1e6, (n, dim.num_elements) if dim.num_elements > 1 else n
+            )
+        else:
+            low, high = max(int(dim.min), -1000), min(int(dim.max), 60000)
+            las[dim.name] = rng.integers(low, high + 1, n)
+    return las
+
+
+def raw_points(path) -> np.ndarray:
+    with open(path, "rb") as stream:
+        return laspy.read(stream, closefd=False).points.array
+
+
+# ------------------------------------------------------------------ LAS / LAZ
+
+
+@pytest.mark.parametrize("ext", ["las", "laz"])
+@pytest.mark.parametrize("version, point_format", LAS_LAYOUTS)
+def test_las_round_trip_keeps_every_dimension_bit_for_bit(tmp_path, ext, version, point_format):
+    las = random_las(version, point_format, 500, seed=point_format)
+    source = tmp_path / f"in.{ext}"
+    las.write(source)
+    cloud = read_points(source)
+    assert cloud.format == ext
+    # Coordinates are the stored integers times the scale plus the offset, in float64.
+    raw = raw_points(source)
+    expected = np.column_stack(
+        [raw[axis] * las.header.scales[i] + las.header.offsets[i] for i, axis in enumerate("XYZ")]
+    )
+    np.testing.assert_array_equal(cloud.points, expected)
+    assert cloud.points.dtype == np.float64
+    # Every dimension, extra bytes included, is a field.
+    names = [d.name for d in las.point_format.dimensions if d.name not in ("X", "Y", "Z")]
+    assert list(cloud.fields) == names
+
+    target = tmp_path / f"out.{ext}"
+    write_points(target, cloud.points, cloud.fields, template=cloud)
+    assert raw_points(target).tobytes() == raw.tobytes()
+    back = read_points(target)
+    assert str(back.header.version) == version
+    assert back.header.point_format.id == point_format
+    np.testing.assert_array_equal(back.header.scales, las.header.scales)
+    np.testing.assert_array_equal(back.header.offsets, las.header.offsets)
+    vlr = [v for v in back.header.vlrs if getattr(v, "user_id", "") == "pcl_rg_test"]
+    assert len(vlr) == 1 and vlr[0].record_data == las.header.vlrs[-1].record_data
+    np.testing.assert_allclose(back.header.mins, cloud.points.min(axis=0))
+    np.testing.assert_allclose(back.header.maxs, cloud.points.max(axis=0))
+
+
+@pytest.mark.parametrize("other", ["ply", "pcd", "xyz"])
+def test_las_fields_survive_other_formats(tmp_path, other):
+    las = random_las("1.4", 7, 300, seed=3)
+    las.write(tmp_path / "in.las")
+    cloud = read_points(tmp_path / "in.las")
+    write_points(tmp_path / f"mid.{other}", cloud.points, cloud.fields)
+    middle = read_points(tmp_path / f"mid.{other}")
+    np.testing.assert_array_equal(middle.points, cloud.points)
+    # Back to LAS with the original as template: the very same records.
+    fields = dict(middle.fields)
+    if other in ("ply", "xyz"):  # (N, 3) fields come back as name_0, name_1, name_2
+        fields["normal"] = np.column_stack([fields.pop(f"normal_{i}") for i in range(3)])
+    write_points(tmp_path / "back.las", middle.points, fields, template=cloud)
+    assert raw_points(tmp_path / "back.las").tobytes() == raw_points(tmp_path / "in.las").tobytes()
+
+
+def test_las_subset_and_classification(tmp_path):
+    las = random_las("1.2", 3, 400, seed=5)
+    las.write(tmp_path / "in.laz")
+    cloud = read_points(tmp_path / "in.laz")
+    keep = np.random.default_rng(1).random(len(cloud)) < 0.3
+    part = cloud.take(keep)
+    codes = np.where(np.arange(len(part)) % 2 == 0, 2, 1)
+    write_points(
+        tmp_path / "part.laz", part.points, part.fields, classification=codes, template=cloud
+    )
+    raw = raw_points(tmp_path / "in.laz")[keep]
+    out = raw_points(tmp_path / "part.laz")
+    back = read_points(tmp_path / "part.laz")
+    np.testing.assert_array_equal(back.classification, codes)
+    # Everything but the class bits of the classification byte is untouched.
+    for name in raw.dtype.names:
+        if name != "raw_classification":
+            np.testing.assert_array_equal(out[name], raw[name], err_msg=name)
+    np.testing.assert_array_equal(
+        out["raw_classification"] & 0xE0, raw["raw_classification"] & 0xE0
+    )
+    assert back.header.point_count == keep.sum()
+
+
+def test_las_new_extra_dimension_on_a_template(tmp_path):
+    las = random_las("1.2", 1, 200, seed=7, extra=False)
+    las.write(tmp_path / "in.las")
+    cloud = read_points(tmp_path / "in.las")
+    segment = np.random.default_rng(2).integers(-1, 50, len(cloud)).astype(np.int32)
+    write_points(
+        tmp_path / "seg.las", cloud.points, dict(cloud.fields, segment_id=segment), template=cloud
+    )
+    back = read_points(tmp_path / "seg.las")
+    assert back.fields["segment_id"].dtype == np.int32
+    np.testing.assert_array_equal(back.fields["segment_id"], segment)
+    assert back.header.point_format.id == 1 and str(back.header.version) == "1.2"
+    for name, values in cloud.fields.items():
+        np.testing.assert_array_equal(back.fields[name], values, err_msg=name)
+
+
+def test_las_without_template(tmp_path):
+    rng = np.random.default_rng(11)
+    n = 1000
+    xyz = rng.uniform([4.5e5, 5.4e6, -20.0], [4.51e5, 5.401e6, 300.0], (n, 3))
+    fields = {
+        "intensity": rng.integers(0, 65536, n).astype(np.uint16),
+        "gps_time": rng.uniform(0, 1e6, n),
+        "label": rng.integers(0, 2**32, n, dtype=np.uint32),
+        "weight": rng.normal(size=n).astype(np.float32),
+        "flag": rng.random(n) < 0.5,
+        "normal": rng.normal(size=(n, 3)),
+    }
+    write_points(tmp_path / "a.laz", xyz, fields, classification=rng.integers(0, 256, n))
+    back = read_points(tmp_path / "a.laz")
+    assert back.header.point_format.id == 6 and str(back.header.version) == "1.4"
+    np.testing.assert_array_equal(back.header.scales, [0.001] * 3)
+    assert np.abs(back.points - xyz).max() <= 0.0005 + 1e-9
+    for name, values in fields.items():
+        np.testing.assert_array_equal(back.fields[name], values, err_msg=name)
+    assert back.fields["flag"].dtype == np.uint8
+    # Colour picks point format 7, colour and NIR 8.
+    colour = {c: rng.integers(0, 65536, n).astype(np.uint16) for c in ("red", "green", "blue")}
+    write_points(tmp_path / "c.las", xyz, colour)
+    assert read_points(tmp_path / "c.las").header.point_format.id == 7
+    write_points(tmp_path / "n.las", xyz, dict(colour, nir=colour["red"]))
+    assert read_points(tmp_path / "n.las").header.point_format.id == 8
+
+
+def test_las_scale_grows_with_the_extent(tmp_path):
+    xyz = np.array([[0.0, 0.0, 0.0], [5e6, 1.0, 2.0]])  # 5000 km: more than int32 at 1 mm
+    write_points(tmp_path / "wide.las", xyz)
+    back = read_points(tmp_path / "wide.las")
+    assert back.header.scales[0] == pytest.approx(0.01)
+    assert np.abs(back.points - xyz).max() <= 0.005
+
+
+def test_las_rejects_what_it_cannot_store(tmp_path):
+    las = random_las("1.2", 3, 50, seed=9)
+    las.write(tmp_path / "in.las")
+    cloud = read_points(tmp_path / "in.las")
+    with pytest.raises(ValueError, match="classification.*outside the range"):
+        write_points(
+            tmp_path / "x.las",
+            cloud.points,
+            cloud.fields,
+            classification=np.full(50, 40),
+            template=cloud,
+        )
+    with pytest.raises(ValueError, match="intensity.*outside the range"):
+        write_points(
+            tmp_path / "x.las",
+            cloud.points,
+            dict(cloud.fields, intensity=np.full(50, -1)),
+            template=cloud,
+        )
+    with pytest.raises(ValueError, match="fractional"):
+        write_points(
+            tmp_path / "x.las",
+            cloud.points,
+            dict(cloud.fields, user_data=np.full(50, 1.5)),
+            template=cloud,
+        )
+    far = cloud.points + [1e8, 0, 0]  # beyond int32 at 1 cm from the template's offset
+    with pytest.raises(ValueError, match="do not fit"):
+        write_points(tmp_path / "x.las", far, cloud.fields, template=cloud)
+    nan = cloud.points.copy()
+    nan[3] = np.nan
+    with pytest.raises(ValueError, match="1 row.*NaN"):
+        write_points(tmp_path / "x.las", nan)
+    assert not (tmp_path / "x.las").exists()
+
+
+# ------------------------------------------------------------------------ PLY
+
+PLY_DTYPES = ["i1", "u1", "i2", "u2", "i4", "u4", "f4", "f8"]
+
+
+@pytest.mark.parametrize("encoding", ["ascii", "binary_little_endian", "binary_big_endian"])
+def test_ply_round_trip(tmp_path, encoding):
+    rng = np.random.default_rng(21)
+    n = 200
+    xyz = rng.uniform(-1e3, 1e3, (n, 3))
+    fields = {}
+    for code in PLY_DTYPES:
+        dtype = np.dtype(code)
+        if dtype.kind == "f":
+            fields[f"f_{code}"] = rng.normal(size=n).astype(dtype)
+        else:
+            info = np.iinfo(dtype)
+            fields[f"f_{code}"] = rng.integers(info.min, info.max, n, endpoint=True).astype(dtype)
+    template = PointFile(xyz, fields, "ply", pio.PlyLayout(encoding, np.dtype("f8"), ("a note",)))
+    write_points(tmp_path / "a.ply", xyz, fields, template=template)
+    head = (tmp_path / "a.ply").read_bytes()[:300]
+    assert f"format {encoding} 1.0".encode() in head and b"comment a note" in head
+    back = read_points(tmp_path / "a.ply")
+    np.testing.assert_array_equal(back.points, xyz)
+    assert list(back.fields) == list(fields)
+    for name, values in fields.items():
+        assert back.fields[name].dtype == values.dtype, name
+        np.testing.assert_array_equal(back.fields[name], values, err_msg=name)
+    assert back.header.encoding == encoding and back.header.comments == ("a note",)
+
+
+def test_ply_types_without_template(tmp_path):
+    rng = np.random.default_rng(22)
+    exact = rng.integers(-1000, 1000, (50, 3)).astype(np.float64) / 4  # float32-exact
+    write_points(
+        tmp_path / "a.ply",
+        exact,
+        {
+            "big": np.arange(50, dtype=np.int64),
+            "huge": np.arange(50, dtype=np.int64) * 2**40,
+            "pair": rng.normal(size=(50, 2)),
+        },
+    )
+    back = read_points(tmp_path / "a.ply")
+    assert back.header.xyz_dtype == np.float32
+    np.testing.assert_array_equal(back.points, exact)
+    assert back.fields["big"].dtype == np.int32
+    assert back.fields["huge"].dtype == np.float64
+    np.testing.assert_array_equal(back.fields["huge"], np.arange(50) * 2.0**40)
+    assert {"pair_0", "pair_1"} <= set(back.fields)
+    utm = exact + [5e5 + 0.001, 5e6, 0]
+    write_points(tmp_path / "b.ply", utm)
+    back = read_points(tmp_path / "b.ply")
+    assert back.header.xyz_dtype == np.float64
+    np.testing.assert_array_equal(back.points, utm)
+
+
+def test_ply_skips_other_elements(tmp_path):
+    text = (
+        "ply\nformat ascii 1.0\ncomment made by hand\nelement camera 1\nproperty float f\n"
+        "element vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+        "property uchar red\nelement face 1\nproperty list uchar int vertex_indices\n"
+        "end_header\n9.5\n0 0 0 10\n1 0 0 20\n0 1 0.5 30\n3 0 1 2\n"
+    )
+    (tmp_path / "mesh.ply").write_text(text)
+    cloud = read_points(tmp_path / "mesh.ply")
+    np.testing.assert_array_equal(cloud.points, [[0, 0, 0], [1, 0, 0], [0, 1, 0.5]])
+    np.testing.assert_array_equal(cloud.fields["red"], [10, 20, 30])
+    assert cloud.fields["red"].dtype == np.uint8
+    # The same in binary, big-endian, faces after the vertices.
+    head = (
+        b"ply\nformat binary_big_endian 1.0\nelement camera 1\nproperty double f\n"
+        b"element vertex 2\nproperty double x\nproperty double y\nproperty double z\n"
+        b"element face 1\nproperty list uchar int vertex_indices\nend_header\n"
+    )
+    body = (
+        struct.pack(">d", 9.5)
+        + struct.pack(">6d", 1, 2, 3, 4, 5, 6)
+        + b"\x02"
+        + struct.pack(">2i", 0, 1)
+    )
+    (tmp_path / "b.ply").write_bytes(head + body)
+    np.testing.assert_array_equal(read_points(tmp_path / "b.ply").points, [[1, 2, 3], [4, 5, 6]])
+
+
+PLY_HEAD = (
+    "ply\nformat binary_little_endian 1.0\nelement vertex 2\n"
+    "property float x\nproperty float y\nproperty float z\nend_header\n"
+)
+
+
+@pytest.mark.parametrize(
+    "content, message",
+    [
+        (b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n", "no 'end_header'"),
+        (b"ply\nelement vertex 1\nproperty float x\nend_header\n1\n", "no 'format' line"),
+        (b"ply\nformat ascii 2.0\nend_header\n", "unsupported format"),
+        (
+            b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float128 x\nend_header\n",
+            "unknown property type",
+        ),
+        (b"ply\nformat ascii 1.0\nelement vertex x\nend_header\n", "not an integer"),
+        (
+            b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
+            b"end_header\n1 2\n",
+            "no 'z'",
+        ),
+        (
+            b"ply\nformat ascii 1.0\nelement face 1\nproperty float x\nend_header\n1\n",
+            "no 'vertex'",
+        ),
+        (b"ply\nformat ascii 1.0\nbogus line\nend_header\n", "unknown header keyword"),
+        (PLY_HEAD.encode() + bytes(12), "truncated"),
+        (PLY_HEAD.encode() + bytes(24) + b"junk", "bytes after"),
+        (PLY_HEAD.replace("binary_little_endian", "ascii").encode() + b"1 2 3\n", "truncated"),
+        (
+            PLY_HEAD.replace("binary_little_endian", "ascii").encode() + b"1 2 3\n4 5 6\n7 8 9\n",
+            "more data rows",
+        ),
+        (
+            PLY_HEAD.replace("binary_little_endian", "ascii").encode() + b"1 2 3\n4 5\n",
+            "values per row",
+        ),
+        (
+            b"ply\nformat ascii 1.0\nelement vertex 1\nproperty list uchar float x\nend_header\n",
+            "list properties",
+        ),
+    ],
+)
+def test_ply_errors(tmp_path, content, message):
+    path = tmp_path / "bad.ply"
+    path.write_bytes(content)
+    with pytest.raises(ValueError, match=message):
+        read_points(path)
+
+
+# ------------------------------------------------------------------------ XYZ
+
+
+def test_xyz_round_trip_is_exact(tmp_path):
+    rng = np.random.default_rng(31)
+    xyz = rng.uniform([4e5, 5e6, 0], [5e5, 6e6, 100], (300, 3))
+    fields = {
+        "classification": rng.integers(0, 10, 300).astype(np.uint8),
+        "intensity": rng.uniform(0, 1, 300),
+    }
+    for ext in ("xyz", "txt", "pts"):
+        write_points(tmp_path / f"a.{ext}", xyz, fields)
+        back = read_points(tmp_path / f"a.{ext}")
+        assert back.format == "xyz"
+        np.testing.assert_array_equal(back.points, xyz)
+        assert back.fields["classification"].dtype == np.int64  # whole numbers
+        np.testing.assert_array_equal(back.fields["classification"], fields["classification"])
+        np.testing.assert_array_equal(back.fields["intensity"], fields["intensity"])
+
+
+def test_xyz_column_names(tmp_path):
+    (tmp_path / "plain.xyz").write_text("1 2 3 4.5 7\n2 3 4 5.5 8\n")
+    cloud = read_points(tmp_path / "plain.xyz")
+    assert list(cloud.fields) == ["column_4", "column_5"]
+    np.testing.assert_array_equal(cloud.fields["column_4"], [4.5, 5.5])
+    (tmp_path / "named.txt").write_text("// X Y Z Intensity\n\n1 2 3 4\n# a comment\n2 3 4 5\n")
+    assert list(read_points(tmp_path / "named.txt").fields) == ["Intensity"]
+    (tmp_path / "scan.pts").write_text("2\n1 2 3 -1200 10 20 30\n4 5 6 300 40 50 60\n")
+    cloud = read_points(tmp_path / "scan.pts")
+    assert list(cloud.fields) == ["intensity", "red", "green", "blue"]
+    np.testing.assert_array_equal(cloud.fields["intensity"], [-1200, 300])
+    (tmp_path / "empty.xyz").write_text("# x y z classification\n")
+    empty = read_points(tmp_path / "empty.xyz")
+    assert empty.points.shape == (0, 3) and list(empty.fields) == ["classification"]
+
+
+@pytest.mark.parametrize(
+    "content, message",
+    [
+        ("1 2 3\n4 5\n", "cannot read the rows as numbers"),
+        ("1 2\n3 4\n", "x y z need 3"),
+        ("1 2 three\n", "cannot read the rows as numbers"),
+        ("\n\n   \n", "no data rows"),
+        ("5\n1 2 3\n", "announces 5 points but 1"),
+    ],
+)
+def test_xyz_errors(tmp_path, content, message):
+    (tmp_path / "bad.pts").write_text(content)
+    with pytest.raises(ValueError, match=message):
+        read_points(tmp_path / "bad.pts")
+
+
+# ------------------------------------------------------------------------ PCD
+
+
+def test_pcd_keeps_its_layout(tmp_path):
+    source = shared_data("mosd", "learn0.pcd")
+    cloud = read_points(source)
+    reference = read_pcd(source)
+    np.testing.assert_array_equal(cloud.points, reference.points)
+    assert list(cloud.fields) == list(reference.fields)
+    assert (cloud.header.width, cloud.header.height) == (640, 480)
+    assert cloud.header.encoding == "binary_compressed" and cloud.header.xyz_dtype == np.float32
+    segment = np.arange(len(cloud), dtype=np.int32)
+    write_points(
+        tmp_path / "same.pcd", cloud.points, dict(cloud.fields, segment_id=segment), template=cloud
+    )
+    back = read_pcd(tmp_path / "same.pcd")
+    assert (back.width, back.height) == (640, 480)
+    np.testing.assert_array_equal(back.points, cloud.points)
+    np.testing.assert_array_equal(back.fields["segment_id"], segment)
+    np.testing.assert_array_equal(back.fields["rgba"], cloud.fields["rgba"])
+    # A subset is no longer organized.
+    valid = np.isfinite(cloud.points).all(axis=1)
+    part = cloud.take(valid)
+    write_points(tmp_path / "part.pcd", part.points, part.fields, template=cloud)
+    back = read_pcd(tmp_path / "part.pcd")
+    assert (back.width, back.height) == (int(valid.sum()), 1)
+    raw = (tmp_path / "part.pcd").read_bytes()[:400]
+    assert b"DATA binary_compressed" in raw and b"TYPE F F F" in raw
+
+
+def test_pcd_without_template_is_lossless(tmp_path):
+    scene = datasets.synthetic_scene(seed=2, size=60, n_buildings=0, offset=(5e5, 5e6, 0))
+    write_points(tmp_path / "utm.pcd", scene.points, classification=scene.labels)
+    back = read_points(tmp_path / "utm.pcd")
+    np.testing.assert_array_equal(back.points, scene.points)  # float64 since float32 is not exact
+    np.testing.assert_array_equal(back.classification, scene.labels)
+    small = np.array([[0.5, 1.25, 2.0]])
+    write_points(tmp_path / "small.pcd", small)
+    assert read_points(tmp_path / "small.pcd").header.xyz_dtype == np.float32
+
+
+@pytest.mark.parametrize("sample", ["samp11", "samp52"])
+def test_isprs_to_laz_and_back(tmp_path, sample):
+    cloud = read_points(shared_data("isprs", f"{sample}-utm.pcd"))
+    write_points(tmp_path / "s.laz", cloud.points, cloud.fields)
+    back = read_points(tmp_path / "s.laz")
+    assert len(back) == len(cloud)
+    # Millimetre storage: every coordinate within half a millimetre.
+    assert np.abs(back.points - cloud.points).max() <= 0.0005 + 1e-9
+
+
+# --------------------------------------------------------- dispatch, magic bytes
+
+
+def test_extension_dispatch_and_format_override(tmp_path):
+    xyz = np.random.default_rng(41).uniform(0, 10, (20, 3))
+    write_points(tmp_path / "cloud.dat", xyz, format="ply")
+    assert read_points(tmp_path / "cloud.dat", format="ply").format == "ply"
+    with pytest.raises(ValueError, match=r"unknown file extension '\.dat'"):
+        read_points(tmp_path / "cloud.dat")
+    with pytest.raises(ValueError, match="unknown file extension"):
+        write_points(tmp_path / "cloud", xyz)
+    with pytest.raises(ValueError, match="format must be one of"):
+        read_points(tmp_path / "cloud.dat", format="obj")
+    write_points(tmp_path / "UPPER.LAZ", xyz)
+    assert read_points(tmp_path / "UPPER.LAZ").format == "laz"
+
+
+def _write_each_format(folder) -> dict[str, bytes]:
+    xyz = np.random.default_rng(42).uniform(0, 10, (20, 3))
+    data = {}
+    for ext in ("las", "ply", "pcd", "xyz"):
+        write_points(folder / f"src.{ext}", xyz)
+        data[ext] = (folder / f"src.{ext}").read_bytes()
+    return data
+
+
+MISLABELLED = [
+    ("las", "ply", "PLY"),
+    ("las", "xyz", "text"),
+    ("laz", "pcd", "PCD"),
+    ("ply", "las", "LAS"),
+    ("ply", "xyz", "text"),
+    ("pcd", "las", "LAS"),
+    ("pcd", "ply", "PLY"),
+    ("xyz", "las", "LAS"),
+    ("txt", "pcd", "PCD"),
+    ("pts", "ply", "PLY"),
+]
+
+
+@pytest.mark.parametrize("ext, actual, named", MISLABELLED)
+def test_mislabelled_files(tmp_path, ext, actual, named):
+    data = _write_each_format(tmp_path)
+    path = tmp_path / f"wrong.{ext}"
+    path.write_bytes(data[actual])
+    with pytest.raises(ValueError, match=f"not a .* file: .* look like a {named}"):
+        read_points(path)
+
+
+@pytest.mark.parametrize("ext", ["las", "laz", "ply", "pcd", "xyz"])
+def test_empty_files(tmp_path, ext):
+    (tmp_path / f"empty.{ext}").write_bytes(b"")
+    with pytest.raises(ValueError, match="file is empty"):
+        read_points(tmp_path / f"empty.{ext}")
+
+
+def test_binary_garbage(tmp_path):
+    (tmp_path / "noise.xyz").write_bytes(bytes(range(256)))
+    with pytest.raises(ValueError, match="binary data"):
+        read_points(tmp_path / "noise.xyz")
+
+
+@pytest.mark.parametrize("ext", ["las", "laz"])
+@pytest.mark.parametrize("cut", [0.5, 0.99, "header"])
+def test_truncated_las(tmp_path, ext, cut):
+    random_las("1.4", 6, 2000, seed=1).write(tmp_path / f"full.{ext}")
+    data = (tmp_path / f"full.{ext}").read_bytes()
+    keep = 120 if cut == "header" else int(len(data) * cut)
+    (tmp_path / f"cut.{ext}").write_bytes(data[:keep])
+    with pytest.raises(ValueError, match="invalid LAS/LAZ file"):
+        read_points(tmp_path / f"cut.{ext}")
+
+
+def test_corrupt_las_header(tmp_path):
+    random_las("1.2", 3, 100, seed=1).write(tmp_path / "a.las")
+    data = bytearray((tmp_path / "a.las").read_bytes())
+    data[24:26] = b"\x09\x09"  # version 9.9
+    (tmp_path / "b.las").write_bytes(bytes(data))
+    with pytest.raises(ValueError, match="invalid LAS/LAZ file"):
+        read_points(tmp_path / "b.las")
+
+
+def test_pcd_header_lies_about_size(tmp_path):
+    xyz = np.random.default_rng(3).uniform(0, 1, (100, 3))
+    write_pcd(tmp_path / "a.pcd", xyz, encoding="binary")
+    data = (tmp_path / "a.pcd").read_bytes().replace(b"POINTS 100", b"POINTS 200")
+    data = data.replace(b"WIDTH 100", b"WIDTH 200")
+    (tmp_path / "b.pcd").write_bytes(data)
+    with pytest.raises(ValueError, match="truncated"):
+        read_points(tmp_path / "b.pcd")
+
+
+def test_missing_file_and_bad_types(tmp_path):
+    with pytest.raises(FileNotFoundError):
+        read_points(tmp_path / "nothing.las")
+    with pytest.raises(TypeError, match="path must be"):
+        read_points(42)
+    with pytest.raises(ValueError, match=r"shape \(N, 3\)"):
+        write_points(tmp_path / "a.ply", np.zeros((3, 2)))
+    with pytest.raises(TypeError, match="real float or integer"):
+        write_points(tmp_path / "a.ply", np.zeros((3, 3), dtype=complex))
+    with pytest.raises(ValueError, match=r"fields\['a'\] must have shape"):
+        write_points(tmp_path / "a.ply", np.zeros((3, 3)), {"a": np.zeros(4)})
+    with pytest.raises(ValueError, match="x, y and z are given in points"):
+        write_points(tmp_path / "a.ply", np.zeros((3, 3)), {"z": np.zeros(3)})
+    with pytest.raises(ValueError, match=r"classification must be in \[0, 255\]"):
+        write_points(tmp_path / "a.ply", np.zeros((3, 3)), classification=[1, 2, 300])
+    with pytest.raises(TypeError, match="template must be a PointFile"):
+        write_points(tmp_path / "a.ply", np.zeros((3, 3)), template="x.las")
+
+
+def test_empty_clouds_round_trip(tmp_path):
+    for ext in ("las", "laz", "ply", "pcd", "xyz"):
+        write_points(tmp_path / f"e.{ext}", np.zeros((0, 3)), classification=np.zeros(0, np.uint8))
+        back = read_points(tmp_path / f"e.{ext}")
+        assert back.points.shape == (0, 3), ext
+        assert back.classification is not None and len(back.classification) == 0, ext
+
+
+# ---------------------------------------------------------------- atomic writes
+
+
+class _FailingStream:
+    """A file object that accepts `budget` bytes, then fails like a full disk."""
+
+    def __init__(self, real, budget: int, error: BaseException) -> None:
+        self.real, self.budget, self.error = real, budget, error
+
+    def write(self, data) -> int:
+        size = memoryview(data).nbytes
+        if size > self.budget:
+            self.real.write(memoryview(data).tobytes()[: self.budget])
+            self.real.flush()
+            raise self.error
+        self.budget -= size
+        return self.real.write(data)
+
+    def __getattr__(self, name):
+        return getattr(self.real, name)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.real.close()
+        return False
+
+
+def fail_writes(monkeypatch, budget: int, error: BaseException) -> list[str]:
+    """Make pcl_rg.io's temporary-file writes fail; return the temp names seen."""
+    seen = []
+    real_open = open
+
+    def fake_open(file, mode="r", *args, **kwargs):
+        stream = real_open(file, mode, *args, **kwargs)
+        if isinstance(file, int) and "w" in mode:
+            seen.append(os.readlink(f"/proc/self/fd/{file}"))
+            return _FailingStream(stream, budget, error)
+        return stream
+
+    monkeypatch.setattr(pio, "open", fake_open, raising=False)
+    return seen
+
+
+@pytest.mark.parametrize("ext", ["las", "laz", "ply", "pcd", "xyz"])
+@pytest.mark.parametrize(
+    "error", [OSError(errno.ENOSPC, "No space left on device"), KeyboardInterrupt()]
+)
+def test_failed_write_leaves_nothing(tmp_path, monkeypatch, ext, error):
+    xyz = np.random.default_rng(4).uniform(0, 100, (5000, 3))
+    target = tmp_path / f"out.{ext}"
+    target.write_bytes(b"previous content")
+    seen = fail_writes(monkeypatch, 1000, error)
+    with pytest.raises(type(error)):
+        write_points(target, xyz, {"v": np.arange(5000.0)})
+    assert len(seen) == 1 and os.path.dirname(seen[0]) == str(tmp_path)  # it did start
+    assert target.read_bytes() == b"previous content"
+    assert sorted(p.name for p in tmp_path.iterdir()) == [f"out.{ext}"]

@@ -1,0 +1,123 @@
+"""Tests of pcl_rg.plot: top views by class, segment and height, and vertical profiles."""
+
+from __future__ import annotations
+
+import matplotlib.image
+import numpy as np
+import pytest
+from matplotlib.colors import to_rgb
+
+from pcl_rg.plot import CLASS_COLOURS, profile, segment_colours, top_view
+
+
+def pixels(path) -> np.ndarray:
+    """RGB pixels of a PNG as uint8, (H*W, 3)."""
+    image = matplotlib.image.imread(path)
+    return np.round(image[..., :3] * 255).astype(np.uint8).reshape(-1, 3)
+
+
+def has_colour(rgb: np.ndarray, colour: str, tolerance: int = 2) -> bool:
+    target = np.round(np.array(to_rgb(colour)) * 255)
+    return bool((np.abs(rgb.astype(int) - target).max(axis=1) <= tolerance).any())
+
+
+def scene(n: int = 4000, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    rng = np.random.default_rng(seed)
+    xyz = np.column_stack([rng.uniform(0, 50, n), rng.uniform(0, 50, n), rng.uniform(0, 5, n)])
+    classes = np.where(xyz[:, 0] < 25, 2, 1)
+    return xyz, classes
+
+
+def test_top_view_by_class(tmp_path):
+    xyz, classes = scene()
+    path = tmp_path / "classes.png"
+    top_view(xyz + [5e5, 5e6, 0], path, classes=classes, title="two classes")
+    rgb = pixels(path)
+    assert has_colour(rgb, CLASS_COLOURS[2][1]) and has_colour(rgb, CLASS_COLOURS[1][1])
+    # A class colour that is not in the data does not appear.
+    assert not has_colour(rgb, CLASS_COLOURS[5][1])
+    names = {1: ("object", "#00ff00")}
+    top_view(xyz, tmp_path / "renamed.png", classes=classes, class_names=names)
+    assert has_colour(pixels(tmp_path / "renamed.png"), "#00ff00")
+
+
+def test_top_view_by_segment_and_height(tmp_path):
+    xyz, _ = scene()
+    segments = (xyz[:, 0] // 10).astype(np.int64) - 1  # -1 (unassigned) .. 3
+    top_view(xyz, tmp_path / "segments.png", segments=segments)
+    rgb = pixels(tmp_path / "segments.png")
+    for colour in segment_colours(np.arange(4)):
+        assert has_colour(rgb, tuple(colour[:3]), tolerance=3)
+    top_view(xyz, tmp_path / "height.png", max_points=500)
+    assert (tmp_path / "height.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_segment_colours():
+    labels = np.array([0, 1, 2, 19, 20, -1, -7, 0])
+    colours = segment_colours(labels)
+    assert colours.shape == (8, 4)
+    np.testing.assert_array_equal(colours[0], colours[7])  # same label, same colour
+    np.testing.assert_array_equal(colours[0], colours[4])  # the palette repeats after 20
+    np.testing.assert_array_equal(colours[5], colours[6])  # every negative label is grey
+    distinct = {tuple(c) for c in segment_colours(np.arange(20))}
+    assert len(distinct) == 20 and tuple(colours[5]) not in distinct
+    with pytest.raises(TypeError, match="integer"):
+        segment_colours([0.5, 1.0])
+
+
+def test_profile_selects_the_corridor(tmp_path):
+    rng = np.random.default_rng(3)
+    xyz = np.column_stack(
+        [rng.uniform(0, 100, 20000), rng.uniform(0, 100, 20000), rng.uniform(0, 10, 20000)]
+    )
+    start, end, width = (10.0, 20.0), (80.0, 70.0), 3.0
+    classes = rng.integers(1, 3, 20000)
+    n = profile(xyz, tmp_path / "p.png", start, end, width=width, classes=classes)
+    # Independent count: distance to the segment's line and projection onto it.
+    a, b = np.array(start), np.array(end)
+    d = (b - a) / np.linalg.norm(b - a)
+    t = (xyz[:, :2] - a) @ d
+    rel = xyz[:, :2] - a
+    perp = np.abs(d[0] * rel[:, 1] - d[1] * rel[:, 0])
+    expected = int(((perp <= width / 2) & (t >= 0) & (t <= np.linalg.norm(b - a))).sum())
+    assert n == expected
+    # Uniform density: about width * length / area of the points.
+    assert abs(n - 20000 * width * np.linalg.norm(b - a) / 100**2) < 0.1 * n
+    rgb = pixels(tmp_path / "p.png")
+    assert has_colour(rgb, CLASS_COLOURS[2][1]) and has_colour(rgb, CLASS_COLOURS[1][1])
+    segments = (xyz[:, 2] > 5).astype(np.int64)
+    assert profile(xyz, tmp_path / "s.png", start, end, width=width, segments=segments) == n
+    # A line away from the cloud: an empty figure, 0 points.
+    assert profile(xyz, tmp_path / "e.png", (200, 200), (300, 200)) == 0
+    assert (tmp_path / "e.png").exists()
+
+
+@pytest.mark.parametrize(
+    "kwargs, error, message",
+    [
+        ({"start": (1, 1), "end": (1, 1)}, ValueError, "start and end must differ"),
+        ({"width": 0.0}, ValueError, "width must be > 0"),
+        ({"start": (1, 2, 3)}, ValueError, "start must be 2 finite numbers"),
+        ({"end": (np.nan, 2)}, ValueError, "end must be 2 finite numbers"),
+        ({"classes": np.zeros(3, int)}, ValueError, "one entry per point"),
+        ({"segments": np.zeros(10)}, TypeError, "integer array"),
+        ({"vertical_exaggeration": -1}, ValueError, "vertical_exaggeration must be > 0"),
+    ],
+)
+def test_profile_errors(tmp_path, kwargs, error, message):
+    xyz, _ = scene(10)
+    arguments = {"start": (0, 0), "end": (10, 10), **kwargs}
+    with pytest.raises(error, match=message):
+        profile(xyz, tmp_path / "x.png", **arguments)
+    assert not (tmp_path / "x.png").exists()
+
+
+def test_top_view_errors(tmp_path):
+    xyz, _ = scene(10)
+    with pytest.raises(ValueError, match="one entry per point"):
+        top_view(xyz, tmp_path / "x.png", classes=np.zeros(4, int))
+    with pytest.raises(TypeError, match="integer array"):
+        top_view(xyz, tmp_path / "x.png", classes=np.zeros(10))
+    with pytest.raises(ValueError, match="NaN"):
+        top_view(np.full((3, 3), np.nan), tmp_path / "x.png")
+    assert not (tmp_path / "x.png").exists()
