@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import importlib
 import inspect
 import json
 import math
@@ -89,68 +88,44 @@ class _Method(typing.NamedTuple):
     summary: str
 
 
-def _optional(module: str, *names: str) -> tuple[Any, ...] | None:
-    try:
-        loaded = importlib.import_module(f"pcl_rg.{module}")
-    except ModuleNotFoundError as error:
-        if error.name == f"pcl_rg.{module}":
-            return None
-        raise
-    try:
-        return tuple(getattr(loaded, name) for name in names)
-    except AttributeError:
-        return None
-
-
-def _methods(specs: Sequence[tuple[str, str, str, str, str]]) -> dict[str, _Method]:
-    found = {}
-    for method, module, function, params, summary in specs:
-        loaded = _optional(module, function, params)
-        if loaded is not None:
-            found[method] = _Method(method, loaded[0], loaded[1], summary)
-    return found
-
-
 def _ground_methods() -> dict[str, _Method]:
-    return _methods(
-        [
-            (
-                "grid",
-                "grid_ground",
-                "grid_ground",
-                "GridGroundParams",
-                "grid region growing from the lowest point of each block (seed 000)",
-            ),
-            (
-                "tin",
-                "tin_ground",
-                "tin_ground",
-                "TinGroundParams",
-                "progressive TIN densification (seed 002, LiDAR360's settings)",
-            ),
-        ]
-    )
+    from .grid_ground import GridGroundParams, grid_ground
+    from .tin_ground import TinGroundParams, tin_ground
+
+    return {
+        "grid": _Method(
+            "grid",
+            grid_ground,
+            GridGroundParams,
+            "grid region growing from the lowest point of each block (seed 000)",
+        ),
+        "tin": _Method(
+            "tin",
+            tin_ground,
+            TinGroundParams,
+            "progressive TIN densification (seed 002, LiDAR360's settings)",
+        ),
+    }
 
 
 def _segment_methods() -> dict[str, _Method]:
-    return _methods(
-        [
-            (
-                "curvature",
-                "region_growing",
-                "region_growing",
-                "RegionGrowingParams",
-                "curvature-seeded region growing (seed 004)",
-            ),
-            (
-                "pcl",
-                "region_growing_pcl",
-                "region_growing_pcl",
-                "RegionGrowingPclParams",
-                "PCL's classic pcl::RegionGrowing (the baseline)",
-            ),
-        ]
-    )
+    from .region_growing import RegionGrowingParams, region_growing
+    from .region_growing_pcl import RegionGrowingPclParams, region_growing_pcl
+
+    return {
+        "curvature": _Method(
+            "curvature",
+            region_growing,
+            RegionGrowingParams,
+            "curvature-seeded region growing (seed 004)",
+        ),
+        "pcl": _Method(
+            "pcl",
+            region_growing_pcl,
+            RegionGrowingPclParams,
+            "PCL's classic pcl::RegionGrowing (the baseline)",
+        ),
+    }
 
 
 # ------------------------------------------------- flags from dataclasses
@@ -1325,29 +1300,28 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     ground_methods = _ground_methods()
-    if ground_methods:
-        p = sub.add_parser(
-            "ground",
-            help="classify ground (2) and other (1) points",
-            description="Classify ground points: class 2 ground, class 1 everything else. "
-            "Points already classified as noise (7, 18) are left out and keep their class; "
-            "points with NaN coordinates are skipped (class 0 if the file had none). Methods: "
-            + "; ".join(f"{m.name}: {m.summary}" for m in ground_methods.values())
-            + ".",
-        )
-        _io_arguments(p, "write only the ground points")
-        p.add_argument(
-            "--method",
-            choices=list(ground_methods),
-            default=next(iter(ground_methods)),
-            help=f"ground filter (default: {next(iter(ground_methods))})",
-        )
-        flags = _add_param_flags(
-            p, "ground filter parameters", {m.name: m.params for m in ground_methods.values()}
-        )
-        _add_plot_options(p)
-        _common(p)
-        p.set_defaults(run=_cmd_ground, flags=flags, methods=ground_methods)
+    p = sub.add_parser(
+        "ground",
+        help="classify ground (2) and other (1) points",
+        description="Classify ground points: class 2 ground, class 1 everything else. "
+        "Points already classified as noise (7, 18) are left out and keep their class; "
+        "points with NaN coordinates are skipped (class 0 if the file had none). Methods: "
+        + "; ".join(f"{m.name}: {m.summary}" for m in ground_methods.values())
+        + ".",
+    )
+    _io_arguments(p, "write only the ground points")
+    p.add_argument(
+        "--method",
+        choices=list(ground_methods),
+        default=next(iter(ground_methods)),
+        help=f"ground filter (default: {next(iter(ground_methods))})",
+    )
+    flags = _add_param_flags(
+        p, "ground filter parameters", {m.name: m.params for m in ground_methods.values()}
+    )
+    _add_plot_options(p)
+    _common(p)
+    p.set_defaults(run=_cmd_ground, flags=flags, methods=ground_methods)
 
     from .statistical_outlier_removal import StatisticalOutlierRemovalParams
 
@@ -1385,48 +1359,45 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(run=_cmd_downsample, flags=flags)
 
     segment_methods = _segment_methods()
-    if segment_methods:
-        p = sub.add_parser(
-            "segment",
-            help="region growing: a segment_id per point (-1 none)",
-            description="Region growing segmentation: OUTPUT gets a segment_id dimension "
-            "(int32; a LAS extra-bytes dimension), -1 for points in no kept region. Methods: "
-            + "; ".join(f"{m.name}: {m.summary}" for m in segment_methods.values())
-            + ".",
-        )
-        _io_arguments(p, "write only the points with a segment")
-        p.add_argument(
-            "--method",
-            choices=list(segment_methods),
-            default=next(iter(segment_methods)),
-            help=f"region growing variant (default: {next(iter(segment_methods))})",
-        )
-        flags = _add_param_flags(
-            p, "region growing parameters", {m.name: m.params for m in segment_methods.values()}
-        )
-        _add_plot_options(p)
-        _common(p)
-        p.set_defaults(run=_cmd_segment, flags=flags, methods=segment_methods)
+    p = sub.add_parser(
+        "segment",
+        help="region growing: a segment_id per point (-1 none)",
+        description="Region growing segmentation: OUTPUT gets a segment_id dimension "
+        "(int32; a LAS extra-bytes dimension), -1 for points in no kept region. Methods: "
+        + "; ".join(f"{m.name}: {m.summary}" for m in segment_methods.values())
+        + ".",
+    )
+    _io_arguments(p, "write only the points with a segment")
+    p.add_argument(
+        "--method",
+        choices=list(segment_methods),
+        default=next(iter(segment_methods)),
+        help=f"region growing variant (default: {next(iter(segment_methods))})",
+    )
+    flags = _add_param_flags(
+        p, "region growing parameters", {m.name: m.params for m in segment_methods.values()}
+    )
+    _add_plot_options(p)
+    _common(p)
+    p.set_defaults(run=_cmd_segment, flags=flags, methods=segment_methods)
 
-    pipeline = _optional("pipeline", "seed004")
-    if pipeline is not None:
-        p = sub.add_parser(
-            "pipeline",
-            help="seed 004: SOR, voxel grid, normals, region growing",
-            description="The seed 004 chain (pcl_rg.pipeline.seed004): statistical outlier "
-            "removal (--sor-*, on unless --no-sor), voxel grid (--voxel-*, only when "
-            "--voxel-leaf-size is given: the leaf depends on the data), normals, curvatures and "
-            "region growing (--region-*). Every input point gets the segment_id of the point "
-            "it was merged into (-1 for outliers and dropped regions); SOR outliers get class 7.",
-        )
-        _io_arguments(p, "write only the points with a segment")
-        options = _keyword_params(pipeline[0], "PipelineOptions")
-        flags = _add_param_flags(p, "pipeline parameters", {"pipeline": options})
-        _add_plot_options(p)
-        _common(p)
-        p.set_defaults(
-            run=_cmd_pipeline, flags=flags, pipeline_params=options, pipeline=pipeline[0]
-        )
+    p = sub.add_parser(
+        "pipeline",
+        help="seed 004: SOR, voxel grid, normals, region growing",
+        description="The seed 004 chain (pcl_rg.pipeline.seed004): statistical outlier "
+        "removal (--sor-*, on unless --no-sor), voxel grid (--voxel-*, only when "
+        "--voxel-leaf-size is given: the leaf depends on the data), normals, curvatures and "
+        "region growing (--region-*). Every input point gets the segment_id of the point "
+        "it was merged into (-1 for outliers and dropped regions); SOR outliers get class 7.",
+    )
+    _io_arguments(p, "write only the points with a segment")
+    from .pipeline import seed004
+
+    options = _keyword_params(seed004, "PipelineOptions")
+    flags = _add_param_flags(p, "pipeline parameters", {"pipeline": options})
+    _add_plot_options(p)
+    _common(p)
+    p.set_defaults(run=_cmd_pipeline, flags=flags, pipeline_params=options, pipeline=seed004)
 
     p = sub.add_parser(
         "evaluate",

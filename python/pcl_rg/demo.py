@@ -6,7 +6,6 @@
 from __future__ import annotations
 
 import contextlib
-import importlib
 import math
 import os
 import time
@@ -21,9 +20,13 @@ import numpy as np
 from . import datasets
 from .evaluation import ground_errors
 from .io import write_points
-from .statistical_outlier_removal import statistical_outlier_removal
-from .tin_ground import TinGroundParams
-from .voxel_grid import voxel_grid
+from .grid_ground import grid_ground
+from .pipeline import seed004
+from .region_growing import RegionGrowingParams, region_growing
+from .region_growing_pcl import region_growing_pcl
+from .statistical_outlier_removal import StatisticalOutlierRemovalParams, statistical_outlier_removal
+from .tin_ground import TinGroundParams, tin_ground
+from .voxel_grid import VoxelGridParams, voxel_grid
 
 __all__ = ["DemoReport", "run_demo"]
 
@@ -87,15 +90,6 @@ class DemoReport:
 
 def _no_stage(key: str, description: str) -> AbstractContextManager[None]:
     return contextlib.nullcontext()
-
-
-def _optional(module: str, name: str) -> Any:
-    try:
-        return getattr(importlib.import_module(f"pcl_rg.{module}"), name)
-    except ModuleNotFoundError as error:
-        if error.name == f"pcl_rg.{module}":
-            return None
-        raise
 
 
 @contextlib.contextmanager
@@ -259,10 +253,7 @@ def run_demo(
 
     # 3. Ground filters on the inliers, scored on the whole scene.
     ground_results = {}
-    for method, params in (("grid", GRID), ("tin", TIN)):
-        function = _optional(f"{method}_ground", f"{method}_ground")
-        if function is None:
-            continue
+    for method, function, params in (("grid", grid_ground, GRID), ("tin", tin_ground, TIN)):
         with _timer(stage, f"ground_{method}", f"ground filter ({method})") as t:
             ground = function(kept, **params)
         predicted = np.zeros(n, dtype=bool)
@@ -291,10 +282,7 @@ def run_demo(
     voxel_of_point = np.full(n, -1, dtype=np.int64)
     voxel_of_point[kept_index] = grid.voxel_of_point
     segmentations = {}
-    for method, module in (("curvature", "region_growing"), ("pcl", "region_growing_pcl")):
-        function = _optional(module, module)
-        if function is None:
-            continue
+    for method, function in (("curvature", region_growing), ("pcl", region_growing_pcl)):
         with _timer(stage, f"segment_{method}", f"region growing ({method})") as t:
             voxel_labels = np.asarray(function(grid.centroids, **SEGMENT))
         point_labels = np.where(voxel_of_point >= 0, voxel_labels[voxel_of_point], -1)
@@ -318,40 +306,34 @@ def run_demo(
             segment_id=point_labels.astype(np.int32),
         )
 
-    # 5. The seed 004 pipeline, when available: the same SOR, voxel grid and region
-    # growing, chained by pcl_rg.pipeline.seed004 (its own timings per stage).
-    seed004 = _optional("pipeline", "seed004")
-    if seed004 is not None:
-        from .region_growing import RegionGrowingParams
-        from .statistical_outlier_removal import StatisticalOutlierRemovalParams
-        from .voxel_grid import VoxelGridParams
-
-        with _timer(stage, "pipeline", "seed 004 pipeline") as t:
-            result = seed004(
-                points,
-                sor=StatisticalOutlierRemovalParams(**SOR),
-                voxel=VoxelGridParams(leaf_size=LEAF),
-                region=RegionGrowingParams(**SEGMENT),
-            )
-        point_labels = np.asarray(result.labels).astype(np.int64)
-        n_regions = len(np.unique(point_labels[point_labels >= 0]))
-        iou = _roof_iou(roof, point_labels)
-        split = ", ".join(f"{s.name} {s.seconds:.2f} s" for s in result.report.stages)
-        report.rows.append(
-            dict(
-                stage="pipeline: seed 004",
-                points_in=n,
-                points_out=int((point_labels >= 0).sum()),
-                seconds=t[0],
-                roof_iou=iou,
-                regions=n_regions,
-                result=f"{n_regions} regions, roof IoU {iou:.3f} ({split})",
-            )
+    # 5. The seed 004 pipeline: the same SOR, voxel grid and region growing, chained
+    # by pcl_rg.pipeline.seed004 (its own timings per stage).
+    with _timer(stage, "pipeline", "seed 004 pipeline") as t:
+        result = seed004(
+            points,
+            sor=StatisticalOutlierRemovalParams(**SOR),
+            voxel=VoxelGridParams(leaf_size=LEAF),
+            region=RegionGrowingParams(**SEGMENT),
         )
-        segmentations["pipeline"] = point_labels
-        save(
-            "pipeline.laz", points, classification=labels, segment_id=point_labels.astype(np.int32)
+    point_labels = np.asarray(result.labels).astype(np.int64)
+    n_regions = len(np.unique(point_labels[point_labels >= 0]))
+    iou = _roof_iou(roof, point_labels)
+    split = ", ".join(f"{s.name} {s.seconds:.2f} s" for s in result.report.stages)
+    report.rows.append(
+        dict(
+            stage="pipeline: seed 004",
+            points_in=n,
+            points_out=int((point_labels >= 0).sum()),
+            seconds=t[0],
+            roof_iou=iou,
+            regions=n_regions,
+            result=f"{n_regions} regions, roof IoU {iou:.3f} ({split})",
         )
+    )
+    segmentations["pipeline"] = point_labels
+    save(
+        "pipeline.laz", points, classification=labels, segment_id=point_labels.astype(np.int32)
+    )
 
     report.notes += [
         "ground errors (I = Type I, II = Type II, tot = total, Sithole & Vosselman 2004) on all "
