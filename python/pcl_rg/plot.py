@@ -242,6 +242,8 @@ def top_view(
             _marker_size(len(xyz), 7.0, 7.0),
         )
         ax.set_aspect("equal")
+        # Plain metres: matplotlib's "+5e6" offset notation hides UTM coordinates.
+        ax.ticklabel_format(useOffset=False, style="plain")
         ax.set_xlabel("x (m)")
         ax.set_ylabel("y (m)")
         if title:
