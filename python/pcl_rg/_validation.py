@@ -10,9 +10,17 @@ from typing import Any, TypeVar
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["as_points", "check_int", "check_float", "resolve_params", "per_axis"]
+__all__ = [
+    "as_points",
+    "check_int",
+    "check_float",
+    "fill_core_params",
+    "resolve_params",
+    "per_axis",
+]
 
 P = TypeVar("P")
+C = TypeVar("C")
 
 
 def as_points(points: npt.ArrayLike, name: str = "points") -> np.ndarray:
@@ -106,3 +114,20 @@ def resolve_params(cls: type[P], params: P | None, **overrides: Any) -> P:
     if params is None:
         return cls(**given)
     return dataclasses.replace(params, **given) if given else params
+
+
+def fill_core_params(params: Any, core: C) -> C:
+    """Copy every field of a Params dataclass onto its C++ struct `core` and return it.
+
+    Field names match by construction (tests/test_params.py holds them to it);
+    tuples become lists for std::array fields, and a string naming a member of a
+    C++ enum becomes that member.
+    """
+    for field in dataclasses.fields(params):
+        value = getattr(params, field.name)
+        if isinstance(value, tuple):
+            value = list(value)
+        elif isinstance(value, str):
+            value = type(getattr(core, field.name)).__members__[value]
+        setattr(core, field.name, value)
+    return core

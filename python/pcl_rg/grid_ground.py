@@ -9,7 +9,14 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _core
-from ._validation import as_points, check_float, check_int, per_axis, resolve_params
+from ._validation import (
+    as_points,
+    check_float,
+    check_int,
+    fill_core_params,
+    per_axis,
+    resolve_params,
+)
 
 __all__ = ["GridGroundParams", "grid_ground"]
 
@@ -114,17 +121,7 @@ class GridGroundParams:
         return cls(**values)
 
     def to_core(self) -> _core.GridGroundParams:
-        core = _core.GridGroundParams()
-        core.block_size = list(self.block_size)
-        core.cell_size = list(self.cell_size)
-        core.slope = self.slope
-        core.height_tolerance = self.height_tolerance
-        core.min_seed_component = self.min_seed_component
-        core.grow_across_blocks = self.grow_across_blocks
-        core.filter_passes = self.filter_passes
-        core.filter_slope = self.filter_slope
-        core.filter_tolerance = self.filter_tolerance
-        return core
+        return fill_core_params(self, _core.GridGroundParams())
 
 
 def grid_ground(

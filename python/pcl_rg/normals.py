@@ -9,7 +9,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _core
-from ._validation import as_points, check_int, resolve_params
+from ._validation import as_points, check_int, fill_core_params, resolve_params
 
 __all__ = ["NormalsParams", "NormalsResult", "normals"]
 
@@ -30,9 +30,7 @@ class NormalsParams:
         object.__setattr__(self, "k", k)
 
     def to_core(self) -> _core.NormalsParams:
-        core = _core.NormalsParams()
-        core.k = self.k
-        return core
+        return fill_core_params(self, _core.NormalsParams())
 
 
 class NormalsResult(NamedTuple):

@@ -10,7 +10,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _core
-from ._validation import as_points, check_float, check_int, resolve_params
+from ._validation import as_points, check_float, check_int, fill_core_params, resolve_params
 
 __all__ = ["SEED_MEASURES", "RegionGrowingParams", "region_growing"]
 
@@ -131,15 +131,7 @@ class RegionGrowingParams:
         object.__setattr__(self, "viewpoint", check_viewpoint(self.viewpoint))
 
     def to_core(self) -> _core.RegionGrowingParams:
-        core = _core.RegionGrowingParams()
-        core.k = self.k
-        core.smoothness_deg = self.smoothness_deg
-        core.curvature_threshold = self.curvature_threshold
-        core.min_cluster_size = self.min_cluster_size
-        core.max_cluster_size = self.max_cluster_size
-        core.seed_measure = getattr(_core.SeedMeasure, self.seed_measure)
-        core.viewpoint = list(self.viewpoint)
-        return core
+        return fill_core_params(self, _core.RegionGrowingParams())
 
 
 def _resolve(params: RegionGrowingParams | None, **keywords: object) -> RegionGrowingParams:

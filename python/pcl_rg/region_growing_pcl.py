@@ -9,7 +9,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _core
-from ._validation import as_points, check_float, resolve_params
+from ._validation import as_points, check_float, fill_core_params, resolve_params
 from .region_growing import (
     NO_MAX_CLUSTER_SIZE,
     check_cluster_sizes,
@@ -64,13 +64,7 @@ class RegionGrowingPclParams:
         object.__setattr__(self, "max_cluster_size", high)
 
     def to_core(self) -> _core.RegionGrowingPclParams:
-        core = _core.RegionGrowingPclParams()
-        core.k = self.k
-        core.smoothness_deg = self.smoothness_deg
-        core.curvature_threshold = self.curvature_threshold
-        core.min_cluster_size = self.min_cluster_size
-        core.max_cluster_size = self.max_cluster_size
-        return core
+        return fill_core_params(self, _core.RegionGrowingPclParams())
 
 
 class PclRegionGrowingResult(NamedTuple):

@@ -8,7 +8,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _core
-from ._validation import as_points, check_float, check_int, resolve_params
+from ._validation import as_points, check_float, check_int, fill_core_params, resolve_params
 
 __all__ = ["StatisticalOutlierRemovalParams", "statistical_outlier_removal"]
 
@@ -33,10 +33,7 @@ class StatisticalOutlierRemovalParams:
         object.__setattr__(self, "std_mul", check_float("std_mul", self.std_mul, minimum=0.0))
 
     def to_core(self) -> _core.StatisticalOutlierRemovalParams:
-        core = _core.StatisticalOutlierRemovalParams()
-        core.mean_k = self.mean_k
-        core.std_mul = self.std_mul
-        return core
+        return fill_core_params(self, _core.StatisticalOutlierRemovalParams())
 
 
 def statistical_outlier_removal(

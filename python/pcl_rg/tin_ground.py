@@ -8,7 +8,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _core
-from ._validation import as_points, check_float, resolve_params
+from ._validation import as_points, check_float, fill_core_params, resolve_params
 
 __all__ = ["TinGroundParams", "tin_ground"]
 
@@ -145,18 +145,7 @@ class TinGroundParams:
         )
 
     def to_core(self) -> _core.TinGroundParams:
-        core = _core.TinGroundParams()
-        core.max_building_size = self.max_building_size
-        core.max_terrain_angle = self.max_terrain_angle
-        core.iteration_angle = self.iteration_angle
-        core.iteration_distance = self.iteration_distance
-        core.reduce_angle_edge = self.reduce_angle_edge
-        core.stop_edge = self.stop_edge
-        core.near_vertex_distance = self.near_vertex_distance
-        core.seed_cell = self.seed_cell
-        core.seed_tolerance = self.seed_tolerance
-        core.outlier_depth = self.outlier_depth
-        return core
+        return fill_core_params(self, _core.TinGroundParams())
 
 
 def tin_ground(

@@ -9,7 +9,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _core
-from ._validation import as_points, check_int, per_axis, resolve_params
+from ._validation import as_points, check_int, fill_core_params, per_axis, resolve_params
 
 __all__ = ["VoxelGridParams", "VoxelGridResult", "voxel_grid"]
 
@@ -35,10 +35,7 @@ class VoxelGridParams:
         )
 
     def to_core(self) -> _core.VoxelGridParams:
-        core = _core.VoxelGridParams()
-        core.leaf_size = list(self.leaf_size)
-        core.min_points_per_voxel = self.min_points_per_voxel
-        return core
+        return fill_core_params(self, _core.VoxelGridParams())
 
 
 class VoxelGridResult(NamedTuple):
