@@ -82,7 +82,9 @@ def normals(
     Notes
     -----
     Neighbours come from an exact k-d tree on float32 coordinates taken
-    relative to a float64 local origin (ties by lower index); all geometry is
+    relative to a float64 local origin (equal distances by lower index; of
+    several points tied at the k-th distance, the k-d tree keeps the first it
+    meets, deterministically); all geometry is
     then computed in float64 from the caller's coordinates relative to the
     query point, so UTM-sized coordinates lose nothing.
 

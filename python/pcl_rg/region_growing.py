@@ -67,7 +67,7 @@ class RegionGrowingParams:
     """Parameters of :func:`region_growing` (mirrors ``pcl_rg::RegionGrowingParams``)."""
 
     k: int = field(
-        default=10,
+        default=15,
         metadata={
             "help": "neighbours per point, itself included, >= 3, for normals, curvatures "
             "and growth (PCL setNumberOfNeighbours)"
@@ -81,7 +81,7 @@ class RegionGrowingParams:
         },
     )
     curvature_threshold: float = field(
-        default=100.0,
+        default=80.0,
         metadata={
             "help": "joined points whose seed measure is <= this grow further, in the "
             "measure's unit, scale dependent (PCL setCurvatureThreshold)"
@@ -165,7 +165,7 @@ def region_growing(
     points : array_like, shape (N, 3)
         Coordinates in metres (any real float or integer dtype, C or F order).
     k : int, optional
-        Neighbourhood size, the point itself included (default 10), for the
+        Neighbourhood size, the point itself included (default 15), for the
         normals, the curvatures and the growth. Must be >= 3 and < N (the
         curvatures need k >= 6).
     smoothness_deg : float, optional
@@ -174,7 +174,7 @@ def region_growing(
         (default 16).
     curvature_threshold : float, optional
         A joined point is queued as a further seed when its seed measure is
-        <= this, in the measure's unit (default 100 1/m, for curvedness).
+        <= this, in the measure's unit (default 80 1/m, for curvedness).
         Curvatures scale with 1 / size: tune it to the data's scale and noise.
     min_cluster_size, max_cluster_size : int, optional
         Regions with fewer or more points are dropped (defaults 20 and
@@ -223,9 +223,11 @@ def region_growing(
        a new region; every point ends in some region.
     4. Regions outside [min_cluster_size, max_cluster_size] are dropped (-1).
 
-    The defaults (k 10, 16 degrees, curvedness <= 100 1/m, 20 points) were
-    chosen by a grid search on the seven mOSD learn scenes after a 5 mm voxel
-    grid (``benchmarks/compare_region_growing.py --grid``).
+    The defaults (k 15, 16 degrees, curvedness <= 80 1/m, 20 points) were
+    chosen by a grid search on the seven mOSD learn scenes (Kinect, about 1 m
+    away), each after voxel grids of 3 to 8 mm, for the highest pooled mean
+    IoU (``benchmarks/compare_region_growing.py --grid``). Curvatures scale
+    as 1 / length: for other data, scale the threshold accordingly.
 
     ``seed_measure="concavity"`` is an option beyond the seed's definition:
     H_v is the mean curvature with the normal turned towards `viewpoint`, so

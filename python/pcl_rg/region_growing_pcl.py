@@ -25,7 +25,7 @@ class RegionGrowingPclParams:
     """Parameters of :func:`region_growing_pcl` (mirrors ``pcl_rg::RegionGrowingPclParams``)."""
 
     k: int = field(
-        default=10,
+        default=15,
         metadata={
             "help": "neighbours for normals and growth, itself included, >= 3 "
             "(setKSearch, setNumberOfNeighbours)"
@@ -101,13 +101,13 @@ def region_growing_pcl(
         Coordinates in metres (any real float or integer dtype, C or F order).
     k : int, optional
         Neighbours for the normals and the growth, the point itself included
-        (default 10); >= 3 and < N.
+        (default 15); >= 3 and < N.
     smoothness_deg : float, optional
         Maximum angle between neighbouring normals, degrees, in (0, 180)
         (default 16); passed to PCL in radians as float.
     curvature_threshold : float, optional
         Joined points whose surface variation is <= this grow further
-        (default 0.025, the best on the mOSD learn scenes at k 10 and 16
+        (default 0.025, the best on the mOSD learn scenes at k 15 and 16
         degrees; surface variation lies in [0, 1/3]).
     min_cluster_size, max_cluster_size : int, optional
         Regions outside these sizes are dropped (defaults 20 and 2**32 - 1).

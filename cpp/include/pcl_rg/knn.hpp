@@ -2,8 +2,12 @@
 // need neighbourhoods (SOR, normals, region growing).
 #pragma once
 
-// Among neighbours at equal distance, keep the lower index first, so neighbour
-// lists are reproducible and a reference can break ties the same way.
+// Among the neighbours returned at equal distance, the lower index comes first.
+// Which of several points tied at the k-th distance is returned is not the lowest
+// index, though: once the list is full nanoflann only takes strictly closer points,
+// so the first one the tree traversal meets stays. The traversal is deterministic
+// for a given input, so lists are reproducible; references that compare with us
+// on tied inputs must allow for the other choice at the k-th place.
 #ifndef NANOFLANN_FIRST_MATCH
 #define NANOFLANN_FIRST_MATCH
 #endif

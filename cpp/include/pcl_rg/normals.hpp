@@ -38,7 +38,7 @@ struct NormalsOutput {
 inline constexpr double kQuadricConditionLimit = 1e-10;
 
 /// Per point, over its `k` nearest neighbours (itself included; k-d tree on the
-/// float32 local frame, ties by lower index):
+/// float32 local frame; see knn.hpp for ties at the k-th distance):
 ///  * normal: eigenvector of the smallest eigenvalue lambda0 of the float64 covariance
 ///    of the neighbours, oriented so n_z > 0 (n_z == 0: n_y > 0, then n_x > 0);
 ///  * surface variation lambda0 / trace(covariance) (PCL's Normal::curvature);
@@ -58,8 +58,9 @@ void normals(PointsView points, const NormalsParams& params, const NormalsOutput
 
 /// The N x k neighbour lists normals() uses (row-major; row i: the k nearest points
 /// to point i, itself included, by ascending float32 squared distance in the local
-/// frame, equal distances by lower index). Throws std::invalid_argument when
-/// k >= N (non-empty input).
+/// frame, equal distances by lower index; which of several points tied at the k-th
+/// distance is kept follows the k-d tree traversal, see knn.hpp). Throws
+/// std::invalid_argument when k >= N (non-empty input).
 std::vector<std::uint32_t> neighbour_lists(PointsView points, const NormalsParams& params);
 
 }  // namespace pcl_rg

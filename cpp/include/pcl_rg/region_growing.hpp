@@ -26,15 +26,15 @@ enum class SeedMeasure {
 struct RegionGrowingParams {
     /// Neighbours per point, the point itself included (>= 3, < N); used for the
     /// normals, the curvatures and the growth; PCL setNumberOfNeighbours / setKSearch.
-    /// Defaults chosen on the mOSD learn scenes (5 mm voxels), see RESULTS.md.
-    int k = 10;
+    /// Defaults chosen on the mOSD learn scenes (3-8 mm voxels), see RESULTS.md.
+    int k = 15;
     /// A neighbour joins when the angle between the unoriented normals is <= this, in
     /// degrees, in (0, 180); PCL setSmoothnessThreshold (which takes radians).
     double smoothness_deg = 16.0;
     /// A joined point is pushed as a further seed when its seed measure is <= this
     /// (finite, >= 0; unit of the measure, scale dependent: 1/m for curvedness);
     /// PCL setCurvatureThreshold.
-    double curvature_threshold = 100.0;
+    double curvature_threshold = 80.0;
     /// Regions with fewer points are dropped (>= 1); PCL setMinClusterSize.
     std::int64_t min_cluster_size = 20;
     /// Regions with more points are dropped (>= min_cluster_size); PCL setMaxClusterSize.

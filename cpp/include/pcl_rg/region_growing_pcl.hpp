@@ -13,11 +13,11 @@ namespace pcl_rg {
 struct RegionGrowingPclParams {
     /// Neighbours for the normals and the growth, the point itself included (>= 3, < N);
     /// NormalEstimation::setKSearch and RegionGrowing::setNumberOfNeighbours.
-    int k = 10;
+    int k = 15;
     /// Smoothness angle in degrees, in (0, 180); setSmoothnessThreshold (radians, float).
     double smoothness_deg = 16.0;
     /// Surface-variation gate for further seeds (finite, >= 0); setCurvatureThreshold.
-    /// Tuned on the mOSD learn scenes at k 10, 16 deg (RESULTS.md).
+    /// Tuned on the mOSD learn scenes at k 15, 16 deg, as pcl_rg's default (RESULTS.md).
     double curvature_threshold = 0.025;
     /// Regions with fewer points are dropped (>= 1); setMinClusterSize.
     std::int64_t min_cluster_size = 20;
