@@ -44,6 +44,10 @@ GRID = {"block_size": 40.0, "cell_size": 1.0, "slope": 0.5, "min_seed_component"
 # angle) accept too little ground at 2-4 points/m2, see benchmarks/RESULTS.md.
 TIN: dict[str, Any] = {"params": TinGroundParams.tuned_isprs()}
 SEGMENT = {"k": 15, "min_cluster_size": 50}
+# Curvatures scale as 1 / length: the curvedness default (80 1/m) was chosen on
+# Kinect scenes at 5 mm voxels, so at LEAF-sized voxels it is scaled by 0.005 / LEAF.
+# Unscaled it would gate nothing here and regions would grow by angle alone.
+CURVEDNESS = RegionGrowingParams().curvature_threshold * 0.005 / LEAF
 ROOF_BAND = 0.25  # m below a building's highest point that still counts as its roof
 
 
@@ -282,9 +286,12 @@ def run_demo(
     voxel_of_point = np.full(n, -1, dtype=np.int64)
     voxel_of_point[kept_index] = grid.voxel_of_point
     segmentations = {}
-    for method, function in (("curvature", region_growing), ("pcl", region_growing_pcl)):
+    for method, function, options in (
+        ("curvature", region_growing, {"curvature_threshold": CURVEDNESS}),
+        ("pcl", region_growing_pcl, {}),
+    ):
         with _timer(stage, f"segment_{method}", f"region growing ({method})") as t:
-            voxel_labels = np.asarray(function(grid.centroids, **SEGMENT))
+            voxel_labels = np.asarray(function(grid.centroids, **SEGMENT, **options))
         point_labels = np.where(voxel_of_point >= 0, voxel_labels[voxel_of_point], -1)
         segmentations[method] = point_labels
         n_regions = len(np.unique(voxel_labels[voxel_labels >= 0]))
@@ -313,7 +320,7 @@ def run_demo(
             points,
             sor=StatisticalOutlierRemovalParams(**SOR),
             voxel=VoxelGridParams(leaf_size=LEAF),
-            region=RegionGrowingParams(**SEGMENT),
+            region=RegionGrowingParams(**SEGMENT, curvature_threshold=CURVEDNESS),
         )
     point_labels = np.asarray(result.labels).astype(np.int64)
     n_regions = len(np.unique(point_labels[point_labels >= 0]))
@@ -343,7 +350,9 @@ def run_demo(
         f"{LEAF:g} m; grid block {GRID['block_size']:g} m, cell {GRID['cell_size']:g} m, slope "
         f"{GRID['slope']:g} (tan of the steepest terrain, 25 deg), min seed component "
         f"{GRID['min_seed_component']}; tin TinGroundParams.tuned_isprs(); region "
-        f"growing k {SEGMENT['k']}, min cluster {SEGMENT['min_cluster_size']}, other defaults.",
+        f"growing k {SEGMENT['k']}, min cluster {SEGMENT['min_cluster_size']}, curvedness "
+        f"threshold {CURVEDNESS:g} 1/m (the default scaled from 5 mm to {LEAF:g} m voxels), "
+        "other defaults.",
         f"roof IoU: mean over the {len(scene.buildings)} buildings of the IoU of the roof "
         f"(building points within {ROOF_BAND:g} m of its top) and its best region, over all "
         "points.",
