@@ -50,6 +50,7 @@ from pcl_rg.region_growing_pcl import RegionGrowingPclParams
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 SCENES = ("learn0", "learn5", "learn17", "learn20", "learn25", "learn33", "learn40")
 LEAVES = (0.003, 0.004, 0.005, 0.006, 0.007, 0.008)  # voxel sizes, m: the pooled protocol
+TABLE_LEAF = 0.005  # m: the voxel size of the scene-by-scene table and the tutorial cloud
 SECTION = "## Region growing on mOSD"
 GRID_SECTION = "## Region growing parameter search (mOSD)"
 CONCAVITY = 20.0  # 1/m: the best pooled concavity threshold at the defaults' k and angle
@@ -136,12 +137,18 @@ def run_scenes(leaf: float, methods) -> dict[str, list[tuple]]:
     return runs
 
 
+def score_totals(scores: list) -> tuple[float, int, int, float, int]:
+    """mean IoU, over, under, mean ARI, clusters over a list of SegmentationScores."""
+    return (float(np.mean([x.mean_iou for x in scores])),
+            sum(x.over_segmented for x in scores), sum(x.under_segmented for x in scores),
+            float(np.mean([x.adjusted_rand_index for x in scores])),
+            sum(x.n_clusters for x in scores))
+
+
 def pooled(runs: list[tuple]) -> tuple[float, int, int, float, int, float, float]:
-    """mean IoU, over, under, mean ARI, clusters, normals s, growth s over `runs`."""
-    s = [r[2] for r in runs]
-    return (float(np.mean([x.mean_iou for x in s])), sum(x.over_segmented for x in s),
-            sum(x.under_segmented for x in s), float(np.mean([x.adjusted_rand_index for x in s])),
-            sum(x.n_clusters for x in s), sum(r[3] for r in runs), sum(r[4] for r in runs))
+    """score_totals of `runs` (from run_scenes), then their normals and growth seconds."""
+    return (*score_totals([r[2] for r in runs]), sum(r[3] for r in runs),
+            sum(r[4] for r in runs))
 
 
 def compare() -> tuple[str, list[list[str]], list[list[str]], list[str]]:
@@ -152,7 +159,7 @@ def compare() -> tuple[str, list[list[str]], list[list[str]], list[str]]:
     header = ["scene", "points", "method", "clusters", "mean IoU", "over", "under", "ARI",
               "normals (s)", "growth (s)", "total (s)"]
     rows: list[list[str]] = []
-    at5 = per_leaf[0.005]
+    at5 = per_leaf[TABLE_LEAF]
     for i, scene in enumerate(SCENES):
         for method in names:
             _, n, s, normals_s, growth_s = at5[method][i]
@@ -168,7 +175,7 @@ def compare() -> tuple[str, list[list[str]], list[list[str]], list[str]]:
 
     # The tutorial cloud (millimetres in the file): no truth, clusters and time only.
     tutorial = read_pcd(DATA / "pcl" / "region_growing_tutorial.pcd").points / 1000.0
-    tutorial = np.ascontiguousarray(pcl_rg.voxel_grid(tutorial, leaf_size=0.005).centroids)
+    tutorial = np.ascontiguousarray(pcl_rg.voxel_grid(tutorial, leaf_size=TABLE_LEAF).centroids)
     for method, run, params in methods:
         if method == "pcl_rg concavity":
             continue  # no viewpoint known for this cloud
@@ -196,7 +203,7 @@ def compare() -> tuple[str, list[list[str]], list[list[str]], list[str]]:
     summary = []
     for method in ("pcl_rg", "pcl_rg concavity"):
         for label, mine, base, segments in (
-            ("5 mm voxels, seven scenes", pooled(at5[method]), pooled(at5["PCL"]),
+            (f"{TABLE_LEAF * 1000:g} mm voxels, seven scenes", pooled(at5[method]), pooled(at5["PCL"]),
              TRUTH_SEGMENTS),
             (f"pooled over {len(LEAVES)} voxel sizes x seven scenes", totals[method],
              totals["PCL"], TRUTH_SEGMENTS * len(LEAVES)),
@@ -251,15 +258,16 @@ def grid() -> list[str]:
                             segmentation_scores(truth, carry(labels, vop)))
             print(f"  {leaf * 1000:g} mm, k {k} done", file=sys.stderr)
 
-    def summary(key):
-        s = scores[key]
-        return (float(np.mean([x.mean_iou for x in s])), sum(x.over_segmented for x in s),
-                sum(x.under_segmented for x in s))
+    # (mean IoU, over, under) per setting, pooled over every scene and voxel size.
+    summary = {key: score_totals(s)[:3] for key, s in scores.items()}
 
-    def best(measure, k=None, angle=None):
-        keys = [key for key in scores if key[0] == measure and k in (None, key[1])
-                and angle in (None, key[2])]
-        return max(keys, key=lambda key: summary(key)[0])
+    def best(measure, k, angle):
+        keys = [key for key in summary if key[:3] == (measure, k, angle)]
+        return max(keys, key=lambda key: summary[key][0])
+
+    def cells(key) -> list[str]:
+        iou, over, under = summary[key]
+        return [f"{key[3]:g}", f"{iou:.3f}", str(over), str(under)]
 
     lines = [f"Pooled over {len(LEAVES)} voxel sizes x {len(SCENES)} scenes "
              f"({TRUTH_SEGMENTS * len(LEAVES)} truth segments). The five best settings per "
@@ -267,22 +275,17 @@ def grid() -> list[str]:
     header = ["seed measure", "k", "angle (deg)", "threshold", "mean IoU", "over", "under"]
     rows = []
     for measure in thresholds:
-        ranked = sorted((key for key in scores if key[0] == measure),
-                        key=lambda key: -summary(key)[0])
-        for key in ranked[:5]:
-            iou, over, under = summary(key)
-            rows.append([measure, str(key[1]), str(key[2]), f"{key[3]:g}", f"{iou:.3f}",
-                         str(over), str(under)])
+        ranked = sorted((key for key in summary if key[0] == measure),
+                        key=lambda key: -summary[key][0])
+        rows += [[measure, str(key[1]), str(key[2]), *cells(key)] for key in ranked[:5]]
     lines += [markdown_table(header, rows), "",
               "Per (k, angle), each measure at its own best threshold:", ""]
     header = ["k", "angle (deg)", "curvedness", "mean IoU", "over", "under",
               "surface variation", "mean IoU", "over", "under"]
     rows = []
     for k, angle in itertools.product(ks, angles):
-        a, b = best("curvedness", k, angle), best("surface_variation", k, angle)
-        rows.append([str(k), str(angle), f"{a[3]:g}", *(f"{v:.3f}" if isinstance(v, float)
-                     else str(v) for v in summary(a)), f"{b[3]:g}",
-                     *(f"{v:.3f}" if isinstance(v, float) else str(v) for v in summary(b))])
+        rows.append([str(k), str(angle), *cells(best("curvedness", k, angle)),
+                     *cells(best("surface_variation", k, angle))])
     lines.append(markdown_table(header, rows))
     return lines
 
