@@ -1,8 +1,6 @@
 // Radix sorts and the Morton order (see spatial_order.hpp).
 #include "pcl_rg/spatial_order.hpp"
 
-#include <omp.h>
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -11,31 +9,44 @@ namespace pcl_rg {
 
 namespace {
 
-// One stable counting-sort pass per digit over contiguous per-thread chunks; the
-// bucket-major, thread-minor prefix sums put chunk t's items of a bucket after chunk
-// t-1's, which keeps the sort stable. `Move` copies item i to slot dst.
+// One stable counting-sort pass per digit over a fixed number of contiguous chunks;
+// the bucket-major, chunk-minor prefix sums put chunk c's items of a bucket after chunk
+// c-1's, which keeps the sort stable. The chunk count is fixed by the input size, not by
+// the threads: OpenMP may grant a region fewer threads than asked (OMP_THREAD_LIMIT,
+// OMP_DYNAMIC, a call from inside another parallel region), and worksharing loops over
+// chunks cover every chunk whatever the team size. `Move` copies item i to slot dst.
 template <class DigitOf, class Move>
 void radix_pass(std::size_t n, DigitOf digit_of, Move move, std::size_t buckets,
-                std::vector<std::size_t>& offsets, int threads) {
+                std::vector<std::size_t>& offsets, std::ptrdiff_t chunks) {
     std::fill(offsets.begin(), offsets.end(), 0);
-#pragma omp parallel num_threads(threads)
+    const auto chunk_begin = [&](std::ptrdiff_t c) {
+        return n * static_cast<std::size_t>(c) / static_cast<std::size_t>(chunks);
+    };
+#pragma omp parallel if (chunks > 1)
     {
-        const int t = omp_get_thread_num();
-        const std::size_t begin = n * t / threads, end = n * (t + 1) / threads;
-        std::size_t* count = &offsets[t * buckets];
-        for (std::size_t i = begin; i < end; ++i) ++count[digit_of(i)];
-#pragma omp barrier
+#pragma omp for schedule(static)
+        for (std::ptrdiff_t c = 0; c < chunks; ++c) {
+            std::size_t* count = &offsets[static_cast<std::size_t>(c) * buckets];
+            for (std::size_t i = chunk_begin(c), end = chunk_begin(c + 1); i < end; ++i)
+                ++count[digit_of(i)];
+        }
 #pragma omp single
         {
             std::size_t running = 0;
             for (std::size_t b = 0; b < buckets; ++b)
-                for (int u = 0; u < threads; ++u) {
-                    const std::size_t c = offsets[u * buckets + b];
-                    offsets[u * buckets + b] = running;
-                    running += c;
+                for (std::ptrdiff_t c = 0; c < chunks; ++c) {
+                    std::size_t& slot = offsets[static_cast<std::size_t>(c) * buckets + b];
+                    const std::size_t count = slot;
+                    slot = running;
+                    running += count;
                 }
         }
-        for (std::size_t i = begin; i < end; ++i) move(i, count[digit_of(i)]++);
+#pragma omp for schedule(static)
+        for (std::ptrdiff_t c = 0; c < chunks; ++c) {
+            std::size_t* next = &offsets[static_cast<std::size_t>(c) * buckets];
+            for (std::size_t i = chunk_begin(c), end = chunk_begin(c + 1); i < end; ++i)
+                move(i, next[digit_of(i)]++);
+        }
     }
 }
 
@@ -45,9 +56,11 @@ int digit_width(int bits) {
     return (bits + passes - 1) / passes;
 }
 
-int thread_count(std::size_t n) {
-    // Small inputs are not worth waking threads for.
-    return std::max(1, std::min<int>(omp_get_max_threads(), static_cast<int>(n / 65536) + 1));
+// Chunks of at least 64 Ki items (small inputs are not worth waking threads for), at most
+// 64 of them so the per-chunk bucket counts stay small next to the data. The result of a
+// stable sort does not depend on the chunking; the count only sets the parallelism.
+std::ptrdiff_t chunk_count(std::size_t n) {
+    return static_cast<std::ptrdiff_t>(std::min<std::size_t>(64, n / 65536 + 1));
 }
 
 }  // namespace
@@ -58,8 +71,8 @@ void radix_sort_pairs(std::vector<std::uint64_t>& keys, std::vector<std::uint32_
     if (n < 2 || key_bits <= 0) return;
     const int width = digit_width(key_bits);
     const std::size_t buckets = std::size_t{1} << width, mask = buckets - 1;
-    const int threads = thread_count(n);
-    std::vector<std::size_t> offsets(static_cast<std::size_t>(threads) * buckets);
+    const std::ptrdiff_t chunks = chunk_count(n);
+    std::vector<std::size_t> offsets(static_cast<std::size_t>(chunks) * buckets);
     std::vector<std::uint64_t> keys_tmp(n);
     std::vector<std::uint32_t> ids_tmp(n);
     for (int shift = 0; shift < key_bits; shift += width) {
@@ -69,7 +82,7 @@ void radix_sort_pairs(std::vector<std::uint64_t>& keys, std::vector<std::uint32_
                 keys_tmp[dst] = keys[i];
                 ids_tmp[dst] = ids[i];
             },
-            buckets, offsets, threads);
+            buckets, offsets, chunks);
         keys.swap(keys_tmp);
         ids.swap(ids_tmp);
     }
@@ -81,14 +94,14 @@ void radix_sort_bits(std::vector<std::uint64_t>& values, int first_bit, int last
     if (n < 2 || bits <= 0) return;
     const int width = digit_width(bits);
     const std::size_t buckets = std::size_t{1} << width, mask = buckets - 1;
-    const int threads = thread_count(n);
-    std::vector<std::size_t> offsets(static_cast<std::size_t>(threads) * buckets);
+    const std::ptrdiff_t chunks = chunk_count(n);
+    std::vector<std::size_t> offsets(static_cast<std::size_t>(chunks) * buckets);
     std::vector<std::uint64_t> tmp(n);
     for (int shift = first_bit; shift < last_bit; shift += width) {
         radix_pass(
             n, [&](std::size_t i) { return (values[i] >> shift) & mask; },
             [&](std::size_t i, std::size_t dst) { tmp[dst] = values[i]; }, buckets, offsets,
-            threads);
+            chunks);
         values.swap(tmp);
     }
 }

@@ -1,0 +1,141 @@
+"""Run every algorithm once on fixed clouds and print a digest of each result as JSON.
+
+tests/test_thread_independence.py starts this script in subprocesses under different
+OpenMP settings and compares the digests with the plain run's. Modes:
+
+- ``plain``: each algorithm called once from the main thread;
+- ``parallel-region``: each call made from inside an OpenMP parallel region of two
+  threads (libgomp's ``GOMP_parallel`` through ctypes), where nested regions get one
+  thread although ``omp_get_max_threads()`` still says more;
+- ``python-threads``: 8 Python threads call every algorithm at once; every thread's
+  digest must agree, or the digest printed is ``"threads disagree"``.
+
+The clouds are sized to reach every parallel path: more than 64 Ki points for the
+radix sort's chunks, and more than 500 000 for grid_ground's parallel loops.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import hashlib
+import json
+import sys
+import threading
+from collections.abc import Callable
+
+import numpy as np
+
+import pcl_rg
+from pcl_rg import _core, datasets
+
+
+def _digest(*arrays: np.ndarray) -> str:
+    h = hashlib.sha256()
+    for a in arrays:
+        a = np.ascontiguousarray(a)
+        h.update(str((a.dtype.str, a.shape)).encode())
+        h.update(a.tobytes())
+    return h.hexdigest()[:16]
+
+
+def _clouds() -> dict[str, np.ndarray]:
+    airborne = datasets.synthetic_scene(seed=3, size=360.0, density=4.0).points  # ~520 k
+    uniform = np.random.default_rng(11).uniform(0.0, 100.0, (300_000, 3))
+    surfaces = pcl_rg.voxel_grid(airborne[:150_000], leaf_size=0.6).centroids
+    return {"airborne": airborne, "uniform": uniform, "surfaces": surfaces}
+
+
+def _jobs(c: dict[str, np.ndarray]) -> dict[str, Callable[[], str]]:
+    air, uni, surf = c["airborne"], c["uniform"], c["surfaces"]
+    origin = air.min(axis=0)
+
+    def voxel() -> str:
+        g = pcl_rg.voxel_grid(uni, leaf_size=1.0)
+        return _digest(g.centroids, g.counts, g.voxel_of_point)
+
+    def normals() -> str:
+        r = pcl_rg.normals(surf, k=12)
+        return _digest(*r)
+
+    def pcl_voxel() -> str:
+        params = pcl_rg.VoxelGridParams(leaf_size=1.0).to_core()
+        return _digest(_core.pcl_voxel_grid(uni, np.zeros(3), params))
+
+    def pcl_sor() -> str:
+        params = pcl_rg.StatisticalOutlierRemovalParams(mean_k=8, std_mul=1.0).to_core()
+        return _digest(_core.pcl_statistical_outlier_removal(uni[:100_000], np.zeros(3), params))
+
+    return {
+        "voxel_grid": voxel,
+        "statistical_outlier_removal": lambda: _digest(
+            pcl_rg.statistical_outlier_removal(uni[:200_000], mean_k=8, std_mul=1.0)
+        ),
+        "grid_ground": lambda: _digest(pcl_rg.grid_ground(air)),
+        "tin_ground": lambda: _digest(pcl_rg.tin_ground(air)),
+        "tin_ground_isprs": lambda: _digest(
+            pcl_rg.tin_ground(air, params=pcl_rg.TinGroundParams.tuned_isprs())
+        ),
+        "normals": normals,
+        "region_growing": lambda: _digest(pcl_rg.region_growing(surf)),
+        "region_growing_pcl": lambda: _digest(pcl_rg.region_growing_pcl(surf)),
+        "pcl_voxel_grid": pcl_voxel,
+        "pcl_statistical_outlier_removal": pcl_sor,
+        "pcl_progressive_morphological_filter": lambda: _digest(
+            _core.pcl_progressive_morphological_filter(air[:20_000], origin)
+        ),
+    }
+
+
+def _in_parallel_region(job: Callable[[], str]) -> str:
+    """Call `job` on thread 0 of a two-thread OpenMP region; thread 1 only waits."""
+    gomp = ctypes.CDLL("libgomp.so.1")
+    gomp.omp_get_thread_num.restype = ctypes.c_int
+    gomp.omp_get_level.restype = ctypes.c_int
+    outcome: dict[str, object] = {}
+
+    @ctypes.CFUNCTYPE(None, ctypes.c_void_p)
+    def body(_data: int) -> None:  # ctypes takes the GIL for the callback
+        if gomp.omp_get_thread_num() != 0:
+            return
+        outcome["level"] = gomp.omp_get_level()
+        try:
+            outcome["digest"] = job()
+        except BaseException as error:  # an exception must not unwind through libgomp
+            outcome["error"] = error
+
+    gomp.GOMP_parallel(body, None, ctypes.c_uint(2), ctypes.c_uint(0))
+    if "error" in outcome:
+        raise outcome["error"]  # type: ignore[misc]
+    if outcome.get("level") != 1:
+        raise RuntimeError(f"the call ran at OpenMP level {outcome.get('level')}, not 1")
+    return str(outcome["digest"])
+
+
+def _from_python_threads(job: Callable[[], str], count: int = 8) -> str:
+    results: list[str | None] = [None] * count
+    barrier = threading.Barrier(count)
+
+    def run(slot: int) -> None:
+        barrier.wait()
+        results[slot] = job()
+
+    threads = [threading.Thread(target=run, args=(i,)) for i in range(count)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    return results[0] if len(set(results)) == 1 and results[0] else "threads disagree"
+
+
+def main(mode: str) -> None:
+    jobs = _jobs(_clouds())
+    call = {
+        "plain": lambda job: job(),
+        "parallel-region": _in_parallel_region,
+        "python-threads": _from_python_threads,
+    }[mode]
+    print(json.dumps({name: call(job) for name, job in jobs.items()}))
+
+
+if __name__ == "__main__":
+    main(sys.argv[1] if len(sys.argv) > 1 else "plain")
