@@ -2,10 +2,26 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import settings
+
+# Hypothesis profiles. "ci" (the default, `make test`) derandomizes: every run draws
+# the same examples, so a red CI is reproducible and a green one is not luck.
+# "fuzz" (`make fuzz`) draws fresh random examples, FUZZ_FACTOR times as many.
+FUZZ_FACTOR = 20
+settings.register_profile("ci", derandomize=True, database=None, print_blob=True)
+settings.register_profile("fuzz", derandomize=False, print_blob=True)
+HYPOTHESIS_PROFILE = os.environ.get("PCL_RG_HYPOTHESIS_PROFILE", "ci")
+settings.load_profile(HYPOTHESIS_PROFILE)
+
+
+def examples(count: int) -> int:
+    """A test's number of hypothesis examples under the active profile."""
+    return count * FUZZ_FACTOR if HYPOTHESIS_PROFILE == "fuzz" else count
 
 # ../shared/data next to the repository (CI always provides it; see its README).
 SHARED_DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"

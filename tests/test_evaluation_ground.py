@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 import pytest
+from conftest import examples
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
@@ -104,7 +105,7 @@ def test_bad_input(truth, predicted, match):
         ground_errors(truth, predicted)
 
 
-@settings(max_examples=200, deadline=None)
+@settings(max_examples=examples(200), deadline=None)
 @given(
     pair=st.integers(0, 60).flatmap(
         lambda n: st.tuples(hnp.arrays(np.bool_, n), hnp.arrays(np.bool_, n))

@@ -7,7 +7,7 @@ import threading
 
 import numpy as np
 import pytest
-from conftest import ISPRS_SAMPLES, shared_data
+from conftest import examples, ISPRS_SAMPLES, shared_data
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
@@ -453,13 +453,13 @@ param_sets = st.builds(
 ).filter(lambda p: all(c <= b for c, b in zip(p.cell_size, p.block_size)))
 
 
-@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=examples(150), deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(points=small_clouds(), params=param_sets)
 def test_hypothesis_core_equals_reference(points, params):
     assert_core_equals_reference(points, params)
 
 
-@settings(max_examples=100, deadline=None)
+@settings(max_examples=examples(100), deadline=None)
 @given(
     points=small_clouds(),
     block=st.one_of(st.floats(allow_nan=True), st.integers(-3, 3), st.none()),

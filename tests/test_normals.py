@@ -7,7 +7,7 @@ import threading
 
 import numpy as np
 import pytest
-from conftest import MOSD_SCENES, shared_data
+from conftest import examples, MOSD_SCENES, shared_data
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
@@ -366,7 +366,7 @@ clouds = hnp.arrays(
 )
 
 
-@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=examples(150), deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(points=clouds, k=st.integers(-1, 30))
 def test_fuzz_only_value_errors(points: np.ndarray, k: int) -> None:
     try:
@@ -386,7 +386,7 @@ def test_fuzz_only_value_errors(points: np.ndarray, k: int) -> None:
     assert ((sv >= 0) & (sv <= 1 / 3 + 1e-12)).all()
 
 
-@settings(max_examples=50, deadline=None)
+@settings(max_examples=examples(50), deadline=None)
 @given(
     points=hnp.arrays(
         st.sampled_from([np.float32, np.int32, np.float64, np.complex128, np.bool_]),

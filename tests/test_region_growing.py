@@ -8,7 +8,7 @@ import threading
 
 import numpy as np
 import pytest
-from conftest import MOSD_SCENES, shared_data
+from conftest import examples, MOSD_SCENES, shared_data
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
@@ -390,7 +390,7 @@ def test_bad_points_and_empty_input() -> None:
     assert reference.region_growing(np.empty((0, 3))).shape == (0,)
 
 
-@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=examples(150), deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(
     points=hnp.arrays(
         np.float64,

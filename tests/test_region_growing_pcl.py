@@ -7,7 +7,7 @@ import threading
 
 import numpy as np
 import pytest
-from conftest import MOSD_SCENES, shared_data
+from conftest import examples, MOSD_SCENES, shared_data
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
@@ -134,7 +134,7 @@ def test_bad_points_and_empty_input() -> None:
     assert empty.dtype == np.int32 and empty.shape == (0,)
 
 
-@settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=examples(100), deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(
     points=hnp.arrays(
         np.float64,

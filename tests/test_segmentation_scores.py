@@ -7,6 +7,7 @@ from itertools import combinations
 
 import numpy as np
 import pytest
+from conftest import examples
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -96,7 +97,7 @@ def test_ari_known_values() -> None:
     assert segmentation_scores([1, 1, 2, 2], [0, 0, 0, 0]).adjusted_rand_index == 0.0
 
 
-@settings(max_examples=200, deadline=None)
+@settings(max_examples=examples(200), deadline=None)
 @given(data=st.lists(st.tuples(st.integers(0, 4), st.integers(-1, 4)), min_size=0, max_size=25))
 def test_ari_matches_pair_counting_and_bounds(data: list[tuple[int, int]]) -> None:
     truth = [t for t, _ in data]

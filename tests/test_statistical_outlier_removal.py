@@ -7,7 +7,7 @@ import threading
 
 import numpy as np
 import pytest
-from conftest import ISPRS_SAMPLES, clustered_cloud, shared_data, uniform_cloud
+from conftest import clustered_cloud, examples, ISPRS_SAMPLES, shared_data, uniform_cloud
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
@@ -175,7 +175,7 @@ def test_bad_points():
         pcl_rg.statistical_outlier_removal(np.ones((4, 3), complex), mean_k=1)
 
 
-@settings(max_examples=120, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=examples(120), deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(
     points=hnp.arrays(
         np.float64,

@@ -6,7 +6,7 @@ import threading
 
 import numpy as np
 import pytest
-from conftest import clustered_cloud, shared_data, uniform_cloud
+from conftest import clustered_cloud, examples, shared_data, uniform_cloud
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
@@ -223,7 +223,7 @@ def test_core_rejects_unconverted_arrays():
 
 
 # --- fuzzing and threads ---------------------------------------------------------
-@settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=examples(80), deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(
     points=hnp.arrays(
         np.float64,
@@ -243,7 +243,7 @@ def test_fuzz_core_equals_reference(points, leaf, min_points):
     assert_same_grid(result, reference.voxel_grid(points, leaf, min_points_per_voxel=min_points), 1e3)
 
 
-@settings(max_examples=100, deadline=None)
+@settings(max_examples=examples(100), deadline=None)
 @given(
     points=hnp.arrays(
         st.sampled_from([np.float64, np.float32, np.int16, np.float16]),

@@ -11,6 +11,8 @@ import numpy as np
 import numpy.typing as npt
 
 __all__ = [
+    "MAX_POINTS_INT32",
+    "MAX_POINTS_UINT32",
     "as_points",
     "check_int",
     "check_float",
@@ -23,19 +25,28 @@ P = TypeVar("P")
 C = TypeVar("C")
 
 
-def as_points(points: npt.ArrayLike, name: str = "points") -> np.ndarray:
+# Largest clouds the core's index types can number: point ids are uint32 in the
+# k-NN index, the radix sort and VoxelGrid; labels and triangle/vertex ids are int32.
+MAX_POINTS_UINT32 = 2**32 - 1
+MAX_POINTS_INT32 = 2**31 - 1
+
+
+def as_points(
+    points: npt.ArrayLike, name: str = "points", *, max_points: int = MAX_POINTS_INT32
+) -> np.ndarray:
     """Return `points` as a C-contiguous float64 (N, 3) array, or raise.
 
     Accepts any real float or integer array-like of shape (N, 3) in C or F
     order. The input is never modified (a copy is made only when needed).
+    `max_points` is the caller's index-type limit, checked before any copy.
 
     Raises
     ------
     TypeError
         For complex, boolean, object, string or other non-numeric dtypes.
     ValueError
-        For a wrong shape, or non-finite values (the count and first indices
-        are named).
+        For a wrong shape, more than `max_points` rows, or non-finite values
+        (the count and first indices are named).
     """
     array = np.asarray(points)
     kind = array.dtype.kind
@@ -45,6 +56,12 @@ def as_points(points: npt.ArrayLike, name: str = "points") -> np.ndarray:
         )
     if array.ndim != 2 or array.shape[1] != 3:
         raise ValueError(f"{name} must have shape (N, 3), got {array.shape}")
+    if array.shape[0] > max_points:
+        index_type = "uint32" if max_points == MAX_POINTS_UINT32 else "int32"
+        raise ValueError(
+            f"{name}: at most {max_points:,} points are supported (the core numbers points "
+            f"with {index_type}), got {array.shape[0]:,}; split the cloud into tiles"
+        )
     array = np.ascontiguousarray(array, dtype=np.float64)
     if not np.isfinite(array).all():  # one pass in the common, clean case
         bad = np.flatnonzero(~np.isfinite(array).all(axis=1))

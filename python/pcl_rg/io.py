@@ -25,6 +25,7 @@ from typing import BinaryIO, NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, DTypeLike
 
+from ._las_header import check_las_header
 from ._validation import check_int
 
 __all__ = [
@@ -104,6 +105,8 @@ _PAD = "_"
 _MAX_HEADER_BYTES = 1 << 20
 _ASCII_CHUNK_ROWS = 65536
 _BINARY_CHUNK_BYTES = 1 << 24
+_LZF_MAX_EXPANSION = 88
+_MAX_PCD_COUNT = 1 << 16
 _FIELD_NAME = re.compile(r"[!-~]+")
 
 
@@ -212,6 +215,8 @@ def _parse_header(path: str, head: bytes) -> _Header:
     sizes = _parse_ints(path, "SIZE", entries.get("SIZE", ["4"] * n_fields), 1)
     types = entries.get("TYPE", ["F"] * n_fields)
     counts = _parse_ints(path, "COUNT", entries.get("COUNT", ["1"] * n_fields), 1)
+    if max(counts) > _MAX_PCD_COUNT:  # PCL's widest descriptors hold a few hundred values
+        raise _bad(path, f"COUNT value {max(counts)} is above the supported {_MAX_PCD_COUNT}")
 
     fields = []
     seen = set()
@@ -323,6 +328,16 @@ def _decode_compressed(path: str, header: _Header, data: memoryview) -> dict[str
             f"binary_compressed uncompressed size is {uncompressed_size} bytes but POINTS {n} x "
             f"{step} bytes per point is {n * step}",
         )
+    # An LZF back-reference of 3 bytes expands to at most 264 bytes, so no payload
+    # decompresses to more than 88 times its size: a larger claim is damage, caught
+    # before the output buffer is allocated.
+    if uncompressed_size > _LZF_MAX_EXPANSION * compressed_size:
+        raise _bad(
+            path,
+            f"binary_compressed sizes are inconsistent: {compressed_size} compressed bytes "
+            f"cannot hold {uncompressed_size} bytes (LZF expands at most "
+            f"{_LZF_MAX_EXPANSION}-fold)",
+        )
     if len(data) - 8 < compressed_size:
         raise _bad(
             path,
@@ -359,6 +374,14 @@ def _decode_ascii(path: str, header: _Header, data: memoryview) -> dict[str, np.
             for f in header.fields
             if f.name != _PAD
         }
+    # Every value takes at least one character: a cheap bound before any parsing.
+    n_values = sum(f.count for f in header.fields)
+    if n * n_values > len(data):
+        raise _bad(
+            path,
+            f"POINTS {n} with {n_values} values per row needs at least {n * n_values} bytes "
+            f"of ascii data, the file holds {len(data)} (truncated?)",
+        )
     names, formats = [], []
     for i, f in enumerate(header.fields):
         # PCL's ascii reader skips COUNT tokens for a padding field; any number goes.
@@ -1173,7 +1196,16 @@ def write_points(
         header = None
         if template is not None and template.format in ("las", "laz"):
             header = template.header
-        _write_las(name, xyz, columns, header, compress=fmt == "laz")
+        source = f" in the layout of {template.path!r}" if template is not None else ""
+        try:
+            _write_las(name, xyz, columns, header, compress=fmt == "laz")
+        except UnicodeError as error:  # laspy encodes the header's text fields as ASCII
+            raise ValueError(f"cannot write {name!r}{source}: a header text is not ASCII "
+                             f"({error})") from None
+        except (OSError, ValueError, TypeError):
+            raise
+        except Exception as error:  # laspy or lazrs refusing the template's header
+            raise ValueError(f"cannot write {name!r}{source}: {error}") from None
     elif fmt == "ply":
         layout = template.header if template is not None and template.format == "ply" else None
         _write_ply(name, xyz, columns, layout)
@@ -1251,32 +1283,65 @@ def _laspy():
     return laspy
 
 
+# Points decoded in the first step of a LAZ read; each later step doubles, up to the
+# last. A header's point count is so trusted only as far as the data bear it out
+# (LAZ sizes bound it only loosely), while large files still go in few big steps.
+_LAZ_FIRST_STEP = 1 << 16
+_LAZ_LARGEST_STEP = 1 << 22
+
+
 def _read_las(path: str, fmt: str) -> PointFile:
-    laspy = _laspy()
     try:
-        with open(path, "rb") as stream:
-            las = laspy.read(stream, closefd=False)
+        return _decode_las(path, fmt)
     except OSError as error:
         if error.errno is not None:  # a real I/O error, not a decoder's complaint
             raise
         raise _bad_las(path, error) from None
+    except ValueError as error:
+        if str(error).startswith(("invalid LAS/LAZ file", "invalid LAS file")):
+            raise
+        raise _bad_las(path, error) from None
     except Exception as error:  # laspy, lazrs and NumPy raise many kinds on corrupt data
         raise _bad_las(path, error) from None
-    header = las.header
-    if len(las.points) != header.point_count:
-        raise ValueError(
-            f"invalid LAS file {path!r}: header says {header.point_count} points, "
-            f"the file holds {len(las.points)} (truncated?)"
+
+
+def _decode_las(path: str, fmt: str) -> PointFile:
+    laspy = _laspy()
+    with open(path, "rb") as stream:
+        facts = check_las_header(path, stream)
+        stream.seek(0)
+        backend = (
+            laspy.LazBackend.LazrsParallel if facts.parallel_decompression else laspy.LazBackend.Lazrs
         )
-    points = np.column_stack([np.asarray(las.x), np.asarray(las.y), np.asarray(las.z)]).astype(
-        np.float64
+        with laspy.open(stream, closefd=False, laz_backend=backend) as reader:
+            header = reader.header
+            chunks = []
+            # Uncompressed: the size check made the count trustworthy, one step.
+            step = _LAZ_FIRST_STEP if facts.compressed else max(facts.point_count, 1)
+            while reader.points_read < facts.point_count:
+                chunk = reader.read_points(min(step, facts.point_count - reader.points_read))
+                if len(chunk) == 0:
+                    break
+                chunks.append(chunk.array)
+                step = min(2 * step, _LAZ_LARGEST_STEP)
+    read = sum(len(c) for c in chunks)
+    if read != facts.point_count:
+        raise ValueError(
+            f"invalid LAS file {path!r}: header says {facts.point_count} points, "
+            f"the file holds {read} (truncated?)"
+        )
+    dtype = header.point_format.dtype()
+    array = np.concatenate(chunks) if chunks else np.zeros(0, dtype=dtype)
+    record = laspy.ScaleAwarePointRecord(
+        array, header.point_format, scales=header.scales, offsets=header.offsets
     )
+    points = np.column_stack([np.asarray(record.x), np.asarray(record.y), np.asarray(record.z)])
     fields = {}
     for dim in header.point_format.dimensions:
         if dim.name in ("X", "Y", "Z"):
             continue
-        fields[dim.name] = np.array(las[dim.name])
-    return PointFile(points, fields, fmt, header, path)
+        fields[dim.name] = np.array(record[dim.name])
+    return PointFile(points.astype(np.float64), fields, fmt, header, path)
 
 
 def _bad_las(path: str, error: BaseException) -> ValueError:
@@ -1388,7 +1453,7 @@ def _write_las(
         recorder = _RecordingStream(stream)
         try:
             las.write(recorder, do_compress=compress)
-        except Exception:
+        except Exception as error:
             # lazrs turns an exception of the stream (e.g. ENOSPC) into its own
             # LazrsError; surface the original.
             if recorder.error is not None:
@@ -1529,6 +1594,31 @@ def _parse_ply_header(path: str, raw: bytes) -> tuple[str, list[_PlyElement], tu
     return encoding, elements, tuple(comments), end + end_len
 
 
+def _check_ply_counts(path: str, encoding: str, elements: list[_PlyElement], size: int) -> None:
+    """Every element count against the bytes after the header, before any parsing.
+
+    A binary entry takes at least its scalar properties plus one count per list;
+    an ascii entry at least one character per property (a loose bound, so that rows
+    of the wrong width still get the more precise message of the parser).
+    """
+    need = 0
+    for element in elements:
+        if encoding == "ascii":
+            per_entry = len(element.properties) + len(element.list_types)
+        else:
+            per_entry = sum(np.dtype(code).itemsize for _, code in element.properties) + sum(
+                np.dtype(count_type).itemsize for _, count_type, _ in element.list_types
+            )
+        need += element.count * per_entry
+        if need > size + 1:
+            raise _bad_ply(
+                path,
+                f"element {element.name!r} count {element.count} needs at least {need} bytes "
+                f"of {encoding} data with the elements before it, the file holds {size} "
+                "(truncated?)",
+            )
+
+
 def _read_ply(path: str) -> PointFile:
     with open(path, "rb") as stream:
         raw = stream.read()
@@ -1550,6 +1640,7 @@ def _read_ply(path: str) -> PointFile:
     n = vertex.count
     last = vertex_at == len(elements) - 1
     data = memoryview(raw)[offset:]
+    _check_ply_counts(path, encoding, elements, len(data))
     if encoding == "ascii":
         try:
             text = bytes(data).decode("ascii")
@@ -1680,6 +1771,11 @@ _PTS_NAMES = {
 }
 
 
+# Longest accepted line: far above any real row, low enough that one line cannot
+# turn into a parser's long loop over a single record.
+_MAX_XYZ_LINE = 1 << 16
+
+
 def _bad_xyz(path: str, problem: str) -> ValueError:
     return ValueError(f"invalid XYZ text file {path!r}: {problem}")
 
@@ -1692,6 +1788,13 @@ def _read_xyz(path: str) -> PointFile:
     except UnicodeDecodeError as exc:
         raise _bad_xyz(path, f"non-ASCII byte at offset {exc.start} (binary data?)") from None
     lines = text.splitlines()
+    if max(map(len, lines), default=0) > _MAX_XYZ_LINE:
+        number = next(i for i, line in enumerate(lines, start=1) if len(line) > _MAX_XYZ_LINE)
+        raise _bad_xyz(
+            path,
+            f"line {number} is longer than {_MAX_XYZ_LINE} characters (not point rows; a "
+            "row of x y z and a few attributes is well under 1000)",
+        )
     # The last comment line before the first data line may name the columns.
     header_names = None
     first = len(lines)

@@ -9,7 +9,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _core
-from ._validation import as_points, check_int, fill_core_params, resolve_params
+from ._validation import MAX_POINTS_UINT32, as_points, check_int, fill_core_params, resolve_params
 
 __all__ = ["NormalsParams", "NormalsResult", "normals"]
 
@@ -138,6 +138,6 @@ def normals(
     0.2
     """
     p = resolve_params(NormalsParams, params, k=k)
-    xyz = as_points(points)
+    xyz = as_points(points, max_points=MAX_POINTS_UINT32)
     return NormalsResult(*_core.normals(xyz, p.to_core()))
 

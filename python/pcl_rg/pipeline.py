@@ -9,7 +9,7 @@ from typing import NamedTuple
 import numpy as np
 import numpy.typing as npt
 
-from ._validation import as_points
+from ._validation import MAX_POINTS_UINT32, as_points
 from .region_growing import RegionGrowingParams, _region_growing_timed
 from .statistical_outlier_removal import (
     StatisticalOutlierRemovalParams,
@@ -185,7 +185,7 @@ def seed004(
         raise TypeError(f"voxel must be a VoxelGridParams or None, got {voxel!r}")
     if not isinstance(region, RegionGrowingParams):
         raise TypeError(f"region must be a RegionGrowingParams, got {region!r}")
-    xyz = as_points(points)
+    xyz = as_points(points, max_points=MAX_POINTS_UINT32)  # stages check their own limits
     n = len(xyz)
     stages: list[StageReport] = []
 

@@ -8,7 +8,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _core
-from ._validation import as_points, check_float, check_int, fill_core_params, resolve_params
+from ._validation import MAX_POINTS_UINT32, as_points, check_float, check_int, fill_core_params, resolve_params
 
 __all__ = ["StatisticalOutlierRemovalParams", "statistical_outlier_removal"]
 
@@ -97,6 +97,6 @@ def statistical_outlier_removal(
     (False, True)
     """
     p = resolve_params(StatisticalOutlierRemovalParams, params, mean_k=mean_k, std_mul=std_mul)
-    xyz = as_points(points)
+    xyz = as_points(points, max_points=MAX_POINTS_UINT32)
     inlier, _mean_distance, _threshold = _core.statistical_outlier_removal(xyz, p.to_core())
     return inlier

@@ -8,7 +8,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _core
-from ._validation import as_points, check_float, fill_core_params, resolve_params
+from ._validation import MAX_POINTS_INT32, as_points, check_float, fill_core_params, resolve_params
 
 __all__ = ["TinGroundParams", "tin_ground"]
 
@@ -298,6 +298,7 @@ def tin_ground(
         seed_tolerance=seed_tolerance,
         outlier_depth=outlier_depth,
     )
-    xyz = as_points(points)
+    # The TIN numbers vertices (the points and its 8 frame corners) with int32.
+    xyz = as_points(points, max_points=MAX_POINTS_INT32 - 8)
     ground, _stats = _core.tin_ground(xyz, p.to_core())
     return ground

@@ -9,7 +9,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _core
-from ._validation import as_points, check_int, fill_core_params, per_axis, resolve_params
+from ._validation import MAX_POINTS_UINT32, as_points, check_int, fill_core_params, per_axis, resolve_params
 
 __all__ = ["VoxelGridParams", "VoxelGridResult", "voxel_grid"]
 
@@ -116,6 +116,6 @@ def voxel_grid(
     p = resolve_params(
         VoxelGridParams, params, leaf_size=leaf_size, min_points_per_voxel=min_points_per_voxel
     )
-    xyz = as_points(points)
+    xyz = as_points(points, max_points=MAX_POINTS_UINT32)
     centroids, counts, voxel_of_point = _core.voxel_grid(xyz, p.to_core())
     return VoxelGridResult(centroids, counts, voxel_of_point.astype(np.intp, copy=False))

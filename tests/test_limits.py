@@ -1,0 +1,49 @@
+"""Inputs beyond the core's index types are refused up front, naming the limit.
+
+A zero-stride view of billions of rows costs no memory, so the refusal is tested
+for real: it must come before any copy or conversion of the input.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import pcl_rg
+from pcl_rg import pipeline
+
+UINT32 = 2**32 - 1
+INT32 = 2**31 - 1
+
+
+def rows(n: int) -> np.ndarray:
+    return np.broadcast_to(np.zeros(3), (n, 3))  # n rows, 24 bytes of memory
+
+
+CASES = [
+    ("voxel_grid", lambda p: pcl_rg.voxel_grid(p, leaf_size=1.0), UINT32),
+    ("statistical_outlier_removal", pcl_rg.statistical_outlier_removal, UINT32),
+    ("normals", pcl_rg.normals, UINT32),
+    ("grid_ground", pcl_rg.grid_ground, INT32),
+    ("tin_ground", pcl_rg.tin_ground, INT32 - 8),
+    ("region_growing", pcl_rg.region_growing, INT32),
+    ("region_growing_pcl", pcl_rg.region_growing_pcl, INT32),
+    ("pipeline.seed004", pipeline.seed004, UINT32),
+]
+
+
+@pytest.mark.parametrize(("name", "call", "limit"), CASES, ids=[c[0] for c in CASES])
+def test_one_point_over_the_limit_is_refused_without_allocating(name, call, limit) -> None:
+    with pytest.raises(ValueError, match=f"at most {limit:,} points are supported"):
+        call(rows(limit + 1))
+
+
+@pytest.mark.parametrize("limit", [INT32 - 8, INT32, UINT32])
+def test_the_message_names_the_index_type_and_the_count(limit) -> None:
+    from pcl_rg._validation import as_points
+
+    with pytest.raises(ValueError, match=rf"uint32|int32") as error:
+        as_points(rows(limit + 1), max_points=limit)
+    assert f"got {limit + 1:,}" in str(error.value)
+    # At the limit itself the gate lets a (small) cloud through unchanged.
+    assert as_points(np.ones((4, 3)), max_points=limit).shape == (4, 3)
