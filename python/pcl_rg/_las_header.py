@@ -16,6 +16,7 @@ the EVLR count at 243 and the 64-bit point count at 247.
 
 from __future__ import annotations
 
+import math
 import os
 import struct
 from typing import BinaryIO, NamedTuple
@@ -97,6 +98,12 @@ def check_las_header(path: str, stream: BinaryIO) -> LasFacts:
             f"point record length {record_length} is shorter than the "
             f"{_RECORD_SIZE[point_format]} bytes of point format {point_format}",
         )
+    scales, offsets = struct.unpack_from("<3d", head, 131), struct.unpack_from("<3d", head, 155)
+    for axis, scale, offset in zip("xyz", scales, offsets):
+        # Stored coordinates are int32: every one of them must map to a finite number.
+        if not (scale != 0.0 and math.isfinite(abs(scale) * 2.0**31 + abs(offset))):
+            raise _bad(path, f"{axis} scale {scale!r} and offset {offset!r} do not give finite "
+                       "coordinates")
     point_count = legacy_count
     evlr_start = evlr_count = 0
     if minor >= 4:
