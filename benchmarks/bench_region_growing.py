@@ -49,7 +49,7 @@ def cloud(n: int) -> np.ndarray:
 def run_ours(points: np.ndarray) -> tuple[float, float]:
     import pcl_rg
     from pcl_rg._validation import as_points
-    from pcl_rg.region_growing import _region_growing_timed
+    from pcl_rg._region_growing import _region_growing_timed
 
     _, normals_s, growth_s = _region_growing_timed(as_points(points), pcl_rg.RegionGrowingParams())
     return normals_s, growth_s

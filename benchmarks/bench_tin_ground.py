@@ -5,7 +5,7 @@ Usage:
 
 The scene is pcl_rg.datasets.synthetic_scene at 4 points/m^2 (seed 0), sized for
 the requested number of points. Each parameter set (LiDAR360's defaults and
-TinGroundParams.tuned_isprs()) runs `repeats` times; the table gives the median
+TinGroundParams.isprs()) runs `repeats` times; the table gives the median
 wall time of the whole call (input check plus C++ core) and, from the core's own
 clocks in that run, the split between preparation (snapping, Morton sort, seeds),
 triangulation (Delaunay insertions, serial) and classification (point location and
@@ -60,8 +60,8 @@ def main(argv: list[str] | None = None) -> int:
 
     rows = []
     for label, params in [
-        ("LiDAR360 defaults", pcl_rg.TinGroundParams()),
-        ("tuned_isprs()", pcl_rg.TinGroundParams.tuned_isprs()),
+        ("LiDAR360 defaults", pcl_rg.TinGroundParams.lidar360()),
+        ("tuned_isprs()", pcl_rg.TinGroundParams.isprs()),
     ]:
         runs = [run_once(scene.points, params) for _ in range(args.repeats)]
         seconds = statistics.median(r[0] for r in runs)

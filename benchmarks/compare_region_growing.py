@@ -44,8 +44,8 @@ from pcl_rg.datasets import load_mosd
 from pcl_rg.evaluation import segmentation_scores
 from pcl_rg.io import read_pcd
 from pcl_rg.reference.region_growing import measure_values
-from pcl_rg.region_growing import RegionGrowingParams, _region_growing_timed
-from pcl_rg.region_growing_pcl import RegionGrowingPclParams
+from pcl_rg._region_growing import RegionGrowingParams, _region_growing_timed
+from pcl_rg._region_growing_pcl import RegionGrowingPclParams
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 SCENES = ("learn0", "learn5", "learn17", "learn20", "learn25", "learn33", "learn40")

@@ -93,7 +93,7 @@ METHODS: list[tuple[str, Callable[[np.ndarray], np.ndarray]]] = [
     ("tin_ground (LiDAR360 defaults)", lambda points: pcl_rg.tin_ground(points)),
     (
         "tin_ground (tuned_isprs)",
-        lambda points: pcl_rg.tin_ground(points, params=pcl_rg.TinGroundParams.tuned_isprs()),
+        lambda points: pcl_rg.tin_ground(points, params=pcl_rg.TinGroundParams.isprs()),
     ),
 ]
 

@@ -10,7 +10,7 @@ The search is a cheap coordinate descent over a fixed grid of values (SEARCH_GRI
 from LiDAR360's defaults with the improvements switched on at middle values, judged
 by the mean total error over the seven samples: one set for all samples, never per
 sample. It takes a few minutes on two cores. The set it found is
-pcl_rg.TinGroundParams.tuned_isprs(); the report scores it beside LiDAR360's
+pcl_rg.TinGroundParams.isprs(); the report scores it beside LiDAR360's
 defaults (per sample and mean Type I / II / total error, kappa, time) and an
 ablation that switches each improvement off again.
 
@@ -64,7 +64,7 @@ def mean_total(samples, params: pcl_rg.TinGroundParams) -> float:
 def search(samples) -> tuple[pcl_rg.TinGroundParams, list[str]]:
     """Coordinate descent over SEARCH_GRID: (best params, log lines)."""
     best = dataclasses.replace(
-        pcl_rg.TinGroundParams(),
+        pcl_rg.TinGroundParams.lidar360(),
         iteration_angle=30.0,
         reduce_angle_edge=0.01,
         stop_edge=0.01,
@@ -110,8 +110,8 @@ def comparison(samples) -> str:
 
 def report(samples, command: str, compare: bool = False) -> str:
     sets = [
-        ("LiDAR360 defaults", pcl_rg.TinGroundParams()),
-        ("tuned_isprs()", pcl_rg.TinGroundParams.tuned_isprs()),
+        ("LiDAR360 defaults", pcl_rg.TinGroundParams.lidar360()),
+        ("tuned_isprs()", pcl_rg.TinGroundParams.isprs()),
     ]
     rows = []
     for label, params in sets:
@@ -124,7 +124,7 @@ def report(samples, command: str, compare: bool = False) -> str:
             values.append([e.type_i, e.type_ii, e.total, e.kappa, seconds])
             rows.append([sample, label, *_cells(e.type_i, e.type_ii, e.total, e.kappa, seconds)])
         rows.append(["**mean**", f"**{label}**", *_cells(*np.mean(values, axis=0))])
-    tuned = pcl_rg.TinGroundParams.tuned_isprs()
+    tuned = pcl_rg.TinGroundParams.isprs()
     ablation = [
         [name, f"{100 * mean_total(samples, dataclasses.replace(tuned, **{name: off})):.2f}"]
         for name, off in IMPROVEMENTS.items()
@@ -142,7 +142,7 @@ def report(samples, command: str, compare: bool = False) -> str:
         "samples of ../shared/data/isprs (y quantised to 0.5 m by float32: compare methods\n"
         "side by side, not with published figures). One parameter set for all samples;\n"
         "time is one call of pcl_rg.tin_ground, wall clock.\n\n"
-        f"- LiDAR360 defaults: `{pcl_rg.TinGroundParams()}`\n"
+        f"- LiDAR360 defaults: `{pcl_rg.TinGroundParams.lidar360()}`\n"
         f"- tuned_isprs(), chosen by `python benchmarks/tin_isprs_params.py` (coordinate\n"
         f"  descent, mean total error): `{tuned}`\n\n"
         + markdown_table(header, rows)
@@ -178,8 +178,8 @@ def main(argv: list[str] | None = None) -> int:
     if not args.report:
         best, lines = search(samples)
         print("\n".join(lines))
-        if best != pcl_rg.TinGroundParams.tuned_isprs():
-            print("note: the search ended elsewhere than TinGroundParams.tuned_isprs()")
+        if best != pcl_rg.TinGroundParams.isprs():
+            print("note: the search ended elsewhere than TinGroundParams.isprs()")
     command = (
         "python benchmarks/tin_isprs_params.py"
         + (" --report" if args.report else "")

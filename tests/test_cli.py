@@ -19,7 +19,7 @@ import pytest
 
 import pcl_rg
 import pcl_rg.cli as cli
-import pcl_rg.grid_ground
+import pcl_rg._grid_ground
 import pcl_rg.io as pio
 from conftest import shared_data
 from pcl_rg import datasets
@@ -754,7 +754,7 @@ def test_interrupt_leaves_no_partial_file(capsys, tmp_path, scene_las, monkeypat
     def interrupted(*args, **kwargs):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(sys.modules["pcl_rg.grid_ground"], "grid_ground", interrupted)
+    monkeypatch.setattr(sys.modules["pcl_rg._grid_ground"], "grid_ground", interrupted)
     code, _, err = run(capsys, "ground", scene_las, tmp_path / "out.laz")
     assert code == 130 and list(tmp_path.iterdir()) == []
 

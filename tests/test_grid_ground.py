@@ -375,7 +375,7 @@ def test_keywords_override_params_and_scalars_expand():
         ({"filter_passes": -1}, ValueError, "filter_passes must be >= 0"),
         ({"filter_slope": -1}, ValueError, "filter_slope must be >= 0"),
         ({"filter_tolerance": -0.5}, ValueError, "filter_tolerance must be >= 0"),
-        ({"grow_across_blocks": 1}, TypeError, "grow_across_blocks must be a bool"),
+        ({"grow_across_blocks": 1}, TypeError, "grow_across_blocks must be True or False"),
         ({"slope": "steep"}, TypeError, "slope must be a real number"),
         ({"params": {"slope": 1}}, TypeError, "params must be a GridGroundParams"),
     ],

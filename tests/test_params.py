@@ -1,13 +1,16 @@
-"""Every Python parameter dataclass mirrors its C++ struct: same fields, same defaults."""
+"""Every Python parameter dataclass mirrors its C++ struct: same fields, same defaults,
+and the same values rejected with the same message."""
 
 from __future__ import annotations
 
 import dataclasses
 
+import numpy as np
 import pytest
 
 import pcl_rg
 from pcl_rg import _core
+from pcl_rg._params import Spec, spec_of
 
 PAIRS = [
     (cls, getattr(_core, name))
@@ -40,3 +43,96 @@ def test_fields_and_defaults_match(python_cls, core_cls):
         if isinstance(value, list):
             value = tuple(value)  # std::array fields come back as lists
         assert value == field.default, (field.name, value, field.default)
+
+
+# --- Python and C++ reject the same values with the same words ------------------------
+
+CLOUD = np.random.default_rng(3).uniform(0.0, 10.0, (200, 3))
+CORE_CALLS = {
+    "VoxelGridParams": _core.voxel_grid,
+    "StatisticalOutlierRemovalParams": _core.statistical_outlier_removal,
+    "NormalsParams": _core.normals,
+    "RegionGrowingParams": _core.region_growing,
+    "RegionGrowingPclParams": _core.region_growing_pcl,
+    "GridGroundParams": _core.grid_ground,
+    "TinGroundParams": _core.tin_ground,
+}
+REQUIRED = {"VoxelGridParams": {"leaf_size": 1.0}}
+
+
+def _invalid_values(spec: Spec) -> list[float]:
+    """Values just outside each bound, and the non-finite ones for reals."""
+    step = 1 if spec.kind is int else 0.5
+    values = []
+    if spec.minimum is not None:
+        values.append(spec.minimum - step)
+    if spec.above is not None:
+        values.append(spec.above)
+    if spec.maximum is not None:
+        values.append(spec.maximum + step)
+    if spec.below is not None:
+        values.append(spec.below)
+    if spec.kind is float:
+        values += [float("nan"), float("inf"), -float("inf")]
+    return [int(v) if spec.kind is int else v for v in values]
+
+
+def _cases() -> list[tuple[type, str, object]]:
+    cases = []
+    for cls, _ in PAIRS:
+        for field in dataclasses.fields(cls):
+            spec = spec_of(field)
+            if spec.kind in (int, float):
+                cases += [(cls, field.name, value) for value in _invalid_values(spec)]
+    return cases
+
+
+def _core_message(cls: type, name: str, value: object) -> str:
+    core = cls(**REQUIRED.get(cls.__name__, {})).to_core()
+    spec = spec_of(next(f for f in dataclasses.fields(cls) if f.name == name))
+    setattr(core, name, [value] * spec.axes if spec.axes else value)
+    with pytest.raises(ValueError) as error:
+        CORE_CALLS[cls.__name__](CLOUD, core)
+    return str(error.value)
+
+
+@pytest.mark.parametrize(
+    ("cls", "name", "value"), _cases(), ids=lambda v: getattr(v, "__name__", str(v))
+)
+def test_python_and_cpp_reject_the_same_value_with_the_same_message(cls, name, value) -> None:
+    with pytest.raises(ValueError) as error:
+        cls(**{**REQUIRED.get(cls.__name__, {}), name: value})
+    python_message = str(error.value)
+    assert python_message.startswith(f"{name} must be "), python_message
+    assert python_message == _core_message(cls, name, value)
+
+
+def test_every_bounded_parameter_is_covered() -> None:
+    covered = {(cls.__name__, name) for cls, name, _ in _cases()}
+    for cls, _ in PAIRS:
+        for field in dataclasses.fields(cls):
+            spec = spec_of(field)
+            bounded = any(b is not None for b in (spec.minimum, spec.above, spec.maximum, spec.below))
+            if bounded:
+                assert (cls.__name__, field.name) in covered
+
+
+@pytest.mark.parametrize(
+    ("cls", "first", "second", "values"),
+    [
+        (pcl_rg.GridGroundParams, "block_size", "cell_size", (4.0, 5.0)),
+        (pcl_rg.RegionGrowingParams, "min_cluster_size", "max_cluster_size", (50, 10)),
+        (pcl_rg.RegionGrowingPclParams, "min_cluster_size", "max_cluster_size", (50, 10)),
+    ],
+)
+def test_relations_between_parameters_are_worded_alike(cls, first, second, values) -> None:
+    with pytest.raises(ValueError) as error:
+        cls(**{first: values[0], second: values[1]})
+    core = cls().to_core()
+    fields = {f.name: spec_of(f) for f in dataclasses.fields(cls)}
+    for name, value in zip((first, second), values):
+        setattr(core, name, [value] * fields[name].axes if fields[name].axes else value)
+    with pytest.raises(ValueError) as core_error:
+        CORE_CALLS[cls.__name__](CLOUD, core)
+    assert str(error.value) == str(core_error.value)
+    assert str(error.value).startswith(f"{second} must be ")

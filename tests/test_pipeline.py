@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import doctest
-import importlib
 
 import numpy as np
 import pytest
@@ -120,22 +118,3 @@ def test_errors_and_empty_input() -> None:
     empty = seed004(np.empty((0, 3)), voxel=VoxelGridParams(leaf_size=1.0))
     assert empty.labels.shape == (0,) and empty.labels.dtype == np.int32
     assert empty.report.clusters == 0
-
-
-@pytest.mark.parametrize(
-    "name",
-    [
-        "pcl_rg.pipeline",
-        "pcl_rg.normals",
-        "pcl_rg.region_growing",
-        "pcl_rg.region_growing_pcl",
-        "pcl_rg.reference.normals",
-        "pcl_rg.reference.region_growing",
-        "pcl_rg._mosd",
-        "pcl_rg._segmentation_scores",
-    ],
-)
-def test_docstring_examples(name: str) -> None:
-    # import_module: the package's attributes pcl_rg.normals etc. are the functions.
-    failures, tried = doctest.testmod(importlib.import_module(name))
-    assert tried > 0 and failures == 0

@@ -16,7 +16,7 @@ from test_region_growing import assert_numbered_by_smallest_index, box_scene, ma
 import pcl_rg
 from pcl_rg import _core
 from pcl_rg.datasets import load_mosd
-from pcl_rg.region_growing_pcl import PclRegionGrowingResult, RegionGrowingPclParams
+from pcl_rg._region_growing_pcl import PclRegionGrowingResult, RegionGrowingPclParams
 
 
 def test_result_and_numbering() -> None:
@@ -108,7 +108,7 @@ def test_params_defaults_match_core() -> None:
         ({"smoothness_deg": 190.0}, r"smoothness_deg must be in \(0, 180\)"),
         ({"curvature_threshold": -1.0}, "curvature_threshold must be >= 0"),
         ({"min_cluster_size": 5, "max_cluster_size": 4}, "max_cluster_size must be >= min"),
-        ({"max_cluster_size": 2**32}, "max_cluster_size must be <= 4294967295 for PCL"),
+        ({"max_cluster_size": 2**32}, "max_cluster_size must be in \\[1, 4294967295\\], got 4294967296"),
     ],
 )
 def test_bad_parameters(kwargs: dict, match: str) -> None:
@@ -119,7 +119,7 @@ def test_bad_parameters(kwargs: dict, match: str) -> None:
 def test_core_validates_too() -> None:
     core = RegionGrowingPclParams().to_core()
     core.max_cluster_size = 2**40
-    with pytest.raises(ValueError, match="max_cluster_size must be <= 4294967295"):
+    with pytest.raises(ValueError, match=r"max_cluster_size must be in \[1, 4294967295\]"):
         _core.region_growing_pcl(box_scene(seed=25), core)
 
 

@@ -22,8 +22,8 @@ from pcl_rg.datasets import load_isprs
 from pcl_rg.datasets import GROUND, synthetic_scene
 from pcl_rg.evaluation import ground_errors
 
-DEFAULTS = pcl_rg.TinGroundParams()
-TUNED = pcl_rg.TinGroundParams.tuned_isprs()
+LIDAR360 = pcl_rg.TinGroundParams.lidar360()
+ISPRS = pcl_rg.TinGroundParams.isprs()
 
 
 def scene(seed: int, size: float = 70.0, density: float = 1.0):
@@ -45,13 +45,13 @@ def isprs(sample: str) -> tuple[np.ndarray, np.ndarray]:
 # core vs reference
 
 GRID = [
-    DEFAULTS,
-    TUNED,
-    pcl_rg.TinGroundParams(iteration_angle=25.0, reduce_angle_edge=3.0, stop_edge=1.0),
-    pcl_rg.TinGroundParams(
+    LIDAR360,
+    ISPRS,
+    pcl_rg.TinGroundParams.lidar360(iteration_angle=25.0, reduce_angle_edge=3.0, stop_edge=1.0),
+    pcl_rg.TinGroundParams.lidar360(
         max_building_size=15.0, iteration_distance=0.5, iteration_angle=45.0, max_terrain_angle=60.0
     ),
-    pcl_rg.TinGroundParams(seed_cell=3.0, seed_tolerance=0.3, near_vertex_distance=0.5),
+    pcl_rg.TinGroundParams.lidar360(seed_cell=3.0, seed_tolerance=0.3, near_vertex_distance=0.5),
 ]
 
 
@@ -73,8 +73,8 @@ def test_core_equals_reference_with_sparse_seed_cells() -> None:
     rng = np.random.default_rng(13)
     points = np.c_[rng.uniform(0.0, 1e4, (400, 2)), rng.normal(0.0, 1.0, 400)]
     for params in (
-        pcl_rg.TinGroundParams(max_building_size=0.5),
-        dataclasses.replace(TUNED, seed_cell=0.0, max_building_size=0.5),
+        pcl_rg.TinGroundParams.lidar360(max_building_size=0.5),
+        dataclasses.replace(ISPRS, seed_cell=0.0, max_building_size=0.5),
     ):
         np.testing.assert_array_equal(
             pcl_rg.tin_ground(points, params=params), reference.tin_ground(points, params=params)
@@ -82,7 +82,7 @@ def test_core_equals_reference_with_sparse_seed_cells() -> None:
 
 
 @pytest.mark.parametrize("sample", ["samp21", "samp41"])
-@pytest.mark.parametrize("params", [DEFAULTS, TUNED], ids=["lidar360", "tuned"])
+@pytest.mark.parametrize("params", [LIDAR360, ISPRS], ids=["lidar360", "tuned"])
 def test_core_agrees_with_reference_on_isprs(sample: str, params) -> None:
     # ISPRS y is quantised to 0.5 m and x to float32 steps, so four or more TIN vertices
     # often lie on one circle; there the Delaunay triangulation is not unique and qhull
@@ -111,7 +111,7 @@ PROBES = np.array(
     [(i % 10 + 0.5, i // 10 + 0.5, h) for i, h in enumerate(HEIGHTS)], dtype=np.float64
 )
 PROBE_CLOUD = np.vstack([LATTICE, PROBES])
-ON_LATTICE = pcl_rg.TinGroundParams(
+ON_LATTICE = pcl_rg.TinGroundParams.lidar360(
     max_building_size=1.0,
     iteration_angle=89.0,
     iteration_distance=10.0,
@@ -176,7 +176,7 @@ def test_stop_edge_accepts_without_inserting() -> None:
 
 def test_stop_edge_bounds_the_density_of_the_tin() -> None:
     points = scene(3).points
-    params = dataclasses.replace(TUNED, stop_edge=0.01)
+    params = dataclasses.replace(ISPRS, stop_edge=0.01)
     vertices = [
         run_core(points, dataclasses.replace(params, stop_edge=e))[1]["tin_vertices"]
         for e in (0.01, 1.0, 2.0, 4.0)
@@ -205,7 +205,7 @@ def flat_with_roof(roof_side: float) -> tuple[np.ndarray, np.ndarray]:
 
 def test_max_building_size_keeps_roofs_larger_than_it_off_the_ground() -> None:
     points, roof = flat_with_roof(30.0)
-    params = pcl_rg.TinGroundParams(iteration_angle=30.0, reduce_angle_edge=0.01, stop_edge=0.01)
+    params = pcl_rg.TinGroundParams.lidar360(iteration_angle=30.0, reduce_angle_edge=0.01, stop_edge=0.01)
     small_cells = pcl_rg.tin_ground(points, params=params, max_building_size=10.0)
     large_cells = pcl_rg.tin_ground(points, params=params, max_building_size=50.0)
     # Cells of 10 m inside the 30 m roof have roof seeds, and much of the roof becomes
@@ -217,14 +217,14 @@ def test_max_building_size_keeps_roofs_larger_than_it_off_the_ground() -> None:
     assert large_cells[~roof].mean() > 0.9  # flat, noise-free ground is all accepted
     # With LiDAR360's 8 deg angle, reduced below 5 m edges, less of the roof follows
     # its seeds, but still some.
-    assert pcl_rg.tin_ground(points, max_building_size=10.0)[roof].any()
-    assert not pcl_rg.tin_ground(points, max_building_size=50.0)[roof].any()
+    assert pcl_rg.tin_ground(points, params=LIDAR360, max_building_size=10.0)[roof].any()
+    assert not pcl_rg.tin_ground(points, params=LIDAR360, max_building_size=50.0)[roof].any()
 
 
 def test_seed_cell_seeds_open_ground_and_skips_roofs() -> None:
     points, roof = flat_with_roof(30.0)
-    seeded = run_core(points, pcl_rg.TinGroundParams(max_building_size=40.0, seed_cell=4.0))
-    plain = run_core(points, pcl_rg.TinGroundParams(max_building_size=40.0))
+    seeded = run_core(points, pcl_rg.TinGroundParams.lidar360(max_building_size=40.0, seed_cell=4.0))
+    plain = run_core(points, pcl_rg.TinGroundParams.lidar360(max_building_size=40.0))
     assert seeded[1]["seeds"] > 10 * plain[1]["seeds"]
     assert not seeded[0][roof].any()
 
@@ -234,7 +234,7 @@ def test_outlier_depth_keeps_low_outlier_clusters_out_of_the_seeds() -> None:
     ground = np.c_[rng.uniform(0.0, 60.0, (6000, 2)), rng.normal(0.0, 0.02, 6000)]
     pit = np.c_[rng.uniform(28.0, 32.0, (12, 2)), rng.uniform(-12.0, -10.0, 12)]
     points = np.vstack([ground, pit])
-    params = dataclasses.replace(TUNED, outlier_depth=0.0)
+    params = dataclasses.replace(ISPRS, outlier_depth=0.0)
     without = pcl_rg.tin_ground(points, params=params)
     with_option = pcl_rg.tin_ground(points, params=dataclasses.replace(params, outlier_depth=3.0))
     assert without[-12:].any()  # the pit's lowest points are seeds
@@ -250,7 +250,7 @@ def test_outlier_depth_keeps_low_outlier_clusters_out_of_the_seeds() -> None:
 def test_point_order_does_not_matter() -> None:
     points = scene(4).points
     perm = np.random.default_rng(5).permutation(len(points))
-    for params in (DEFAULTS, TUNED):
+    for params in (LIDAR360, ISPRS):
         ground = pcl_rg.tin_ground(points, params=params)
         np.testing.assert_array_equal(pcl_rg.tin_ground(points[perm], params=params), ground[perm])
 
@@ -258,7 +258,7 @@ def test_point_order_does_not_matter() -> None:
 def test_utm_translation_gives_the_same_mask() -> None:
     # Coordinates on a 2^-10 m grid, so that adding the offset is exact in float64.
     points = np.round(scene(5).points * 1024.0) / 1024.0
-    for params in (DEFAULTS, TUNED):
+    for params in (LIDAR360, ISPRS):
         ground = pcl_rg.tin_ground(points, params=params)
         moved = pcl_rg.tin_ground(points + [500_000.0, 5_000_000.0, 300.0], params=params)
         np.testing.assert_array_equal(moved, ground)
@@ -275,9 +275,9 @@ def test_input_is_not_modified_and_any_layout_works() -> None:
 
 def test_threads_give_the_serial_result() -> None:
     points = scene(7).points
-    serial = pcl_rg.tin_ground(points, params=TUNED)
+    serial = pcl_rg.tin_ground(points, params=ISPRS)
     with ThreadPoolExecutor(4) as pool:
-        results = list(pool.map(lambda _: pcl_rg.tin_ground(points, params=TUNED), range(8)))
+        results = list(pool.map(lambda _: pcl_rg.tin_ground(points, params=ISPRS), range(8)))
     for result in results:
         np.testing.assert_array_equal(result, serial)
 
@@ -288,7 +288,7 @@ def test_openmp_thread_count_does_not_change_the_result(tmp_path) -> None:
     script = (
         "import sys, numpy as np, pcl_rg; "
         "p = np.load(sys.argv[1]); "
-        "np.save(sys.argv[2], pcl_rg.tin_ground(p, params=pcl_rg.TinGroundParams.tuned_isprs()))"
+        "np.save(sys.argv[2], pcl_rg.tin_ground(p, params=pcl_rg.TinGroundParams.isprs()))"
     )
     for threads in ("1", "3"):
         env = dict(os.environ, OMP_NUM_THREADS=threads)
@@ -298,18 +298,22 @@ def test_openmp_thread_count_does_not_change_the_result(tmp_path) -> None:
             env=env,
             check=True,
         )
-        np.testing.assert_array_equal(np.load(out), pcl_rg.tin_ground(points, params=TUNED))
+        np.testing.assert_array_equal(np.load(out), pcl_rg.tin_ground(points, params=ISPRS))
 
 
 def test_synthetic_ground_is_found() -> None:
     s = synthetic_scene(seed=9, size=120.0, density=2.0, n_buildings=3, n_trees=20)
     truth = s.labels == GROUND
-    e = ground_errors(truth, pcl_rg.tin_ground(s.points, params=TUNED))
+    e = ground_errors(truth, pcl_rg.tin_ground(s.points, params=ISPRS))
     # Thresholds of this test: the scene's terrain is smooth, its objects clear.
     assert e.type_i < 0.05 and e.type_ii < 0.02
-    # LiDAR360's defaults are conservative: few objects, much ground missed.
-    e = ground_errors(truth, pcl_rg.tin_ground(s.points))
-    assert e.type_ii < 0.02
+    # The default is the isprs preset.
+    np.testing.assert_array_equal(
+        pcl_rg.tin_ground(s.points), pcl_rg.tin_ground(s.points, params=ISPRS)
+    )
+    # LiDAR360's own set is conservative: few objects, much ground missed.
+    cautious = ground_errors(truth, pcl_rg.tin_ground(s.points, params=LIDAR360))
+    assert cautious.type_ii < 0.02 and cautious.type_i > 4 * e.type_i
 
 
 # --------------------------------------------------------------------------
@@ -325,7 +329,7 @@ def test_isprs_tuned_set_beats_axelssons_published_mean(isprs_samples) -> None:
     # Threshold: Axelsson's published mean total error over all fifteen samples, 4.82 %
     # (his mean over these seven is 5.94 %), with one parameter set for all samples.
     totals = {
-        s: ground_errors(t, pcl_rg.tin_ground(p, params=TUNED)).total
+        s: ground_errors(t, pcl_rg.tin_ground(p, params=ISPRS)).total
         for s, (p, t) in isprs_samples.items()
     }
     assert np.mean(list(totals.values())) <= 0.0482, totals
@@ -336,7 +340,7 @@ def test_isprs_lidar360_defaults_are_conservative(isprs_samples) -> None:
     # An 8 deg iteration angle, reduced below 5 m edges, accepts few objects and
     # misses much ground on these 1-3 m spaced samples.
     for sample, (points, truth) in isprs_samples.items():
-        e = ground_errors(truth, pcl_rg.tin_ground(points))
+        e = ground_errors(truth, pcl_rg.tin_ground(points, params=LIDAR360))
         assert e.type_ii < 0.04 and e.type_i > e.type_ii, (sample, e)
 
 
@@ -351,9 +355,9 @@ def test_isprs_improvements_each_help(isprs_samples) -> None:
             )
         )
 
-    tuned = mean_total(TUNED)
+    tuned = mean_total(ISPRS)
     for name in ("near_vertex_distance", "seed_cell", "outlier_depth"):
-        assert mean_total(dataclasses.replace(TUNED, **{name: 0.0})) > tuned + 0.002, name
+        assert mean_total(dataclasses.replace(ISPRS, **{name: 0.0})) > tuned + 0.002, name
 
 
 # --------------------------------------------------------------------------
@@ -426,7 +430,7 @@ def test_bad_parameters(name: str, value: float, message: str) -> None:
         pcl_rg.tin_ground(points, **{name: value})
     with pytest.raises(ValueError, match=message):
         pcl_rg.TinGroundParams(**{name: value})
-    core = DEFAULTS.to_core()  # the C++ gate names the argument too
+    core = LIDAR360.to_core()  # the C++ gate names the argument too
     setattr(core, name, value)
     with pytest.raises(ValueError, match=name):
         _core.tin_ground(points, core)
@@ -455,8 +459,8 @@ def test_tiny_cells_are_refused_not_crashed() -> None:
 def test_keywords_override_params() -> None:
     points = scene(1).points
     np.testing.assert_array_equal(
-        pcl_rg.tin_ground(points, params=TUNED, iteration_angle=12.0),
-        pcl_rg.tin_ground(points, params=dataclasses.replace(TUNED, iteration_angle=12.0)),
+        pcl_rg.tin_ground(points, params=ISPRS, iteration_angle=12.0),
+        pcl_rg.tin_ground(points, params=dataclasses.replace(ISPRS, iteration_angle=12.0)),
     )
 
 

@@ -176,7 +176,7 @@ def test_empty_and_single_point():
         ({"leaf_size": float("inf")}, ValueError, "leaf_size must be finite"),
         ({"leaf_size": (1.0, 2.0)}, ValueError, "leaf_size must be a number or a sequence of 3"),
         ({"leaf_size": (1.0, 0.0, 1.0)}, ValueError, "leaf_size must be > 0"),
-        ({"leaf_size": "big"}, TypeError, "leaf_size must be a real number"),
+        ({"leaf_size": "big"}, TypeError, "leaf_size must be a number or 3 numbers"),
         ({"leaf_size": 1.0, "min_points_per_voxel": 0}, ValueError, "min_points_per_voxel must be >= 1"),
         ({"leaf_size": 1.0, "min_points_per_voxel": 1.5}, TypeError, "min_points_per_voxel must be an integer"),
         ({}, TypeError, "needs leaf_size"),

@@ -72,8 +72,8 @@ def _jobs(c: dict[str, np.ndarray]) -> dict[str, Callable[[], str]]:
         ),
         "grid_ground": lambda: _digest(pcl_rg.grid_ground(air)),
         "tin_ground": lambda: _digest(pcl_rg.tin_ground(air)),
-        "tin_ground_isprs": lambda: _digest(
-            pcl_rg.tin_ground(air, params=pcl_rg.TinGroundParams.tuned_isprs())
+        "tin_ground_lidar360": lambda: _digest(
+            pcl_rg.tin_ground(air, params=pcl_rg.TinGroundParams.lidar360())
         ),
         "normals": normals,
         "region_growing": lambda: _digest(pcl_rg.region_growing(surf)),

@@ -2,6 +2,7 @@
 #include "bindings.hpp"
 #include "numpy_io.hpp"
 #include "pcl_rg/grid_ground.hpp"
+#include "without_gil.hpp"
 
 namespace pcl_rg::bindings {
 
@@ -36,10 +37,7 @@ void bind_grid_ground(py::module_& m) {
             validate(params);  // before allocating, so bad parameters cost nothing
             py::array_t<bool> ground(static_cast<py::ssize_t>(view.size));
             bool* out = ground.mutable_data();
-            {
-                py::gil_scoped_release release;
-                grid_ground(view, params, out);
-            }
+            without_gil([&] { grid_ground(view, params, out); });
             return ground;
         },
         py::arg("points").noconvert(), py::arg("params"),

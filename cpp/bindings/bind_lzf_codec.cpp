@@ -4,6 +4,7 @@
 
 #include <string_view>
 #include "pcl_rg/lzf_codec.hpp"
+#include "without_gil.hpp"
 
 namespace pcl_rg::bindings {
 
@@ -13,11 +14,10 @@ void bind_lzf_codec(py::module_& m) {
         [](py::bytes data, std::size_t expected_size) {
             const auto in = static_cast<std::string_view>(data);
             std::vector<std::uint8_t> out;
-            {
-                py::gil_scoped_release release;
+            without_gil([&] {
                 out = lzf_decompress(reinterpret_cast<const std::uint8_t*>(in.data()), in.size(),
                                      expected_size);
-            }
+            });
             return py::bytes(reinterpret_cast<const char*>(out.data()), out.size());
         },
         py::arg("data"), py::arg("expected_size"),
@@ -27,10 +27,9 @@ void bind_lzf_codec(py::module_& m) {
         [](py::bytes data) {
             const auto in = static_cast<std::string_view>(data);
             std::vector<std::uint8_t> out;
-            {
-                py::gil_scoped_release release;
+            without_gil([&] {
                 out = lzf_compress(reinterpret_cast<const std::uint8_t*>(in.data()), in.size());
-            }
+            });
             return py::bytes(reinterpret_cast<const char*>(out.data()), out.size());
         },
         py::arg("data"), "Compress bytes with LZF.");

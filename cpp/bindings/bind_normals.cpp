@@ -2,6 +2,7 @@
 #include "bindings.hpp"
 #include "numpy_io.hpp"
 #include "pcl_rg/normals.hpp"
+#include "without_gil.hpp"
 
 namespace pcl_rg::bindings {
 
@@ -25,10 +26,7 @@ void bind_normals(py::module_& m) {
             out.mean_curvature = mean.mutable_data();
             out.k1 = k1.mutable_data();
             out.k2 = k2.mutable_data();
-            {
-                py::gil_scoped_release release;
-                normals(view, params, out);
-            }
+            without_gil([&] { normals(view, params, out); });
             return py::make_tuple(normal, surface_variation, gaussian, mean, k1, k2);
         },
         py::arg("points").noconvert(), py::arg("params"),
@@ -39,10 +37,7 @@ void bind_normals(py::module_& m) {
         [](const PointsArray& points, const NormalsParams& params) {
             const PointsView view = points_view(points);
             std::vector<std::uint32_t> lists;
-            {
-                py::gil_scoped_release release;
-                lists = neighbour_lists(view, params);
-            }
+            without_gil([&] { lists = neighbour_lists(view, params); });
             const auto rows = static_cast<py::ssize_t>(view.size);
             return to_numpy(std::move(lists), {rows, static_cast<py::ssize_t>(params.k)});
         },

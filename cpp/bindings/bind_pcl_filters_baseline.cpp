@@ -2,6 +2,7 @@
 #include "bindings.hpp"
 #include "numpy_io.hpp"
 #include "pcl_rg/pcl_filters_baseline.hpp"
+#include "without_gil.hpp"
 
 namespace pcl_rg::bindings {
 
@@ -13,10 +14,7 @@ void bind_pcl_filters_baseline(py::module_& m) {
             const PointsView view = points_view(points);
             const auto shift = vector3(origin, "origin");
             std::vector<double> centroids;
-            {
-                py::gil_scoped_release release;
-                centroids = pcl_voxel_grid(view, shift, params);
-            }
+            without_gil([&] { centroids = pcl_voxel_grid(view, shift, params); });
             const auto rows = static_cast<py::ssize_t>(centroids.size() / 3);
             return to_numpy(std::move(centroids), {rows, 3});
         },
@@ -30,10 +28,7 @@ void bind_pcl_filters_baseline(py::module_& m) {
             const auto shift = vector3(origin, "origin");
             py::array_t<bool> inlier(static_cast<py::ssize_t>(view.size));
             bool* out = inlier.mutable_data();
-            {
-                py::gil_scoped_release release;
-                pcl_statistical_outlier_removal(view, shift, params, out);
-            }
+            without_gil([&] { pcl_statistical_outlier_removal(view, shift, params, out); });
             return inlier;
         },
         py::arg("points").noconvert(), py::arg("origin").noconvert(), py::arg("params"),

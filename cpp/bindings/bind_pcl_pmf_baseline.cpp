@@ -2,6 +2,7 @@
 #include "bindings.hpp"
 #include "numpy_io.hpp"
 #include "pcl_rg/pcl_pmf_baseline.hpp"
+#include "without_gil.hpp"
 
 namespace pcl_rg::bindings {
 
@@ -24,10 +25,7 @@ void bind_pcl_pmf_baseline(py::module_& m) {
             validate(params);
             py::array_t<bool> ground(static_cast<py::ssize_t>(view.size));
             bool* out = ground.mutable_data();
-            {
-                py::gil_scoped_release release;
-                pcl_progressive_morphological_filter(view, shift, params, out);
-            }
+            without_gil([&] { pcl_progressive_morphological_filter(view, shift, params, out); });
             return ground;
         },
         py::arg("points").noconvert(), py::arg("origin").noconvert(), py::kw_only(),

@@ -2,6 +2,7 @@
 #include "bindings.hpp"
 #include "numpy_io.hpp"
 #include "pcl_rg/region_growing.hpp"
+#include "without_gil.hpp"
 
 namespace pcl_rg::bindings {
 
@@ -30,10 +31,7 @@ void bind_region_growing(py::module_& m) {
             py::array_t<std::int32_t> labels(static_cast<py::ssize_t>(view.size));
             std::int32_t* out = labels.mutable_data();
             RegionGrowingTimings timings;
-            {
-                py::gil_scoped_release release;
-                timings = region_growing(view, params, out);
-            }
+            without_gil([&] { timings = region_growing(view, params, out); });
             return py::make_tuple(labels, timings.normals_seconds, timings.growth_seconds);
         },
         py::arg("points").noconvert(), py::arg("params"),
@@ -57,10 +55,9 @@ void bind_region_growing(py::module_& m) {
                 throw std::invalid_argument("measure must have shape (N,)");
             py::array_t<std::int32_t> labels(static_cast<py::ssize_t>(n));
             std::int32_t* out = labels.mutable_data();
-            {
-                py::gil_scoped_release release;
+            without_gil([&] {
                 grow_regions(n, k, neighbours.data(), normals.data(), measure.data(), params, out);
-            }
+            });
             return labels;
         },
         py::arg("neighbours").noconvert(), py::arg("normals").noconvert(),

@@ -2,6 +2,7 @@
 #include "bindings.hpp"
 #include "numpy_io.hpp"
 #include "pcl_rg/region_growing_pcl.hpp"
+#include "without_gil.hpp"
 
 namespace pcl_rg::bindings {
 
@@ -26,10 +27,9 @@ void bind_region_growing_pcl(py::module_& m) {
             float* normal_out = normal.mutable_data();
             float* curvature_out = curvature.mutable_data();
             RegionGrowingTimings timings;
-            {
-                py::gil_scoped_release release;
+            without_gil([&] {
                 timings = region_growing_pcl(view, params, out, normal_out, curvature_out);
-            }
+            });
             return py::make_tuple(labels, normal, curvature, timings.normals_seconds,
                                   timings.growth_seconds);
         },

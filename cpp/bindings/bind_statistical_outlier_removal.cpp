@@ -2,6 +2,7 @@
 #include "bindings.hpp"
 #include "numpy_io.hpp"
 #include "pcl_rg/statistical_outlier_removal.hpp"
+#include "without_gil.hpp"
 
 namespace pcl_rg::bindings {
 
@@ -18,10 +19,7 @@ void bind_statistical_outlier_removal(py::module_& m) {
             py::array_t<bool> inlier(static_cast<py::ssize_t>(view.size));
             bool* out = inlier.mutable_data();
             StatisticalOutlierRemovalResult result;
-            {
-                py::gil_scoped_release release;
-                result = statistical_outlier_removal(view, params, out);
-            }
+            without_gil([&] { result = statistical_outlier_removal(view, params, out); });
             const auto n = static_cast<py::ssize_t>(result.mean_distance.size());
             return py::make_tuple(inlier, to_numpy(std::move(result.mean_distance), {n}),
                                   result.threshold);

@@ -6,6 +6,7 @@
 #include "numpy_io.hpp"
 #include "pcl_rg/delaunay.hpp"
 #include "pcl_rg/tin_ground.hpp"
+#include "without_gil.hpp"
 
 namespace pcl_rg::bindings {
 
@@ -83,10 +84,7 @@ void bind_tin_ground(py::module_& m) {
             py::array_t<bool> ground(static_cast<py::ssize_t>(view.size));
             bool* out = ground.mutable_data();
             TinGroundStats stats;
-            {
-                py::gil_scoped_release release;
-                stats = tin_ground(view, params, out);
-            }
+            without_gil([&] { stats = tin_ground(view, params, out); });
             py::dict info;
             info["seeds"] = stats.seeds;
             info["iterations"] = stats.iterations;
@@ -129,12 +127,14 @@ void bind_tin_ground(py::module_& m) {
                 const auto m_rows = static_cast<py::ssize_t>(g.size() / 2);
                 py::array_t<std::int32_t> triangle(m_rows);
                 std::int32_t* out = triangle.mutable_data();
-                {
-                    py::gil_scoped_release release;
+                without_gil([&] {
+                    const Interruption interruption;
                     std::int32_t start = self.last;
-                    for (py::ssize_t i = 0; i < m_rows; ++i)
+                    for (py::ssize_t i = 0; i < m_rows; ++i) {
+                        interruption.check();
                         start = out[i] = self.tin.locate(g[2 * i], g[2 * i + 1], start);
-                }
+                    }
+                });
                 return triangle;
             },
             py::arg("xy").noconvert(),
@@ -172,8 +172,7 @@ void bind_tin_ground(py::module_& m) {
             const std::size_t n = xy_rows(xy);
             const double* v = xy.data();
             std::vector<std::int64_t> triangles;
-            {
-                py::gil_scoped_release release;
+            without_gil([&] {
                 double lo[2] = {0.0, 0.0}, hi[2] = {0.0, 0.0};
                 for (int a = 0; a < 2; ++a) {
                     lo[a] = std::numeric_limits<double>::infinity();
@@ -193,8 +192,10 @@ void bind_tin_ground(py::module_& m) {
                     Delaunay tin(frame.width, frame.height);
                     std::vector<std::int64_t> point_of_vertex(4, -1);
                     std::int32_t last = 0;
+                    const Interruption interruption;
                     for (const std::uint32_t i :
                          morton_order_2d(gx.data(), gy.data(), n, frame.width, frame.height)) {
+                        interruption.check();
                         bool inserted = false;
                         const std::int32_t vid = tin.insert(gx[i], gy[i], last, &inserted);
                         if (inserted) point_of_vertex.push_back(i);
@@ -211,7 +212,7 @@ void bind_tin_ground(py::module_& m) {
                         if (!virtual_corner) triangles.insert(triangles.end(), ids, ids + 3);
                     }
                 }
-            }
+            });
             const auto rows = static_cast<py::ssize_t>(triangles.size() / 3);
             return to_numpy(std::move(triangles), {rows, 3});
         },

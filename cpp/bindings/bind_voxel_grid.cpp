@@ -2,6 +2,7 @@
 #include "bindings.hpp"
 #include "numpy_io.hpp"
 #include "pcl_rg/voxel_grid.hpp"
+#include "without_gil.hpp"
 
 namespace pcl_rg::bindings {
 
@@ -18,10 +19,7 @@ void bind_voxel_grid(py::module_& m) {
             py::array_t<std::int64_t> voxel_of_point(static_cast<py::ssize_t>(view.size));
             std::int64_t* out = voxel_of_point.mutable_data();
             VoxelGridResult result;
-            {
-                py::gil_scoped_release release;
-                result = voxel_grid(view, params, out);
-            }
+            without_gil([&] { result = voxel_grid(view, params, out); });
             const auto kept = static_cast<py::ssize_t>(result.counts.size());
             return py::make_tuple(to_numpy(std::move(result.centroids), {kept, 3}),
                                   to_numpy(std::move(result.counts), {kept}), voxel_of_point);

@@ -38,38 +38,27 @@
 #include <utility>
 #include <vector>
 
+#include "pcl_rg/check.hpp"
+#include "pcl_rg/interrupt.hpp"
+
 namespace pcl_rg {
 
 void validate(const GridGroundParams& params) {
     static const char* const axis_name[2] = {"x", "y"};
-    for (int a = 0; a < 2; ++a) {
-        const double block = params.block_size[a], cell = params.cell_size[a];
-        if (!std::isfinite(block) || block <= 0.0)
-            throw std::invalid_argument("block_size must be finite and > 0 on x and y, got " +
-                                        std::to_string(block) + " for " + axis_name[a]);
-        if (!std::isfinite(cell) || cell <= 0.0)
-            throw std::invalid_argument("cell_size must be finite and > 0 on x and y, got " +
-                                        std::to_string(cell) + " for " + axis_name[a]);
-        if (cell > block)
-            throw std::invalid_argument("cell_size must be <= block_size, got " +
-                                        std::to_string(cell) + " > " + std::to_string(block) +
-                                        " for " + axis_name[a]);
-    }
-    const auto non_negative = [](const char* name, double value) {
-        if (!std::isfinite(value) || value < 0.0)
-            throw std::invalid_argument(std::string(name) + " must be finite and >= 0, got " +
-                                        std::to_string(value));
-    };
-    non_negative("slope", params.slope);
-    non_negative("height_tolerance", params.height_tolerance);
-    non_negative("filter_slope", params.filter_slope);
-    non_negative("filter_tolerance", params.filter_tolerance);
-    if (params.min_seed_component < 1)
-        throw std::invalid_argument("min_seed_component must be >= 1, got " +
-                                    std::to_string(params.min_seed_component));
-    if (params.filter_passes < 0)
-        throw std::invalid_argument("filter_passes must be >= 0, got " +
-                                    std::to_string(params.filter_passes));
+    for (const double block : params.block_size)
+        check::real("block_size", block, check::positive());
+    for (const double cell : params.cell_size) check::real("cell_size", cell, check::positive());
+    for (int a = 0; a < 2; ++a)
+        check::relation(params.cell_size[a] <= params.block_size[a], "cell_size",
+                        "<= block_size (" + check::format_value(params.block_size[a]) + ") on " +
+                            axis_name[a],
+                        params.cell_size[a]);
+    check::real("slope", params.slope, check::non_negative());
+    check::real("height_tolerance", params.height_tolerance, check::non_negative());
+    check::integer("min_seed_component", params.min_seed_component, check::at_least(1));
+    check::integer("filter_passes", params.filter_passes, check::at_least(0));
+    check::real("filter_slope", params.filter_slope, check::non_negative());
+    check::real("filter_tolerance", params.filter_tolerance, check::non_negative());
 }
 
 namespace {
@@ -227,25 +216,39 @@ CellGrid build_grid(PointsView points, const GridGroundParams& params,
                 grid.occupied.begin());
     }
 
-    // Stable counting sort by cell: within a cell, input order.
+    // Stable counting sort by cell: within a cell, input order. Serial sweeps that miss
+    // the cache: polled every few thousand points.
+    const Interruption interruption;
+    interruption.check_now();
     grid.start.assign(cells + 1, 0);
-    for (std::size_t i = 0; i < n; ++i) ++grid.start[key[i] + 1];
+    for (std::size_t i = 0; i < n; ++i) {
+        if (i % 4096 == 0) interruption.check();
+        ++grid.start[key[i] + 1];
+    }
     for (std::size_t c = 0; c < cells; ++c) grid.start[c + 1] += grid.start[c];
     grid.id.resize(n);
     {
         std::vector<std::size_t> fill(grid.start.begin(), grid.start.end() - 1);
-        for (std::size_t i = 0; i < n; ++i)
+        for (std::size_t i = 0; i < n; ++i) {
+            if (i % 4096 == 0) interruption.check();
             grid.id[fill[key[i]]++] = static_cast<std::uint32_t>(i);
+        }
     }
     grid.p.resize(n);
     grid.cell.resize(n);
+    // The gathers miss the cache too: in blocks of points, polled once each.
+    constexpr std::ptrdiff_t kBlock = 4096;
 #pragma omp parallel for schedule(guided) if (parallel)
-    for (std::ptrdiff_t s = 0; s < count; ++s) {
-        const std::size_t i = grid.id[s];
-        grid.p[s] = {points.coord(i, 0) - origin[0], points.coord(i, 1) - origin[1],
-                     points.coord(i, 2) - origin[2]};
-        grid.cell[s] = key[i];
+    for (std::ptrdiff_t b = 0; b < (count + kBlock - 1) / kBlock; ++b) {
+        if (interruption.requested()) continue;
+        for (std::ptrdiff_t s = b * kBlock; s < std::min(count, (b + 1) * kBlock); ++s) {
+            const std::size_t i = grid.id[s];
+            grid.p[s] = {points.coord(i, 0) - origin[0], points.coord(i, 1) - origin[1],
+                         points.coord(i, 2) - origin[2]};
+            grid.cell[s] = key[i];
+        }
     }
+    interruption.check();
 
     // Blocks, numbered densely unless the block grid is far larger than the cloud.
     const std::int64_t nbx = grid_index(extent[0], params.block_size[0]) + 1;
@@ -273,14 +276,20 @@ CellGrid build_grid(PointsView points, const GridGroundParams& params,
             grid.block[s] = static_cast<std::uint32_t>(
                 std::lower_bound(occupied.begin(), occupied.end(), block[s]) - occupied.begin());
     }
+    interruption.check_now();
     grid.block_start.assign(grid.blocks + 1, 0);
-    for (std::size_t s = 0; s < n; ++s) ++grid.block_start[grid.block[s] + 1];
+    for (std::size_t s = 0; s < n; ++s) {
+        if (s % 4096 == 0) interruption.check();
+        ++grid.block_start[grid.block[s] + 1];
+    }
     for (std::size_t b = 0; b < grid.blocks; ++b) grid.block_start[b + 1] += grid.block_start[b];
     grid.block_member.resize(n);
     {
         std::vector<std::size_t> fill(grid.block_start.begin(), grid.block_start.end() - 1);
-        for (std::size_t s = 0; s < n; ++s)
+        for (std::size_t s = 0; s < n; ++s) {
+            if (s % 4096 == 0) interruption.check();
             grid.block_member[fill[grid.block[s]]++] = static_cast<std::uint32_t>(s);
+        }
     }
     return grid;
 }
@@ -307,8 +316,10 @@ void slope_filter(const CellGrid& grid, const GridGroundParams& params,
             if (against[q]) low = std::min(low, grid.p[q].z);
         lowest[c] = low;
     }
+    const Interruption interruption;
 #pragma omp parallel for schedule(dynamic, 256) if (parallel)
     for (std::ptrdiff_t c = 0; c < cells; ++c) {
+        if (interruption.requested()) continue;
         std::ptrdiff_t around[9];
         const int k = grid.neighbours(static_cast<std::size_t>(c), around);
         for (std::size_t s = grid.start[c]; s < grid.start[c + 1]; ++s) {
@@ -334,6 +345,7 @@ void slope_filter(const CellGrid& grid, const GridGroundParams& params,
             candidate[s] = keep ? 1 : 0;
         }
     }
+    interruption.check();
 }
 
 // The link test, as in the reference: same operations, same order (symmetric in s, q).
@@ -351,6 +363,7 @@ template <class Visit>
 void for_each_candidate(const CellGrid& grid, const std::vector<unsigned char>& candidate,
                         bool parallel, Visit visit) {
     const auto blocks = static_cast<std::ptrdiff_t>(grid.blocks);
+    const Interruption interruption;
 #pragma omp parallel for schedule(dynamic, 1) if (parallel)
     for (std::ptrdiff_t b = 0; b < blocks; ++b) {
         std::ptrdiff_t around[9];
@@ -360,12 +373,15 @@ void for_each_candidate(const CellGrid& grid, const std::vector<unsigned char>& 
             const std::uint32_t s = grid.block_member[m];
             if (!candidate[s]) continue;
             if (grid.cell[s] != current) {  // members come in cell order: few recomputes
+                // Polled per cell, not per block: one block may hold the whole cloud.
+                if (interruption.requested()) break;
                 current = grid.cell[s];
                 k = grid.neighbours(current, around);
             }
             visit(s, around, k);
         }
     }
+    interruption.check();
 }
 
 // Components of the link graph among the candidates, in `sets`, after Afforest (Sutton,
@@ -444,6 +460,7 @@ void grow(const CellGrid& grid, const GridGroundParams& params,
     const auto count = static_cast<std::ptrdiff_t>(n);
     const bool parallel = n >= kParallelMin;
     label_components(grid, params, candidate, sets);
+    poll_interrupt();
     std::vector<std::uint32_t> root(n);
 #pragma omp parallel for schedule(guided) if (parallel)
     for (std::ptrdiff_t s = 0; s < count; ++s)
@@ -503,11 +520,13 @@ void grid_ground(PointsView points, const GridGroundParams& params, bool* ground
                 "cell_size is too small for the extent of points: more than 2^40 cells on " +
                 std::string(a == 0 ? "x" : "y"));
 
+    poll_interrupt();
     const CellGrid grid = build_grid(points, params, origin, extent);
     std::vector<unsigned char> candidate(n, 1), against(n, 1), result(n, 0), kept_by_all;
     ConcurrentDisjointSets sets(n);
     const std::int64_t passes = std::max<std::int64_t>(params.filter_passes, 1);
     for (std::int64_t pass = 0; pass < passes; ++pass) {
+        poll_interrupt();
         if (params.filter_passes > 0) {
             if (pass > 0) against.swap(result);  // test only against the last ground
             slope_filter(grid, params, against, pass > 0 ? &kept_by_all : nullptr, candidate);

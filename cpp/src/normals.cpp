@@ -17,13 +17,14 @@
 #include <stdexcept>
 #include <string>
 
+#include "pcl_rg/check.hpp"
+#include "pcl_rg/interrupt.hpp"
 #include "pcl_rg/knn.hpp"
 
 namespace pcl_rg {
 
 void validate(const NormalsParams& params) {
-    if (params.k < 3)
-        throw std::invalid_argument("k must be >= 3, got " + std::to_string(params.k));
+    check::integer("k", params.k, check::at_least(3));
 }
 
 namespace {
@@ -130,13 +131,16 @@ std::vector<std::uint32_t> neighbour_lists(PointsView points, const NormalsParam
     const std::vector<float> local = to_local_float(points, local_origin(points));
     const KnnIndex index(local.data(), n);
     std::vector<std::uint32_t> lists(n * k);
+    const Interruption interruption;
+    interruption.check_now();
 #pragma omp parallel
     {
         std::vector<float> sqdist(k);
 #pragma omp for schedule(dynamic, 1024)
         for (std::ptrdiff_t i = 0; i < static_cast<std::ptrdiff_t>(n); ++i)
-            index.nearest(i, k, lists.data() + i * k, sqdist.data());
+            if (!interruption.requested()) index.nearest(i, k, lists.data() + i * k, sqdist.data());
     }
+    interruption.check();
     return lists;
 }
 
@@ -154,6 +158,8 @@ void normals(PointsView points, const NormalsParams& params, const NormalsOutput
     const std::vector<float> local = to_local_float(points, local_origin(points));
     const KnnIndex index(local.data(), n);
     if (neighbours) neighbours->resize(n * k);
+    const Interruption interruption;
+    interruption.check_now();
 
 #pragma omp parallel
     {
@@ -162,6 +168,7 @@ void normals(PointsView points, const NormalsParams& params, const NormalsOutput
         std::vector<Eigen::Vector3d> rel(k);
 #pragma omp for schedule(dynamic, 512)
         for (std::ptrdiff_t i = 0; i < static_cast<std::ptrdiff_t>(n); ++i) {
+            if (interruption.requested()) continue;  // then thrown below, outside the region
             std::uint32_t* nn = neighbours ? neighbours->data() + i * k : own_index.data();
             index.nearest(i, k, nn, sqdist.data());
             for (std::size_t j = 0; j < k; ++j)
@@ -175,6 +182,7 @@ void normals(PointsView points, const NormalsParams& params, const NormalsOutput
             if (out.k2) out.k2[i] = g.k2;
         }
     }
+    interruption.check();
 }
 
 }  // namespace pcl_rg

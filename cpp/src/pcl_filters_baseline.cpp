@@ -10,6 +10,8 @@
 #include <algorithm>
 #include <stdexcept>
 
+#include "pcl_rg/interrupt.hpp"
+
 namespace pcl_rg {
 namespace {
 
@@ -32,7 +34,9 @@ pcl::PointCloud<pcl::PointXYZ>::Ptr to_pcl_cloud(PointsView points,
 std::vector<double> pcl_voxel_grid(PointsView points, const std::array<double, 3>& origin,
                                    const VoxelGridParams& params) {
     validate(params);
+    // PCL's classes cannot be interrupted: polls between their stages only.
     const auto cloud = to_pcl_cloud(points, origin);
+    poll_interrupt();
     pcl::VoxelGrid<pcl::PointXYZ> filter;
     filter.setInputCloud(cloud);
     filter.setLeafSize(static_cast<float>(params.leaf_size[0]),
@@ -41,6 +45,7 @@ std::vector<double> pcl_voxel_grid(PointsView points, const std::array<double, 3
     filter.setMinimumPointsNumberPerVoxel(static_cast<unsigned int>(params.min_points_per_voxel));
     pcl::PointCloud<pcl::PointXYZ> output;
     filter.filter(output);
+    poll_interrupt();
     std::vector<double> centroids(3 * output.size());
     for (std::size_t i = 0; i < output.size(); ++i) {
         centroids[3 * i + 0] = output[i].x + origin[0];
@@ -57,12 +62,14 @@ void pcl_statistical_outlier_removal(PointsView points, const std::array<double,
     if (points.size > 0 && static_cast<std::size_t>(params.mean_k) >= points.size)
         throw std::invalid_argument("mean_k must be < the number of points");
     const auto cloud = to_pcl_cloud(points, origin);
+    poll_interrupt();
     pcl::StatisticalOutlierRemoval<pcl::PointXYZ> filter;
     filter.setInputCloud(cloud);
     filter.setMeanK(params.mean_k);
     filter.setStddevMulThresh(params.std_mul);
     pcl::Indices kept;
     filter.filter(kept);
+    poll_interrupt();
     std::fill(inlier, inlier + points.size, false);
     for (const auto i : kept) inlier[i] = true;
 }

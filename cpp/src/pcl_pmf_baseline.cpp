@@ -14,6 +14,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "pcl_rg/interrupt.hpp"
+
 namespace pcl_rg {
 
 void validate(const PclProgressiveMorphologicalFilterParams& params) {
@@ -51,6 +53,7 @@ void pcl_progressive_morphological_filter(PointsView points, const std::array<do
     cloud->width = static_cast<std::uint32_t>(points.size);
     cloud->height = 1;
     cloud->is_dense = true;
+    poll_interrupt();  // PCL's filter itself cannot be interrupted
 
     pcl::ProgressiveMorphologicalFilter<pcl::PointXYZ> filter;
     filter.setInputCloud(cloud);
@@ -63,6 +66,7 @@ void pcl_progressive_morphological_filter(PointsView points, const std::array<do
     filter.setExponential(params.exponential);
     pcl::Indices indices;
     filter.extract(indices);
+    poll_interrupt();
     for (const auto i : indices) ground[i] = true;
 }
 

@@ -27,26 +27,21 @@
 #include <string>
 #include <vector>
 
+#include "pcl_rg/check.hpp"
+#include "pcl_rg/interrupt.hpp"
 #include "pcl_rg/normals.hpp"
 
 namespace pcl_rg {
 
 void validate(const RegionGrowingParams& params) {
-    if (params.k < 3)
-        throw std::invalid_argument("k must be >= 3, got " + std::to_string(params.k));
-    if (!(params.smoothness_deg > 0.0 && params.smoothness_deg < 180.0))
-        throw std::invalid_argument("smoothness_deg must be in (0, 180) degrees, got " +
-                                    std::to_string(params.smoothness_deg));
-    if (!std::isfinite(params.curvature_threshold) || params.curvature_threshold < 0.0)
-        throw std::invalid_argument("curvature_threshold must be finite and >= 0, got " +
-                                    std::to_string(params.curvature_threshold));
-    if (params.min_cluster_size < 1)
-        throw std::invalid_argument("min_cluster_size must be >= 1, got " +
-                                    std::to_string(params.min_cluster_size));
-    if (params.max_cluster_size < params.min_cluster_size)
-        throw std::invalid_argument("max_cluster_size must be >= min_cluster_size (" +
-                                    std::to_string(params.min_cluster_size) + "), got " +
-                                    std::to_string(params.max_cluster_size));
+    check::integer("k", params.k, check::at_least(3));
+    check::real("smoothness_deg", params.smoothness_deg, {std::nullopt, 0.0, std::nullopt, 180.0});
+    check::real("curvature_threshold", params.curvature_threshold, check::non_negative());
+    check::integer("min_cluster_size", params.min_cluster_size, check::at_least(1));
+    check::integer("max_cluster_size", params.max_cluster_size, check::at_least(1));
+    check::relation(params.max_cluster_size >= params.min_cluster_size, "max_cluster_size",
+                    ">= min_cluster_size (" + check::format_value(params.min_cluster_size) + ")",
+                    static_cast<double>(params.max_cluster_size));
     switch (params.seed_measure) {
         case SeedMeasure::curvedness:
         case SeedMeasure::gaussian:
@@ -57,9 +52,7 @@ void validate(const RegionGrowingParams& params) {
         default:
             throw std::invalid_argument("seed_measure is not a known measure");
     }
-    for (const double v : params.viewpoint)
-        if (!std::isfinite(v))
-            throw std::invalid_argument("viewpoint must be finite, got " + std::to_string(v));
+    for (const double v : params.viewpoint) check::real("viewpoint", v, check::any());
 }
 
 void grow_regions(std::size_t n, std::size_t k, const std::uint32_t* neighbours,
@@ -75,6 +68,9 @@ void grow_regions(std::size_t n, std::size_t k, const std::uint32_t* neighbours,
             throw std::invalid_argument("neighbours: index " + std::to_string(neighbours[i]) +
                                         " out of range for " + std::to_string(n) + " points");
 
+    const Interruption interruption;
+    interruption.check_now();
+
     // Step 3: seeds in increasing (measure, index) order, undefined measures last.
     std::vector<std::uint32_t> order(n);
     std::iota(order.begin(), order.end(), 0u);
@@ -85,6 +81,7 @@ void grow_regions(std::size_t n, std::size_t k, const std::uint32_t* neighbours,
         if (!np && mp != mq) return mp < mq;
         return p < q;
     });
+    interruption.check_now();
 
     const double cos_threshold = std::cos(params.smoothness_deg * (M_PI / 180.0));
     const double gate = params.curvature_threshold;
@@ -92,6 +89,7 @@ void grow_regions(std::size_t n, std::size_t k, const std::uint32_t* neighbours,
     std::vector<std::int64_t> region_size;
     std::vector<std::uint32_t> queue;
     queue.reserve(n);
+    std::size_t visits = 0;  // polled every 256 points: a region may be the whole cloud
     for (const std::uint32_t seed : order) {
         if (region[seed] != -1) continue;
         const auto id = static_cast<std::int32_t>(region_size.size());
@@ -101,6 +99,7 @@ void grow_regions(std::size_t n, std::size_t k, const std::uint32_t* neighbours,
         queue.push_back(seed);
         // Breadth-first, as PCL's std::queue: the vector is the queue, `head` its front.
         for (std::size_t head = 0; head < queue.size(); ++head) {
+            if (++visits % 256 == 0) interruption.check();
             const std::uint32_t p = queue[head];
             const double* np = normals + 3 * static_cast<std::size_t>(p);
             const std::uint32_t* row = neighbours + static_cast<std::size_t>(p) * k;
@@ -209,6 +208,7 @@ RegionGrowingTimings region_growing(PointsView points, const RegionGrowingParams
         }
     }
     timings.normals_seconds = seconds_since(start);
+    poll_interrupt();
 
     const auto grow_start = std::chrono::steady_clock::now();
     grow_regions(n, static_cast<std::size_t>(params.k), neighbours.data(), normal.data(),

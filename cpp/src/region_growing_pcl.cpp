@@ -32,9 +32,15 @@
 #include <stdexcept>
 #include <string>
 
+#include "pcl_rg/check.hpp"
+#include "pcl_rg/interrupt.hpp"
+
 namespace pcl_rg {
 
 void validate(const RegionGrowingPclParams& params) {
+    // PCL counts cluster sizes in pcl::uindex_t (uint32).
+    check::integer("max_cluster_size", params.max_cluster_size,
+                   {1.0, std::nullopt, 4294967295.0, std::nullopt});
     RegionGrowingParams common;
     common.k = params.k;
     common.smoothness_deg = params.smoothness_deg;
@@ -42,9 +48,6 @@ void validate(const RegionGrowingPclParams& params) {
     common.min_cluster_size = params.min_cluster_size;
     common.max_cluster_size = params.max_cluster_size;
     validate(common);
-    if (params.max_cluster_size > std::numeric_limits<std::uint32_t>::max())
-        throw std::invalid_argument("max_cluster_size must be <= 4294967295 for PCL, got " +
-                                    std::to_string(params.max_cluster_size));
 }
 
 RegionGrowingTimings region_growing_pcl(PointsView points, const RegionGrowingPclParams& params,
@@ -71,6 +74,7 @@ RegionGrowingTimings region_growing_pcl(PointsView points, const RegionGrowingPc
     cloud->width = static_cast<std::uint32_t>(n);
     cloud->height = 1;
     cloud->is_dense = true;
+    poll_interrupt();  // PCL's classes cannot be interrupted: polls between their stages
 
     const auto start = std::chrono::steady_clock::now();
     pcl::search::Search<pcl::PointXYZ>::Ptr tree(new pcl::search::KdTree<pcl::PointXYZ>);
@@ -80,6 +84,7 @@ RegionGrowingTimings region_growing_pcl(PointsView points, const RegionGrowingPc
     estimation.setInputCloud(cloud);
     estimation.setKSearch(params.k);
     estimation.compute(*normals);
+    poll_interrupt();
     timings.normals_seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
@@ -98,6 +103,7 @@ RegionGrowingTimings region_growing_pcl(PointsView points, const RegionGrowingPc
     growing.setCurvatureThreshold(static_cast<float>(params.curvature_threshold));
     std::vector<pcl::PointIndices> clusters;
     growing.extract(clusters);
+    poll_interrupt();
 
     // PCL lists each cluster's indices ascending (assembleRegions walks the points in
     // order); number the clusters by their first, i.e. smallest, member.

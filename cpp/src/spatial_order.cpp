@@ -5,6 +5,8 @@
 #include <cmath>
 #include <limits>
 
+#include "pcl_rg/interrupt.hpp"
+
 namespace pcl_rg {
 
 namespace {
@@ -15,9 +17,12 @@ namespace {
 // the threads: OpenMP may grant a region fewer threads than asked (OMP_THREAD_LIMIT,
 // OMP_DYNAMIC, a call from inside another parallel region), and worksharing loops over
 // chunks cover every chunk whatever the team size. `Move` copies item i to slot dst.
+// Once `interruption` is requested the remaining chunks are skipped: the caller must then
+// throw (Interruption::check) rather than use the result.
 template <class DigitOf, class Move>
 void radix_pass(std::size_t n, DigitOf digit_of, Move move, std::size_t buckets,
-                std::vector<std::size_t>& offsets, std::ptrdiff_t chunks) {
+                std::vector<std::size_t>& offsets, std::ptrdiff_t chunks,
+                const Interruption& interruption) {
     std::fill(offsets.begin(), offsets.end(), 0);
     const auto chunk_begin = [&](std::ptrdiff_t c) {
         return n * static_cast<std::size_t>(c) / static_cast<std::size_t>(chunks);
@@ -26,6 +31,7 @@ void radix_pass(std::size_t n, DigitOf digit_of, Move move, std::size_t buckets,
     {
 #pragma omp for schedule(static)
         for (std::ptrdiff_t c = 0; c < chunks; ++c) {
+            if (interruption.requested()) continue;
             std::size_t* count = &offsets[static_cast<std::size_t>(c) * buckets];
             for (std::size_t i = chunk_begin(c), end = chunk_begin(c + 1); i < end; ++i)
                 ++count[digit_of(i)];
@@ -43,6 +49,7 @@ void radix_pass(std::size_t n, DigitOf digit_of, Move move, std::size_t buckets,
         }
 #pragma omp for schedule(static)
         for (std::ptrdiff_t c = 0; c < chunks; ++c) {
+            if (interruption.requested()) continue;
             std::size_t* next = &offsets[static_cast<std::size_t>(c) * buckets];
             for (std::size_t i = chunk_begin(c), end = chunk_begin(c + 1); i < end; ++i)
                 move(i, next[digit_of(i)]++);
@@ -75,6 +82,7 @@ void radix_sort_pairs(std::vector<std::uint64_t>& keys, std::vector<std::uint32_
     std::vector<std::size_t> offsets(static_cast<std::size_t>(chunks) * buckets);
     std::vector<std::uint64_t> keys_tmp(n);
     std::vector<std::uint32_t> ids_tmp(n);
+    const Interruption interruption;
     for (int shift = 0; shift < key_bits; shift += width) {
         radix_pass(
             n, [&](std::size_t i) { return (keys[i] >> shift) & mask; },
@@ -82,7 +90,8 @@ void radix_sort_pairs(std::vector<std::uint64_t>& keys, std::vector<std::uint32_
                 keys_tmp[dst] = keys[i];
                 ids_tmp[dst] = ids[i];
             },
-            buckets, offsets, chunks);
+            buckets, offsets, chunks, interruption);
+        interruption.check();
         keys.swap(keys_tmp);
         ids.swap(ids_tmp);
     }
@@ -97,11 +106,13 @@ void radix_sort_bits(std::vector<std::uint64_t>& values, int first_bit, int last
     const std::ptrdiff_t chunks = chunk_count(n);
     std::vector<std::size_t> offsets(static_cast<std::size_t>(chunks) * buckets);
     std::vector<std::uint64_t> tmp(n);
+    const Interruption interruption;
     for (int shift = first_bit; shift < last_bit; shift += width) {
         radix_pass(
             n, [&](std::size_t i) { return (values[i] >> shift) & mask; },
-            [&](std::size_t i, std::size_t dst) { tmp[dst] = values[i]; }, buckets, offsets,
-            chunks);
+            [&](std::size_t i, std::size_t dst) { tmp[dst] = values[i]; }, buckets, offsets, chunks,
+            interruption);
+        interruption.check();
         values.swap(tmp);
     }
 }

@@ -16,20 +16,20 @@
 
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
+#include "pcl_rg/check.hpp"
+#include "pcl_rg/interrupt.hpp"
 #include "pcl_rg/knn.hpp"
 #include "pcl_rg/spatial_order.hpp"
 
 namespace pcl_rg {
 
 void validate(const StatisticalOutlierRemovalParams& params) {
-    if (params.mean_k < 1)
-        throw std::invalid_argument("mean_k must be >= 1, got " + std::to_string(params.mean_k));
-    if (!std::isfinite(params.std_mul) || params.std_mul < 0.0)
-        throw std::invalid_argument("std_mul must be finite and >= 0, got " +
-                                    std::to_string(params.std_mul));
+    check::integer("mean_k", params.mean_k, check::at_least(1));
+    check::real("std_mul", params.std_mul, check::non_negative());
 }
 
 StatisticalOutlierRemovalResult statistical_outlier_removal(
@@ -38,6 +38,9 @@ StatisticalOutlierRemovalResult statistical_outlier_removal(
     StatisticalOutlierRemovalResult result;
     const std::size_t n = points.size;
     if (n == 0) return result;
+    if (n > std::numeric_limits<std::uint32_t>::max())  // the Morton order numbers points
+        throw std::invalid_argument("points: at most 2^32 - 1 points are supported, got " +
+                                    std::to_string(n));
     const auto mean_k = static_cast<std::size_t>(params.mean_k);
     if (mean_k >= n)
         throw std::invalid_argument("mean_k must be < the number of points (" + std::to_string(n) +
@@ -53,6 +56,8 @@ StatisticalOutlierRemovalResult statistical_outlier_removal(
     for (std::ptrdiff_t s = 0; s < static_cast<std::ptrdiff_t>(n); ++s)
         for (int a = 0; a < 3; ++a) local[3 * s + a] = unordered[3 * order[s] + a];
     const KnnIndex index(local.data(), n);
+    const Interruption interruption;
+    interruption.check_now();
     result.mean_distance.resize(n);
     const std::size_t k = mean_k + 1;  // the query point comes back as its own neighbour
 
@@ -62,12 +67,15 @@ StatisticalOutlierRemovalResult statistical_outlier_removal(
         std::vector<float> nn_sqdist(k);
 #pragma omp for schedule(dynamic, 1024)
         for (std::ptrdiff_t s = 0; s < static_cast<std::ptrdiff_t>(n); ++s) {
+            if (interruption.requested()) continue;  // then thrown below, outside the region
             index.nearest(s, k, nn_index.data(), nn_sqdist.data());
             double sum = 0.0;
             for (std::size_t j = 1; j < k; ++j) sum += std::sqrt(nn_sqdist[j]);
             result.mean_distance[order[s]] = static_cast<float>(sum / static_cast<double>(mean_k));
         }
     }
+
+    interruption.check();
 
     // Serial, in index order: the same rounding as PCL and the same on every run.
     double sum = 0.0, sum_sq = 0.0;

@@ -59,38 +59,21 @@
 #include <array>
 #include <chrono>
 #include <cmath>
-#include <cstdio>
 #include <exception>
 #include <limits>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
+#include "pcl_rg/check.hpp"
 #include "pcl_rg/delaunay.hpp"
+#include "pcl_rg/interrupt.hpp"
 
 namespace pcl_rg {
 
 namespace {
 
 constexpr double kDegToRad = 3.141592653589793 / 180.0;
-
-std::string number(double v) {
-    char buffer[32];
-    std::snprintf(buffer, sizeof buffer, "%g", v);
-    return buffer;
-}
-
-void require_positive(const char* name, double value) {
-    if (!std::isfinite(value) || value <= 0.0)
-        throw std::invalid_argument(std::string(name) + " must be finite and > 0, got " +
-                                    number(value));
-}
-
-void require_non_negative(const char* name, double value) {
-    if (!std::isfinite(value) || value < 0.0)
-        throw std::invalid_argument(std::string(name) + " must be finite and >= 0, got " +
-                                    number(value));
-}
 
 // Column * ncy + row of point i in square cells of side `cell` anchored at the origin.
 std::int64_t cell_key(PointsView points, const std::array<double, 3>& origin, double cell,
@@ -111,7 +94,9 @@ bool lower(PointsView points, std::size_t a, std::size_t b) {
 std::vector<std::int64_t> lowest_in_cells(PointsView points, const std::array<double, 3>& origin,
                                           double cell, std::int64_t ncx, std::int64_t ncy) {
     std::vector<std::int64_t> lowest(static_cast<std::size_t>(ncx * ncy), -1);
+    const Interruption interruption;
     for (std::size_t i = 0; i < points.size; ++i) {
+        if (i % 4096 == 0) interruption.check();
         std::int64_t& b = lowest[static_cast<std::size_t>(cell_key(points, origin, cell, ncy, i))];
         if (b < 0 || lower(points, i, static_cast<std::size_t>(b)))
             b = static_cast<std::int64_t>(i);
@@ -154,8 +139,11 @@ std::vector<double> square_filter(const std::vector<double>& a, std::int64_t ncx
         return take_max ? u > v : u < v;
     };
     std::vector<double> along_y(a.size(), none), out(a.size(), none);
+    // A window of r cells per side: polled once per column, which can take a while.
+    const Interruption interruption;
 #pragma omp parallel for schedule(static)
-    for (std::int64_t x = 0; x < ncx; ++x)
+    for (std::int64_t x = 0; x < ncx; ++x) {
+        if (interruption.requested()) continue;
         for (std::int64_t y = 0; y < ncy; ++y) {
             double v = none;
             for (std::int64_t k = std::max<std::int64_t>(0, y - r); k <= std::min(ncy - 1, y + r);
@@ -163,8 +151,11 @@ std::vector<double> square_filter(const std::vector<double>& a, std::int64_t ncx
                 if (better(a[x * ncy + k], v)) v = a[x * ncy + k];
             along_y[x * ncy + y] = v;
         }
+    }
+    interruption.check();
 #pragma omp parallel for schedule(static)
-    for (std::int64_t x = 0; x < ncx; ++x)
+    for (std::int64_t x = 0; x < ncx; ++x) {
+        if (interruption.requested()) continue;
         for (std::int64_t y = 0; y < ncy; ++y) {
             double v = none;
             for (std::int64_t k = std::max<std::int64_t>(0, x - r); k <= std::min(ncx - 1, x + r);
@@ -172,6 +163,8 @@ std::vector<double> square_filter(const std::vector<double>& a, std::int64_t ncx
                 if (better(along_y[k * ncy + y], v)) v = along_y[k * ncy + y];
             out[x * ncy + y] = v;
         }
+    }
+    interruption.check();
     return out;
 }
 
@@ -181,11 +174,13 @@ std::vector<double> rank_filter(const std::vector<double>& a, std::int64_t ncx, 
                                 std::int64_t r, std::size_t rank) {
     const double none = std::numeric_limits<double>::infinity();
     std::vector<double> out(a.size(), none);
+    const Interruption interruption;
 #pragma omp parallel
     {
         std::vector<double> window;
 #pragma omp for schedule(static)
-        for (std::int64_t x = 0; x < ncx; ++x)
+        for (std::int64_t x = 0; x < ncx; ++x) {
+            if (interruption.requested()) continue;
             for (std::int64_t y = 0; y < ncy; ++y) {
                 window.clear();
                 for (std::int64_t i = x - r; i <= x + r; ++i)
@@ -196,7 +191,9 @@ std::vector<double> rank_filter(const std::vector<double>& a, std::int64_t ncx, 
                                  window.end());
                 out[x * ncy + y] = window[rank];
             }
+        }
     }
+    interruption.check();
     return out;
 }
 
@@ -211,7 +208,7 @@ std::vector<std::uint32_t> morphological_seeds(PointsView points,
         throw std::invalid_argument(
             "seed_cell is too small for the XY extent (more than 4 cells "
             "per point), got " +
-            number(cell));
+            check::format_value(cell));
     const auto ncx = static_cast<std::int64_t>(std::floor(ex / cell)) + 1;
     const auto ncy = static_cast<std::int64_t>(std::floor(ey / cell)) + 1;
     const std::vector<std::int64_t> lowest = lowest_in_cells(points, origin, cell, ncx, ncy);
@@ -359,22 +356,17 @@ Verdict evaluate(const Delaunay& tin, const std::vector<double>& vz, const Limit
 }  // namespace
 
 void validate(const TinGroundParams& params) {
-    require_positive("max_building_size", params.max_building_size);
-    require_positive("iteration_distance", params.iteration_distance);
-    require_positive("reduce_angle_edge", params.reduce_angle_edge);
-    require_positive("stop_edge", params.stop_edge);
-    require_non_negative("near_vertex_distance", params.near_vertex_distance);
-    require_non_negative("seed_cell", params.seed_cell);
-    require_non_negative("seed_tolerance", params.seed_tolerance);
-    require_non_negative("outlier_depth", params.outlier_depth);
-    if (!std::isfinite(params.iteration_angle) || params.iteration_angle <= 0.0 ||
-        params.iteration_angle > 90.0)
-        throw std::invalid_argument("iteration_angle must be in (0, 90] degrees, got " +
-                                    number(params.iteration_angle));
-    if (!std::isfinite(params.max_terrain_angle) || params.max_terrain_angle <= 0.0 ||
-        params.max_terrain_angle >= 90.0)
-        throw std::invalid_argument("max_terrain_angle must be in (0, 90) degrees, got " +
-                                    number(params.max_terrain_angle));
+    check::real("max_building_size", params.max_building_size, check::positive());
+    check::real("max_terrain_angle", params.max_terrain_angle,
+                {std::nullopt, 0.0, std::nullopt, 90.0});
+    check::real("iteration_angle", params.iteration_angle, {std::nullopt, 0.0, 90.0, std::nullopt});
+    check::real("iteration_distance", params.iteration_distance, check::positive());
+    check::real("reduce_angle_edge", params.reduce_angle_edge, check::positive());
+    check::real("stop_edge", params.stop_edge, check::positive());
+    check::real("near_vertex_distance", params.near_vertex_distance, check::non_negative());
+    check::real("seed_cell", params.seed_cell, check::non_negative());
+    check::real("seed_tolerance", params.seed_tolerance, check::non_negative());
+    check::real("outlier_depth", params.outlier_depth, check::non_negative());
 }
 
 TinGroundStats tin_ground(PointsView points, const TinGroundParams& params, bool* ground) {
@@ -390,6 +382,7 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& params, bool
                                     std::to_string(n));
     auto clock = std::chrono::steady_clock::now();
     std::fill(ground, ground + n, false);
+    const Interruption interruption;  // polled between the steps and in the long loops
 
     // --- 1. local frame and integer grid -------------------------------------------
     const std::array<double, 3> origin = local_origin(points);
@@ -422,6 +415,7 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& params, bool
                 "points are all collinear in XY (or fewer than 3 distinct XY positions): "
                 "a TIN needs 3 points not on one line");
     }
+    interruption.check_now();
 
     // --- 2. seeds: lowest point per max_building_size cell --------------------------
     const double cell = params.max_building_size;
@@ -429,13 +423,14 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& params, bool
         throw std::invalid_argument(
             "max_building_size is too small for the XY extent (more than "
             "2^31 seed cells per axis), got " +
-            number(cell));
+            check::format_value(cell));
     const std::vector<std::uint32_t> seeds =
         params.seed_cell > 0.0
             ? morphological_seeds(points, origin, ex, ey, params)
             : lowest_points(points, origin, cell,
                             static_cast<std::int64_t>(std::floor(ex / cell)) + 1,
                             static_cast<std::int64_t>(std::floor(ey / cell)) + 1);
+    interruption.check_now();
     stats.seeds = static_cast<std::int64_t>(seeds.size());
     for (const std::uint32_t s : seeds) ground[s] = true;
 
@@ -471,15 +466,24 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& params, bool
     // Points in Morton order: local arrays indexed by sorted position.
     const std::vector<std::uint32_t> order =
         morton_order_2d(gx.data(), gy.data(), n, frame.width, frame.height);
+    interruption.check_now();
     std::vector<std::int32_t> sx(n), sy(n);
     std::vector<double> sz(n);
+    // In blocks polled once each: the gathers miss the cache, the sweep takes a while.
+    constexpr std::size_t kBlock = 4096;
+    const auto blocks = static_cast<std::ptrdiff_t>((n + kBlock - 1) / kBlock);
 #pragma omp parallel for schedule(static)
-    for (std::ptrdiff_t s = 0; s < static_cast<std::ptrdiff_t>(n); ++s) {
-        const std::uint32_t i = order[s];
-        sx[s] = gx[i];
-        sy[s] = gy[i];
-        sz[s] = points.coord(i, 2) - origin[2];
+    for (std::ptrdiff_t b = 0; b < blocks; ++b) {
+        if (interruption.requested()) continue;
+        const std::size_t begin = static_cast<std::size_t>(b) * kBlock;
+        for (std::size_t s = begin; s < std::min(n, begin + kBlock); ++s) {
+            const std::uint32_t i = order[s];
+            sx[s] = gx[i];
+            sy[s] = gy[i];
+            sz[s] = points.coord(i, 2) - origin[2];
+        }
     }
+    interruption.check();
     std::vector<std::int32_t>().swap(gx);
     std::vector<std::int32_t>().swap(gy);
     stats.prepare_seconds = seconds_since(clock);
@@ -492,6 +496,7 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& params, bool
         std::int32_t last = 0;
         for (std::size_t s = 0; s < n; ++s) {
             if (!vertex_seed[order[s]]) continue;
+            interruption.check();
             bool inserted = false;
             const std::int32_t v = tin.insert(sx[s], sy[s], last, &inserted);
             if (inserted) vz.push_back(sz[s]);
@@ -541,29 +546,38 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& params, bool
     };
 
     for (std::int32_t iteration = 0;; ++iteration) {
+        interruption.check_now();
         clock = std::chrono::steady_clock::now();
         std::exception_ptr failure;
         const auto m = static_cast<std::ptrdiff_t>(work.size());
+        constexpr std::ptrdiff_t kChunk = 1024;  // tests per chunk, shared dynamically
 #pragma omp parallel if (m > 4096)
         {
             std::int32_t last = 0;
-#pragma omp for schedule(dynamic, 1024)
-            for (std::ptrdiff_t k = 0; k < m; ++k) {
-                const std::uint32_t s = work[k];
-                try {
-                    const std::int32_t t = tin.locate(sx[s], sy[s], tri[s] >= 0 ? tri[s] : last);
-                    const Verdict verdict = evaluate(tin, vz, lim, sx[s], sy[s], sz[s], t);
-                    last = tri[s] = t;
-                    accepted[s] = verdict.accepted;
-                    stop[s] = verdict.stop;
-                    dist[s] = verdict.d;
-                } catch (...) {
+#pragma omp for schedule(dynamic, 1)
+            for (std::ptrdiff_t chunk = 0; chunk < (m + kChunk - 1) / kChunk; ++chunk) {
+                // Polled per chunk, not per test: a test costs only a few hundred cycles.
+                if (interruption.requested()) continue;  // then thrown below, outside the region
+                for (std::ptrdiff_t k = chunk * kChunk; k < std::min(m, (chunk + 1) * kChunk);
+                     ++k) {
+                    const std::uint32_t s = work[k];
+                    try {
+                        const std::int32_t t =
+                            tin.locate(sx[s], sy[s], tri[s] >= 0 ? tri[s] : last);
+                        const Verdict verdict = evaluate(tin, vz, lim, sx[s], sy[s], sz[s], t);
+                        last = tri[s] = t;
+                        accepted[s] = verdict.accepted;
+                        stop[s] = verdict.stop;
+                        dist[s] = verdict.d;
+                    } catch (...) {
 #pragma omp critical(pcl_rg_tin_ground_failure)
-                    if (!failure) failure = std::current_exception();
+                        if (!failure) failure = std::current_exception();
+                    }
                 }
             }
         }
         if (failure) std::rethrow_exception(failure);
+        interruption.check();
         stats.tests += m;
 
         // One chosen point per densifiable triangle: smallest d, then smallest index.
@@ -605,6 +619,7 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& params, bool
         tin.set_stamp(iteration + 1);
         std::sort(chosen.begin(), chosen.end());
         for (const std::uint32_t s : chosen) {
+            interruption.check();
             bool inserted = false;
             tin.insert(sx[s], sy[s], tri[s], &inserted);
             if (inserted) vz.push_back(sz[s]);

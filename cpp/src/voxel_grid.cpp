@@ -11,6 +11,8 @@
 //     (summed in float64) are the same on every run.
 #include "pcl_rg/voxel_grid.hpp"
 
+#include "pcl_rg/check.hpp"
+#include "pcl_rg/interrupt.hpp"
 #include "pcl_rg/spatial_order.hpp"
 
 #include <algorithm>
@@ -24,16 +26,8 @@
 namespace pcl_rg {
 
 void validate(const VoxelGridParams& params) {
-    static const char* const axis_name[3] = {"x", "y", "z"};
-    for (int a = 0; a < 3; ++a) {
-        const double leaf = params.leaf_size[a];
-        if (!std::isfinite(leaf) || leaf <= 0.0)
-            throw std::invalid_argument("leaf_size must be finite and > 0 on every axis, got " +
-                                        std::to_string(leaf) + " for " + axis_name[a]);
-    }
-    if (params.min_points_per_voxel < 1)
-        throw std::invalid_argument("min_points_per_voxel must be >= 1, got " +
-                                    std::to_string(params.min_points_per_voxel));
+    for (const double leaf : params.leaf_size) check::real("leaf_size", leaf, check::positive());
+    check::integer("min_points_per_voxel", params.min_points_per_voxel, check::at_least(1));
 }
 
 namespace {
@@ -77,6 +71,9 @@ VoxelGridResult voxel_grid(PointsView points, const VoxelGridParams& params,
             hi[a] = std::max(hi[a], thi[a]);
         }
     }
+
+    const Interruption interruption;  // polled between the steps (the radix sort: per pass)
+    interruption.check_now();
 
     // Index range per axis; refuse indices that do not fit a signed 64-bit integer.
     std::array<AxisRange, 3> range;
@@ -147,6 +144,8 @@ VoxelGridResult voxel_grid(PointsView points, const VoxelGridParams& params,
         }
     }
 
+    interruption.check_now();
+
     // Runs of equal keys are voxels; keep those with enough points.
     std::vector<std::size_t> run_start;
     run_start.reserve(n / 4 + 1);
@@ -160,27 +159,35 @@ VoxelGridResult voxel_grid(PointsView points, const VoxelGridParams& params,
         const auto size = static_cast<std::int64_t>(run_start[r + 1] - run_start[r]);
         row_of_run[r] = size >= params.min_points_per_voxel ? kept++ : -1;
     }
+    interruption.check_now();
 
     result.centroids.assign(3 * static_cast<std::size_t>(kept), 0.0);
     result.counts.assign(static_cast<std::size_t>(kept), 0);
-#pragma omp parallel for schedule(dynamic, 4096)
-    for (std::ptrdiff_t r = 0; r < static_cast<std::ptrdiff_t>(runs); ++r) {
-        const std::int64_t row = row_of_run[r];
-        const std::size_t begin = run_start[r], end = run_start[r + 1];
-        if (row >= 0) {
-            // Sum offsets from the voxel's first point: exact for UTM-sized coordinates.
-            const std::size_t first = order[begin];
-            double sum[3] = {0.0, 0.0, 0.0};
-            for (std::size_t s = begin; s < end; ++s)
+    // Blocks of runs, polled once each (the gathers miss the cache).
+    constexpr std::size_t kBlock = 4096;
+#pragma omp parallel for schedule(dynamic, 1)
+    for (std::ptrdiff_t b = 0; b < static_cast<std::ptrdiff_t>((runs + kBlock - 1) / kBlock); ++b) {
+        if (interruption.requested()) continue;
+        const std::size_t block_end = std::min(runs, (static_cast<std::size_t>(b) + 1) * kBlock);
+        for (std::size_t r = static_cast<std::size_t>(b) * kBlock; r < block_end; ++r) {
+            const std::int64_t row = row_of_run[r];
+            const std::size_t begin = run_start[r], end = run_start[r + 1];
+            if (row >= 0) {
+                // Sum offsets from the voxel's first point: exact for UTM-sized coordinates.
+                const std::size_t first = order[begin];
+                double sum[3] = {0.0, 0.0, 0.0};
+                for (std::size_t s = begin; s < end; ++s)
+                    for (int a = 0; a < 3; ++a)
+                        sum[a] += points.coord(order[s], a) - points.coord(first, a);
+                const double count = static_cast<double>(end - begin);
                 for (int a = 0; a < 3; ++a)
-                    sum[a] += points.coord(order[s], a) - points.coord(first, a);
-            const double count = static_cast<double>(end - begin);
-            for (int a = 0; a < 3; ++a)
-                result.centroids[3 * row + a] = points.coord(first, a) + sum[a] / count;
-            result.counts[row] = static_cast<std::int64_t>(end - begin);
+                    result.centroids[3 * row + a] = points.coord(first, a) + sum[a] / count;
+                result.counts[row] = static_cast<std::int64_t>(end - begin);
+            }
+            for (std::size_t s = begin; s < end; ++s) voxel_of_point[order[s]] = row;
         }
-        for (std::size_t s = begin; s < end; ++s) voxel_of_point[order[s]] = row;
     }
+    interruption.check();
     return result;
 }
 

@@ -1,39 +1,73 @@
 """pcl_rg: LiDAR ground filtering and point-cloud segmentation on NumPy arrays.
 
 The algorithms run in a C++ core over PCL 1.13; each has a NumPy/SciPy twin in
-:mod:`pcl_rg.reference` that the tests hold it to.
+:mod:`pcl_rg.reference` that the tests hold it to. PCL's own classes, on the same
+arrays and parameters, are in :mod:`pcl_rg.pcl`.
+
+Everything here loads on first use, as in SciPy: ``import pcl_rg`` is cheap, and
+``pcl_rg.io``, ``pcl_rg.datasets``, ``pcl_rg.evaluation``, ``pcl_rg.plot``,
+``pcl_rg.reference``, ``pcl_rg.pcl`` and ``pcl_rg.pipeline`` are there without
+importing them first.
 """
 
-from . import evaluation
-from .grid_ground import GridGroundParams, grid_ground
-from .normals import NormalsParams, NormalsResult, normals
-from .region_growing import RegionGrowingParams, region_growing
-from .region_growing_pcl import RegionGrowingPclParams, region_growing_pcl
-from .statistical_outlier_removal import (
-    StatisticalOutlierRemovalParams,
-    statistical_outlier_removal,
-)
-from .tin_ground import TinGroundParams, tin_ground
-from .voxel_grid import VoxelGridParams, VoxelGridResult, voxel_grid
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
 
 __version__ = "0.1.0"
 
-__all__ = [
-    "GridGroundParams",
-    "NormalsParams",
-    "NormalsResult",
-    "RegionGrowingParams",
-    "RegionGrowingPclParams",
-    "StatisticalOutlierRemovalParams",
-    "TinGroundParams",
-    "VoxelGridParams",
-    "VoxelGridResult",
-    "evaluation",
-    "grid_ground",
-    "normals",
-    "region_growing",
-    "region_growing_pcl",
-    "statistical_outlier_removal",
-    "tin_ground",
-    "voxel_grid",
-]
+# Public name -> the private module that defines it.
+_NAMES = {
+    "GridGroundParams": "_grid_ground",
+    "grid_ground": "_grid_ground",
+    "NormalsParams": "_normals",
+    "NormalsResult": "_normals",
+    "normals": "_normals",
+    "RegionGrowingParams": "_region_growing",
+    "region_growing": "_region_growing",
+    "RegionGrowingPclParams": "_region_growing_pcl",
+    "region_growing_pcl": "_region_growing_pcl",
+    "StatisticalOutlierRemovalParams": "_statistical_outlier_removal",
+    "statistical_outlier_removal": "_statistical_outlier_removal",
+    "TinGroundParams": "_tin_ground",
+    "tin_ground": "_tin_ground",
+    "VoxelGridParams": "_voxel_grid",
+    "VoxelGridResult": "_voxel_grid",
+    "voxel_grid": "_voxel_grid",
+    "Diagnostics": "_diagnostics",
+    "collect_diagnostics": "_diagnostics",
+}
+_SUBMODULES = ("datasets", "demo", "evaluation", "io", "pipeline", "plot", "reference")
+
+__all__ = sorted([*_NAMES, *_SUBMODULES])
+
+
+def __getattr__(name: str) -> Any:
+    if name in _NAMES:
+        value = getattr(importlib.import_module(f".{_NAMES[name]}", __name__), name)
+    elif name in _SUBMODULES:
+        value = importlib.import_module(f".{name}", __name__)
+    else:
+        raise AttributeError(f"module 'pcl_rg' has no attribute {name!r}")
+    globals()[name] = value  # later look-ups skip this function
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted([*globals(), *__all__])
+
+
+if TYPE_CHECKING:  # what type checkers and IDEs see; nothing runs here
+    from . import datasets, demo, evaluation, io, pipeline, plot, reference
+    from ._diagnostics import Diagnostics, collect_diagnostics
+    from ._grid_ground import GridGroundParams, grid_ground
+    from ._normals import NormalsParams, NormalsResult, normals
+    from ._region_growing import RegionGrowingParams, region_growing
+    from ._region_growing_pcl import RegionGrowingPclParams, region_growing_pcl
+    from ._statistical_outlier_removal import (
+        StatisticalOutlierRemovalParams,
+        statistical_outlier_removal,
+    )
+    from ._tin_ground import TinGroundParams, tin_ground
+    from ._voxel_grid import VoxelGridParams, VoxelGridResult, voxel_grid

@@ -1,11 +1,10 @@
-"""Input gate shared by every public function: points, parameters, dataclass glue."""
+"""Input gate shared by every public function: points and plain numbers."""
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import numbers
-from typing import Any, TypeVar
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -16,13 +15,7 @@ __all__ = [
     "as_points",
     "check_int",
     "check_float",
-    "fill_core_params",
-    "resolve_params",
-    "per_axis",
 ]
-
-P = TypeVar("P")
-C = TypeVar("C")
 
 
 # Largest clouds the core's index types can number: point ids are uint32 in the
@@ -105,46 +98,3 @@ def check_float(
     if maximum is not None and value > maximum:
         raise ValueError(f"{name} must be <= {maximum}, got {value}")
     return value
-
-
-def per_axis(name: str, value: Any, axes: int = 3) -> tuple[float, ...]:
-    """A positive scalar or sequence of `axes` positive numbers, as a tuple of floats."""
-    if isinstance(value, (str, bytes)):
-        raise TypeError(f"{name} must be a real number or {axes} numbers, got {value!r}")
-    if isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_)):
-        values = (value,) * axes
-    else:
-        try:
-            values = tuple(np.asarray(value).ravel().tolist())
-        except Exception:  # pragma: no cover - exotic objects
-            raise TypeError(f"{name} must be a number or {axes} numbers, got {value!r}") from None
-        if len(values) != axes or np.asarray(value).ndim != 1:
-            raise ValueError(f"{name} must be a number or a sequence of {axes}, got {value!r}")
-    return tuple(check_float(name, v, positive=True) for v in values)
-
-
-def resolve_params(cls: type[P], params: P | None, **overrides: Any) -> P:
-    """`params` (or the defaults of `cls`) with every non-None keyword applied."""
-    if params is not None and not isinstance(params, cls):
-        raise TypeError(f"params must be a {cls.__name__}, got {type(params).__name__}")
-    given = {k: v for k, v in overrides.items() if v is not None}
-    if params is None:
-        return cls(**given)
-    return dataclasses.replace(params, **given) if given else params
-
-
-def fill_core_params(params: Any, core: C) -> C:
-    """Copy every field of a Params dataclass onto its C++ struct `core` and return it.
-
-    Field names match by construction (tests/test_params.py holds them to it);
-    tuples become lists for std::array fields, and a string naming a member of a
-    C++ enum becomes that member.
-    """
-    for field in dataclasses.fields(params):
-        value = getattr(params, field.name)
-        if isinstance(value, tuple):
-            value = list(value)
-        elif isinstance(value, str):
-            value = type(getattr(core, field.name)).__members__[value]
-        setattr(core, field.name, value)
-    return core

@@ -89,8 +89,8 @@ class _Method(typing.NamedTuple):
 
 
 def _ground_methods() -> dict[str, _Method]:
-    from .grid_ground import GridGroundParams, grid_ground
-    from .tin_ground import TinGroundParams, tin_ground
+    from ._grid_ground import GridGroundParams, grid_ground
+    from ._tin_ground import TinGroundParams, tin_ground
 
     return {
         "grid": _Method(
@@ -109,8 +109,8 @@ def _ground_methods() -> dict[str, _Method]:
 
 
 def _segment_methods() -> dict[str, _Method]:
-    from .region_growing import RegionGrowingParams, region_growing
-    from .region_growing_pcl import RegionGrowingPclParams, region_growing_pcl
+    from ._region_growing import RegionGrowingParams, region_growing
+    from ._region_growing_pcl import RegionGrowingPclParams, region_growing_pcl
 
     return {
         "curvature": _Method(
@@ -439,22 +439,29 @@ class _Run:
         """Time a stage; show a tqdm spinner on stderr if it runs past PROGRESS_DELAY."""
         start = time.perf_counter()
         done = threading.Event()
+        outcome = ["done in"]  # how the spinner's last line reports the end of the stage
         thread = None
         if not self.quiet:
             thread = threading.Thread(
-                target=self._spin, args=(description, done, time.time()), daemon=True
+                target=self._spin, args=(description, done, time.time(), outcome), daemon=True
             )
             thread.start()
         try:
             yield
+        except BaseException as error:
+            interrupted = isinstance(error, KeyboardInterrupt)
+            outcome[0] = "interrupted after" if interrupted else "failed after"
+            raise
         finally:
+            # The spinner wakes within 0.25 s and ends: nothing outlives the stage, also
+            # on Ctrl-C.
             done.set()
             if thread is not None:
                 thread.join()
             self.timings[key] = self.timings.get(key, 0.0) + time.perf_counter() - start
 
     @staticmethod
-    def _spin(description: str, done: threading.Event, started: float) -> None:
+    def _spin(description: str, done: threading.Event, started: float, outcome: list[str]) -> None:
         """Show the stage once it has run PROGRESS_DELAY seconds, until it ends."""
         if done.wait(PROGRESS_DELAY):
             return
@@ -464,7 +471,8 @@ class _Run:
             stream.write(f"pcl-rg: {description} ...\n")
             stream.flush()
             done.wait()
-            stream.write(f"pcl-rg: {description}: done in {time.time() - started:.1f} s\n")
+            seconds = time.time() - started
+            stream.write(f"pcl-rg: {description}: {outcome[0]} {seconds:.1f} s\n")
             stream.flush()
             return
         from tqdm import tqdm
@@ -757,7 +765,7 @@ def _cmd_ground(args: argparse.Namespace, run: _Run) -> None:
 
 
 def _cmd_denoise(args: argparse.Namespace, run: _Run) -> None:
-    from .statistical_outlier_removal import (
+    from ._statistical_outlier_removal import (
         StatisticalOutlierRemovalParams,
         statistical_outlier_removal,
     )
@@ -846,7 +854,7 @@ def _voxel_attributes(
 
 
 def _cmd_downsample(args: argparse.Namespace, run: _Run) -> None:
-    from .voxel_grid import VoxelGridParams, voxel_grid
+    from ._voxel_grid import VoxelGridParams, voxel_grid
 
     params = _params(args, args.flags, "voxel", VoxelGridParams)
     _check_paths(args.input, args.output, [args.plot, args.profile])
@@ -1323,7 +1331,7 @@ def build_parser() -> argparse.ArgumentParser:
     _common(p)
     p.set_defaults(run=_cmd_ground, flags=flags, methods=ground_methods)
 
-    from .statistical_outlier_removal import StatisticalOutlierRemovalParams
+    from ._statistical_outlier_removal import StatisticalOutlierRemovalParams
 
     p = sub.add_parser(
         "denoise",
@@ -1341,7 +1349,7 @@ def build_parser() -> argparse.ArgumentParser:
     _common(p)
     p.set_defaults(run=_cmd_denoise, flags=flags)
 
-    from .voxel_grid import VoxelGridParams
+    from ._voxel_grid import VoxelGridParams
 
     p = sub.add_parser(
         "downsample",

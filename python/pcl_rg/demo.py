@@ -20,13 +20,13 @@ import numpy as np
 from . import datasets
 from .evaluation import ground_errors
 from .io import write_points
-from .grid_ground import grid_ground
+from ._grid_ground import grid_ground
 from .pipeline import seed004
-from .region_growing import RegionGrowingParams, region_growing
-from .region_growing_pcl import region_growing_pcl
-from .statistical_outlier_removal import StatisticalOutlierRemovalParams, statistical_outlier_removal
-from .tin_ground import TinGroundParams, tin_ground
-from .voxel_grid import VoxelGridParams, voxel_grid
+from ._region_growing import RegionGrowingParams, region_growing
+from ._region_growing_pcl import region_growing_pcl
+from ._statistical_outlier_removal import StatisticalOutlierRemovalParams, statistical_outlier_removal
+from ._tin_ground import TinGroundParams, tin_ground
+from ._voxel_grid import VoxelGridParams, voxel_grid
 
 __all__ = ["DemoReport", "run_demo"]
 
@@ -42,7 +42,7 @@ LEAF = 1.0  # m; the scene has 4 points/m2, so about 4 points per voxel on open 
 GRID = {"block_size": 40.0, "cell_size": 1.0, "slope": 0.5, "min_seed_component": 10}
 # The one set chosen on the ISPRS samples: LiDAR360's own defaults (8 deg iteration
 # angle) accept too little ground at 2-4 points/m2, see benchmarks/RESULTS.md.
-TIN: dict[str, Any] = {"params": TinGroundParams.tuned_isprs()}
+TIN: dict[str, Any] = {"params": TinGroundParams.isprs()}
 SEGMENT = {"k": 15, "min_cluster_size": 50}
 # Curvatures scale as 1 / length: the curvedness default (80 1/m) was chosen on
 # Kinect scenes at 5 mm voxels, so at LEAF-sized voxels it is scaled by 0.005 / LEAF.
@@ -349,7 +349,7 @@ def run_demo(
         f"parameters: SOR mean_k {SOR['mean_k']}, std_mul {SOR['std_mul']:g}; voxel leaf "
         f"{LEAF:g} m; grid block {GRID['block_size']:g} m, cell {GRID['cell_size']:g} m, slope "
         f"{GRID['slope']:g} (tan of the steepest terrain, 25 deg), min seed component "
-        f"{GRID['min_seed_component']}; tin TinGroundParams.tuned_isprs(); region "
+        f"{GRID['min_seed_component']}; tin TinGroundParams.isprs(); region "
         f"growing k {SEGMENT['k']}, min cluster {SEGMENT['min_cluster_size']}, curvedness "
         f"threshold {CURVEDNESS:g} 1/m (the default scaled from 5 mm to {LEAF:g} m voxels), "
         "other defaults.",

@@ -10,12 +10,13 @@ import numpy as np
 import numpy.typing as npt
 
 from ._validation import MAX_POINTS_UINT32, as_points
-from .region_growing import RegionGrowingParams, _region_growing_timed
-from .statistical_outlier_removal import (
+from ._diagnostics import collect_diagnostics
+from ._region_growing import RegionGrowingParams, region_growing
+from ._statistical_outlier_removal import (
     StatisticalOutlierRemovalParams,
     statistical_outlier_removal,
 )
-from .voxel_grid import VoxelGridParams, voxel_grid
+from ._voxel_grid import VoxelGridParams, voxel_grid
 
 __all__ = ["PipelineReport", "Seed004Result", "StageReport", "seed004"]
 
@@ -191,8 +192,10 @@ def seed004(
 
     original = None
     if time_original:
-        _, normals_s, growth_s = _region_growing_timed(xyz, region)
-        original = (n, normals_s + growth_s)
+        with collect_diagnostics() as measured:
+            region_growing(xyz, params=region)
+        timing = measured["region_growing"]
+        original = (n, timing["normals_seconds"] + timing["growth_seconds"])
 
     # 2.1 denoising
     if sor is not None:
@@ -217,9 +220,10 @@ def seed004(
         segmented, row_of_kept = kept, np.arange(len(kept), dtype=np.intp)
 
     # 3 normals and curvature, then region growing
-    point_labels, normals_s, growth_s = _region_growing_timed(
-        np.ascontiguousarray(segmented), region
-    )
+    with collect_diagnostics() as measured:
+        point_labels = region_growing(segmented, params=region)
+    normals_s = measured["region_growing"]["normals_seconds"]
+    growth_s = measured["region_growing"]["growth_seconds"]
     m = len(segmented)
     stages.append(StageReport("normals", m, m, normals_s))
     stages.append(StageReport("region growing", m, int((point_labels >= 0).sum()), growth_s))

@@ -8,44 +8,47 @@
 
 namespace pcl_rg {
 
+/// The defaults are Python's TinGroundParams.isprs() preset (chosen on the ISPRS
+/// samples); TinGroundParams.lidar360() is LiDAR360's own set: 20, 88, 8, 1.4, 5, 2 and
+/// the improvements off.
 struct TinGroundParams {
     /// Seed-grid cell (m, > 0): the lowest point of each cell is a seed. LiDAR360 "Max
     /// Building Size"; must exceed the largest building, or its flat roof becomes ground.
-    double max_building_size = 20.0;
+    double max_building_size = 40.0;
     /// Steepest triangle a point may form with its triangle's vertices (deg, (0, 90)).
     /// LiDAR360 "Max Terrain Angle".
     double max_terrain_angle = 88.0;
     /// Largest angle between the triangle's plane and the lines from its vertices to a
     /// point (deg, (0, 90]). LiDAR360 "Iteration Angle".
-    double iteration_angle = 8.0;
+    double iteration_angle = 30.0;
     /// Largest distance from a point to the triangle's plane (m, > 0). LiDAR360
     /// "Iteration Distance".
     double iteration_distance = 1.4;
     /// In triangles whose longest XY edge L is shorter (m, > 0), the angle limit is
     /// iteration_angle * L / reduce_angle_edge. LiDAR360 "Reduce Iteration Angle When
     /// Edge Length <".
-    double reduce_angle_edge = 5.0;
+    double reduce_angle_edge = 0.01;
     /// Triangles whose longest XY edge is shorter (m, > 0) accept ground points without
     /// inserting them. LiDAR360 "Stop Triangulation When Edge Length <".
-    double stop_edge = 2.0;
-    /// Improvement, off by default (0): in the angle test the 3-D distance from a point
+    double stop_edge = 1.0;
+    /// Improvement (0: off): in the angle test the 3-D distance from a point
     /// to a vertex counts as at least this much (m, >= 0), so a point (nearly) above a
     /// vertex is judged by its distance to the plane, d <= sin(limit) * this, instead
     /// of an angle near 90 deg minus the slope. Helps on data with coarse or repeated XY.
-    double near_vertex_distance = 0.0;
-    /// Improvement, off by default (0): seeds from a morphological opening instead of
+    double near_vertex_distance = 1.0;
+    /// Improvement (0: off): seeds from a morphological opening instead of
     /// one per max_building_size cell. The lowest point of every seed_cell cell (m, >= 0)
     /// is a seed when it lies at most seed_tolerance above the grey opening of the
     /// cells' lowest heights by a square window of max_building_size, in the manner of
     /// Zhao et al. 2016's morphological seeds: dense seeds on open terrain, none on roofs.
-    double seed_cell = 0.0;
+    double seed_cell = 2.0;
     /// Height above the opened surface up to which a seed_cell cell's lowest point is a
     /// seed (m, >= 0); used only when seed_cell > 0.
     double seed_tolerance = 0.5;
-    /// Improvement, off by default (0): a seed_cell cell whose lowest point lies more than
+    /// Improvement (0: off): a seed_cell cell whose lowest point lies more than
     /// this (m, >= 0) below the 9th lowest of the 25 cells of its 5 x 5 window gives no
     /// seed (low outliers, peeled repeatedly); used only when seed_cell > 0.
-    double outlier_depth = 0.0;
+    double outlier_depth = 5.0;
 };
 
 /// Throws std::invalid_argument naming the parameter when a value is out of range.

@@ -10,8 +10,9 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from .._validation import as_points, resolve_params
-from ..grid_ground import GridGroundParams
+from .._params import resolve
+from .._validation import as_points
+from .._grid_ground import GridGroundParams
 
 __all__ = ["GridNeighbours", "grid_ground", "grid_neighbours"]
 
@@ -136,7 +137,7 @@ def grid_ground(
     >>> reference.grid_ground(pts, params=plain).tolist()
     [True, True, False]
     """
-    p = resolve_params(
+    p = resolve(
         GridGroundParams,
         params,
         block_size=block_size,

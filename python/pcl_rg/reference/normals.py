@@ -6,8 +6,9 @@ import numpy as np
 import numpy.typing as npt
 from scipy.spatial import cKDTree
 
-from .._validation import as_points, resolve_params
-from ..normals import NormalsParams, NormalsResult
+from .._params import resolve
+from .._validation import as_points
+from .._normals import NormalsParams, NormalsResult
 
 __all__ = ["neighbour_lists", "normals", "QUADRIC_CONDITION_LIMIT"]
 
@@ -115,7 +116,7 @@ def normals(
     >>> float(np.abs(result.normals[:, 2]).min()), float(np.abs(result.gaussian_curvature).max())
     (1.0, 0.0)
     """
-    p = resolve_params(NormalsParams, params, k=k)
+    p = resolve(NormalsParams, params, k=k)
     xyz = as_points(points)
     n, k = len(xyz), p.k
     nan = np.full(n, np.nan)

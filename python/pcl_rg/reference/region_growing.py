@@ -8,8 +8,9 @@ import numpy as np
 import numpy.typing as npt
 
 from .._validation import as_points
-from ..normals import NormalsResult
-from ..region_growing import RegionGrowingParams, _resolve
+from .._normals import NormalsResult
+from .._params import resolve
+from .._region_growing import RegionGrowingParams
 from .normals import neighbour_lists, normals
 
 __all__ = ["grow_regions", "measure_values", "region_growing", "seed_order"]
@@ -152,7 +153,8 @@ def region_growing(
     >>> np.unique(labels).tolist()
     [0]
     """
-    p = _resolve(
+    p = resolve(
+        RegionGrowingParams,
         params,
         k=k,
         smoothness_deg=smoothness_deg,

@@ -6,8 +6,9 @@ import numpy as np
 import numpy.typing as npt
 from scipy.spatial import cKDTree
 
-from .._validation import as_points, resolve_params
-from ..statistical_outlier_removal import StatisticalOutlierRemovalParams
+from .._params import resolve
+from .._validation import as_points
+from .._statistical_outlier_removal import StatisticalOutlierRemovalParams
 
 __all__ = ["statistical_outlier_removal", "mean_neighbour_distance"]
 
@@ -43,7 +44,7 @@ def statistical_outlier_removal(
     >>> bool(reference.statistical_outlier_removal(pts, mean_k=8, std_mul=2.0)[-1])
     False
     """
-    p = resolve_params(StatisticalOutlierRemovalParams, params, mean_k=mean_k, std_mul=std_mul)
+    p = resolve(StatisticalOutlierRemovalParams, params, mean_k=mean_k, std_mul=std_mul)
     xyz = as_points(points)
     if len(xyz) == 0:
         return np.empty(0, dtype=bool)

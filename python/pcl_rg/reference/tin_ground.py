@@ -19,8 +19,9 @@ import numpy.typing as npt
 from scipy import ndimage
 from scipy.spatial import Delaunay, cKDTree
 
-from .._validation import as_points, resolve_params
-from ..tin_ground import TinGroundParams
+from .._params import resolve
+from .._validation import as_points
+from .._tin_ground import TinGroundParams
 
 __all__ = ["grid_quantum", "locate", "tin_ground", "triangulate"]
 
@@ -238,7 +239,7 @@ def tin_ground(
     >>> bool(ground[:20].any()), bool(ground[20:].mean() > 0.95)
     (False, True)
     """
-    p = resolve_params(
+    p = resolve(
         TinGroundParams,
         params,
         max_building_size=max_building_size,

@@ -5,8 +5,9 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
-from .._validation import as_points, resolve_params
-from ..voxel_grid import VoxelGridParams, VoxelGridResult
+from .._params import resolve
+from .._validation import as_points
+from .._voxel_grid import VoxelGridParams, VoxelGridResult
 
 __all__ = ["voxel_grid"]
 
@@ -28,7 +29,7 @@ def voxel_grid(
     """
     if leaf_size is None and params is None:
         raise TypeError("voxel_grid() needs leaf_size (or params)")
-    p = resolve_params(
+    p = resolve(
         VoxelGridParams, params, leaf_size=leaf_size, min_points_per_voxel=min_points_per_voxel
     )
     xyz = as_points(points)

@@ -2,13 +2,15 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
 
 from . import _core
-from ._validation import MAX_POINTS_UINT32, as_points, check_float, check_int, fill_core_params, resolve_params
+from ._diagnostics import record
+from ._params import check_fields, param, resolve, to_core
+from ._validation import MAX_POINTS_UINT32, as_points
 
 __all__ = ["StatisticalOutlierRemovalParams", "statistical_outlier_removal"]
 
@@ -17,23 +19,20 @@ __all__ = ["StatisticalOutlierRemovalParams", "statistical_outlier_removal"]
 class StatisticalOutlierRemovalParams:
     """Parameters of :func:`statistical_outlier_removal` (mirrors the C++ struct)."""
 
-    mean_k: int = field(
-        default=50,
-        metadata={"help": "neighbours averaged per point, itself excluded (PCL setMeanK)"},
+    mean_k: int = param(
+        50, minimum=1, bits=32, help="neighbours averaged per point, itself excluded (PCL setMeanK)"
     )
-    std_mul: float = field(
-        default=1.0,
-        metadata={
-            "help": "inlier when mean distance <= mean + std_mul * std (PCL setStddevMulThresh)"
-        },
+    std_mul: float = param(
+        1.0,
+        minimum=0.0,
+        help="inlier when mean distance <= mean + std_mul * std (PCL setStddevMulThresh)",
     )
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "mean_k", check_int("mean_k", self.mean_k, minimum=1))
-        object.__setattr__(self, "std_mul", check_float("std_mul", self.std_mul, minimum=0.0))
+        check_fields(self)
 
     def to_core(self) -> _core.StatisticalOutlierRemovalParams:
-        return fill_core_params(self, _core.StatisticalOutlierRemovalParams())
+        return to_core(self, _core.StatisticalOutlierRemovalParams())
 
 
 def statistical_outlier_removal(
@@ -96,7 +95,14 @@ def statistical_outlier_removal(
     >>> bool(inlier[-1]), int(inlier.sum()) > 190
     (False, True)
     """
-    p = resolve_params(StatisticalOutlierRemovalParams, params, mean_k=mean_k, std_mul=std_mul)
+    p = resolve(StatisticalOutlierRemovalParams, params, mean_k=mean_k, std_mul=std_mul)
     xyz = as_points(points, max_points=MAX_POINTS_UINT32)
-    inlier, _mean_distance, _threshold = _core.statistical_outlier_removal(xyz, p.to_core())
+    inlier, mean_distance, threshold = _core.statistical_outlier_removal(xyz, p.to_core())
+    record(
+        "statistical_outlier_removal",
+        points=len(xyz),
+        inliers=int(inlier.sum()),
+        threshold=float(threshold),
+        mean_distance=float(mean_distance.mean()) if len(xyz) else float("nan"),
+    )
     return inlier

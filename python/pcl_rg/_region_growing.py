@@ -2,15 +2,15 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
-import math
+from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
 
 from . import _core
-from ._validation import as_points, check_float, check_int, fill_core_params, resolve_params
+from ._diagnostics import record
+from ._params import check_fields, param, resolve, to_core
+from ._validation import as_points
 
 __all__ = ["SEED_MEASURES", "RegionGrowingParams", "region_growing"]
 
@@ -21,129 +21,65 @@ SEED_MEASURES = ("curvedness", "gaussian", "mean", "surface_variation", "concavi
 NO_MAX_CLUSTER_SIZE = 2**32 - 1
 
 
-def check_k(k: object) -> int:
-    """k as int, >= 3 (a plane needs three points) and within the core's int."""
-    value = check_int("k", k, minimum=3)
-    if value > 2**31 - 1:
-        raise ValueError(f"k must be <= {2**31 - 1}, got {value}")
-    return value
-
-
-def check_smoothness(value: object) -> float:
-    """An angle in degrees strictly inside (0, 180)."""
-    angle = check_float("smoothness_deg", value)
-    if not 0.0 < angle < 180.0:
-        raise ValueError(f"smoothness_deg must be in (0, 180) degrees, got {angle}")
-    return angle
-
-
-def check_cluster_sizes(minimum: object, maximum: object) -> tuple[int, int]:
-    """min >= 1 and max >= min."""
-    low = check_int("min_cluster_size", minimum, minimum=1)
-    high = check_int("max_cluster_size", maximum, minimum=1)
-    for name, value in (("min_cluster_size", low), ("max_cluster_size", high)):
-        if value > 2**63 - 1:
-            raise ValueError(f"{name} must be <= {2**63 - 1}, got {value}")
-    if high < low:
-        raise ValueError(
-            f"max_cluster_size must be >= min_cluster_size ({low}), got {high}"
-        )
-    return low, high
-
-
-def check_viewpoint(value: object) -> tuple[float, float, float]:
-    """Three finite coordinates."""
-    try:
-        values = tuple(float(v) for v in np.asarray(value, dtype=np.float64).ravel())
-    except (TypeError, ValueError):
-        raise TypeError(f"viewpoint must be 3 numbers, got {value!r}") from None
-    if len(values) != 3 or not all(math.isfinite(v) for v in values):
-        raise ValueError(f"viewpoint must be 3 finite numbers, got {value!r}")
-    return values  # type: ignore[return-value]
-
-
 @dataclass(frozen=True, kw_only=True, slots=True)
 class RegionGrowingParams:
     """Parameters of :func:`region_growing` (mirrors ``pcl_rg::RegionGrowingParams``)."""
 
-    k: int = field(
-        default=15,
-        metadata={
-            "help": "neighbours per point, itself included, >= 3, for normals, curvatures "
-            "and growth (PCL setNumberOfNeighbours)"
-        },
+    k: int = param(
+        15,
+        minimum=3,
+        bits=32,
+        help="neighbours per point, itself included, for normals, curvatures and growth "
+        "(PCL setNumberOfNeighbours)",
     )
-    smoothness_deg: float = field(
-        default=16.0,
-        metadata={
-            "help": "max angle between neighbouring normals in degrees, in (0, 180) "
-            "(PCL setSmoothnessThreshold, radians)"
-        },
+    smoothness_deg: float = param(
+        16.0,
+        above=0.0,
+        below=180.0,
+        unit="deg",
+        help="max angle between neighbouring normals (PCL setSmoothnessThreshold, radians)",
     )
-    curvature_threshold: float = field(
-        default=80.0,
-        metadata={
-            "help": "joined points whose seed measure is <= this grow further, in the "
-            "measure's unit, scale dependent (PCL setCurvatureThreshold)"
-        },
+    curvature_threshold: float = param(
+        80.0,
+        minimum=0.0,
+        help="joined points whose seed measure is <= this grow further, in the measure's "
+        "unit, scale dependent (PCL setCurvatureThreshold)",
     )
-    min_cluster_size: int = field(
-        default=20, metadata={"help": "drop regions with fewer points (PCL setMinClusterSize)"}
+    min_cluster_size: int = param(
+        20, minimum=1, help="drop regions with fewer points (PCL setMinClusterSize)"
     )
-    max_cluster_size: int = field(
-        default=NO_MAX_CLUSTER_SIZE,
-        metadata={"help": "drop regions with more points (PCL setMaxClusterSize)"},
+    max_cluster_size: int = param(
+        NO_MAX_CLUSTER_SIZE, minimum=1, help="drop regions with more points (PCL setMaxClusterSize)"
     )
-    seed_measure: str = field(
-        default="curvedness",
-        metadata={
-            "help": "seed order and seed gate: curvedness sqrt((k1^2+k2^2)/2) [1/m], "
-            "gaussian |K| [1/m^2], mean |H| [1/m], surface_variation (PCL's) or "
-            "concavity max(H towards the viewpoint, 0) [1/m]"
-        },
+    seed_measure: str = param(
+        "curvedness",
+        choices=SEED_MEASURES,
+        help="seed order and seed gate: curvedness sqrt((k1^2+k2^2)/2) [1/m], gaussian |K| "
+        "[1/m^2], mean |H| [1/m], surface_variation (PCL's) or concavity max(H towards the "
+        "viewpoint, 0) [1/m]",
     )
-    viewpoint: tuple[float, float, float] = field(
-        default=(0.0, 0.0, 0.0),
-        metadata={
-            "help": "sensor position x,y,z for seed_measure=concavity, caller's coordinates "
-            "(PCL setViewPoint)"
-        },
+    viewpoint: tuple[float, float, float] = param(
+        (0.0, 0.0, 0.0),
+        axes=3,
+        unit="m",
+        help="sensor position x,y,z for seed_measure=concavity, caller's coordinates "
+        "(PCL setViewPoint)",
     )
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "k", check_k(self.k))
-        object.__setattr__(self, "smoothness_deg", check_smoothness(self.smoothness_deg))
-        object.__setattr__(
-            self,
-            "curvature_threshold",
-            check_float("curvature_threshold", self.curvature_threshold, minimum=0.0),
-        )
-        low, high = check_cluster_sizes(self.min_cluster_size, self.max_cluster_size)
-        object.__setattr__(self, "min_cluster_size", low)
-        object.__setattr__(self, "max_cluster_size", high)
-        if not isinstance(self.seed_measure, str):
-            raise TypeError(f"seed_measure must be a str, got {self.seed_measure!r}")
-        if self.seed_measure not in SEED_MEASURES:
-            raise ValueError(
-                f"seed_measure must be one of {', '.join(SEED_MEASURES)}, "
-                f"got {self.seed_measure!r}"
-            )
-        object.__setattr__(self, "viewpoint", check_viewpoint(self.viewpoint))
+        check_fields(self)
+        check_cluster_sizes(self.min_cluster_size, self.max_cluster_size)
 
     def to_core(self) -> _core.RegionGrowingParams:
-        return fill_core_params(self, _core.RegionGrowingParams())
+        return to_core(self, _core.RegionGrowingParams())
 
 
-def _resolve(params: RegionGrowingParams | None, **keywords: object) -> RegionGrowingParams:
-    return resolve_params(RegionGrowingParams, params, **keywords)
-
-
-def _region_growing_timed(
-    xyz: np.ndarray, p: RegionGrowingParams
-) -> tuple[np.ndarray, float, float]:
-    """Labels plus the seconds spent on normals/curvatures and on the growth."""
-    labels, normals_seconds, growth_seconds = _core.region_growing(xyz, p.to_core())
-    return labels, normals_seconds, growth_seconds
+def check_cluster_sizes(minimum: int, maximum: int) -> None:
+    """max_cluster_size >= min_cluster_size, worded as the C++ check."""
+    if maximum < minimum:
+        raise ValueError(
+            f"max_cluster_size must be >= min_cluster_size ({minimum}), got {maximum}"
+        )
 
 
 def region_growing(
@@ -264,7 +200,8 @@ def region_growing(
     >>> np.unique(labels[:600]).tolist(), np.unique(labels[600:]).tolist()
     ([0], [1])
     """
-    p = _resolve(
+    p = resolve(
+        RegionGrowingParams,
         params,
         k=k,
         smoothness_deg=smoothness_deg,
@@ -275,4 +212,12 @@ def region_growing(
         viewpoint=viewpoint,
     )
     xyz = as_points(points)
-    return _region_growing_timed(xyz, p)[0]
+    labels, normals_seconds, growth_seconds = _core.region_growing(xyz, p.to_core())
+    record(
+        "region_growing",
+        points=len(xyz),
+        clusters=int(labels.max(initial=-1)) + 1,
+        normals_seconds=normals_seconds,
+        growth_seconds=growth_seconds,
+    )
+    return labels

@@ -2,20 +2,17 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
 import numpy.typing as npt
 
 from . import _core
-from ._validation import as_points, check_float, fill_core_params, resolve_params
-from .region_growing import (
-    NO_MAX_CLUSTER_SIZE,
-    check_cluster_sizes,
-    check_k,
-    check_smoothness,
-)
+from ._diagnostics import record
+from ._params import check_fields, param, resolve, to_core
+from ._validation import as_points
+from ._region_growing import NO_MAX_CLUSTER_SIZE, check_cluster_sizes
 
 __all__ = ["RegionGrowingPclParams", "PclRegionGrowingResult", "region_growing_pcl"]
 
@@ -24,47 +21,36 @@ __all__ = ["RegionGrowingPclParams", "PclRegionGrowingResult", "region_growing_p
 class RegionGrowingPclParams:
     """Parameters of :func:`region_growing_pcl` (mirrors ``pcl_rg::RegionGrowingPclParams``)."""
 
-    k: int = field(
-        default=15,
-        metadata={
-            "help": "neighbours for normals and growth, itself included, >= 3 "
-            "(setKSearch, setNumberOfNeighbours)"
-        },
+    k: int = param(
+        15,
+        minimum=3,
+        bits=32,
+        help="neighbours for normals and growth, itself included (setKSearch, "
+        "setNumberOfNeighbours)",
     )
-    smoothness_deg: float = field(
-        default=16.0,
-        metadata={"help": "max normal angle in degrees, in (0, 180) (setSmoothnessThreshold)"},
+    smoothness_deg: float = param(
+        16.0, above=0.0, below=180.0, unit="deg", help="max normal angle (setSmoothnessThreshold)"
     )
-    curvature_threshold: float = field(
-        default=0.025,
-        metadata={"help": "surface variation gate for further seeds (setCurvatureThreshold)"},
+    curvature_threshold: float = param(
+        0.025, minimum=0.0, help="surface variation gate for further seeds (setCurvatureThreshold)"
     )
-    min_cluster_size: int = field(
-        default=20, metadata={"help": "drop regions with fewer points (setMinClusterSize)"}
+    min_cluster_size: int = param(
+        20, minimum=1, help="drop regions with fewer points (setMinClusterSize)"
     )
-    max_cluster_size: int = field(
-        default=NO_MAX_CLUSTER_SIZE,
-        metadata={"help": "drop regions with more points, <= 2**32 - 1 (setMaxClusterSize)"},
+    # PCL counts cluster sizes in pcl::uindex_t (uint32).
+    max_cluster_size: int = param(
+        NO_MAX_CLUSTER_SIZE,
+        minimum=1,
+        maximum=NO_MAX_CLUSTER_SIZE,
+        help="drop regions with more points (setMaxClusterSize)",
     )
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "k", check_k(self.k))
-        object.__setattr__(self, "smoothness_deg", check_smoothness(self.smoothness_deg))
-        object.__setattr__(
-            self,
-            "curvature_threshold",
-            check_float("curvature_threshold", self.curvature_threshold, minimum=0.0),
-        )
-        low, high = check_cluster_sizes(self.min_cluster_size, self.max_cluster_size)
-        if high > NO_MAX_CLUSTER_SIZE:
-            raise ValueError(
-                f"max_cluster_size must be <= {NO_MAX_CLUSTER_SIZE} for PCL, got {high}"
-            )
-        object.__setattr__(self, "min_cluster_size", low)
-        object.__setattr__(self, "max_cluster_size", high)
+        check_fields(self)
+        check_cluster_sizes(self.min_cluster_size, self.max_cluster_size)
 
     def to_core(self) -> _core.RegionGrowingPclParams:
-        return fill_core_params(self, _core.RegionGrowingPclParams())
+        return to_core(self, _core.RegionGrowingPclParams())
 
 
 class PclRegionGrowingResult(NamedTuple):
@@ -172,7 +158,7 @@ def region_growing_pcl(
     >>> np.unique(labels[:600]).tolist(), np.unique(labels[600:]).tolist()
     ([0], [1])
     """
-    p = resolve_params(
+    p = resolve(
         RegionGrowingPclParams,
         params,
         k=k,
@@ -183,4 +169,11 @@ def region_growing_pcl(
     )
     xyz = as_points(points)
     result = PclRegionGrowingResult(*_core.region_growing_pcl(xyz, p.to_core()))
+    record(
+        "region_growing_pcl",
+        points=len(xyz),
+        clusters=int(result.labels.max(initial=-1)) + 1,
+        normals_seconds=result.normals_seconds,
+        growth_seconds=result.growth_seconds,
+    )
     return result if full_output else result.labels

@@ -2,150 +2,156 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
 from . import _core
-from ._validation import MAX_POINTS_INT32, as_points, check_float, fill_core_params, resolve_params
+from ._diagnostics import record
+from ._params import check_fields, deprecated_preset, param, preset, resolve, to_core
+from ._validation import MAX_POINTS_INT32, as_points
 
 __all__ = ["TinGroundParams", "tin_ground"]
-
-
-def _check_angle(name: str, value: object, *, closed_at_90: bool) -> float:
-    angle = check_float(name, value)
-    if angle <= 0.0 or angle > 90.0 or (angle == 90.0 and not closed_at_90):
-        interval = "(0, 90]" if closed_at_90 else "(0, 90)"
-        raise ValueError(f"{name} must be in {interval} degrees, got {angle:g}")
-    return angle
 
 
 @dataclass(frozen=True, kw_only=True, slots=True)
 class TinGroundParams:
     """Parameters of :func:`tin_ground` (mirrors ``pcl_rg::TinGroundParams``).
 
-    The six settings of LiDAR360's "Classify Ground Points", with its defaults.
+    The six settings of LiDAR360's "Classify Ground Points" and three
+    improvements. The defaults are the :meth:`isprs` preset, chosen on the ISPRS
+    samples, which gives a complete ground class at 1-20 pts/m^2;
+    :meth:`lidar360` is LiDAR360's own set (the seed's definition), which keeps
+    only a sparse key-point set as ground on such data (see the README).
     """
 
-    max_building_size: float = field(
-        default=20.0,
-        metadata={
-            "help": "seed-grid cell in metres: the lowest point of each cell is a seed; "
-            "must exceed the largest building (LiDAR360 Max Building Size)"
-        },
+    max_building_size: float = param(
+        40.0,
+        above=0.0,
+        unit="m",
+        help="seed-grid cell: the lowest point of each cell is a seed; must exceed the "
+        "largest building (LiDAR360 Max Building Size)",
     )
-    max_terrain_angle: float = field(
-        default=88.0,
-        metadata={
-            "help": "degrees in (0, 90): a point is not accepted while it would form a "
-            "steeper triangle with its triangle's vertices (LiDAR360 Max Terrain Angle)"
-        },
+    max_terrain_angle: float = param(
+        88.0,
+        above=0.0,
+        below=90.0,
+        unit="deg",
+        help="a point is not accepted while it would form a steeper triangle with its "
+        "triangle's vertices (LiDAR360 Max Terrain Angle)",
     )
-    iteration_angle: float = field(
-        default=8.0,
-        metadata={
-            "help": "degrees in (0, 90]: largest angle between the triangle's plane and the "
-            "lines from its vertices to a point (LiDAR360 Iteration Angle)"
-        },
+    iteration_angle: float = param(
+        30.0,
+        above=0.0,
+        maximum=90.0,
+        unit="deg",
+        help="largest angle between the triangle's plane and the lines from its vertices to "
+        "a point (LiDAR360 Iteration Angle)",
     )
-    iteration_distance: float = field(
-        default=1.4,
-        metadata={
-            "help": "metres: largest distance from a point to its triangle's plane "
-            "(LiDAR360 Iteration Distance)"
-        },
+    iteration_distance: float = param(
+        1.4,
+        above=0.0,
+        unit="m",
+        help="largest distance from a point to its triangle's plane (LiDAR360 Iteration "
+        "Distance)",
     )
-    reduce_angle_edge: float = field(
-        default=5.0,
-        metadata={
-            "help": "metres: in triangles whose longest edge L is shorter, the angle limit "
-            "is iteration_angle * L / reduce_angle_edge (LiDAR360 Reduce Iteration Angle "
-            "When Edge Length <)"
-        },
+    reduce_angle_edge: float = param(
+        0.01,
+        above=0.0,
+        unit="m",
+        help="in triangles whose longest edge L is shorter, the angle limit is "
+        "iteration_angle * L / reduce_angle_edge (LiDAR360 Reduce Iteration Angle When Edge "
+        "Length <)",
     )
-    stop_edge: float = field(
-        default=2.0,
-        metadata={
-            "help": "metres: triangles whose longest edge is shorter accept ground points "
-            "without inserting them (LiDAR360 Stop Triangulation When Edge Length <)"
-        },
+    stop_edge: float = param(
+        1.0,
+        above=0.0,
+        unit="m",
+        help="triangles whose longest edge is shorter accept ground points without inserting "
+        "them (LiDAR360 Stop Triangulation When Edge Length <)",
     )
-
-    near_vertex_distance: float = field(
-        default=0.0,
-        metadata={
-            "help": "metres, improvement off at 0: in the angle test a point's distance to a "
-            "vertex counts as at least this much, so points (nearly) above a vertex are "
-            "judged by their distance to the plane (helps on coarse or repeated XY)"
-        },
+    near_vertex_distance: float = param(
+        1.0,
+        minimum=0.0,
+        unit="m",
+        help="improvement (0: off): in the angle test a point's distance to a vertex counts "
+        "as at least this much, so points (nearly) above a vertex are judged by their "
+        "distance to the plane (helps on coarse or repeated XY)",
     )
-
-    seed_cell: float = field(
-        default=0.0,
-        metadata={
-            "help": "metres, improvement off at 0: seeds are the lowest points of seed_cell "
-            "cells lying within seed_tolerance of the grey opening of those heights by a "
-            "max_building_size window (dense seeds, none on roofs; after Zhao et al. 2016)"
-        },
+    seed_cell: float = param(
+        2.0,
+        minimum=0.0,
+        unit="m",
+        help="improvement (0: off): seeds are the lowest points of seed_cell cells lying "
+        "within seed_tolerance of the grey opening of those heights by a max_building_size "
+        "window (dense seeds, none on roofs; after Zhao et al. 2016)",
     )
-    seed_tolerance: float = field(
-        default=0.5,
-        metadata={"help": "metres above the opened surface a seed may lie (with seed_cell)"},
+    seed_tolerance: float = param(
+        0.5, minimum=0.0, unit="m", help="height above the opened surface a seed may lie (with seed_cell)"
     )
-    outlier_depth: float = field(
-        default=0.0,
-        metadata={
-            "help": "metres, improvement off at 0 (with seed_cell): a cell more than this "
-            "below the 9th lowest of its 5 x 5 cells gives no seed (low outliers)"
-        },
+    outlier_depth: float = param(
+        5.0,
+        minimum=0.0,
+        unit="m",
+        help="improvement (0: off; with seed_cell): a cell more than this below the 9th "
+        "lowest of its 5 x 5 cells gives no seed (low outliers)",
     )
 
     def __post_init__(self) -> None:
-        for name in ("max_building_size", "iteration_distance", "reduce_angle_edge", "stop_edge"):
-            object.__setattr__(self, name, check_float(name, getattr(self, name), positive=True))
-        for name in ("near_vertex_distance", "seed_cell", "seed_tolerance", "outlier_depth"):
-            object.__setattr__(self, name, check_float(name, getattr(self, name), minimum=0.0))
-        object.__setattr__(
-            self,
-            "iteration_angle",
-            _check_angle("iteration_angle", self.iteration_angle, closed_at_90=True),
-        )
-        object.__setattr__(
-            self,
-            "max_terrain_angle",
-            _check_angle("max_terrain_angle", self.max_terrain_angle, closed_at_90=False),
-        )
+        check_fields(self)
 
-    @classmethod
-    def tuned_isprs(cls) -> TinGroundParams:
-        """The one set chosen on the seven ISPRS samples (mean total error).
+    @preset
+    def isprs(cls, **overrides: Any) -> TinGroundParams:
+        """The defaults: one set chosen on the seven ISPRS samples (mean total error).
 
         Chosen by ``benchmarks/tin_isprs_params.py``; the scores are in
-        ``benchmarks/RESULTS.md``. It switches LiDAR360's angle reduction off (no
-        ISPRS triangle has a longest edge under 1 cm), stops densifying below 1 m
-        edges instead of 2 m, and switches the three improvements on.
+        ``benchmarks/RESULTS.md``. Against :meth:`lidar360` it switches the angle
+        reduction off (no ISPRS triangle has a longest edge under 1 cm), stops
+        densifying below 1 m edges instead of 2 m, and switches the three
+        improvements on. `overrides` replace single fields.
 
         Examples
         --------
         >>> from pcl_rg import TinGroundParams
-        >>> TinGroundParams.tuned_isprs().seed_cell > 0
+        >>> TinGroundParams.isprs() == TinGroundParams()
         True
         """
-        return cls(
-            max_building_size=40.0,
-            iteration_angle=30.0,
-            iteration_distance=1.4,
-            reduce_angle_edge=0.01,
-            stop_edge=1.0,
-            near_vertex_distance=1.0,
-            seed_cell=2.0,
-            seed_tolerance=0.5,
-            outlier_depth=5.0,
-        )
+        return cls(**overrides)
+
+    @preset
+    def lidar360(cls, **overrides: Any) -> TinGroundParams:
+        """LiDAR360's "Classify Ground Points" defaults (seed 002), improvements off.
+
+        Faithful to the product, and the seed's definition, but at 1-3 m point
+        spacing its 8 degree iteration angle and 2 m stop edge keep only a sparse
+        key-point set as ground (see the README); `overrides` replace single fields.
+
+        Examples
+        --------
+        >>> from pcl_rg import TinGroundParams
+        >>> TinGroundParams.lidar360().iteration_angle
+        8.0
+        """
+        values: dict[str, Any] = {
+            "max_building_size": 20.0,
+            "max_terrain_angle": 88.0,
+            "iteration_angle": 8.0,
+            "iteration_distance": 1.4,
+            "reduce_angle_edge": 5.0,
+            "stop_edge": 2.0,
+            "near_vertex_distance": 0.0,
+            "seed_cell": 0.0,
+            "seed_tolerance": 0.5,
+            "outlier_depth": 0.0,
+        }
+        return cls(**{**values, **overrides})
+
+    tuned_isprs = deprecated_preset("tuned_isprs", "isprs")
 
     def to_core(self) -> _core.TinGroundParams:
-        return fill_core_params(self, _core.TinGroundParams())
+        return to_core(self, _core.TinGroundParams())
 
 
 def tin_ground(
@@ -170,32 +176,32 @@ def tin_ground(
     points : array_like, shape (N, 3)
         Coordinates in metres (any real float or integer dtype, C or F order).
     max_building_size : float, optional
-        Seed-grid cell in metres (default 20): the lowest point of each cell is a
+        Seed-grid cell in metres (default 40; LiDAR360 20): the lowest point of each cell is a
         seed. Must exceed the largest building, or its flat roof becomes ground.
     max_terrain_angle : float, optional
         Degrees in (0, 90) (default 88): a point is not accepted while any
         triangle it would form with its triangle's vertices is steeper.
     iteration_angle : float, optional
-        Degrees in (0, 90] (default 8): largest angle between the triangle's
+        Degrees in (0, 90] (default 30; LiDAR360 8): largest angle between the triangle's
         plane and the lines from its vertices to an accepted point.
     iteration_distance : float, optional
         Metres (default 1.4): largest distance from an accepted point to its
         triangle's plane.
     reduce_angle_edge : float, optional
-        Metres (default 5): in a triangle whose longest XY edge L is shorter, the
+        Metres (default 0.01; LiDAR360 5): in a triangle whose longest XY edge L is shorter, the
         angle limit is ``iteration_angle * L / reduce_angle_edge``.
     stop_edge : float, optional
-        Metres (default 2): a triangle whose longest XY edge is shorter accepts
+        Metres (default 1; LiDAR360 2): a triangle whose longest XY edge is shorter accepts
         ground points but does not get them inserted, which bounds the TIN's
         density.
     near_vertex_distance : float, optional
-        Metres (default 0: off, Axelsson's test). An improvement for data with
+        Metres (default 1; 0 is Axelsson's test, LiDAR360's). An improvement for data with
         coarse or repeated XY: in the angle test the distance from the point to a
         vertex counts as at least this much, so a point (nearly) above a vertex is
         accepted when ``d <= sin(limit) * near_vertex_distance`` instead of being
         judged by an angle close to 90 degrees minus the slope.
     seed_cell : float, optional
-        Metres (default 0: off, one seed per ``max_building_size`` cell). An
+        Metres (default 2; 0: one seed per ``max_building_size`` cell, LiDAR360). An
         improvement after Zhao et al. 2016: the lowest point of every
         ``seed_cell`` cell is a seed when it lies at most ``seed_tolerance`` above
         the grey opening of those lowest heights by a square window of
@@ -204,12 +210,13 @@ def tin_ground(
     seed_tolerance : float, optional
         Metres (default 0.5): see ``seed_cell``.
     outlier_depth : float, optional
-        Metres (default 0: off; used with ``seed_cell``): a cell whose lowest
+        Metres (default 5; 0: off; used with ``seed_cell``): a cell whose lowest
         point lies more than this below the 9th lowest of the 25 cells of its
         5 x 5 window gives no seed; repeated until none is found, so clusters
         of low outliers (multipath) are peeled from the rim in.
     params : TinGroundParams, optional
-        All parameters at once; keywords given explicitly override it.
+        All parameters at once (defaults: the ``isprs`` preset); keywords given
+        explicitly override it.
 
     Returns
     -------
@@ -249,12 +256,12 @@ def tin_ground(
        iteration), and the others are tested again on the denser TIN.
     4. Iterations stop when one adds no ground point.
 
-    LiDAR360's defaults are cautious: with an 8 degree angle, reduced below
-    5 m edges, few objects but much ground is missed on 1-3 m spaced data.
-    :meth:`TinGroundParams.tuned_isprs` is the one set chosen on the seven
-    ISPRS samples, with the three improvements (``near_vertex_distance``,
-    ``seed_cell``, ``outlier_depth``) on; its scores are in
-    ``benchmarks/RESULTS.md``.
+    The defaults are the :meth:`TinGroundParams.isprs` preset, the one set
+    chosen on the seven ISPRS samples, with the three improvements
+    (``near_vertex_distance``, ``seed_cell``, ``outlier_depth``) on; its scores
+    are in ``benchmarks/RESULTS.md``. :meth:`TinGroundParams.lidar360` is
+    LiDAR360's own set: with an 8 degree angle, reduced below 5 m edges, few
+    objects but much ground is missed on 1-3 m spaced data.
 
     The result does not depend on the order of the points except through ties
     broken by index, nor on the number of threads. The C++ core runs with the
@@ -276,15 +283,15 @@ def tin_ground(
     >>> z = 0.05 * xy[:, 0] + rng.normal(0.0, 0.02, 4000)
     >>> roof = (np.abs(xy - 30.0) < 6.0).all(axis=1)
     >>> z[roof] += 8.0
-    >>> ground = pcl_rg.tin_ground(np.c_[xy, z])  # LiDAR360's defaults: cautious
-    >>> bool(ground[~roof].mean() > 0.75), bool(ground[roof].any())
-    (True, False)
-    >>> tuned = pcl_rg.TinGroundParams.tuned_isprs()
-    >>> ground = pcl_rg.tin_ground(np.c_[xy, z], params=tuned)
+    >>> ground = pcl_rg.tin_ground(np.c_[xy, z])  # the isprs preset
     >>> bool(ground[~roof].mean() > 0.98), bool(ground[roof].any())
     (True, False)
+    >>> cautious = pcl_rg.TinGroundParams.lidar360()
+    >>> ground = pcl_rg.tin_ground(np.c_[xy, z], params=cautious)
+    >>> bool(ground[~roof].mean() > 0.75), bool(ground[roof].any())
+    (True, False)
     """
-    p = resolve_params(
+    p = resolve(
         TinGroundParams,
         params,
         max_building_size=max_building_size,
@@ -300,5 +307,6 @@ def tin_ground(
     )
     # The TIN numbers vertices (the points and its 8 frame corners) with int32.
     xyz = as_points(points, max_points=MAX_POINTS_INT32 - 8)
-    ground, _stats = _core.tin_ground(xyz, p.to_core())
+    ground, stats = _core.tin_ground(xyz, p.to_core())
+    record("tin_ground", points=len(xyz), ground=int(ground.sum()), **stats)
     return ground

@@ -2,14 +2,16 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
 import numpy.typing as npt
 
 from . import _core
-from ._validation import MAX_POINTS_UINT32, as_points, check_int, fill_core_params, per_axis, resolve_params
+from ._diagnostics import record
+from ._params import check_fields, param, resolve, to_core
+from ._validation import MAX_POINTS_UINT32, as_points
 
 __all__ = ["VoxelGridParams", "VoxelGridResult", "voxel_grid"]
 
@@ -18,24 +20,18 @@ __all__ = ["VoxelGridParams", "VoxelGridResult", "voxel_grid"]
 class VoxelGridParams:
     """Parameters of :func:`voxel_grid` (mirrors ``pcl_rg::VoxelGridParams``)."""
 
-    leaf_size: tuple[float, float, float] = field(
-        metadata={"help": "voxel edge length in metres: one value or x,y,z (PCL setLeafSize)"}
+    leaf_size: tuple[float, float, float] = param(
+        axes=3, above=0.0, unit="m", help="voxel edge length, one value or x,y,z (PCL setLeafSize)"
     )
-    min_points_per_voxel: int = field(
-        default=1,
-        metadata={"help": "drop voxels with fewer points (PCL setMinimumPointsNumberPerVoxel)"},
+    min_points_per_voxel: int = param(
+        1, minimum=1, help="drop voxels with fewer points (PCL setMinimumPointsNumberPerVoxel)"
     )
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "leaf_size", per_axis("leaf_size", self.leaf_size))
-        object.__setattr__(
-            self,
-            "min_points_per_voxel",
-            check_int("min_points_per_voxel", self.min_points_per_voxel, minimum=1),
-        )
+        check_fields(self)
 
     def to_core(self) -> _core.VoxelGridParams:
-        return fill_core_params(self, _core.VoxelGridParams())
+        return to_core(self, _core.VoxelGridParams())
 
 
 class VoxelGridResult(NamedTuple):
@@ -113,9 +109,10 @@ def voxel_grid(
     """
     if leaf_size is None and params is None:
         raise TypeError("voxel_grid() needs leaf_size (or params)")
-    p = resolve_params(
+    p = resolve(
         VoxelGridParams, params, leaf_size=leaf_size, min_points_per_voxel=min_points_per_voxel
     )
     xyz = as_points(points, max_points=MAX_POINTS_UINT32)
     centroids, counts, voxel_of_point = _core.voxel_grid(xyz, p.to_core())
+    record("voxel_grid", points=len(xyz), voxels=len(counts))
     return VoxelGridResult(centroids, counts, voxel_of_point.astype(np.intp, copy=False))

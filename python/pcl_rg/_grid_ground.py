@@ -2,21 +2,15 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
 from . import _core
-from ._validation import (
-    as_points,
-    check_float,
-    check_int,
-    fill_core_params,
-    per_axis,
-    resolve_params,
-)
+from ._params import check_fields, format_value, param, preset, resolve, to_core
+from ._validation import as_points
 
 __all__ = ["GridGroundParams", "grid_ground"]
 
@@ -25,85 +19,80 @@ __all__ = ["GridGroundParams", "grid_ground"]
 class GridGroundParams:
     """Parameters of :func:`grid_ground` (mirrors ``pcl_rg::GridGroundParams``).
 
-    The defaults were chosen once, by the mean total error over the seven ISPRS
-    samples (``benchmarks/ground_isprs.py --search``), not tuned per sample.
-    :meth:`definition` gives the plain rule of the seed (algorithms.md section 3),
-    with the three options off.
+    The defaults are the :meth:`isprs` preset, chosen once by the mean total
+    error over the seven ISPRS samples (``benchmarks/ground_isprs.py --search``),
+    not tuned per sample. :meth:`definition` gives the plain rule of the seed
+    (algorithms.md section 3), with the three options off.
     """
 
-    block_size: tuple[float, float] = field(
-        default=(30.0, 30.0),
-        metadata={
-            "help": "block edge length in metres, one value or x,y: one seed per block; "
-            "should exceed the largest building"
-        },
+    block_size: tuple[float, float] = param(
+        (30.0, 30.0),
+        axes=2,
+        above=0.0,
+        unit="m",
+        help="block edge length, one value or x,y: one seed per block; should exceed the "
+        "largest building",
     )
-    cell_size: tuple[float, float] = field(
-        default=(3.0, 3.0),
-        metadata={
-            "help": "cell edge length in metres, one value or x,y (<= block_size): "
-            "points link within the 3 x 3 cells around them"
-        },
+    cell_size: tuple[float, float] = param(
+        (3.0, 3.0),
+        axes=2,
+        above=0.0,
+        unit="m",
+        help="cell edge length, one value or x,y (<= block_size): points link within the "
+        "3 x 3 cells around them",
     )
-    slope: float = field(
-        default=0.3,
-        metadata={"help": "tangent of the steepest terrain: link when |dz| <= slope * d + tol"},
+    slope: float = param(
+        0.3, minimum=0.0, help="tangent of the steepest terrain: link when |dz| <= slope * d + tol"
     )
-    height_tolerance: float = field(
-        default=0.3,
-        metadata={"help": "height difference in metres always allowed between linked points"},
+    height_tolerance: float = param(
+        0.3, minimum=0.0, unit="m", help="height difference always allowed between linked points"
     )
-    min_seed_component: int = field(
-        default=30,
-        metadata={
-            "help": "robust seed: lowest point whose component holds at least this many "
-            "points (1: the lowest point)"
-        },
+    min_seed_component: int = param(
+        30,
+        minimum=1,
+        help="robust seed: lowest point whose component holds at least this many points "
+        "(1: the lowest point)",
     )
-    grow_across_blocks: bool = field(
-        default=True,
-        metadata={"help": "links also join points of neighbouring blocks (one seed per block)"},
+    grow_across_blocks: bool = param(
+        True, help="links also join points of neighbouring blocks (one seed per block)"
     )
-    filter_passes: int = field(
-        default=3,
-        metadata={
-            "help": "slope pre-filter passes (0: off): drop points higher than a neighbour "
-            "by more than filter_slope * d + filter_tolerance; later passes test only "
-            "against the previous ground"
-        },
+    filter_passes: int = param(
+        3,
+        minimum=0,
+        help="slope pre-filter passes (0: off): drop points higher than a neighbour by more "
+        "than filter_slope * d + filter_tolerance; later passes test only against the "
+        "previous ground",
     )
-    filter_slope: float = field(
-        default=1.0,
-        metadata={"help": "slope of the pre-filter"},
-    )
-    filter_tolerance: float = field(
-        default=0.3,
-        metadata={"help": "height tolerance of the pre-filter in metres"},
+    filter_slope: float = param(1.0, minimum=0.0, help="slope of the pre-filter")
+    filter_tolerance: float = param(
+        0.3, minimum=0.0, unit="m", help="height tolerance of the pre-filter"
     )
 
     def __post_init__(self) -> None:
-        block = per_axis("block_size", self.block_size, axes=2)
-        cell = per_axis("cell_size", self.cell_size, axes=2)
-        for axis, b, c in zip("xy", block, cell):
-            if c > b:
-                raise ValueError(f"cell_size must be <= block_size, got {c} > {b} on {axis}")
-        object.__setattr__(self, "block_size", block)
-        object.__setattr__(self, "cell_size", cell)
-        for name in ("slope", "height_tolerance", "filter_slope", "filter_tolerance"):
-            object.__setattr__(self, name, check_float(name, getattr(self, name), minimum=0.0))
-        object.__setattr__(
-            self,
-            "min_seed_component",
-            check_int("min_seed_component", self.min_seed_component, minimum=1),
-        )
-        object.__setattr__(
-            self, "filter_passes", check_int("filter_passes", self.filter_passes, minimum=0)
-        )
-        if not isinstance(self.grow_across_blocks, (bool, np.bool_)):
-            raise TypeError(f"grow_across_blocks must be a bool, got {self.grow_across_blocks!r}")
-        object.__setattr__(self, "grow_across_blocks", bool(self.grow_across_blocks))
+        check_fields(self)
+        for axis, block, cell in zip("xy", self.block_size, self.cell_size):
+            if cell > block:
+                raise ValueError(
+                    f"cell_size must be <= block_size ({format_value(block)}) on {axis}, "
+                    f"got {format_value(cell)}"
+                )
 
-    @classmethod
+    @preset
+    def isprs(cls, **overrides: Any) -> GridGroundParams:
+        """The defaults: one set chosen on the seven ISPRS samples (mean total error).
+
+        Chosen by ``benchmarks/ground_isprs.py --search``; the three options of
+        the filter are on. `overrides` replace single fields.
+
+        Examples
+        --------
+        >>> from pcl_rg import GridGroundParams
+        >>> GridGroundParams.isprs() == GridGroundParams()
+        True
+        """
+        return cls(**overrides)
+
+    @preset
     def definition(cls, **overrides: Any) -> GridGroundParams:
         """The plain rule of algorithms.md section 3: every option off.
 
@@ -121,7 +110,7 @@ class GridGroundParams:
         return cls(**values)
 
     def to_core(self) -> _core.GridGroundParams:
-        return fill_core_params(self, _core.GridGroundParams())
+        return to_core(self, _core.GridGroundParams())
 
 
 def grid_ground(
@@ -173,8 +162,9 @@ def grid_ground(
         cells by more than ``filter_slope * d + filter_tolerance``. Defaults
         1.0 and 0.3 m.
     params : GridGroundParams, optional
-        All parameters at once; keywords given explicitly override it.
-        ``GridGroundParams.definition()`` is the plain seed rule.
+        All parameters at once (defaults: the ``isprs`` preset); keywords given
+        explicitly override it. ``GridGroundParams.definition()`` is the plain
+        seed rule.
 
     Returns
     -------
@@ -255,7 +245,7 @@ def grid_ground(
     >>> bool((pcl_rg.grid_ground(np.c_[xy, z], params=plain) == ~roof).all())
     True
     """
-    p = resolve_params(
+    p = resolve(
         GridGroundParams,
         params,
         block_size=block_size,

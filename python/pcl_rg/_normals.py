@@ -2,14 +2,15 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
 import numpy.typing as npt
 
 from . import _core
-from ._validation import MAX_POINTS_UINT32, as_points, check_int, fill_core_params, resolve_params
+from ._params import check_fields, param, resolve, to_core
+from ._validation import MAX_POINTS_UINT32, as_points
 
 __all__ = ["NormalsParams", "NormalsResult", "normals"]
 
@@ -18,19 +19,15 @@ __all__ = ["NormalsParams", "NormalsResult", "normals"]
 class NormalsParams:
     """Parameters of :func:`normals` (mirrors ``pcl_rg::NormalsParams``)."""
 
-    k: int = field(
-        default=30,
-        metadata={"help": "neighbours per point, itself included, >= 3 (PCL setKSearch)"},
+    k: int = param(
+        30, minimum=3, bits=32, help="neighbours per point, itself included, >= 3 (PCL setKSearch)"
     )
 
     def __post_init__(self) -> None:
-        k = check_int("k", self.k, minimum=3)
-        if k > 2**31 - 1:
-            raise ValueError(f"k must be <= {2**31 - 1}, got {k}")
-        object.__setattr__(self, "k", k)
+        check_fields(self)
 
     def to_core(self) -> _core.NormalsParams:
-        return fill_core_params(self, _core.NormalsParams())
+        return to_core(self, _core.NormalsParams())
 
 
 class NormalsResult(NamedTuple):
@@ -137,7 +134,7 @@ def normals(
     >>> round(float(np.median(result.mean_curvature)), 2)  # bowl seen from above: +1 / r
     0.2
     """
-    p = resolve_params(NormalsParams, params, k=k)
+    p = resolve(NormalsParams, params, k=k)
     xyz = as_points(points, max_points=MAX_POINTS_UINT32)
     return NormalsResult(*_core.normals(xyz, p.to_core()))
 

@@ -1,0 +1,42 @@
+// Parameter checks shared by every validate(): one rule, one wording. Each throws
+// std::invalid_argument ("<name> must be <rule>, got <value>"), worded exactly as the
+// Python dataclasses word it (pcl_rg/_params.py); tests/test_params.py feeds both
+// layers the same invalid values and compares the messages.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+
+namespace pcl_rg::check {
+
+/// Bounds of a number: inclusive (minimum, maximum) or exclusive (above, below).
+struct Bounds {
+    std::optional<double> minimum, above, maximum, below;
+
+    /// ">= 1", "> 0", "in (0, 90]", ...: the rule as the messages state it.
+    std::string rule() const;
+    bool admits(double value) const;
+};
+
+/// Shortest text that reads back to the same double ("0.1", "1", "nan", "1e+300"),
+/// as Python's repr() without a trailing ".0".
+std::string format_value(double value);
+std::string format_value(std::int64_t value);
+
+/// A finite real within the bounds.
+void real(const char* name, double value, const Bounds& bounds);
+/// An integer within the bounds.
+void integer(const char* name, std::int64_t value, const Bounds& bounds);
+/// A relation between two parameters: `ok`, else "<name> must be <rule>, got <value>".
+void relation(bool ok, const char* name, const std::string& rule, double value);
+
+/// Common bounds by name.
+inline Bounds positive() { return Bounds{std::nullopt, 0.0, std::nullopt, std::nullopt}; }
+inline Bounds non_negative() { return Bounds{0.0, std::nullopt, std::nullopt, std::nullopt}; }
+inline Bounds at_least(double minimum) {
+    return Bounds{minimum, std::nullopt, std::nullopt, std::nullopt};
+}
+inline Bounds any() { return Bounds{}; }
+
+}  // namespace pcl_rg::check

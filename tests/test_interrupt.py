@@ -1,0 +1,221 @@
+"""Ctrl-C stops long core calls: KeyboardInterrupt within about a second, no leftovers.
+
+The core polls for signals at safe points on the calling thread (interrupt.hpp); the
+bindings run Python's signal handlers there. SIGINT is sent from outside to a child
+process (tests/interrupt_probe.py, and the command line), never to the pytest process
+itself, whose own KeyboardInterrupt would end the session. In this process only
+handlers that raise their own exception are installed, and always restored.
+
+Latencies are generous for a shared 2-core CI machine: the polls come every few
+milliseconds of work, the longest unpolled stretches (allocations, serial sweeps)
+take a few hundred milliseconds on 10 M points.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import queue
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import pcl_rg
+from pcl_rg.io import write_points
+
+PROBE = Path(__file__).with_name("interrupt_probe.py")
+MAX_LATENCY = 2.0  # seconds from SIGINT to KeyboardInterrupt
+SIGNAL_AFTER = 1.0  # seconds after the call started
+
+
+class _Lines:
+    """Lines of a child's stream with the monotonic time each arrived, read by a thread
+    so that a hung child fails the test instead of hanging it."""
+
+    def __init__(self, stream) -> None:
+        self._queue: queue.Queue[tuple[float, str | None]] = queue.Queue()
+        self._thread = threading.Thread(target=self._read, args=(stream,), daemon=True)
+        self._thread.start()
+
+    def _read(self, stream) -> None:
+        for line in stream:
+            self._queue.put((time.monotonic(), line.rstrip("\n")))
+        self._queue.put((time.monotonic(), None))
+
+    def next(self, timeout: float) -> tuple[float, str | None]:
+        try:
+            return self._queue.get(timeout=timeout)
+        except queue.Empty:
+            pytest.fail(f"no output from the child for {timeout} s")
+
+    def rest(self, timeout: float) -> list[str]:
+        lines = []
+        while (line := self.next(timeout)[1]) is not None:
+            lines.append(line)
+        return lines
+
+    def join(self) -> None:
+        self._thread.join(timeout=10)  # the child is gone: its end of the pipe is closed
+
+
+def _child_env() -> dict[str, str]:
+    env = dict(os.environ)
+    env.pop("PCL_RG_TRACEBACK", None)  # it would let KeyboardInterrupt through
+    return env
+
+
+def test_sigint_stops_each_algorithm_with_keyboard_interrupt() -> None:
+    jobs = ["tin_ground", "grid_ground", "normals", "region_growing"]
+    latency: dict[str, float] = {}
+    with subprocess.Popen(
+        [sys.executable, str(PROBE), *jobs],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=_child_env(),
+        cwd=PROBE.parent,
+    ) as child:
+        lines = _Lines(child.stdout)
+        try:
+            for job in jobs:
+                _, line = lines.next(timeout=120)
+                assert line is not None, child.stderr.read()
+                assert json.loads(line) == {"job": job, "event": "calling"}
+                time.sleep(SIGNAL_AFTER)
+                sent = time.monotonic()
+                child.send_signal(signal.SIGINT)
+                arrived, line = lines.next(timeout=30)
+                assert line is not None, child.stderr.read()
+                record = json.loads(line)
+                assert record["event"] == "interrupted", f"{job} was not interrupted: {record}"
+                latency[job] = arrived - sent
+                _, line = lines.next(timeout=60)
+                assert line is not None, child.stderr.read()
+                after = json.loads(line)
+                assert after["job"] == job
+                before, now = after["python_threads"]
+                assert now == before, f"{job}: Python threads {before} -> {now}"
+                before, now = after["os_threads"]
+                assert now == before, f"{job}: OS threads {before} -> {now}"
+                assert after["second_call_same"], f"{job}: a call after the interrupt differs"
+            assert child.wait(timeout=60) == 0, child.stderr.read()
+        finally:
+            child.kill()
+            child.wait()
+            lines.join()
+    print("SIGINT -> KeyboardInterrupt (s):", {job: round(t, 3) for job, t in latency.items()})
+    slow = {job: round(t, 3) for job, t in latency.items() if t > MAX_LATENCY}
+    assert not slow, f"KeyboardInterrupt later than {MAX_LATENCY} s after SIGINT: {slow}"
+
+
+def test_cli_sigint_exits_130_and_leaves_no_file(tmp_path: Path) -> None:
+    rng = np.random.default_rng(7)
+    n = 300_000
+    points = np.column_stack([rng.uniform(0.0, 300.0, (n, 2)), rng.normal(0.0, 0.05, n)])
+    write_points(tmp_path / "big.laz", points)
+    # Many slope-filter passes keep the ground stage busy for minutes.
+    with subprocess.Popen(
+        [sys.executable, "-m", "pcl_rg", "ground", "big.laz", "out.laz"]
+        + ["--method", "grid", "--filter-passes", "100000"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=_child_env(),
+        cwd=tmp_path,
+    ) as child:
+        errors = _Lines(child.stderr)
+        seen: list[str] = []
+        try:
+            # The progress line appears once the stage has run cli.PROGRESS_DELAY (1 s).
+            while not seen or not seen[-1].startswith("pcl-rg: ground filter (grid)"):
+                _, line = errors.next(timeout=60)
+                assert line is not None, f"the command ended early: {seen}"
+                seen.append(line)
+            time.sleep(0.5)
+            sent = time.monotonic()
+            child.send_signal(signal.SIGINT)
+            status = child.wait(timeout=30)
+            latency = time.monotonic() - sent
+            seen += errors.rest(timeout=10)
+            output = child.stdout.read()
+        finally:
+            child.kill()
+            child.wait()
+            errors.join()
+    assert status == 130, seen
+    assert [line for line in seen if line.startswith("pcl-rg: error:")] == [
+        "pcl-rg: error: interrupted"
+    ], seen
+    assert output == ""
+    assert sorted(os.listdir(tmp_path)) == ["big.laz"]  # no out.laz, no temporary file
+    print(f"SIGINT -> exit 130: {latency:.3f} s")
+    assert latency < MAX_LATENCY, f"exit {latency:.2f} s after SIGINT"
+
+
+class _HandlerError(Exception):
+    pass
+
+
+@pytest.fixture
+def sigusr1_raises():
+    """A SIGUSR1 handler that raises _HandlerError; the previous one restored after."""
+
+    def handler(signum, frame):
+        raise _HandlerError("raised by the signal handler")
+
+    previous = signal.signal(signal.SIGUSR1, handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGUSR1, previous)
+
+
+def _signal_later(signum: int, delay: float) -> threading.Thread:
+    thread = threading.Thread(
+        target=lambda: (time.sleep(delay), os.kill(os.getpid(), signum)), daemon=True
+    )
+    thread.start()
+    return thread
+
+
+def test_signal_handler_exception_propagates_from_the_core(sigusr1_raises) -> None:
+    rng = np.random.default_rng(8)
+    n = 200_000
+    terrain = np.column_stack([rng.uniform(0.0, 200.0, (n, 2)), rng.normal(0.0, 0.05, n)])
+    expected = pcl_rg.grid_ground(terrain[:20_000])
+    # 10 000 passes: far more than the 0.3 s before the signal, on any machine.
+    sender = _signal_later(signal.SIGUSR1, 0.3)
+    start = time.monotonic()
+    with pytest.raises(_HandlerError, match="raised by the signal handler"):
+        pcl_rg.grid_ground(terrain, filter_passes=10_000)
+    elapsed = time.monotonic() - start
+    sender.join()
+    assert elapsed < 0.3 + MAX_LATENCY
+    np.testing.assert_array_equal(pcl_rg.grid_ground(terrain[:20_000]), expected)
+
+
+def test_calls_from_other_threads_run_to_the_end(sigusr1_raises) -> None:
+    # Only the main thread runs signal handlers: a call on another thread is neither
+    # stopped nor disturbed while the main thread takes the signal.
+    rng = np.random.default_rng(9)
+    n = 200_000
+    terrain = np.column_stack([rng.uniform(0.0, 200.0, (n, 2)), rng.normal(0.0, 0.05, n)])
+    expected = pcl_rg.grid_ground(terrain, filter_passes=150)  # 1 s or so
+    result: list[np.ndarray] = []
+    worker = threading.Thread(
+        target=lambda: result.append(pcl_rg.grid_ground(terrain, filter_passes=150))
+    )
+    worker.start()
+    time.sleep(0.1)  # the worker is inside the core now
+    with pytest.raises(_HandlerError):
+        os.kill(os.getpid(), signal.SIGUSR1)
+        time.sleep(5)  # interrupted by the handler as soon as the signal arrives
+    assert worker.is_alive()  # else the test proves nothing: make the call longer
+    worker.join()
+    np.testing.assert_array_equal(result[0], expected)
