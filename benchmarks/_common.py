@@ -6,11 +6,13 @@ from __future__ import annotations
 import json
 import multiprocessing as mp
 import platform
+import re
 import resource
 import statistics
 import sys
 import time
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 
@@ -66,3 +68,21 @@ def dump_json(path: str | None, payload: Any) -> None:
     if path:
         with open(path, "w") as handle:
             json.dump(payload, handle, indent=2)
+
+
+RESULTS = Path(__file__).resolve().parent / "RESULTS.md"
+
+
+def write_section(text: str, section: str, path: Path = RESULTS) -> None:
+    """Put `text`, which starts with the "## " title `section`, into `path`.
+
+    An older copy of the section is replaced, every other section kept; a new one
+    is appended.
+    """
+    old = path.read_text() if path.exists() else "# Benchmark results\n"
+    pattern = re.compile(rf"^{re.escape(section)}\n.*?(?=^## |\Z)", re.DOTALL | re.MULTILINE)
+    if pattern.search(old):
+        new = pattern.sub(lambda _: text.rstrip("\n") + "\n\n", old, count=1)
+    else:
+        new = old.rstrip("\n") + "\n\n" + text
+    path.write_text(new)

@@ -47,7 +47,9 @@ def _laspy_file(path: Path, version: str, point_format: int, n: int, evlr: bool)
     las.classification = fields["classification"]
     las.height = xyz[:, 2].astype(np.float32)
     if evlr:
-        las.evlrs = laspy.vlrs.vlrlist.VLRList([laspy.VLR("pcl_rg_fuzz", 1, "extended record", b"x" * 40)])
+        las.evlrs = laspy.vlrs.vlrlist.VLRList(
+            [laspy.VLR("pcl_rg_fuzz", 1, "extended record", b"x" * 40)]
+        )
     las.write(str(path))
 
 

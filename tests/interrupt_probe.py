@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import json
 import os
+import signal
 import sys
 import threading
 import time
@@ -78,6 +79,9 @@ def _emit(**record: object) -> None:
 
 
 def main(names: list[str]) -> None:
+    # As in a terminal, also when the tests run in the background of a shell, which
+    # starts its children with SIGINT ignored (Python then installs no handler).
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     jobs = _jobs()
     # OpenMP starts its pool of threads in the first parallel region and keeps it: start
     # it here, so that the counts below see only threads a call would leave behind.

@@ -16,12 +16,13 @@ from pathlib import Path
 import laspy
 import numpy as np
 import pytest
+from conftest import shared_data
 
 import pcl_rg
-import pcl_rg.cli as cli
 import pcl_rg._grid_ground
-import pcl_rg.io as pio
-from conftest import shared_data
+import pcl_rg.cli as cli
+import pcl_rg.cli._run as cli_run
+import pcl_rg.io._atomic as pio
 from pcl_rg import datasets
 from pcl_rg.datasets import load_isprs
 from pcl_rg.evaluation import ground_errors
@@ -101,7 +102,7 @@ def params_classes(command: str) -> list[type]:
         "ground": [pcl_rg.GridGroundParams, pcl_rg.TinGroundParams],
         "denoise": [pcl_rg.StatisticalOutlierRemovalParams],
         "downsample": [pcl_rg.VoxelGridParams],
-        "segment": [pcl_rg.RegionGrowingParams, pcl_rg.RegionGrowingPclParams],
+        "segment": [pcl_rg.RegionGrowingParams, pcl_rg.pcl.RegionGrowingPclParams],
     }[command]
 
 
@@ -111,7 +112,7 @@ def pipeline_options() -> type:
 
     hints = typing.get_type_hints(seed004)
     fields = []
-    for name, parameter in inspect.signature(seed004).parameters.items():
+    for name in inspect.signature(seed004).parameters:
         kinds = [t for t in typing.get_args(hints[name]) or (hints[name],) if t is not type(None)]
         if len(kinds) == 1 and dataclasses.is_dataclass(kinds[0]):
             fields.append((name, kinds[0]))
@@ -239,6 +240,101 @@ def test_ground_tin_and_method_flags(capsys, tmp_path, scene_las):
     assert not (tmp_path / "x.las").exists()
 
 
+def as_json(params: object) -> object:
+    return json.loads(json.dumps(cli_run.jsonable(dataclasses.asdict(params))))
+
+
+@pytest.mark.parametrize(
+    ("method", "cls", "preset", "field", "value"),
+    [
+        ("tin", pcl_rg.TinGroundParams, "lidar360", "iteration_angle", 12.0),
+        ("grid", pcl_rg.GridGroundParams, "definition", "slope", 0.4),
+    ],
+)
+def test_ground_presets(capsys, tmp_path, scene_las, method, cls, preset, field, value):
+    base = getattr(cls, preset)()
+    result = run_json(
+        capsys, "ground", scene_las, tmp_path / "p.las", "--method", method, "--preset", preset
+    )
+    assert result["preset"] == preset
+    assert result["parameters"] == as_json(base)
+    # An explicit flag overrides one field of the preset; the rest stay the preset's.
+    assert getattr(base, field) != value
+    flag = "--" + field.replace("_", "-")
+    result = run_json(
+        capsys, "ground", scene_las, tmp_path / "p.las", "--method", method,
+        "--preset", preset, flag, str(value),
+    )  # fmt: skip
+    expected = dataclasses.replace(base, **{field: value})
+    assert result["parameters"] == as_json(expected)
+    source = read_points(scene_las)
+    noise = source.classification == 7
+    ground = getattr(pcl_rg, f"{method}_ground")(source.points[~noise], params=expected)
+    written = read_points(tmp_path / "p.las")
+    np.testing.assert_array_equal(written.classification[~noise], np.where(ground, 2, 1))
+    # Without --preset: the defaults, reported as no preset.
+    assert run_json(capsys, "ground", scene_las, tmp_path / "p.las")["preset"] is None
+
+
+def test_ground_unknown_preset_is_a_usage_error(capsys, tmp_path, scene_las):
+    code, out, err = run(
+        capsys, "ground", scene_las, tmp_path / "x.las", "--method", "grid", "--preset", "lidar360"
+    )
+    assert code == 2 and out == ""
+    assert_one_error_line(
+        err, "--preset: unknown preset 'lidar360' for --method grid", "valid: isprs, definition"
+    )
+    assert not (tmp_path / "x.las").exists()
+    code, _, err = run(capsys, "ground", scene_las, tmp_path / "x.las", "--preset", "nope")
+    assert code == 2
+    assert_one_error_line(err, "(valid: isprs, definition)")
+
+
+def test_progress_without_tqdm_is_a_plain_line(monkeypatch):
+    import argparse
+    import io
+    import time
+
+    class Terminal(io.StringIO):
+        def isatty(self) -> bool:
+            return True
+
+    stream = Terminal()
+    monkeypatch.setitem(sys.modules, "tqdm", None)  # tqdm is the optional `progress` extra
+    monkeypatch.setattr(sys, "stderr", stream)
+    monkeypatch.setattr(cli_run, "PROGRESS_DELAY", 0.0)
+    job = cli_run.Run(argparse.Namespace(command="test"))
+    with job.stage("work", "working"):
+        time.sleep(0.2)
+    lines = stream.getvalue().splitlines()
+    assert lines[0] == "pcl-rg: working ..." and lines[1].startswith("pcl-rg: working: done in")
+
+
+LIGHT_SCRIPT = """
+import sys
+from pcl_rg.cli import main
+code = main(sys.argv[1:])
+heavy = ("pcl_rg._core", "pcl_rg._pcl", "pcl_rg._grid_ground", "pcl_rg._tin_ground",
+         "pcl_rg._region_growing", "matplotlib", "scipy")
+print(code, *sorted(m for m in sys.modules if m.split(".")[0] in heavy or m in heavy))
+"""
+
+
+@pytest.mark.parametrize("argv", [["info", "FILE"], ["--help"], ["info", "FILE", "--json"]])
+def test_help_and_info_import_no_algorithm(tmp_path, scene_las, argv):
+    argv = [os.fspath(scene_las) if a == "FILE" else a for a in argv]
+    done = subprocess.run(
+        [sys.executable, "-c", LIGHT_SCRIPT, *argv],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+        cwd=tmp_path,
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.splitlines()[-1] == "0", done.stdout
+
+
 def test_denoise(capsys, tmp_path, scene_las):
     result = run_json(
         capsys, "denoise", scene_las, tmp_path / "d.laz", "--mean-k", "8", "--std-mul", "2.5"
@@ -317,7 +413,7 @@ def test_segment(capsys, tmp_path, scene_las, method):
         "30",
     )
     source = read_points(tmp_path / "v.laz")
-    function = pcl_rg.region_growing if method == "curvature" else pcl_rg.region_growing_pcl
+    function = pcl_rg.region_growing if method == "curvature" else pcl_rg.pcl.region_growing
     labels = function(source.points, k=12, min_cluster_size=30)
     written = read_points(tmp_path / "s.laz")
     assert written.fields["segment_id"].dtype == np.int32
@@ -395,7 +491,7 @@ def test_segment_mosd_pcd_and_evaluate(capsys, tmp_path):
         "1",
     )
     cloud = read_points(tutorial)
-    labels = pcl_rg.region_growing_pcl(
+    labels = pcl_rg.pcl.region_growing(
         cloud.points, k=30, smoothness_deg=3.0, curvature_threshold=1.0
     )
     np.testing.assert_array_equal(
@@ -589,7 +685,7 @@ def test_json_quiet_and_progress(capsys, tmp_path, scene_las, monkeypatch):
     result = json.loads(out)  # exactly one JSON object on stdout
     assert result["command"] == "denoise" and result["output"] == str(tmp_path / "d.las")
     assert set(result["timings_s"]) >= {"read", "denoise", "write", "total"}
-    monkeypatch.setattr(cli, "PROGRESS_DELAY", 0.0)
+    monkeypatch.setattr(cli_run, "PROGRESS_DELAY", 0.0)
     code, out, err = run(capsys, "denoise", scene_las, tmp_path / "d.las")
     assert code == 0
     for stage in ("reading", "statistical outlier removal", "writing"):
@@ -754,7 +850,7 @@ def test_interrupt_leaves_no_partial_file(capsys, tmp_path, scene_las, monkeypat
     def interrupted(*args, **kwargs):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(sys.modules["pcl_rg._grid_ground"], "grid_ground", interrupted)
+    monkeypatch.setattr(pcl_rg, "grid_ground", interrupted)
     code, _, err = run(capsys, "ground", scene_las, tmp_path / "out.laz")
     assert code == 130 and list(tmp_path.iterdir()) == []
 

@@ -7,15 +7,14 @@ import threading
 
 import numpy as np
 import pytest
-from conftest import examples, ISPRS_SAMPLES, shared_data
+from conftest import ISPRS_SAMPLES, examples, shared_data
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 import pcl_rg
 from pcl_rg import GridGroundParams, _core, reference
-from pcl_rg.datasets import load_isprs
-from pcl_rg.datasets import GROUND, synthetic_scene
+from pcl_rg.datasets import GROUND, load_isprs, synthetic_scene
 from pcl_rg.evaluation import ground_errors
 
 DEFINITION = GridGroundParams.definition()
@@ -508,7 +507,7 @@ def test_isprs_core_equals_reference(isprs, sample):
 
 def test_isprs_errors_with_the_defaults(isprs):
     """Mean total error over the seven samples with the defaults: 6.99 % when they were
-    chosen (benchmarks/ground_isprs.py --search); PCL's ProgressiveMorphologicalFilter
+    chosen (benchmarks/studies/ground_isprs.py --search); PCL's ProgressiveMorphologicalFilter
     with its tutorial parameters scores 8.87 % on the same files. The bound leaves room
     for nothing but rounding; every sample stays under 20 % and kappa above 0.5."""
     errors = [ground_errors(truth, pcl_rg.grid_ground(points)) for points, truth in isprs.values()]
@@ -521,18 +520,18 @@ def test_isprs_errors_with_the_defaults(isprs):
     assert np.mean(plain) > np.mean([e.total for e in errors]) + 0.05
 
 
-def test_pcl_pmf_baseline_binding():
-    """The benchmark's PCL baseline: a plane is ground, a 5 m box on it is not."""
+def test_pcl_pmf_baseline():
+    """The benchmarks' PCL baseline: a plane is ground, a 5 m box on it is not."""
     rng = np.random.default_rng(8)
     xy = rng.uniform(0, 40, (3000, 2))
     box = (np.abs(xy - 20) < 4).all(axis=1)
     points = np.c_[xy + [5e5, 5e6], np.where(box, 105.0, 100.0)]
-    ground = _core.pcl_progressive_morphological_filter(points, points.min(axis=0))
+    ground = pcl_rg.pcl.progressive_morphological_filter(points)
     assert ground.dtype == np.bool_ and ground.shape == (3000,)
     np.testing.assert_array_equal(ground, ~box)
     with pytest.raises(ValueError, match="max_window_size must be >= 1, got 0"):
-        _core.pcl_progressive_morphological_filter(points, points.min(axis=0), max_window_size=0)
-    with pytest.raises(ValueError, match="cell_size must be finite and > 0"):
-        _core.pcl_progressive_morphological_filter(points, points.min(axis=0), cell_size=0.0)
-    empty = _core.pcl_progressive_morphological_filter(np.empty((0, 3)), np.zeros(3))
+        pcl_rg.pcl.progressive_morphological_filter(points, max_window_size=0)
+    with pytest.raises(ValueError, match="cell_size must be > 0, got 0"):
+        pcl_rg.pcl.progressive_morphological_filter(points, cell_size=0.0)
+    empty = pcl_rg.pcl.progressive_morphological_filter(np.empty((0, 3)))
     assert empty.shape == (0,)

@@ -30,6 +30,14 @@ import pcl_rg
 from pcl_rg.io import write_points
 
 PROBE = Path(__file__).with_name("interrupt_probe.py")
+# `python -m pcl_rg`, with SIGINT handled as in a terminal also when the tests run in
+# the background of a shell, which starts its children with SIGINT ignored.
+CLI = [
+    sys.executable,
+    "-c",
+    "import runpy, signal; signal.signal(signal.SIGINT, signal.default_int_handler); "
+    "runpy.run_module('pcl_rg', run_name='__main__', alter_sys=True)",
+]
 MAX_LATENCY = 2.0  # seconds from SIGINT to KeyboardInterrupt
 SIGNAL_AFTER = 1.0  # seconds after the call started
 
@@ -121,8 +129,7 @@ def test_cli_sigint_exits_130_and_leaves_no_file(tmp_path: Path) -> None:
     write_points(tmp_path / "big.laz", points)
     # Many slope-filter passes keep the ground stage busy for minutes.
     with subprocess.Popen(
-        [sys.executable, "-m", "pcl_rg", "ground", "big.laz", "out.laz"]
-        + ["--method", "grid", "--filter-passes", "100000"],
+        [*CLI, "ground", "big.laz", "out.laz", "--method", "grid", "--filter-passes", "100000"],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
@@ -132,7 +139,7 @@ def test_cli_sigint_exits_130_and_leaves_no_file(tmp_path: Path) -> None:
         errors = _Lines(child.stderr)
         seen: list[str] = []
         try:
-            # The progress line appears once the stage has run cli.PROGRESS_DELAY (1 s).
+            # The progress line appears once the stage has run pcl_rg.cli._run.PROGRESS_DELAY (1 s).
             while not seen or not seen[-1].startswith("pcl-rg: ground filter (grid)"):
                 _, line = errors.next(timeout=60)
                 assert line is not None, f"the command ended early: {seen}"

@@ -12,9 +12,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import pcl_rg.io as pcd_io
+import pcl_rg.io._atomic as atomic_io
+import pcl_rg.io._pcd as pcd_io
 from pcl_rg._core import lzf_compress, lzf_decompress
-from pcl_rg.io import PointCloudData, read_pcd, write_pcd
+from pcl_rg.io import PcdLayout, PointFile, read_pcd, write_pcd
 
 ENCODINGS = ("ascii", "binary", "binary_compressed")
 ISPRS = [
@@ -61,7 +62,7 @@ def bits(array: np.ndarray) -> np.ndarray:
     return array.view(f"u{array.dtype.itemsize}")
 
 
-def assert_same_cloud(a: PointCloudData, b: PointCloudData) -> None:
+def assert_same_cloud(a: PointFile, b: PointFile) -> None:
     assert a.points.dtype == b.points.dtype == np.float64
     np.testing.assert_array_equal(bits(a.points), bits(b.points))
     assert list(a.fields) == list(b.fields)
@@ -69,7 +70,8 @@ def assert_same_cloud(a: PointCloudData, b: PointCloudData) -> None:
         assert a.fields[name].dtype == b.fields[name].dtype, name
         assert a.fields[name].shape == b.fields[name].shape, name
         np.testing.assert_array_equal(bits(a.fields[name]), bits(b.fields[name]), err_msg=name)
-    assert (a.width, a.height, a.viewpoint) == (b.width, b.height, b.viewpoint)
+    assert a.format == b.format == "pcd"
+    assert a.header[2:] == b.header[2:]  # width, height, viewpoint (not encoding or xyz_dtype)
 
 
 def synthetic_cloud(n: int, seed: int = 7) -> tuple[np.ndarray, dict[str, np.ndarray]]:
@@ -125,8 +127,8 @@ def test_round_trip_is_bit_exact(tmp_path, encoding, xyz_dtype, shape):
         assert got.shape == values.shape, name
         assert got.flags.writeable and got.dtype.isnative, name
         np.testing.assert_array_equal(bits(got), bits(values.astype(got.dtype)), err_msg=name)
-    assert (cloud.width, cloud.height) == (width, height)
-    assert cloud.viewpoint == viewpoint
+    assert cloud.header == PcdLayout(encoding, np.dtype(xyz_dtype), width, height, viewpoint)
+    assert (cloud.format, cloud.path) == ("pcd", str(path))
     assert sorted(os.listdir(tmp_path)) == ["cloud.pcd"]  # no temporary file left
 
 
@@ -152,7 +154,7 @@ def test_empty_cloud_round_trips(tmp_path, encoding):
     assert cloud.points.shape == (0, 3)
     assert cloud.fields["i"].shape == (0,) and cloud.fields["i"].dtype == np.uint8
     assert cloud.fields["h"].shape == (0, 4) and cloud.fields["h"].dtype == np.float64
-    assert (cloud.width, cloud.height) == (0, 1)
+    assert (cloud.header.width, cloud.header.height) == (0, 1)
 
 
 @pytest.mark.parametrize("encoding", ENCODINGS)
@@ -178,21 +180,22 @@ def test_ascii_text_is_shortest_and_writes_nan(tmp_path):
 def test_width_or_height_alone_sets_the_other(tmp_path):
     path = tmp_path / "o.pcd"
     write_pcd(path, np.zeros((12, 3)), width=4)
-    assert read_pcd(path)[2:4] == (4, 3)
+    assert read_pcd(path).header[2:4] == (4, 3)  # PcdLayout: encoding, xyz_dtype, width, height
     write_pcd(path, np.zeros((12, 3)), height=6)
-    assert read_pcd(path)[2:4] == (2, 6)
+    assert read_pcd(path).header[2:4] == (2, 6)
 
 
 # ----------------------------------------------------------------------- real files
 
 
-def check_against_header(path: Path, cloud: PointCloudData) -> dict[str, list[str]]:
+def check_against_header(path: Path, cloud: PointFile) -> dict[str, list[str]]:
     h = header_values(path)
     n = int(h["POINTS"][0])
     assert cloud.points.shape == (n, 3)
-    assert (cloud.width, cloud.height) == (int(h["WIDTH"][0]), int(h["HEIGHT"][0]))
-    assert cloud.width * cloud.height == n
-    assert cloud.viewpoint == tuple(float(v) for v in h["VIEWPOINT"])
+    assert isinstance(cloud.header, PcdLayout) and cloud.header.encoding == h["DATA"][0]
+    assert (cloud.header.width, cloud.header.height) == (int(h["WIDTH"][0]), int(h["HEIGHT"][0]))
+    assert cloud.header.width * cloud.header.height == n
+    assert cloud.header.viewpoint == tuple(float(v) for v in h["VIEWPOINT"])
     assert list(cloud.fields) == [f for f in h["FIELDS"] if f not in ("x", "y", "z", "_")]
     for name, size, typ in zip(h["FIELDS"], h["SIZE"], h["TYPE"]):
         if name in cloud.fields:
@@ -205,7 +208,7 @@ def test_read_isprs(name):
     path = shared_data("isprs", name)
     cloud = read_pcd(path)
     check_against_header(path, cloud)
-    assert cloud.height == 1 and cloud.fields == {}
+    assert cloud.header.height == 1 and cloud.fields == {}
     assert np.isfinite(cloud.points).all()
     # UTM zone 32U (Stuttgart): a decoding that mixed up the columns would not fit.
     assert (cloud.points[:, 0] > 4e5).all() and (cloud.points[:, 0] < 6e5).all()
@@ -220,7 +223,7 @@ def test_read_mosd(name):
     path = shared_data("mosd", name)
     cloud = read_pcd(path)
     check_against_header(path, cloud)
-    assert (cloud.width, cloud.height) == (640, 480)
+    assert (cloud.header.width, cloud.header.height) == (640, 480)
     assert cloud.fields["label"].dtype == np.uint32 and cloud.fields["rgba"].dtype == np.uint32
     invalid = np.isnan(cloud.points[:, 2])
     assert 0 < invalid.sum() < invalid.size
@@ -239,7 +242,7 @@ def test_read_pcl_tutorial_clouds(name, organized, has_nan):
     path = shared_data("pcl", name)
     cloud = read_pcd(path)
     check_against_header(path, cloud)
-    assert (cloud.height == 480) == organized
+    assert (cloud.header.height == 480) == organized
     rgb = cloud.fields["rgb"]
     assert rgb.dtype == np.float32  # packed 0x00RRGGBB, kept as stored
     nan_rows = np.isnan(cloud.points).any(axis=1)
@@ -270,8 +273,9 @@ REWRITES = [
 def test_rewrite_real_file(tmp_path, parts, encoding):
     original = read_pcd(shared_data(*parts))
     path = tmp_path / "copy.pcd"
+    layout = original.header
     write_pcd(path, original.points, original.fields, encoding=encoding,
-              width=original.width, height=original.height, viewpoint=original.viewpoint)
+              width=layout.width, height=layout.height, viewpoint=layout.viewpoint)
     assert_same_cloud(read_pcd(path), original)
 
 
@@ -351,14 +355,14 @@ def test_old_headers_use_pcl_defaults(tmp_path):
     cloud = read_pcd(v5)
     np.testing.assert_array_equal(cloud.points, [[1, 2, 3], [5, 6, 7]])
     assert cloud.fields["i"].dtype == np.float32 and cloud.fields["i"].tolist() == [4, 8]
-    assert (cloud.width, cloud.height, cloud.viewpoint) == (2, 1, (0, 0, 0, 1, 0, 0, 0))
+    assert cloud.header == PcdLayout("ascii", np.dtype(np.float32), 2, 1, (0, 0, 0, 1, 0, 0, 0))
 
     v6 = tmp_path / "v6.pcd"
     v6.write_bytes(b"VERSION .6\r\nFIELDS x y z c\r\nSIZE 4 4 4 1\r\nTYPE F F F U\r\n"
                    b"WIDTH 1\r\nHEIGHT 2\r\nPOINTS 2\r\nDATA ascii\r\n1 2 3 4\r\n5 6 7 255\r\n")
     cloud = read_pcd(v6)
     assert cloud.fields["c"].dtype == np.uint8 and cloud.fields["c"].tolist() == [4, 255]
-    assert (cloud.width, cloud.height) == (1, 2)
+    assert (cloud.header.width, cloud.header.height) == (1, 2)
 
 
 @pytest.mark.parametrize("encoding", ["binary", "binary_compressed"])
@@ -641,8 +645,8 @@ def test_failure_midway_leaves_no_file(tmp_path, monkeypatch):
             raise RuntimeError("disk full")
         return column.astype(str).tolist()
 
-    monkeypatch.setattr(pcd_io, "_ASCII_CHUNK_ROWS", 10)
-    monkeypatch.setattr(pcd_io, "_ascii_strings", failing)
+    monkeypatch.setattr(atomic_io, "ASCII_CHUNK_ROWS", 10)
+    monkeypatch.setattr(atomic_io, "ascii_strings", failing)
     with pytest.raises(RuntimeError, match="disk full"):
         write_pcd(tmp_path / "new.pcd", np.ones((100, 3)), encoding="ascii")
     assert len(calls) > 3  # some rows reached the temporary file before the error
@@ -663,9 +667,9 @@ def test_failed_write_keeps_the_old_file(tmp_path, monkeypatch, encoding, except
         raise exception
 
     if encoding == "ascii":
-        monkeypatch.setattr(pcd_io.os, "replace", replace_fails)
+        monkeypatch.setattr(atomic_io.os, "replace", replace_fails)
     else:
-        monkeypatch.setattr(pcd_io, "_write_chunked", half_then_fail)
+        monkeypatch.setattr(pcd_io, "write_chunked", half_then_fail)
     with pytest.raises(type(exception)):
         write_pcd(path, np.zeros((7, 3)), encoding=encoding)
     monkeypatch.undo()

@@ -11,9 +11,10 @@ import struct
 import laspy
 import numpy as np
 import pytest
+from conftest import shared_data
 
 import pcl_rg.io as pio
-from conftest import shared_data
+import pcl_rg.io._atomic as atomic_io
 from pcl_rg import datasets
 from pcl_rg.io import PointFile, read_pcd, read_points, write_pcd, write_points
 
@@ -428,6 +429,7 @@ def test_pcd_keeps_its_layout(tmp_path):
     reference = read_pcd(source)
     np.testing.assert_array_equal(cloud.points, reference.points)
     assert list(cloud.fields) == list(reference.fields)
+    assert cloud.header == reference.header and cloud.format == reference.format == "pcd"
     assert (cloud.header.width, cloud.header.height) == (640, 480)
     assert cloud.header.encoding == "binary_compressed" and cloud.header.xyz_dtype == np.float32
     segment = np.arange(len(cloud), dtype=np.int32)
@@ -435,7 +437,7 @@ def test_pcd_keeps_its_layout(tmp_path):
         tmp_path / "same.pcd", cloud.points, dict(cloud.fields, segment_id=segment), template=cloud
     )
     back = read_pcd(tmp_path / "same.pcd")
-    assert (back.width, back.height) == (640, 480)
+    assert (back.header.width, back.header.height) == (640, 480)
     np.testing.assert_array_equal(back.points, cloud.points)
     np.testing.assert_array_equal(back.fields["segment_id"], segment)
     np.testing.assert_array_equal(back.fields["rgba"], cloud.fields["rgba"])
@@ -444,7 +446,7 @@ def test_pcd_keeps_its_layout(tmp_path):
     part = cloud.take(valid)
     write_points(tmp_path / "part.pcd", part.points, part.fields, template=cloud)
     back = read_pcd(tmp_path / "part.pcd")
-    assert (back.width, back.height) == (int(valid.sum()), 1)
+    assert (back.header.width, back.header.height) == (int(valid.sum()), 1)
     raw = (tmp_path / "part.pcd").read_bytes()[:400]
     assert b"DATA binary_compressed" in raw and b"TYPE F F F" in raw
 
@@ -630,7 +632,7 @@ def fail_writes(monkeypatch, budget: int, error: BaseException) -> list[str]:
             return _FailingStream(stream, budget, error)
         return stream
 
-    monkeypatch.setattr(pio, "open", fake_open, raising=False)
+    monkeypatch.setattr(atomic_io, "open", fake_open, raising=False)
     return seen
 
 

@@ -1,4 +1,4 @@
-"""pcl_rg._isprs.load_isprs: the two PCD files of a sample matched as multisets."""
+"""pcl_rg.datasets.load_isprs: the two PCD files of a sample matched as multisets."""
 
 from __future__ import annotations
 

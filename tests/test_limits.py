@@ -27,7 +27,9 @@ CASES = [
     ("grid_ground", pcl_rg.grid_ground, INT32),
     ("tin_ground", pcl_rg.tin_ground, INT32 - 8),
     ("region_growing", pcl_rg.region_growing, INT32),
-    ("region_growing_pcl", pcl_rg.region_growing_pcl, INT32),
+    ("pcl.region_growing", pcl_rg.pcl.region_growing, INT32),
+    ("pcl.normals", pcl_rg.pcl.normals, INT32),
+    ("pcl.voxel_grid", lambda p: pcl_rg.pcl.voxel_grid(p, leaf_size=1.0), UINT32),
     ("pipeline.seed004", pipeline.seed004, UINT32),
 ]
 
@@ -42,7 +44,7 @@ def test_one_point_over_the_limit_is_refused_without_allocating(name, call, limi
 def test_the_message_names_the_index_type_and_the_count(limit) -> None:
     from pcl_rg._validation import as_points
 
-    with pytest.raises(ValueError, match=rf"uint32|int32") as error:
+    with pytest.raises(ValueError, match=r"uint32|int32") as error:
         as_points(rows(limit + 1), max_points=limit)
     assert f"got {limit + 1:,}" in str(error.value)
     # At the limit itself the gate lets a (small) cloud through unchanged.

@@ -1,4 +1,4 @@
-"""Tests of the mOSD reader (pcl_rg._mosd.load_mosd) on the real scenes and made-up files."""
+"""Tests of the mOSD reader (pcl_rg.datasets.load_mosd) on the real scenes and made-up files."""
 
 from __future__ import annotations
 

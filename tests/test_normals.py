@@ -7,15 +7,15 @@ import threading
 
 import numpy as np
 import pytest
-from conftest import examples, MOSD_SCENES, shared_data
+from conftest import MOSD_SCENES, examples, shared_data
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 import pcl_rg
 from pcl_rg import _core, reference
-from pcl_rg.datasets import load_mosd
 from pcl_rg._normals import NormalsParams
+from pcl_rg.datasets import load_mosd
 from pcl_rg.reference.normals import neighbour_lists
 
 # --------------------------------------------------------------------------- surfaces
@@ -261,7 +261,7 @@ def test_surface_variation_matches_pcl() -> None:
     # normals agree to ~1e-4 and surface variation to ~1e-5 on this scale.
     pts = noisy_scene(1500, 11)
     ours = pcl_rg.normals(pts, k=15)
-    pcl = pcl_rg.region_growing_pcl(pts, k=15, full_output=True)
+    pcl = pcl_rg.pcl.normals(pts, k=15)
     cos = np.abs((ours.normals * pcl.normals).sum(axis=1))
     np.testing.assert_allclose(cos, 1.0, atol=1e-4)
     np.testing.assert_allclose(ours.surface_variation, pcl.curvature, atol=1e-5)

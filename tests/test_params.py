@@ -9,25 +9,37 @@ import numpy as np
 import pytest
 
 import pcl_rg
-from pcl_rg import _core
-from pcl_rg._params import Spec, spec_of
+import pcl_rg.pcl
+from pcl_rg import _core, _pcl
+from pcl_rg._params import Spec, spec_of, to_core
 
+# Each extension module with the public module holding its dataclasses: _core's
+# structs pair with pcl_rg's, _pcl's (PCL's classes) with pcl_rg.pcl's.
+MODULES = [(_core, pcl_rg), (_pcl, pcl_rg.pcl)]
 PAIRS = [
-    (cls, getattr(_core, name))
-    for name in dir(_core)
+    (cls, getattr(module, name))
+    for module, public in MODULES
+    for name in dir(module)
     if name.endswith("Params")
-    for cls in [getattr(pcl_rg, name, None)]
+    for cls in [getattr(public, name, None)]
     if cls is not None
 ]
 
 
-def test_every_core_struct_has_a_dataclass():
-    core_names = {name for name in dir(_core) if name.endswith("Params")}
+def _id(value: object) -> str:
+    module = getattr(value, "__module__", "")
+    name = getattr(value, "__name__", str(value))
+    return f"_pcl.{name}" if module == "pcl_rg._pcl" else name
+
+
+@pytest.mark.parametrize(("module", "public"), MODULES, ids=["_core", "_pcl"])
+def test_every_core_struct_has_a_dataclass(module, public):
+    core_names = {name for name in dir(module) if name.endswith("Params")}
     assert core_names, "the extension exposes no parameter structs"
-    assert core_names == {cls.__name__ for cls, _ in PAIRS}
+    assert core_names == {cls.__name__ for cls, core in PAIRS if core.__module__ == module.__name__}
 
 
-@pytest.mark.parametrize(("python_cls", "core_cls"), PAIRS, ids=lambda c: c.__name__)
+@pytest.mark.parametrize(("python_cls", "core_cls"), PAIRS, ids=_id)
 def test_fields_and_defaults_match(python_cls, core_cls):
     core = core_cls()
     core_fields = {f for f in dir(core) if not f.startswith("_")}
@@ -49,13 +61,17 @@ def test_fields_and_defaults_match(python_cls, core_cls):
 
 CLOUD = np.random.default_rng(3).uniform(0.0, 10.0, (200, 3))
 CORE_CALLS = {
-    "VoxelGridParams": _core.voxel_grid,
-    "StatisticalOutlierRemovalParams": _core.statistical_outlier_removal,
-    "NormalsParams": _core.normals,
-    "RegionGrowingParams": _core.region_growing,
-    "RegionGrowingPclParams": _core.region_growing_pcl,
-    "GridGroundParams": _core.grid_ground,
-    "TinGroundParams": _core.tin_ground,
+    _core.VoxelGridParams: _core.voxel_grid,
+    _core.StatisticalOutlierRemovalParams: _core.statistical_outlier_removal,
+    _core.NormalsParams: _core.normals,
+    _core.RegionGrowingParams: _core.region_growing,
+    _core.GridGroundParams: _core.grid_ground,
+    _core.TinGroundParams: _core.tin_ground,
+    _pcl.VoxelGridParams: _pcl.voxel_grid,
+    _pcl.StatisticalOutlierRemovalParams: _pcl.statistical_outlier_removal,
+    _pcl.NormalEstimationParams: _pcl.normal_estimation,
+    _pcl.RegionGrowingPclParams: _pcl.region_growing,
+    _pcl.ProgressiveMorphologicalFilterParams: _pcl.progressive_morphological_filter,
 }
 REQUIRED = {"VoxelGridParams": {"leaf_size": 1.0}}
 
@@ -77,42 +93,48 @@ def _invalid_values(spec: Spec) -> list[float]:
     return [int(v) if spec.kind is int else v for v in values]
 
 
-def _cases() -> list[tuple[type, str, object]]:
+def test_every_struct_has_a_call() -> None:
+    assert {core_cls for _, core_cls in PAIRS} == set(CORE_CALLS)
+
+
+def _cases() -> list[tuple[type, type, str, object]]:
     cases = []
-    for cls, _ in PAIRS:
+    for cls, core_cls in PAIRS:
         for field in dataclasses.fields(cls):
             spec = spec_of(field)
             if spec.kind in (int, float):
-                cases += [(cls, field.name, value) for value in _invalid_values(spec)]
+                cases += [(cls, core_cls, field.name, value) for value in _invalid_values(spec)]
     return cases
 
 
-def _core_message(cls: type, name: str, value: object) -> str:
-    core = cls(**REQUIRED.get(cls.__name__, {})).to_core()
+def _core_message(cls: type, core_cls: type, name: str, value: object) -> str:
+    core = to_core(cls(**REQUIRED.get(cls.__name__, {})), core_cls())
     spec = spec_of(next(f for f in dataclasses.fields(cls) if f.name == name))
     setattr(core, name, [value] * spec.axes if spec.axes else value)
     with pytest.raises(ValueError) as error:
-        CORE_CALLS[cls.__name__](CLOUD, core)
+        CORE_CALLS[core_cls](CLOUD, core)
     return str(error.value)
 
 
-@pytest.mark.parametrize(
-    ("cls", "name", "value"), _cases(), ids=lambda v: getattr(v, "__name__", str(v))
-)
-def test_python_and_cpp_reject_the_same_value_with_the_same_message(cls, name, value) -> None:
+@pytest.mark.parametrize(("cls", "core_cls", "name", "value"), _cases(), ids=_id)
+def test_python_and_cpp_reject_the_same_value_with_the_same_message(
+    cls, core_cls, name, value
+) -> None:
     with pytest.raises(ValueError) as error:
         cls(**{**REQUIRED.get(cls.__name__, {}), name: value})
     python_message = str(error.value)
     assert python_message.startswith(f"{name} must be "), python_message
-    assert python_message == _core_message(cls, name, value)
+    assert python_message == _core_message(cls, core_cls, name, value)
 
 
 def test_every_bounded_parameter_is_covered() -> None:
-    covered = {(cls.__name__, name) for cls, name, _ in _cases()}
+    covered = {(cls.__name__, name) for cls, _, name, _ in _cases()}
     for cls, _ in PAIRS:
         for field in dataclasses.fields(cls):
             spec = spec_of(field)
-            bounded = any(b is not None for b in (spec.minimum, spec.above, spec.maximum, spec.below))
+            bounded = any(
+                b is not None for b in (spec.minimum, spec.above, spec.maximum, spec.below)
+            )
             if bounded:
                 assert (cls.__name__, field.name) in covered
 
@@ -122,7 +144,7 @@ def test_every_bounded_parameter_is_covered() -> None:
     [
         (pcl_rg.GridGroundParams, "block_size", "cell_size", (4.0, 5.0)),
         (pcl_rg.RegionGrowingParams, "min_cluster_size", "max_cluster_size", (50, 10)),
-        (pcl_rg.RegionGrowingPclParams, "min_cluster_size", "max_cluster_size", (50, 10)),
+        (pcl_rg.pcl.RegionGrowingPclParams, "min_cluster_size", "max_cluster_size", (50, 10)),
     ],
 )
 def test_relations_between_parameters_are_worded_alike(cls, first, second, values) -> None:
@@ -133,6 +155,6 @@ def test_relations_between_parameters_are_worded_alike(cls, first, second, value
     for name, value in zip((first, second), values):
         setattr(core, name, [value] * fields[name].axes if fields[name].axes else value)
     with pytest.raises(ValueError) as core_error:
-        CORE_CALLS[cls.__name__](CLOUD, core)
+        CORE_CALLS[type(core)](CLOUD, core)
     assert str(error.value) == str(core_error.value)
     assert str(error.value).startswith(f"{second} must be ")

@@ -8,7 +8,7 @@ import threading
 
 import numpy as np
 import pytest
-from conftest import examples, MOSD_SCENES, shared_data
+from conftest import MOSD_SCENES, examples, shared_data
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
@@ -16,12 +16,12 @@ from scipy.optimize import linear_sum_assignment
 
 import pcl_rg
 from pcl_rg import _core, reference
+from pcl_rg._normals import NormalsParams
+from pcl_rg._region_growing import SEED_MEASURES, RegionGrowingParams
 from pcl_rg.datasets import load_mosd
 from pcl_rg.io import read_pcd
-from pcl_rg._normals import NormalsParams
 from pcl_rg.reference.normals import neighbour_lists
 from pcl_rg.reference.region_growing import grow_regions, measure_values, seed_order
-from pcl_rg._region_growing import SEED_MEASURES, RegionGrowingParams
 
 # ------------------------------------------------------------------------ scenes
 

@@ -7,7 +7,7 @@ import threading
 
 import numpy as np
 import pytest
-from conftest import clustered_cloud, examples, ISPRS_SAMPLES, shared_data, uniform_cloud
+from conftest import ISPRS_SAMPLES, clustered_cloud, examples, shared_data, uniform_cloud
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
@@ -25,8 +25,7 @@ def core_details(points, mean_k, std_mul):
 
 def pcl_mask(points, mean_k, std_mul):
     """PCL's own class on the same float32 local cloud (points minus the minimum corner)."""
-    params = pcl_rg.StatisticalOutlierRemovalParams(mean_k=mean_k, std_mul=std_mul)
-    return _core.pcl_statistical_outlier_removal(points, points.min(axis=0), params.to_core())
+    return pcl_rg.pcl.statistical_outlier_removal(points, mean_k=mean_k, std_mul=std_mul)
 
 
 def assert_near_reference(points, mean_k, std_mul):

@@ -11,15 +11,14 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import pytest
-from conftest import examples, ISPRS_SAMPLES, shared_data
+from conftest import ISPRS_SAMPLES, examples, shared_data
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 import pcl_rg
 from pcl_rg import _core, reference
-from pcl_rg.datasets import load_isprs
-from pcl_rg.datasets import GROUND, synthetic_scene
+from pcl_rg.datasets import GROUND, load_isprs, synthetic_scene
 from pcl_rg.evaluation import ground_errors
 
 LIDAR360 = pcl_rg.TinGroundParams.lidar360()
@@ -205,7 +204,9 @@ def flat_with_roof(roof_side: float) -> tuple[np.ndarray, np.ndarray]:
 
 def test_max_building_size_keeps_roofs_larger_than_it_off_the_ground() -> None:
     points, roof = flat_with_roof(30.0)
-    params = pcl_rg.TinGroundParams.lidar360(iteration_angle=30.0, reduce_angle_edge=0.01, stop_edge=0.01)
+    params = pcl_rg.TinGroundParams.lidar360(
+        iteration_angle=30.0, reduce_angle_edge=0.01, stop_edge=0.01
+    )
     small_cells = pcl_rg.tin_ground(points, params=params, max_building_size=10.0)
     large_cells = pcl_rg.tin_ground(points, params=params, max_building_size=50.0)
     # Cells of 10 m inside the 30 m roof have roof seeds, and much of the roof becomes
@@ -223,7 +224,9 @@ def test_max_building_size_keeps_roofs_larger_than_it_off_the_ground() -> None:
 
 def test_seed_cell_seeds_open_ground_and_skips_roofs() -> None:
     points, roof = flat_with_roof(30.0)
-    seeded = run_core(points, pcl_rg.TinGroundParams.lidar360(max_building_size=40.0, seed_cell=4.0))
+    seeded = run_core(
+        points, pcl_rg.TinGroundParams.lidar360(max_building_size=40.0, seed_cell=4.0)
+    )
     plain = run_core(points, pcl_rg.TinGroundParams.lidar360(max_building_size=40.0))
     assert seeded[1]["seeds"] > 10 * plain[1]["seeds"]
     assert not seeded[0][roof].any()

@@ -57,27 +57,36 @@ def test_result_properties():
     assert np.all(np.floor(result.centroids[result.voxel_of_point[kept]] / 0.5) == cell)
 
 
-def assert_pcl_centroids(pcl: np.ndarray, ours) -> None:
-    """Same voxels in the same order; PCL's float32 running sums off by <= count ulps."""
-    assert pcl.shape == ours.centroids.shape
-    bound = ours.counts[:, None] * 2.0**-23 * (np.abs(ours.centroids) + 1.0)
-    assert np.all(np.abs(pcl - ours.centroids) <= bound)
+def assert_pcl_centroids(pcl, ours, points, leaf) -> None:
+    """Same voxels in the same order; PCL's float32 running sums off by <= count ulps
+    of the local coordinates (pcl_rg.pcl's origin: the minimum corner snapped down to
+    the leaf grid)."""
+    origin = np.floor(points.min(axis=0) / leaf) * leaf
+    assert pcl.centroids.shape == ours.centroids.shape
+    np.testing.assert_array_equal(pcl.counts, ours.counts)
+    np.testing.assert_array_equal(pcl.voxel_of_point, ours.voxel_of_point)
+    bound = ours.counts[:, None] * 2.0**-23 * (np.abs(ours.centroids - origin) + 1.0)
+    assert np.all(np.abs(pcl.centroids - ours.centroids) <= bound)
 
 
 # --- PCL equivalence -------------------------------------------------------------
-# pcl::VoxelGrid computes floor(x * (1/leaf)) on float32 values. With float32 input
-# values and power-of-two leaves, x * (1/leaf) is exact in float32 and x / leaf is
-# exact in float64, so both assign every point to the same voxel; only PCL's float32
-# centroid sums differ, by at most about count * 2^-24 * |x|.
+# pcl::VoxelGrid computes floor(x * (1/leaf)) on float32 values of the local frame
+# (x minus an origin that pcl_rg.pcl snaps to a multiple of the leaf). With points on
+# a 2^-12 leaf grid of extent < 2^12 leaves, x - origin is exact in float32, and with
+# power-of-two leaves x * (1/leaf) is exact in float32 and x / leaf in float64, so both
+# assign every point to the same voxel; only PCL's float32 centroid sums differ, by at
+# most about count * 2^-24 * |x|. (Without the snap to that grid a float32 shift of a
+# point within rounding of a voxel boundary can move it: 2 points in 20000 here.)
 @pytest.mark.parametrize("seed", [0, 1])
 @pytest.mark.parametrize("leaf", [0.25, 1.0, (0.5, 0.125, 2.0)])
 @pytest.mark.parametrize("min_points", [1, 4])
 def test_equals_pcl_voxel_grid(seed, leaf, min_points):
-    points = clustered_cloud(20000, seed).astype(np.float32).astype(np.float64)
+    step = np.min(leaf) * 2.0**-12
+    points = np.round(clustered_cloud(20000, seed) / step) * step
     params = pcl_rg.VoxelGridParams(leaf_size=leaf, min_points_per_voxel=min_points)
     ours = pcl_rg.voxel_grid(points, params=params)
-    pcl = _core.pcl_voxel_grid(points, np.zeros(3), params.to_core())
-    assert_pcl_centroids(pcl, ours)
+    pcl = pcl_rg.pcl.voxel_grid(points, params=params)
+    assert_pcl_centroids(pcl, ours, points, leaf)
 
 
 def test_large_extent_where_pcl_refuses():
@@ -88,8 +97,9 @@ def test_large_extent_where_pcl_refuses():
     # Make some voxels hold several points, so downsampling really does something.
     points[: n // 2] = np.floor(points[n // 2 :] / 0.05) * 0.05 + 0.01
     params = pcl_rg.VoxelGridParams(leaf_size=0.05)
-    pcl = _core.pcl_voxel_grid(points, np.zeros(3), params.to_core())
-    assert pcl.shape == points.shape  # PCL's refusal: the input comes back unchanged
+    # PCL would warn and return its input unchanged; pcl_rg.pcl raises instead.
+    with pytest.raises(ValueError, match=r"pcl::VoxelGrid refuses more than 2\^31 - 1 voxels"):
+        pcl_rg.pcl.voxel_grid(points, params=params)
     ours = pcl_rg.voxel_grid(points, params=params)
     assert len(ours.centroids) < n
     assert_same_grid(ours, reference.voxel_grid(points, params=params), 2000.0)
@@ -150,7 +160,9 @@ def test_input_not_modified_and_layouts_accepted():
         points.tolist(),
     ):
         result = pcl_rg.voxel_grid(variant, 0.5)
-        np.testing.assert_array_equal(result.counts, pcl_rg.voxel_grid(np.asarray(variant, float), 0.5).counts)
+        np.testing.assert_array_equal(
+            result.counts, pcl_rg.voxel_grid(np.asarray(variant, float), 0.5).counts
+        )
     ints = np.arange(30, dtype=np.int32).reshape(10, 3)
     assert pcl_rg.voxel_grid(ints, 10).counts.sum() == 10
     assert expected.counts.sum() == len(points)
@@ -177,8 +189,16 @@ def test_empty_and_single_point():
         ({"leaf_size": (1.0, 2.0)}, ValueError, "leaf_size must be a number or a sequence of 3"),
         ({"leaf_size": (1.0, 0.0, 1.0)}, ValueError, "leaf_size must be > 0"),
         ({"leaf_size": "big"}, TypeError, "leaf_size must be a number or 3 numbers"),
-        ({"leaf_size": 1.0, "min_points_per_voxel": 0}, ValueError, "min_points_per_voxel must be >= 1"),
-        ({"leaf_size": 1.0, "min_points_per_voxel": 1.5}, TypeError, "min_points_per_voxel must be an integer"),
+        (
+            {"leaf_size": 1.0, "min_points_per_voxel": 0},
+            ValueError,
+            "min_points_per_voxel must be >= 1",
+        ),
+        (
+            {"leaf_size": 1.0, "min_points_per_voxel": 1.5},
+            TypeError,
+            "min_points_per_voxel must be an integer",
+        ),
         ({}, TypeError, "needs leaf_size"),
     ],
 )
@@ -192,7 +212,11 @@ def test_bad_parameters(kwargs, error, match):
 @pytest.mark.parametrize(
     ("points", "error", "match"),
     [
-        (np.array([[0.0, 0.0, np.nan], [1, 1, 1]]), ValueError, r"1 point\(s\) with NaN or Inf.*rows 0"),
+        (
+            np.array([[0.0, 0.0, np.nan], [1, 1, 1]]),
+            ValueError,
+            r"1 point\(s\) with NaN or Inf.*rows 0",
+        ),
         (np.array([[0.0, 0.0, 0.0], [1, np.inf, 1]]), ValueError, r"rows 1"),
         (np.zeros((4, 2)), ValueError, r"shape \(N, 3\)"),
         (np.zeros(3), ValueError, r"shape \(N, 3\)"),
@@ -240,7 +264,9 @@ def test_core_rejects_unconverted_arrays():
 )
 def test_fuzz_core_equals_reference(points, leaf, min_points):
     result = pcl_rg.voxel_grid(points, leaf, min_points_per_voxel=min_points)
-    assert_same_grid(result, reference.voxel_grid(points, leaf, min_points_per_voxel=min_points), 1e3)
+    assert_same_grid(
+        result, reference.voxel_grid(points, leaf, min_points_per_voxel=min_points), 1e3
+    )
 
 
 @settings(max_examples=examples(100), deadline=None)
@@ -290,9 +316,11 @@ def test_isprs_core_equals_reference(sample):
 def test_pcl_tutorial_clouds_equal_reference_and_pcl(name):
     cloud = read_pcd(shared_data("pcl", name))
     points = cloud.points[np.isfinite(cloud.points).all(axis=1)]
-    # A power of two near 1/200 of the extent: PCL's float32 voxel indices are exact.
+    # A power of two near 1/200 of the extent, and points on a 2^-12 leaf grid: PCL's
+    # float32 local coordinates and voxel indices are exact (see above).
     leaf = 2.0 ** np.round(np.log2(np.ptp(points, axis=0).max() / 200))
+    points = np.round(points / (leaf * 2.0**-12)) * (leaf * 2.0**-12)
     ours = pcl_rg.voxel_grid(points, leaf)
     assert_same_grid(ours, reference.voxel_grid(points, leaf), 10.0)
-    pcl = _core.pcl_voxel_grid(points, np.zeros(3), pcl_rg.VoxelGridParams(leaf_size=leaf).to_core())
-    assert_pcl_centroids(pcl, ours)
+    pcl = pcl_rg.pcl.voxel_grid(points, leaf)
+    assert_pcl_centroids(pcl, ours, points, leaf)

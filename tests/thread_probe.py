@@ -26,7 +26,7 @@ from collections.abc import Callable
 import numpy as np
 
 import pcl_rg
-from pcl_rg import _core, datasets
+from pcl_rg import datasets
 
 
 def _digest(*arrays: np.ndarray) -> str:
@@ -47,7 +47,6 @@ def _clouds() -> dict[str, np.ndarray]:
 
 def _jobs(c: dict[str, np.ndarray]) -> dict[str, Callable[[], str]]:
     air, uni, surf = c["airborne"], c["uniform"], c["surfaces"]
-    origin = air.min(axis=0)
 
     def voxel() -> str:
         g = pcl_rg.voxel_grid(uni, leaf_size=1.0)
@@ -58,12 +57,10 @@ def _jobs(c: dict[str, np.ndarray]) -> dict[str, Callable[[], str]]:
         return _digest(*r)
 
     def pcl_voxel() -> str:
-        params = pcl_rg.VoxelGridParams(leaf_size=1.0).to_core()
-        return _digest(_core.pcl_voxel_grid(uni, np.zeros(3), params))
+        return _digest(*pcl_rg.pcl.voxel_grid(uni, leaf_size=1.0))
 
     def pcl_sor() -> str:
-        params = pcl_rg.StatisticalOutlierRemovalParams(mean_k=8, std_mul=1.0).to_core()
-        return _digest(_core.pcl_statistical_outlier_removal(uni[:100_000], np.zeros(3), params))
+        return _digest(pcl_rg.pcl.statistical_outlier_removal(uni[:100_000], mean_k=8, std_mul=1.0))
 
     return {
         "voxel_grid": voxel,
@@ -77,11 +74,15 @@ def _jobs(c: dict[str, np.ndarray]) -> dict[str, Callable[[], str]]:
         ),
         "normals": normals,
         "region_growing": lambda: _digest(pcl_rg.region_growing(surf)),
-        "region_growing_pcl": lambda: _digest(pcl_rg.region_growing_pcl(surf)),
-        "pcl_voxel_grid": pcl_voxel,
-        "pcl_statistical_outlier_removal": pcl_sor,
-        "pcl_progressive_morphological_filter": lambda: _digest(
-            _core.pcl_progressive_morphological_filter(air[:20_000], origin)
+        "pcl.region_growing": lambda: _digest(pcl_rg.pcl.region_growing(surf)),
+        "pcl.normals": lambda: _digest(*pcl_rg.pcl.normals(surf, k=12)),
+        "pcl.voxel_grid": pcl_voxel,
+        "pcl.statistical_outlier_removal": pcl_sor,
+        "pcl.progressive_morphological_filter": lambda: _digest(
+            pcl_rg.pcl.progressive_morphological_filter(air[:20_000])
+        ),
+        "pcl.progressive_morphological_filter_approximate": lambda: _digest(
+            pcl_rg.pcl.progressive_morphological_filter(air[:20_000], approximate=True)
         ),
     }
 

@@ -1,8 +1,8 @@
 // Binding of the LZF codec used by pcl_rg.io for PCD binary_compressed.
+#include <string_view>
+
 #include "bindings.hpp"
 #include "numpy_io.hpp"
-
-#include <string_view>
 #include "pcl_rg/lzf_codec.hpp"
 #include "without_gil.hpp"
 

@@ -7,13 +7,11 @@ namespace pcl_rg::bindings {
 
 void bind_voxel_grid(pybind11::module_& m);
 void bind_statistical_outlier_removal(pybind11::module_& m);
-void bind_pcl_filters_baseline(pybind11::module_& m);
 void bind_lzf_codec(pybind11::module_& m);
 void bind_grid_ground(pybind11::module_& m);
-void bind_pcl_pmf_baseline(pybind11::module_& m);
 void bind_normals(pybind11::module_& m);
 void bind_region_growing(pybind11::module_& m);
-void bind_region_growing_pcl(pybind11::module_& m);
 void bind_tin_ground(pybind11::module_& m);
+void bind_delaunay(pybind11::module_& m);
 
 }  // namespace pcl_rg::bindings

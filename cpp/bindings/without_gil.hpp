@@ -4,6 +4,7 @@
 
 #include <pybind11/pybind11.h>
 
+#include <exception>
 #include <optional>
 #include <utility>
 
@@ -21,10 +22,26 @@ inline unsigned long main_thread_ident = 0;
 
 /// The checker: runs the pending Python signal handlers. True when one raised, e.g.
 /// KeyboardInterrupt from the default SIGINT handler; the exception stays pending for
-/// the translator of Interrupted (module.cpp).
+/// the translator of Interrupted (setup_interrupts).
 inline bool python_signal_raised() {
     py::gil_scoped_acquire gil;
     return PyErr_CheckSignals() != 0;
+}
+
+/// What every extension module does on import, before binding anything: Interrupted
+/// (thrown by without_gil below) keeps the exception a signal handler raised, so Ctrl-C
+/// gives KeyboardInterrupt and a handler's own exception comes through as it was raised;
+/// and main_thread_ident is recorded. std::invalid_argument already maps to ValueError.
+inline void setup_interrupts() {
+    py::register_local_exception_translator([](std::exception_ptr error) {
+        try {
+            if (error) std::rethrow_exception(error);
+        } catch (const Interrupted&) {
+            if (!PyErr_Occurred()) PyErr_SetNone(PyExc_KeyboardInterrupt);
+        }
+    });
+    main_thread_ident =
+        py::module_::import("threading").attr("main_thread")().attr("ident").cast<unsigned long>();
 }
 
 /// Calls work() (the core) with the GIL released. Throws Interrupted when a signal

@@ -34,6 +34,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "pcl_rg/interrupt.hpp"
 #include "pcl_rg/spatial_order.hpp"
 
 namespace pcl_rg {
@@ -269,6 +270,84 @@ void Delaunay::legalize(std::int32_t p) {
         stack_.push_back(t);
         stack_.push_back(u);
     }
+}
+
+DelaunayTin::DelaunayTin(double lower_x, double lower_y, double upper_x, double upper_y)
+    : frame(make_grid_frame(lower_x, lower_y, upper_x, upper_y)),
+      upper_x(upper_x),
+      upper_y(upper_y),
+      tin(frame.width, frame.height) {}
+
+std::vector<std::int32_t> DelaunayTin::to_grid(const double* xy, std::size_t m) const {
+    std::vector<std::int32_t> g(2 * m);
+    for (std::size_t i = 0; i < m; ++i) {
+        const double x = xy[2 * i], y = xy[2 * i + 1];
+        if (!(x >= frame.lower_x && x <= upper_x && y >= frame.lower_y && y <= upper_y))
+            throw std::invalid_argument("xy row " + std::to_string(i) +
+                                        " lies outside the bounds of the triangulation");
+        g[2 * i] = frame.grid_x(x);
+        g[2 * i + 1] = frame.grid_y(y);
+    }
+    return g;
+}
+
+void DelaunayTin::insert(const std::int32_t* grid, std::size_t m, std::int32_t* vertex) {
+    for (std::size_t i = 0; i < m; ++i) {
+        bool inserted = false;
+        vertex[i] = tin.insert(grid[2 * i], grid[2 * i + 1], last, &inserted);
+        last = tin.vertex_triangle(vertex[i]);
+    }
+}
+
+void DelaunayTin::locate(const std::int32_t* grid, std::size_t m, std::int32_t* triangle) const {
+    const Interruption interruption;
+    std::int32_t start = last;
+    for (std::size_t i = 0; i < m; ++i) {
+        interruption.check();
+        start = triangle[i] = tin.locate(grid[2 * i], grid[2 * i + 1], start);
+    }
+}
+
+std::vector<std::int64_t> delaunay_triangulate(const double* xy, std::size_t n) {
+    std::vector<std::int64_t> triangles;
+    if (n == 0) return triangles;
+    double lo[2], hi[2];
+    for (int a = 0; a < 2; ++a) {
+        lo[a] = std::numeric_limits<double>::infinity();
+        hi[a] = -lo[a];
+        for (std::size_t i = 0; i < n; ++i) {
+            lo[a] = std::min(lo[a], xy[2 * i + a]);
+            hi[a] = std::max(hi[a], xy[2 * i + a]);
+        }
+    }
+    const GridFrame frame = make_grid_frame(lo[0], lo[1], hi[0], hi[1]);
+    std::vector<std::int32_t> gx(n), gy(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        gx[i] = frame.grid_x(xy[2 * i]);
+        gy[i] = frame.grid_y(xy[2 * i + 1]);
+    }
+    Delaunay tin(frame.width, frame.height);
+    std::vector<std::int64_t> point_of_vertex(4, -1);  // the box corners are no rows
+    std::int32_t last = 0;
+    const Interruption interruption;
+    for (const std::uint32_t i :
+         morton_order_2d(gx.data(), gy.data(), n, frame.width, frame.height)) {
+        interruption.check();
+        bool inserted = false;
+        const std::int32_t vid = tin.insert(gx[i], gy[i], last, &inserted);
+        if (inserted) point_of_vertex.push_back(i);
+        last = tin.vertex_triangle(vid);
+    }
+    for (std::size_t t = 0; t < tin.triangle_count(); ++t) {
+        std::int64_t ids[3];
+        bool virtual_corner = false;
+        for (int k = 0; k < 3; ++k) {
+            ids[k] = point_of_vertex[tin.triangle_vertex(static_cast<std::int32_t>(t), k)];
+            virtual_corner = virtual_corner || ids[k] < 0;
+        }
+        if (!virtual_corner) triangles.insert(triangles.end(), ids, ids + 3);
+    }
+    return triangles;
 }
 
 }  // namespace pcl_rg

@@ -7,7 +7,7 @@
 //   3. the seed of a block is its lowest point (ties: lowest index);
 //   4. p, q of one block are linked when q lies in p's cell or one of the 8 around it and
 //      |z_p - z_q| <= S * d_xy(p, q) + t; ground is the seed's connected component.
-// Options measured on the ISPRS samples (benchmarks/ground_isprs.py), each off in the
+// Options measured on the ISPRS samples (benchmarks/studies/ground_isprs.py), each off in the
 // definition: a robust seed (the lowest point whose component is large enough, against
 // low outliers), growth across block borders, and Vosselman's slope filter as a
 // pre-filter (a point far above a neighbour is an object point and never links),
@@ -49,10 +49,10 @@ void validate(const GridGroundParams& params) {
         check::real("block_size", block, check::positive());
     for (const double cell : params.cell_size) check::real("cell_size", cell, check::positive());
     for (int a = 0; a < 2; ++a)
-        check::relation(params.cell_size[a] <= params.block_size[a], "cell_size",
-                        "<= block_size (" + check::format_value(params.block_size[a]) + ") on " +
-                            axis_name[a],
-                        params.cell_size[a]);
+        check::relation(
+            params.cell_size[a] <= params.block_size[a], "cell_size",
+            "<= block_size (" + check::format_value(params.block_size[a]) + ") on " + axis_name[a],
+            params.cell_size[a]);
     check::real("slope", params.slope, check::non_negative());
     check::real("height_tolerance", params.height_tolerance, check::non_negative());
     check::integer("min_seed_component", params.min_seed_component, check::at_least(1));
@@ -81,7 +81,7 @@ std::int64_t grid_index(double local, double size) {
 // paths, so every pointer ever seen joins two members of one set. The partition at the
 // end is the same whatever the interleaving; only the representatives may differ.
 class ConcurrentDisjointSets {
-public:
+   public:
     explicit ConcurrentDisjointSets(std::size_t n) : parent_(n) {}
 
     void reset() {
@@ -117,7 +117,7 @@ public:
         }
     }
 
-private:
+   private:
     std::vector<std::atomic<std::uint32_t>> parent_;
 };
 
@@ -134,7 +134,7 @@ struct CellGrid {
     std::vector<std::uint32_t> cell;   // cell number of each position
     std::vector<std::size_t> start;    // positions of cell c: [start[c], start[c + 1])
     std::size_t blocks = 0;
-    std::vector<std::size_t> block_start;    // members of block b: block_member[
+    std::vector<std::size_t> block_start;     // members of block b: block_member[
     std::vector<std::uint32_t> block_member;  //   block_start[b] .. block_start[b + 1])
     // Cell numbering: dense c = cy * width + cx, or the index in `occupied` (sorted).
     bool dense = true;
@@ -238,7 +238,7 @@ CellGrid build_grid(PointsView points, const GridGroundParams& params,
     grid.cell.resize(n);
     // The gathers miss the cache too: in blocks of points, polled once each.
     constexpr std::ptrdiff_t kBlock = 4096;
-#pragma omp parallel for schedule(guided) if (parallel)
+#pragma omp parallel for schedule(guided) if (parallel) firstprivate(interruption)
     for (std::ptrdiff_t b = 0; b < (count + kBlock - 1) / kBlock; ++b) {
         if (interruption.requested()) continue;
         for (std::ptrdiff_t s = b * kBlock; s < std::min(count, (b + 1) * kBlock); ++s) {
@@ -258,9 +258,9 @@ CellGrid build_grid(PointsView points, const GridGroundParams& params,
         grid.blocks = static_cast<std::size_t>(nbx * nby);
 #pragma omp parallel for schedule(guided) if (parallel)
         for (std::ptrdiff_t s = 0; s < count; ++s)
-            grid.block[s] = static_cast<std::uint32_t>(
-                grid_index(grid.p[s].y, params.block_size[1]) * nbx +
-                grid_index(grid.p[s].x, params.block_size[0]));
+            grid.block[s] =
+                static_cast<std::uint32_t>(grid_index(grid.p[s].y, params.block_size[1]) * nbx +
+                                           grid_index(grid.p[s].x, params.block_size[0]));
     } else {
         std::vector<std::pair<std::int64_t, std::int64_t>> block(n);
 #pragma omp parallel for schedule(guided) if (parallel)
@@ -317,7 +317,7 @@ void slope_filter(const CellGrid& grid, const GridGroundParams& params,
         lowest[c] = low;
     }
     const Interruption interruption;
-#pragma omp parallel for schedule(dynamic, 256) if (parallel)
+#pragma omp parallel for schedule(dynamic, 256) if (parallel) firstprivate(interruption)
     for (std::ptrdiff_t c = 0; c < cells; ++c) {
         if (interruption.requested()) continue;
         std::ptrdiff_t around[9];
@@ -364,7 +364,7 @@ void for_each_candidate(const CellGrid& grid, const std::vector<unsigned char>& 
                         bool parallel, Visit visit) {
     const auto blocks = static_cast<std::ptrdiff_t>(grid.blocks);
     const Interruption interruption;
-#pragma omp parallel for schedule(dynamic, 1) if (parallel)
+#pragma omp parallel for schedule(dynamic, 1) if (parallel) firstprivate(interruption)
     for (std::ptrdiff_t b = 0; b < blocks; ++b) {
         std::ptrdiff_t around[9];
         int k = 0;
@@ -403,16 +403,16 @@ void label_components(const CellGrid& grid, const GridGroundParams& params,
                linked(grid, s, q, slope, tolerance);
     };
     sets.reset();
-    for_each_candidate(grid, candidate, parallel,
-                       [&](std::size_t s, const std::ptrdiff_t* around, int k) {
-        int links = 0;
-        for (int a = 0; a < k && links < 2; ++a)
-            for (std::size_t q = grid.start[around[a]]; q < grid.start[around[a] + 1]; ++q)
-                if (q != s && joinable(s, q)) {
-                    sets.unite(static_cast<std::uint32_t>(s), static_cast<std::uint32_t>(q));
-                    if (++links == 2) break;
-                }
-    });
+    for_each_candidate(
+        grid, candidate, parallel, [&](std::size_t s, const std::ptrdiff_t* around, int k) {
+            int links = 0;
+            for (int a = 0; a < k && links < 2; ++a)
+                for (std::size_t q = grid.start[around[a]]; q < grid.start[around[a] + 1]; ++q)
+                    if (q != s && joinable(s, q)) {
+                        sets.unite(static_cast<std::uint32_t>(s), static_cast<std::uint32_t>(q));
+                        if (++links == 2) break;
+                    }
+        });
     std::vector<std::uint32_t> root(n);
     const auto count = static_cast<std::ptrdiff_t>(n);
 #pragma omp parallel for schedule(guided) if (parallel)
@@ -422,12 +422,13 @@ void label_components(const CellGrid& grid, const GridGroundParams& params,
         // from its smaller position.
         for_each_candidate(grid, candidate, parallel,
                            [&](std::size_t s, const std::ptrdiff_t* around, int k) {
-            for (int a = 0; a < k; ++a)
-                for (std::size_t q = std::max(grid.start[around[a]], s + 1);
-                     q < grid.start[around[a] + 1]; ++q)
-                    if (root[q] != root[s] && joinable(s, q))
-                        sets.unite(static_cast<std::uint32_t>(s), static_cast<std::uint32_t>(q));
-        });
+                               for (int a = 0; a < k; ++a)
+                                   for (std::size_t q = std::max(grid.start[around[a]], s + 1);
+                                        q < grid.start[around[a] + 1]; ++q)
+                                       if (root[q] != root[s] && joinable(s, q))
+                                           sets.unite(static_cast<std::uint32_t>(s),
+                                                      static_cast<std::uint32_t>(q));
+                           });
         return;
     }
     std::vector<std::uint32_t> sample;
@@ -438,17 +439,18 @@ void label_components(const CellGrid& grid, const GridGroundParams& params,
     std::uint32_t giant = kNone;
     std::size_t best = 0;
     for (std::size_t i = 0, j; i < sample.size(); i = j) {
-        for (j = i; j < sample.size() && sample[j] == sample[i]; ++j) {}
+        for (j = i; j < sample.size() && sample[j] == sample[i]; ++j) {
+        }
         if (j - i > best) best = j - i, giant = sample[i];
     }
-    for_each_candidate(grid, candidate, parallel,
-                       [&](std::size_t s, const std::ptrdiff_t* around, int k) {
-        if (root[s] == giant) return;
-        for (int a = 0; a < k; ++a)
-            for (std::size_t q = grid.start[around[a]]; q < grid.start[around[a] + 1]; ++q)
-                if (root[q] != root[s] && joinable(s, q))
-                    sets.unite(static_cast<std::uint32_t>(s), static_cast<std::uint32_t>(q));
-    });
+    for_each_candidate(
+        grid, candidate, parallel, [&](std::size_t s, const std::ptrdiff_t* around, int k) {
+            if (root[s] == giant) return;
+            for (int a = 0; a < k; ++a)
+                for (std::size_t q = grid.start[around[a]]; q < grid.start[around[a] + 1]; ++q)
+                    if (root[q] != root[s] && joinable(s, q))
+                        sets.unite(static_cast<std::uint32_t>(s), static_cast<std::uint32_t>(q));
+        });
 }
 
 // Steps 3 and 4 on the candidates: components of the link graph, one seed per block,
@@ -463,8 +465,7 @@ void grow(const CellGrid& grid, const GridGroundParams& params,
     poll_interrupt();
     std::vector<std::uint32_t> root(n);
 #pragma omp parallel for schedule(guided) if (parallel)
-    for (std::ptrdiff_t s = 0; s < count; ++s)
-        root[s] = sets.find(static_cast<std::uint32_t>(s));
+    for (std::ptrdiff_t s = 0; s < count; ++s) root[s] = sets.find(static_cast<std::uint32_t>(s));
     std::vector<std::uint32_t> size(n, 0);
     for (std::size_t s = 0; s < n; ++s)
         if (candidate[s]) ++size[root[s]];
@@ -492,8 +493,7 @@ void grow(const CellGrid& grid, const GridGroundParams& params,
     for (const std::uint32_t s : seed)
         if (s != kNone) seeded[root[s]] = 1;
 #pragma omp parallel for schedule(guided) if (parallel)
-    for (std::ptrdiff_t s = 0; s < count; ++s)
-        ground[s] = candidate[s] && seeded[root[s]] ? 1 : 0;
+    for (std::ptrdiff_t s = 0; s < count; ++s) ground[s] = candidate[s] && seeded[root[s]] ? 1 : 0;
 }
 
 }  // namespace

@@ -17,8 +17,8 @@ std::vector<std::uint8_t> lzf_decompress(const std::uint8_t* data, std::size_t s
     std::vector<std::uint8_t> out(expected_size);
     if (expected_size == 0) return out;
     // liblzf checks every back reference and output bound, so corrupt input gives 0.
-    const unsigned int written = ::lzf_decompress(data, static_cast<unsigned int>(size),
-                                                  out.data(), static_cast<unsigned int>(expected_size));
+    const unsigned int written = ::lzf_decompress(data, static_cast<unsigned int>(size), out.data(),
+                                                  static_cast<unsigned int>(expected_size));
     if (written != expected_size)
         throw std::invalid_argument("corrupt LZF data: expected " + std::to_string(expected_size) +
                                     " bytes, decompressed " + std::to_string(written));

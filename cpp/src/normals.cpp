@@ -23,9 +23,7 @@
 
 namespace pcl_rg {
 
-void validate(const NormalsParams& params) {
-    check::integer("k", params.k, check::at_least(3));
-}
+void validate(const NormalsParams& params) { check::integer("k", params.k, check::at_least(3)); }
 
 namespace {
 
@@ -133,7 +131,7 @@ std::vector<std::uint32_t> neighbour_lists(PointsView points, const NormalsParam
     std::vector<std::uint32_t> lists(n * k);
     const Interruption interruption;
     interruption.check_now();
-#pragma omp parallel
+#pragma omp parallel firstprivate(interruption)
     {
         std::vector<float> sqdist(k);
 #pragma omp for schedule(dynamic, 1024)
@@ -161,7 +159,7 @@ void normals(PointsView points, const NormalsParams& params, const NormalsOutput
     const Interruption interruption;
     interruption.check_now();
 
-#pragma omp parallel
+#pragma omp parallel firstprivate(interruption)
     {
         std::vector<std::uint32_t> own_index(k);
         std::vector<float> sqdist(k);

@@ -121,8 +121,8 @@ void grow_regions(std::size_t n, std::size_t k, const std::uint32_t* neighbours,
     std::vector<std::int32_t> label_of_region(region_size.size(), -1);
     std::vector<char> kept(region_size.size());
     for (std::size_t r = 0; r < region_size.size(); ++r)
-        kept[r] = region_size[r] >= params.min_cluster_size &&
-                  region_size[r] <= params.max_cluster_size;
+        kept[r] =
+            region_size[r] >= params.min_cluster_size && region_size[r] <= params.max_cluster_size;
     std::int32_t next = 0;
     for (std::size_t i = 0; i < n; ++i) {
         const std::int32_t r = region[i];
@@ -184,8 +184,8 @@ RegionGrowingTimings region_growing(PointsView points, const RegionGrowingParams
             case SeedMeasure::curvedness:
                 // (k1^2 + k2^2) / 2 = H^2 + max(H^2 - K, 0): the same value without the
                 // square root of k1,2, whose rounding is amplified near umbilics (k1 = k2).
-                measure[i] = std::sqrt(mean[i] * mean[i] +
-                                       std::max(mean[i] * mean[i] - gaussian[i], 0.0));
+                measure[i] =
+                    std::sqrt(mean[i] * mean[i] + std::max(mean[i] * mean[i] - gaussian[i], 0.0));
                 break;
             case SeedMeasure::gaussian:
                 measure[i] = std::abs(gaussian[i]);

@@ -27,7 +27,7 @@ void radix_pass(std::size_t n, DigitOf digit_of, Move move, std::size_t buckets,
     const auto chunk_begin = [&](std::ptrdiff_t c) {
         return n * static_cast<std::size_t>(c) / static_cast<std::size_t>(chunks);
     };
-#pragma omp parallel if (chunks > 1)
+#pragma omp parallel if (chunks > 1) firstprivate(interruption)
     {
 #pragma omp for schedule(static)
         for (std::ptrdiff_t c = 0; c < chunks; ++c) {

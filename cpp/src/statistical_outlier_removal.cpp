@@ -61,7 +61,7 @@ StatisticalOutlierRemovalResult statistical_outlier_removal(
     result.mean_distance.resize(n);
     const std::size_t k = mean_k + 1;  // the query point comes back as its own neighbour
 
-#pragma omp parallel
+#pragma omp parallel firstprivate(interruption)
     {
         std::vector<std::uint32_t> nn_index(k);
         std::vector<float> nn_sqdist(k);

@@ -141,7 +141,7 @@ std::vector<double> square_filter(const std::vector<double>& a, std::int64_t ncx
     std::vector<double> along_y(a.size(), none), out(a.size(), none);
     // A window of r cells per side: polled once per column, which can take a while.
     const Interruption interruption;
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) firstprivate(interruption)
     for (std::int64_t x = 0; x < ncx; ++x) {
         if (interruption.requested()) continue;
         for (std::int64_t y = 0; y < ncy; ++y) {
@@ -153,7 +153,7 @@ std::vector<double> square_filter(const std::vector<double>& a, std::int64_t ncx
         }
     }
     interruption.check();
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) firstprivate(interruption)
     for (std::int64_t x = 0; x < ncx; ++x) {
         if (interruption.requested()) continue;
         for (std::int64_t y = 0; y < ncy; ++y) {
@@ -175,7 +175,7 @@ std::vector<double> rank_filter(const std::vector<double>& a, std::int64_t ncx, 
     const double none = std::numeric_limits<double>::infinity();
     std::vector<double> out(a.size(), none);
     const Interruption interruption;
-#pragma omp parallel
+#pragma omp parallel firstprivate(interruption)
     {
         std::vector<double> window;
 #pragma omp for schedule(static)
@@ -472,7 +472,7 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& params, bool
     // In blocks polled once each: the gathers miss the cache, the sweep takes a while.
     constexpr std::size_t kBlock = 4096;
     const auto blocks = static_cast<std::ptrdiff_t>((n + kBlock - 1) / kBlock);
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) firstprivate(interruption)
     for (std::ptrdiff_t b = 0; b < blocks; ++b) {
         if (interruption.requested()) continue;
         const std::size_t begin = static_cast<std::size_t>(b) * kBlock;
@@ -551,7 +551,7 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& params, bool
         std::exception_ptr failure;
         const auto m = static_cast<std::ptrdiff_t>(work.size());
         constexpr std::ptrdiff_t kChunk = 1024;  // tests per chunk, shared dynamically
-#pragma omp parallel if (m > 4096)
+#pragma omp parallel if (m > 4096) firstprivate(interruption)
         {
             std::int32_t last = 0;
 #pragma omp for schedule(dynamic, 1)

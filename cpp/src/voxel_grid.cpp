@@ -11,10 +11,6 @@
 //     (summed in float64) are the same on every run.
 #include "pcl_rg/voxel_grid.hpp"
 
-#include "pcl_rg/check.hpp"
-#include "pcl_rg/interrupt.hpp"
-#include "pcl_rg/spatial_order.hpp"
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -22,6 +18,10 @@
 #include <stdexcept>
 #include <string>
 #include <tuple>
+
+#include "pcl_rg/check.hpp"
+#include "pcl_rg/interrupt.hpp"
+#include "pcl_rg/spatial_order.hpp"
 
 namespace pcl_rg {
 
@@ -81,8 +81,10 @@ VoxelGridResult voxel_grid(PointsView points, const VoxelGridParams& params,
         const double limit = 0x1p62;
         if (std::abs(lo[a] / params.leaf_size[a]) >= limit ||
             std::abs(hi[a] / params.leaf_size[a]) >= limit)
-            throw std::invalid_argument("leaf_size is too small for the coordinates: voxel indices "
-                                        "exceed 2^62 on axis " + std::to_string(a));
+            throw std::invalid_argument(
+                "leaf_size is too small for the coordinates: voxel indices "
+                "exceed 2^62 on axis " +
+                std::to_string(a));
         range[a].low = voxel_index(lo[a], params.leaf_size[a]);
         range[a].cells =
             static_cast<std::uint64_t>(voxel_index(hi[a], params.leaf_size[a]) - range[a].low) + 1;
@@ -99,8 +101,9 @@ VoxelGridResult voxel_grid(PointsView points, const VoxelGridParams& params,
         return cell[0] + range[0].cells * (cell[1] + range[1].cells * cell[2]);
     };
     const int id_bits = std::max(1, bit_width(n - 1));
-    const int key_bits =
-        total <= std::numeric_limits<std::uint64_t>::max() ? bit_width(static_cast<std::uint64_t>(total - 1)) : 65;
+    const int key_bits = total <= std::numeric_limits<std::uint64_t>::max()
+                             ? bit_width(static_cast<std::uint64_t>(total - 1))
+                             : 65;
 
     std::vector<std::uint32_t> order(n);
     std::vector<std::uint64_t> keys(n);
@@ -131,7 +134,8 @@ VoxelGridResult voxel_grid(PointsView points, const VoxelGridParams& params,
         // directly, then number the distinct triples as keys.
         std::vector<std::array<std::int64_t, 3>> cell(n);
         for (std::size_t i = 0; i < n; ++i)
-            for (int a = 0; a < 3; ++a) cell[i][a] = voxel_index(points.coord(i, a), params.leaf_size[a]);
+            for (int a = 0; a < 3; ++a)
+                cell[i][a] = voxel_index(points.coord(i, a), params.leaf_size[a]);
         std::iota(order.begin(), order.end(), 0u);
         std::stable_sort(order.begin(), order.end(), [&](std::uint32_t p, std::uint32_t q) {
             return std::tie(cell[p][2], cell[p][1], cell[p][0]) <
@@ -165,7 +169,7 @@ VoxelGridResult voxel_grid(PointsView points, const VoxelGridParams& params,
     result.counts.assign(static_cast<std::size_t>(kept), 0);
     // Blocks of runs, polled once each (the gathers miss the cache).
     constexpr std::size_t kBlock = 4096;
-#pragma omp parallel for schedule(dynamic, 1)
+#pragma omp parallel for schedule(dynamic, 1) firstprivate(interruption)
     for (std::ptrdiff_t b = 0; b < static_cast<std::ptrdiff_t>((runs + kBlock - 1) / kBlock); ++b) {
         if (interruption.requested()) continue;
         const std::size_t block_end = std::min(runs, (static_cast<std::size_t>(b) + 1) * kBlock);

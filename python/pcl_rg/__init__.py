@@ -26,8 +26,6 @@ _NAMES = {
     "normals": "_normals",
     "RegionGrowingParams": "_region_growing",
     "region_growing": "_region_growing",
-    "RegionGrowingPclParams": "_region_growing_pcl",
-    "region_growing_pcl": "_region_growing_pcl",
     "StatisticalOutlierRemovalParams": "_statistical_outlier_removal",
     "statistical_outlier_removal": "_statistical_outlier_removal",
     "TinGroundParams": "_tin_ground",
@@ -38,7 +36,7 @@ _NAMES = {
     "Diagnostics": "_diagnostics",
     "collect_diagnostics": "_diagnostics",
 }
-_SUBMODULES = ("datasets", "demo", "evaluation", "io", "pipeline", "plot", "reference")
+_SUBMODULES = ("datasets", "demo", "evaluation", "io", "pcl", "pipeline", "plot", "reference")
 
 __all__ = sorted([*_NAMES, *_SUBMODULES])
 
@@ -59,12 +57,11 @@ def __dir__() -> list[str]:
 
 
 if TYPE_CHECKING:  # what type checkers and IDEs see; nothing runs here
-    from . import datasets, demo, evaluation, io, pipeline, plot, reference
+    from . import datasets, demo, evaluation, io, pcl, pipeline, plot, reference
     from ._diagnostics import Diagnostics, collect_diagnostics
     from ._grid_ground import GridGroundParams, grid_ground
     from ._normals import NormalsParams, NormalsResult, normals
     from ._region_growing import RegionGrowingParams, region_growing
-    from ._region_growing_pcl import RegionGrowingPclParams, region_growing_pcl
     from ._statistical_outlier_removal import (
         StatisticalOutlierRemovalParams,
         statistical_outlier_removal,

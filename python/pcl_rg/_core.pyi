@@ -19,14 +19,6 @@ def voxel_grid(
 def statistical_outlier_removal(
     points: npt.NDArray[np.float64], params: StatisticalOutlierRemovalParams
 ) -> tuple[npt.NDArray[np.bool_], npt.NDArray[np.float32], float]: ...
-def pcl_voxel_grid(
-    points: npt.NDArray[np.float64], origin: npt.NDArray[np.float64], params: VoxelGridParams
-) -> npt.NDArray[np.float64]: ...
-def pcl_statistical_outlier_removal(
-    points: npt.NDArray[np.float64],
-    origin: npt.NDArray[np.float64],
-    params: StatisticalOutlierRemovalParams,
-) -> npt.NDArray[np.bool_]: ...
 def lzf_decompress(data: bytes, expected_size: int) -> bytes: ...
 def lzf_compress(data: bytes) -> bytes: ...
 
@@ -44,18 +36,6 @@ class GridGroundParams:
 
 def grid_ground(
     points: npt.NDArray[np.float64], params: GridGroundParams
-) -> npt.NDArray[np.bool_]: ...
-def pcl_progressive_morphological_filter(
-    points: npt.NDArray[np.float64],
-    origin: npt.NDArray[np.float64],
-    *,
-    max_window_size: int = 20,
-    slope: float = 1.0,
-    initial_distance: float = 0.5,
-    max_distance: float = 3.0,
-    cell_size: float = 1.0,
-    base: float = 2.0,
-    exponential: bool = True,
 ) -> npt.NDArray[np.bool_]: ...
 
 class TinGroundParams:
@@ -87,7 +67,7 @@ class DelaunayTin:
 
 def delaunay_triangulate(xy: npt.NDArray[np.float64]) -> npt.NDArray[np.int64]: ...
 
-# --- normals, region growing (region_growing.hpp) and the PCL baseline ---------------
+# --- normals, region growing (region_growing.hpp) -----------------------------------
 
 QUADRIC_CONDITION_LIMIT: float
 
@@ -137,17 +117,3 @@ def grow_regions(
     measure: npt.NDArray[np.float64],
     params: RegionGrowingParams,
 ) -> npt.NDArray[np.int32]: ...
-
-class RegionGrowingPclParams:
-    k: int
-    smoothness_deg: float
-    curvature_threshold: float
-    min_cluster_size: int
-    max_cluster_size: int
-    def __init__(self) -> None: ...
-
-def region_growing_pcl(
-    points: npt.NDArray[np.float64], params: RegionGrowingPclParams
-) -> tuple[
-    npt.NDArray[np.int32], npt.NDArray[np.float32], npt.NDArray[np.float32], float, float
-]: ...

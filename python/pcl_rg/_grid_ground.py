@@ -20,7 +20,7 @@ class GridGroundParams:
     """Parameters of :func:`grid_ground` (mirrors ``pcl_rg::GridGroundParams``).
 
     The defaults are the :meth:`isprs` preset, chosen once by the mean total
-    error over the seven ISPRS samples (``benchmarks/ground_isprs.py --search``),
+    error over the seven ISPRS samples (``benchmarks/studies/ground_isprs.py --search``),
     not tuned per sample. :meth:`definition` gives the plain rule of the seed
     (algorithms.md section 3), with the three options off.
     """
@@ -81,7 +81,7 @@ class GridGroundParams:
     def isprs(cls, **overrides: Any) -> GridGroundParams:
         """The defaults: one set chosen on the seven ISPRS samples (mean total error).
 
-        Chosen by ``benchmarks/ground_isprs.py --search``; the three options of
+        Chosen by ``benchmarks/studies/ground_isprs.py --search``; the three options of
         the filter are on. `overrides` replace single fields.
 
         Examples
@@ -157,10 +157,11 @@ def grid_ground(
     filter_passes : int, optional
         Passes of a slope pre-filter (>= 0; 0 = off, as in the definition).
         Default 3.
-    filter_slope, filter_tolerance : float, optional
+    filter_slope : float, optional
         The pre-filter drops a point lying higher than a point of its 3 x 3
-        cells by more than ``filter_slope * d + filter_tolerance``. Defaults
-        1.0 and 0.3 m.
+        cells by more than ``filter_slope * d + filter_tolerance``. Default 1.
+    filter_tolerance : float, optional
+        Metres; see `filter_slope`. Default 0.3 m.
     params : GridGroundParams, optional
         All parameters at once (defaults: the ``isprs`` preset); keywords given
         explicitly override it. ``GridGroundParams.definition()`` is the plain
@@ -199,7 +200,7 @@ def grid_ground(
        object.
 
     Options, measured on the ISPRS samples and on by default (each lowers
-    the mean total error there; ``benchmarks/ground_isprs.py``):
+    the mean total error there; ``benchmarks/studies/ground_isprs.py``):
 
     * ``min_seed_component = m > 1``: the seed is the lowest point whose
       component has at least m points, so low outliers (isolated below the
@@ -220,7 +221,7 @@ def grid_ground(
     parallel with OpenMP and the GIL released) equals the NumPy/SciPy
     reference :func:`pcl_rg.reference.grid_ground` point for point. No PCL
     class implements this filter; ``pcl::ProgressiveMorphologicalFilter`` is
-    the baseline of ``benchmarks/ground_isprs.py``.
+    the baseline of ``benchmarks/studies/ground_isprs.py``.
 
     References
     ----------

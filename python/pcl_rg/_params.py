@@ -38,6 +38,7 @@ __all__ = [
     "resolve",
     "spec_of",
     "to_core",
+    "unit_of",
 ]
 
 P = TypeVar("P")
@@ -129,6 +130,12 @@ def param(
 def spec_of(field: dataclasses.Field[Any]) -> Spec:
     """The :class:`Spec` a field was declared with."""
     return field.metadata[_SPEC]
+
+
+def unit_of(field: dataclasses.Field[Any]) -> str:
+    """The unit a field was declared with ("" when none, or not a :func:`param`)."""
+    spec = field.metadata.get(_SPEC)
+    return spec.unit if spec is not None else ""
 
 
 def format_value(value: Any) -> str:

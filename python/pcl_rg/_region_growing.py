@@ -162,7 +162,7 @@ def region_growing(
     The defaults (k 15, 16 degrees, curvedness <= 80 1/m, 20 points) were
     chosen by a grid search on the seven mOSD learn scenes (Kinect, about 1 m
     away), each after voxel grids of 3 to 8 mm, for the highest pooled mean
-    IoU (``benchmarks/compare_region_growing.py --grid``). Curvatures scale
+    IoU (``benchmarks/studies/region_growing_mosd.py --grid``). Curvatures scale
     as 1 / length: for other data, scale the threshold accordingly.
 
     ``seed_measure="concavity"`` is an option beyond the seed's definition:
@@ -174,7 +174,7 @@ def region_growing(
     raises the mean IoU markedly (RESULTS.md). Its seeds with measure 0 (flat
     or convex points) are taken in index order.
 
-    Against ``pcl::RegionGrowing`` (see :func:`pcl_rg.region_growing_pcl`),
+    Against ``pcl::RegionGrowing`` (see :func:`pcl_rg.pcl.region_growing`),
     the growth is the same; the differences are the seed measure, a total seed
     order (PCL's unstable sort leaves equal curvatures in unspecified order),
     float64 normals, and one neighbour search shared by the normals and the

@@ -54,8 +54,7 @@ class TinGroundParams:
         1.4,
         above=0.0,
         unit="m",
-        help="largest distance from a point to its triangle's plane (LiDAR360 Iteration "
-        "Distance)",
+        help="largest distance from a point to its triangle's plane (LiDAR360 Iteration Distance)",
     )
     reduce_angle_edge: float = param(
         0.01,
@@ -89,7 +88,10 @@ class TinGroundParams:
         "window (dense seeds, none on roofs; after Zhao et al. 2016)",
     )
     seed_tolerance: float = param(
-        0.5, minimum=0.0, unit="m", help="height above the opened surface a seed may lie (with seed_cell)"
+        0.5,
+        minimum=0.0,
+        unit="m",
+        help="height above the opened surface a seed may lie (with seed_cell)",
     )
     outlier_depth: float = param(
         5.0,
@@ -106,7 +108,7 @@ class TinGroundParams:
     def isprs(cls, **overrides: Any) -> TinGroundParams:
         """The defaults: one set chosen on the seven ISPRS samples (mean total error).
 
-        Chosen by ``benchmarks/tin_isprs_params.py``; the scores are in
+        Chosen by ``benchmarks/studies/tin_isprs_params.py``; the scores are in
         ``benchmarks/RESULTS.md``. Against :meth:`lidar360` it switches the angle
         reduction off (no ISPRS triangle has a longest edge under 1 cm), stops
         densifying below 1 m edges instead of 2 m, and switches the three

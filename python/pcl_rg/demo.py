@@ -18,15 +18,18 @@ from typing import Any
 import numpy as np
 
 from . import datasets
-from .evaluation import ground_errors
-from .io import write_points
 from ._grid_ground import grid_ground
-from .pipeline import seed004
 from ._region_growing import RegionGrowingParams, region_growing
-from ._region_growing_pcl import region_growing_pcl
-from ._statistical_outlier_removal import StatisticalOutlierRemovalParams, statistical_outlier_removal
+from ._statistical_outlier_removal import (
+    StatisticalOutlierRemovalParams,
+    statistical_outlier_removal,
+)
 from ._tin_ground import TinGroundParams, tin_ground
 from ._voxel_grid import VoxelGridParams, voxel_grid
+from .evaluation import ground_errors
+from .io import write_points
+from .pcl import region_growing as region_growing_pcl
+from .pipeline import seed004
 
 __all__ = ["DemoReport", "run_demo"]
 

@@ -9,13 +9,13 @@ from typing import NamedTuple
 import numpy as np
 import numpy.typing as npt
 
-from ._validation import MAX_POINTS_UINT32, as_points
 from ._diagnostics import collect_diagnostics
 from ._region_growing import RegionGrowingParams, region_growing
 from ._statistical_outlier_removal import (
     StatisticalOutlierRemovalParams,
     statistical_outlier_removal,
 )
+from ._validation import MAX_POINTS_UINT32, as_points
 from ._voxel_grid import VoxelGridParams, voxel_grid
 
 __all__ = ["PipelineReport", "Seed004Result", "StageReport", "seed004"]

@@ -127,4 +127,31 @@ class Delaunay {
     std::int32_t stamp_ = 0;
 };
 
+/// A Delaunay TIN over the box [lower, upper] (metres) with the GridFrame that snaps to
+/// it: the triangulation driven point by point, as tests of the triangulation use it.
+struct DelaunayTin {
+    GridFrame frame;
+    double upper_x, upper_y;  ///< the box's upper corner (m)
+    Delaunay tin;
+    std::int32_t last = 0;  ///< where the next walk starts
+
+    /// Throws std::invalid_argument when the bounds are not finite or not ordered.
+    DelaunayTin(double lower_x, double lower_y, double upper_x, double upper_y);
+
+    /// Grid coordinates (2 * m, x and y interleaved) of the m rows of `xy` (x, y in
+    /// metres); throws std::invalid_argument naming the first row outside the bounds.
+    std::vector<std::int32_t> to_grid(const double* xy, std::size_t m) const;
+    /// Inserts the m grid points of `grid` in order; `vertex` (m) receives the vertex id
+    /// of each (an existing one for a duplicate).
+    void insert(const std::int32_t* grid, std::size_t m, std::int32_t* vertex);
+    /// `triangle` (m) receives the triangle holding each grid point, perturbed by
+    /// (eps, eps^2) (see Delaunay::locate). Polls for interruption.
+    void locate(const std::int32_t* grid, std::size_t m, std::int32_t* triangle) const;
+};
+
+/// Delaunay triangles (3 * T) of the n points `xy` (x, y interleaved, metres), as
+/// counter-clockwise row indices (duplicates: the first row), without the triangles of
+/// the virtual box corners. Points are inserted in Morton order; polls for interruption.
+std::vector<std::int64_t> delaunay_triangulate(const double* xy, std::size_t n);
+
 }  // namespace pcl_rg

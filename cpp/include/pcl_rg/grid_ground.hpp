@@ -9,7 +9,7 @@
 namespace pcl_rg {
 
 /// Defaults were chosen once by the mean total error over the seven ISPRS samples
-/// (benchmarks/ground_isprs.py --search). The definition of algorithms.md section 3 is
+/// (benchmarks/studies/ground_isprs.py --search). The definition of algorithms.md section 3 is
 /// min_seed_component = 1, grow_across_blocks = false, filter_passes = 0, and its pure
 /// slope rule height_tolerance = 0.
 struct GridGroundParams {

@@ -9,8 +9,13 @@
 //   * inside an OpenMP region nothing throws: every thread polls the shared flag and
 //     skips its remaining iterations once a stop was seen, and after the region the
 //     calling thread throws Interrupted (Interruption::check);
-//   * serial loops call check() directly; a poll between stages, which may be seconds
-//     apart (PCL's classes cannot be polled inside), is poll_interrupt().
+//   * each thread of a region polls its own copy of the Interruption
+//     (firstprivate(interruption)): the original sits on the calling thread's stack,
+//     in cache lines that thread keeps writing;
+//   * serial loops call check() directly; loops of a few nanoseconds per iteration poll
+//     once per block of iterations; a poll between stages, which may be seconds apart
+//     (PCL's classes and nanoflann's tree build cannot be polled inside), is check_now()
+//     or poll_interrupt().
 #pragma once
 
 #include <atomic>

@@ -11,11 +11,10 @@
 #ifndef NANOFLANN_FIRST_MATCH
 #define NANOFLANN_FIRST_MATCH
 #endif
-#include <nanoflann.hpp>
-
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <nanoflann.hpp>
 
 namespace pcl_rg {
 

@@ -22,7 +22,7 @@ struct VoxelGridParams {
 void validate(const VoxelGridParams& params);
 
 struct VoxelGridResult {
-    std::vector<double> centroids;  ///< 3 per kept voxel, mean of its points (caller's frame)
+    std::vector<double> centroids;     ///< 3 per kept voxel, mean of its points (caller's frame)
     std::vector<std::int64_t> counts;  ///< points per kept voxel
 };
 

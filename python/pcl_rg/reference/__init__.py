@@ -2,7 +2,15 @@
 
 Slow but short and readable: each follows the definition in the project's
 algorithms document line by line, and the tests hold the C++ core to it.
+They need SciPy, the ``reference`` extra: ``pip install 'pcl_rg[reference]'``.
 """
+
+try:
+    import scipy  # noqa: F401  (checked here, used by the modules below)
+except ImportError as error:  # pragma: no cover - depends on the environment
+    raise ImportError(
+        "pcl_rg.reference needs SciPy: pip install 'pcl_rg[reference]'"
+    ) from error
 
 from .grid_ground import grid_ground
 from .normals import normals

@@ -10,9 +10,9 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
+from .._grid_ground import GridGroundParams
 from .._params import resolve
 from .._validation import as_points
-from .._grid_ground import GridGroundParams
 
 __all__ = ["GridNeighbours", "grid_ground", "grid_neighbours"]
 

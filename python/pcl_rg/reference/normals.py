@@ -6,9 +6,9 @@ import numpy as np
 import numpy.typing as npt
 from scipy.spatial import cKDTree
 
+from .._normals import NormalsParams, NormalsResult
 from .._params import resolve
 from .._validation import as_points
-from .._normals import NormalsParams, NormalsResult
 
 __all__ = ["neighbour_lists", "normals", "QUADRIC_CONDITION_LIMIT"]
 

@@ -7,10 +7,10 @@ import math
 import numpy as np
 import numpy.typing as npt
 
-from .._validation import as_points
 from .._normals import NormalsResult
 from .._params import resolve
 from .._region_growing import RegionGrowingParams
+from .._validation import as_points
 from .normals import neighbour_lists, normals
 
 __all__ = ["grow_regions", "measure_values", "region_growing", "seed_order"]

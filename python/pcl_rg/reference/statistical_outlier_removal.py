@@ -7,8 +7,8 @@ import numpy.typing as npt
 from scipy.spatial import cKDTree
 
 from .._params import resolve
-from .._validation import as_points
 from .._statistical_outlier_removal import StatisticalOutlierRemovalParams
+from .._validation import as_points
 
 __all__ = ["statistical_outlier_removal", "mean_neighbour_distance"]
 

@@ -20,8 +20,8 @@ from scipy import ndimage
 from scipy.spatial import Delaunay, cKDTree
 
 from .._params import resolve
-from .._validation import as_points
 from .._tin_ground import TinGroundParams
+from .._validation import as_points
 
 __all__ = ["grid_quantum", "locate", "tin_ground", "triangulate"]
 

@@ -1,0 +1,128 @@
+"""Speed of pcl_rg.tin_ground on a large synthetic scene, with its time split.
+
+Usage:
+    python benchmarks/speed/tin_ground.py [--points 10000000] [--repeats 3] [--write]
+
+The scene is pcl_rg.datasets.synthetic_scene at 4 points/m^2 (seed 0), sized for
+the requested number of points. Each parameter set (LiDAR360's defaults and
+TinGroundParams.isprs()) runs `repeats` times; the table gives the median
+wall time of the whole call (input check plus C++ core) and, from the core's own
+clocks in that run, the split between preparation (snapping, Morton sort, seeds),
+triangulation (Delaunay insertions, serial) and classification (point location and
+acceptance tests, parallel), with the work done and the errors against the scene's
+labels. --write puts the table in benchmarks/RESULTS.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import resource
+import statistics
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/_common.py
+from _common import machine, markdown_table, write_section  # noqa: E402
+
+import pcl_rg
+from pcl_rg.datasets import GROUND, synthetic_scene
+from pcl_rg.evaluation import ground_errors
+
+SECTION = "## tin_ground speed (synthetic scene)"
+DENSITY = 4.0
+
+
+def run_once(points: np.ndarray, params: pcl_rg.TinGroundParams) -> tuple[float, np.ndarray, dict]:
+    """pcl_rg.tin_ground's two steps, timed together: (seconds, ground, core stats)."""
+    start = time.perf_counter()
+    with pcl_rg.collect_diagnostics() as diagnostics:
+        ground = pcl_rg.tin_ground(points, params=params)
+    return time.perf_counter() - start, ground, diagnostics["tin_ground"]
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--points", type=int, default=10_000_000)
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--write", action="store_true", help="update RESULTS.md")
+    args = parser.parse_args(argv)
+
+    size = math.sqrt(args.points / DENSITY)
+    start = time.perf_counter()
+    scene = synthetic_scene(seed=0, size=size, density=DENSITY)
+    print(f"scene: {len(scene.points):,} points in {time.perf_counter() - start:.1f} s")
+    truth = scene.labels == GROUND
+    base_rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+
+    rows = []
+    for label, params in [
+        ("LiDAR360 defaults", pcl_rg.TinGroundParams.lidar360()),
+        ("tuned_isprs()", pcl_rg.TinGroundParams.isprs()),
+    ]:
+        runs = [run_once(scene.points, params) for _ in range(args.repeats)]
+        seconds = statistics.median(r[0] for r in runs)
+        _, ground, stats = min(runs, key=lambda r: abs(r[0] - seconds))
+        e = ground_errors(truth, ground)
+        rows.append(
+            [
+                label,
+                f"{seconds:.2f}",
+                f"{len(scene.points) / seconds / 1e6:.2f}",
+                f"{stats['prepare_seconds']:.2f}",
+                f"{stats['triangulation_seconds']:.2f}",
+                f"{stats['classification_seconds']:.2f}",
+                f"{stats['seeds']:,}",
+                f"{stats['tin_vertices']:,}",
+                str(stats["iterations"]),
+                f"{stats['tests'] / len(scene.points):.1f}",
+                f"{100 * e.type_i:.2f}",
+                f"{100 * e.type_ii:.2f}",
+            ]
+        )
+        print(" | ".join(rows[-1]), flush=True)
+    peak = (resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - base_rss) / 1024.0
+
+    header = [
+        "parameters",
+        "time s",
+        "M points/s",
+        "prepare s",
+        "triangulation s",
+        "classification s",
+        "seeds",
+        "TIN vertices",
+        "iterations",
+        "tests per point",
+        "Type I %",
+        "Type II %",
+    ]
+    command = (
+        "python benchmarks/speed/tin_ground.py"
+        + (f" --points {args.points}" if args.points != 10_000_000 else "")
+        + (" --write" if args.write else "")
+    )
+    threads = os.environ.get("OMP_NUM_THREADS", "all cores")
+    text = (
+        f"{SECTION}\n\n"
+        f"`{command}` on {machine()} (OpenMP threads: {threads}). "
+        f"synthetic_scene(seed=0, size={size:.1f}, density={DENSITY:g}): "
+        f"{len(scene.points):,} points. Median of {args.repeats} runs of the whole call; "
+        "the split comes from the core's clocks (prepare: local frame, snapping, Morton "
+        "sort, seeds; triangulation: Delaunay insertions, serial; classification: point "
+        "location and acceptance tests, in parallel). Tests per point: acceptance tests "
+        "evaluated, after skipping points whose triangle did not change. Peak memory "
+        f"added by the runs: {peak:.0f} MiB.\n\n" + markdown_table(header, rows) + "\n\n"
+    )
+    print(text)
+    if args.write:
+        write_section(text, SECTION)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

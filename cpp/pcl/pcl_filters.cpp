@@ -1,0 +1,126 @@
+// Thin wrappers over pcl::VoxelGrid and pcl::StatisticalOutlierRemoval (PCL 1.13),
+// the baselines of pcl_rg.pcl (see pcl_filters.hpp).
+#include "pcl_filters.hpp"
+
+#include <pcl/common/common.h>
+#include <pcl/filters/statistical_outlier_removal.h>
+#include <pcl/filters/voxel_grid.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <numeric>
+#include <stdexcept>
+#include <string>
+
+#include "pcl_cloud.hpp"
+#include "pcl_rg/interrupt.hpp"
+
+namespace pcl_rg {
+
+PclVoxelGridResult pcl_voxel_grid(PointsView points, const VoxelGridParams& params,
+                                  std::int64_t* voxel_of_point) {
+    validate(params);
+    PclVoxelGridResult result;
+    const std::size_t n = points.size;
+    if (n == 0) return result;
+    // The local origin snapped down to the voxel lattice: PCL anchors its grid at the
+    // origin of the frame it sees, so the voxels stay those of the caller's frame, as
+    // in pcl_rg::voxel_grid.
+    auto origin = local_origin(points);
+    for (int a = 0; a < 3; ++a)
+        origin[a] = std::floor(origin[a] / params.leaf_size[a]) * params.leaf_size[a];
+    // PCL's classes cannot be interrupted: polls between their stages only.
+    const auto cloud = to_pcl_cloud(points, origin);
+    poll_interrupt();
+
+    // PCL's own voxel expression (voxel_grid.hpp, applyFilter): float32 products with
+    // the float32 inverse leaf size, floored.
+    const float inverse[3] = {1.0f / static_cast<float>(params.leaf_size[0]),
+                              1.0f / static_cast<float>(params.leaf_size[1]),
+                              1.0f / static_cast<float>(params.leaf_size[2])};
+    // PCL's overflow refusal (warn, return the input) becomes an error here.
+    Eigen::Vector4f min_p, max_p;
+    pcl::getMinMax3D(*cloud, min_p, max_p);
+    std::int64_t voxels = 1;
+    for (int a = 0; a < 3; ++a)
+        voxels *= static_cast<std::int64_t>((max_p[a] - min_p[a]) * inverse[a]) + 1;
+    if (voxels > std::numeric_limits<std::int32_t>::max())
+        throw std::invalid_argument(
+            "leaf_size: pcl::VoxelGrid refuses more than 2^31 - 1 voxels in the bounding box, "
+            "got " +
+            std::to_string(voxels) + " (pcl_rg.voxel_grid has no such limit)");
+
+    pcl::VoxelGrid<pcl::PointXYZ> filter;
+    filter.setInputCloud(cloud);
+    filter.setLeafSize(static_cast<float>(params.leaf_size[0]),
+                       static_cast<float>(params.leaf_size[1]),
+                       static_cast<float>(params.leaf_size[2]));
+    filter.setMinimumPointsNumberPerVoxel(static_cast<unsigned int>(params.min_points_per_voxel));
+    pcl::PointCloud<pcl::PointXYZ> output;
+    filter.filter(output);
+    poll_interrupt();
+
+    // Voxel of each point, as (z, y, x) index triples: PCL sorts its voxels by
+    // x + y * dx + z * dx * dy, i.e. by z, then y, then x.
+    std::vector<std::array<std::int64_t, 3>> key(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        const pcl::PointXYZ& p = (*cloud)[i];
+        key[i] = {static_cast<std::int64_t>(std::floor(p.z * inverse[2])),
+                  static_cast<std::int64_t>(std::floor(p.y * inverse[1])),
+                  static_cast<std::int64_t>(std::floor(p.x * inverse[0]))};
+    }
+    std::vector<std::size_t> order(n);
+    std::iota(order.begin(), order.end(), std::size_t{0});
+    std::stable_sort(order.begin(), order.end(),
+                     [&](std::size_t a, std::size_t b) { return key[a] < key[b]; });
+    const auto min_points = static_cast<std::size_t>(params.min_points_per_voxel);
+    std::fill(voxel_of_point, voxel_of_point + n, -1);
+    for (std::size_t begin = 0; begin < n;) {
+        std::size_t end = begin + 1;
+        while (end < n && key[order[end]] == key[order[begin]]) ++end;
+        if (end - begin >= min_points) {
+            const auto row = static_cast<std::int64_t>(result.counts.size());
+            for (std::size_t j = begin; j < end; ++j) voxel_of_point[order[j]] = row;
+            result.counts.push_back(static_cast<std::int64_t>(end - begin));
+        }
+        begin = end;
+    }
+    if (result.counts.size() != output.size())  // PCL and the recount must agree
+        throw std::logic_error("pcl_voxel_grid: PCL returned " + std::to_string(output.size()) +
+                               " voxels, the recount found " +
+                               std::to_string(result.counts.size()));
+
+    result.centroids.resize(3 * output.size());
+    for (std::size_t i = 0; i < output.size(); ++i) {
+        result.centroids[3 * i + 0] = output[i].x + origin[0];
+        result.centroids[3 * i + 1] = output[i].y + origin[1];
+        result.centroids[3 * i + 2] = output[i].z + origin[2];
+    }
+    return result;
+}
+
+void pcl_statistical_outlier_removal(PointsView points,
+                                     const StatisticalOutlierRemovalParams& params, bool* inlier) {
+    validate(params);
+    std::fill(inlier, inlier + points.size, false);
+    if (points.size == 0) return;
+    // PCL reads past its neighbour buffers when mean_k >= N: refuse, as the core does.
+    if (static_cast<std::size_t>(params.mean_k) >= points.size)
+        throw std::invalid_argument("mean_k must be < the number of points (" +
+                                    std::to_string(points.size) + "), got " +
+                                    std::to_string(params.mean_k));
+    const auto cloud = to_pcl_cloud(points, local_origin(points));
+    poll_interrupt();
+    pcl::StatisticalOutlierRemoval<pcl::PointXYZ> filter;
+    filter.setInputCloud(cloud);
+    filter.setMeanK(params.mean_k);
+    filter.setStddevMulThresh(params.std_mul);
+    pcl::Indices kept;
+    filter.filter(kept);
+    poll_interrupt();
+    for (const auto i : kept) inlier[i] = true;
+}
+
+}  // namespace pcl_rg

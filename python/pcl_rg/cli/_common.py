@@ -1,0 +1,353 @@
+"""What the commands share: file checks, reading and writing, ASPRS classes, figures.
+
+Commands classify rather than delete (ASPRS classes 2 ground, 1 other, 7 noise,
+0 never classified; a ``segment_id`` dimension, -1 for none); ``--drop`` writes
+only the kept points.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from ..io import EXTENSIONS, PointFile, read_points, write_points
+from ._flags import EXIT_FAILURE, CliError, float_type, line_type
+from ._run import Run
+
+__all__ = [
+    "GROUND",
+    "NEVER_CLASSIFIED",
+    "NOISE",
+    "NOISE_CLASSES",
+    "UNCLASSIFIED",
+    "add_common_options",
+    "add_io_arguments",
+    "add_output_options",
+    "add_plot_options",
+    "check_extension",
+    "check_neighbours",
+    "check_paths",
+    "check_plots",
+    "class_array",
+    "counts",
+    "existing_classes",
+    "finish_segments",
+    "noise_classes",
+    "noise_mask",
+    "percent",
+    "plots",
+    "read",
+    "read_input",
+    "say_written",
+    "segments_summary",
+    "valid_points",
+    "write",
+]
+
+# ASPRS classes written by the commands.
+UNCLASSIFIED = 1
+GROUND = 2
+NOISE = 7
+NOISE_CLASSES = (7, 18)  # low noise, high noise (LAS 1.4)
+NEVER_CLASSIFIED = 0
+
+
+# ----------------------------------------------------------------- options
+
+
+def add_common_options(parser: argparse.ArgumentParser) -> None:
+    group = parser.add_argument_group("output")
+    group.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
+    group.add_argument(
+        "--json", action="store_true", help="print the results as one JSON object on stdout"
+    )
+
+
+def add_io_arguments(parser: argparse.ArgumentParser, drop: str | None) -> None:
+    formats = "LAS/LAZ, PLY, PCD or XYZ text, by extension"
+    parser.add_argument("input", metavar="INPUT", help=f"point file to read ({formats})")
+    parser.add_argument(
+        "output", metavar="OUTPUT", help=f"point file to write ({formats}); never the INPUT"
+    )
+    if drop is not None:
+        parser.add_argument("--drop", action="store_true", help=drop)
+
+
+def add_plot_options(parser: argparse.ArgumentParser) -> None:
+    group = parser.add_argument_group("figures (PNG, needs matplotlib)")
+    group.add_argument("--plot", metavar="FILE.png", help="write a top view of the result")
+    group.add_argument(
+        "--profile",
+        metavar="FILE.png",
+        help="write a vertical profile: points within --profile-width of --profile-line, "
+        "distance along the line against z",
+    )
+    group.add_argument(
+        "--profile-line",
+        metavar="X0,Y0,X1,Y1",
+        type=line_type,
+        help="ends A and B of the profile line in the file's x, y coordinates, metres "
+        "(default: west to east through the middle of the cloud)",
+    )
+    group.add_argument(
+        "--profile-width",
+        metavar="M",
+        type=float_type,
+        default=2.0,
+        help="corridor width around the profile line in metres (default: 2)",
+    )
+
+
+def add_output_options(parser: argparse.ArgumentParser, execute: Any) -> None:
+    """The options after a command's own: figures (with a point file), --quiet, --json."""
+    add_plot_options(parser)
+    add_common_options(parser)
+    parser.set_defaults(run=execute)
+
+
+# ------------------------------------------------------------------ files
+
+
+def check_extension(path: str, what: str) -> None:
+    ext = os.path.splitext(path)[1].lower()
+    if ext not in EXTENSIONS:
+        raise CliError(
+            f"{what} {path!r}: unknown extension {ext or '(none)'!r} "
+            f"(supported: {', '.join(EXTENSIONS)})"
+        )
+
+
+def check_paths(source: str, target: str, plots: Sequence[str | None] = ()) -> None:
+    """Refuse before any work: bad extensions, a missing folder, OUTPUT == INPUT."""
+    check_extension(source, "INPUT")
+    check_extension(target, "OUTPUT")
+    if not os.path.exists(source):
+        raise CliError(f"INPUT {source!r} does not exist")
+    if os.path.isdir(source):
+        raise CliError(f"INPUT {source!r} is a folder, not a file")
+    if os.path.isdir(target):
+        raise CliError(f"OUTPUT {target!r} is a folder, not a file")
+    folder = os.path.dirname(os.path.abspath(target))
+    if not os.path.isdir(folder):
+        raise CliError(f"the folder of OUTPUT {target!r} does not exist")
+    same = os.path.realpath(source) == os.path.realpath(target)
+    if not same and os.path.exists(target):
+        same = os.path.samefile(source, target)  # hard links, bind mounts
+    if same:
+        raise CliError(f"OUTPUT {target!r} is the INPUT file; refusing to overwrite the input")
+    check_plots(source, plots)
+
+
+def check_plots(source: str, plots: Sequence[str | None]) -> None:
+    for plot in plots:
+        if plot is None:
+            continue
+        if not plot.lower().endswith(".png"):
+            raise CliError(f"plot file {plot!r} must end in .png")
+        if not os.path.isdir(os.path.dirname(os.path.abspath(plot))):
+            raise CliError(f"the folder of plot file {plot!r} does not exist")
+        if os.path.exists(plot) and os.path.samefile(source, plot):
+            raise CliError(f"plot file {plot!r} is the INPUT file; refusing to overwrite it")
+
+
+def read(run: Run, path: str) -> PointFile:
+    with run.stage("read", f"reading {path}"):
+        return read_points(path)
+
+
+def write(
+    run: Run, path: str, points: np.ndarray, fields: dict[str, np.ndarray], template: PointFile
+) -> None:
+    with run.stage("write", f"writing {path}"):
+        try:
+            write_points(path, points, fields, template=template)
+        except OSError as error:
+            reason = error.strerror or str(error)
+            raise CliError(f"cannot write {path!r}: {reason}", EXIT_FAILURE) from None
+    run.result["output"] = os.path.abspath(path)
+    run.result["points_out"] = int(len(points))
+
+
+def read_input(args: argparse.Namespace, run: Run) -> tuple[PointFile, np.ndarray]:
+    """INPUT after the checks of INPUT, OUTPUT and figures; and its finite rows."""
+    check_paths(args.input, args.output, [args.plot, args.profile])
+    cloud = read(run, args.input)
+    return cloud, valid_points(cloud.points)
+
+
+def say_written(run: Run, args: argparse.Namespace, n: int, what: str) -> None:
+    run.say(f"wrote {os.path.abspath(args.output)} ({n:,} points{what})")
+
+
+def check_neighbours(name: str, value: int, n_valid: int) -> None:
+    """A neighbour count must leave a point out: < the number of valid points."""
+    if n_valid and value >= n_valid:
+        raise CliError(
+            f"argument --{name.replace('_', '-')}: {name} must be < the number of points "
+            f"({n_valid}), got {value}"
+        )
+
+
+def valid_points(points: np.ndarray) -> np.ndarray:
+    """Rows with finite coordinates (the others are skipped and reported)."""
+    return np.isfinite(points).all(axis=1)
+
+
+# ---------------------------------------------------------------- classes
+
+
+def existing_classes(cloud: PointFile) -> np.ndarray | None:
+    codes = cloud.classification
+    if codes is None:
+        return None
+    codes = np.asarray(codes)
+    if codes.ndim != 1 or codes.dtype.kind not in "iuf":
+        return None
+    return codes
+
+
+def class_array(cloud: PointFile, fill: int) -> np.ndarray:
+    """A writable classification column: the file's (as uint8 when possible) or `fill`."""
+    codes = existing_classes(cloud)
+    n = len(cloud)
+    if codes is None:
+        return np.full(n, fill, dtype=np.uint8)
+    if codes.dtype.kind in "iu" and codes.dtype.itemsize >= 1:
+        return codes.copy()
+    return codes.astype(np.int64)
+
+
+def counts(codes: np.ndarray) -> dict[str, int]:
+    values, counts = np.unique(codes, return_counts=True)
+    return {str(int(v)): int(c) for v, c in zip(values, counts, strict=True)}
+
+
+def percent(part: int, whole: int) -> str:
+    return f"{100.0 * part / whole:.1f} %" if whole else "-"
+
+
+def noise_mask(codes: np.ndarray | None, n: int) -> np.ndarray:
+    """Points already classified as noise (7 low, 18 high): left out, keeping their class."""
+    if codes is None:
+        return np.zeros(n, bool)
+    return np.isin(codes, NOISE_CLASSES)
+
+
+def noise_classes(cloud: PointFile, valid: np.ndarray, outlier: np.ndarray) -> np.ndarray:
+    """The classification after outlier removal: outliers 7, other points keep their class.
+
+    A file without classes gets 1 (0 for points with NaN coordinates); a point of an
+    earlier run's noise class that is now an inlier becomes 1 again.
+    """
+    classes = class_array(cloud, UNCLASSIFIED)
+    if existing_classes(cloud) is None:
+        classes[~valid] = NEVER_CLASSIFIED
+    classes[outlier] = NOISE
+    classes[valid & ~outlier & (classes == NOISE)] = UNCLASSIFIED
+    return classes
+
+
+def segments_summary(labels: np.ndarray) -> dict[str, Any]:
+    assigned = labels >= 0
+    sizes = np.bincount(labels[assigned]) if assigned.any() else np.zeros(0, np.int64)
+    sizes = sizes[sizes > 0]
+    return {
+        "segments": int(len(sizes)),
+        "assigned": int(assigned.sum()),
+        "unassigned": int((~assigned).sum()),
+        "largest_segment": int(sizes.max()) if len(sizes) else 0,
+    }
+
+
+def finish_segments(
+    run: Run,
+    args: argparse.Namespace,
+    cloud: PointFile,
+    segment: np.ndarray,
+    what: str,
+    classes: np.ndarray | None = None,
+) -> None:
+    fields = dict(cloud.fields, segment_id=segment)
+    if classes is not None:
+        fields["classification"] = classes
+    out = cloud.points
+    if args.drop:
+        keep = segment >= 0
+        out = out[keep]
+        fields = {k: v[keep] for k, v in fields.items()}
+    write(run, args.output, out, fields, cloud)
+    summary = segments_summary(segment)
+    run.result.update(
+        input=os.path.abspath(args.input), points_in=len(cloud), dropped=bool(args.drop), **summary
+    )
+    run.say(
+        f"{what}: {summary['segments']:,} segments holding {summary['assigned']:,} of "
+        f"{len(cloud):,} points ({percent(summary['assigned'], len(cloud))})"
+    )
+    say_written(
+        run,
+        args,
+        len(out),
+        ", segment_id -1 = none" + (", segmented points only" if args.drop else ""),
+    )
+    plots(
+        run, args, cloud.points, segments=segment, title=f"{what}: {os.path.basename(args.input)}"
+    )
+
+
+# ---------------------------------------------------------------- figures
+
+
+def plots(
+    run: Run,
+    args: argparse.Namespace,
+    points: np.ndarray,
+    *,
+    title: str,
+    classes: np.ndarray | None = None,
+    segments: np.ndarray | None = None,
+) -> None:
+    top, side = getattr(args, "plot", None), getattr(args, "profile", None)
+    if top is None and side is None:
+        return
+    from .. import plot
+
+    keep = valid_points(points)
+    xyz = points[keep]
+    cls = None if classes is None else np.asarray(classes)[keep].astype(np.int64)
+    seg = None if segments is None else np.asarray(segments)[keep].astype(np.int64)
+    files = []
+    with run.stage("plot", "drawing figures"):
+        if top is not None:
+            plot.top_view(xyz, top, classes=cls, segments=seg, title=title)
+            files.append(os.path.abspath(top))
+        if side is not None:
+            if args.profile_line is not None:
+                x0, y0, x1, y1 = args.profile_line
+            elif len(xyz):
+                lower, upper = xyz.min(axis=0), xyz.max(axis=0)
+                middle = (lower[1] + upper[1]) / 2
+                x0, y0, x1, y1 = lower[0], middle, max(upper[0], lower[0] + 1.0), middle
+            else:
+                x0, y0, x1, y1 = 0.0, 0.0, 1.0, 0.0
+            try:
+                n = plot.profile(
+                    xyz,
+                    side,
+                    (x0, y0),
+                    (x1, y1),
+                    width=args.profile_width,
+                    classes=cls,
+                    segments=seg,
+                )
+            except ValueError as error:
+                raise CliError(f"--profile: {error}") from None
+            run.result["profile_points"] = n
+            files.append(os.path.abspath(side))
+    run.result["figures"] = files
+    for path in files:
+        run.say(f"wrote {path}")

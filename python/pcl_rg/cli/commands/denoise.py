@@ -1,0 +1,81 @@
+"""``pcl-rg denoise``: statistical outliers become class 7 (noise)."""
+
+from __future__ import annotations
+
+import argparse
+import os
+
+import numpy as np
+
+import pcl_rg
+
+from .._common import (
+    add_io_arguments,
+    add_output_options,
+    check_neighbours,
+    noise_classes,
+    percent,
+    plots,
+    read_input,
+    say_written,
+    write,
+)
+from .._flags import add_param_flags, params_dict, params_from_args
+from .._run import Run
+
+__all__ = ["configure", "execute"]
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    parser.description = (
+        "Statistical outlier removal (PCL's StatisticalOutlierRemoval): a point "
+        "whose mean distance to its mean_k nearest neighbours exceeds the mean of all such "
+        "distances by more than std_mul standard deviations is classified 7 (noise); the other "
+        "points keep their class (1 if the file had none)."
+    )
+    add_io_arguments(parser, "write only the inliers")
+    flags = add_param_flags(
+        parser, "outlier removal parameters", {"sor": pcl_rg.StatisticalOutlierRemovalParams}
+    )
+    parser.set_defaults(flags=flags)
+    add_output_options(parser, execute)
+
+
+def execute(args: argparse.Namespace, run: Run) -> None:
+    params = params_from_args(args, args.flags, "sor", pcl_rg.StatisticalOutlierRemovalParams)
+    cloud, valid = read_input(args, run)
+    points = cloud.points
+    n_valid = int(valid.sum())
+    check_neighbours("mean_k", params.mean_k, n_valid)
+    with run.stage("denoise", f"statistical outlier removal on {n_valid:,} points"):
+        inlier = pcl_rg.statistical_outlier_removal(points[valid], params=params)
+    keep = np.zeros(len(cloud), bool)
+    keep[valid] = inlier
+    outlier = valid & ~keep
+    classes = noise_classes(cloud, valid, outlier)
+    fields = dict(cloud.fields, classification=classes)
+    out = points
+    if args.drop:
+        out = points[keep]
+        fields = {k: v[keep] for k, v in fields.items()}
+    write(run, args.output, out, fields, cloud)
+    n_noise = int(outlier.sum())
+    run.result.update(
+        input=os.path.abspath(args.input),
+        parameters=params_dict(params),
+        points_in=len(cloud),
+        filtered=n_valid,
+        noise=n_noise,
+        inliers=n_valid - n_noise,
+        skipped_invalid=int((~valid).sum()),
+        dropped=bool(args.drop),
+    )
+    run.say(f"denoise (SOR): {n_valid:,} points, {n_noise:,} noise ({percent(n_noise, n_valid)})")
+    say_written(run, args, len(out), (", inliers only" if args.drop else ", class 7 noise"))
+    plots(
+        run,
+        args,
+        points,
+        classes=classes,
+        title=f"statistical outlier removal: {os.path.basename(args.input)}",
+    )

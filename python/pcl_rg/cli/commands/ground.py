@@ -1,0 +1,116 @@
+"""``pcl-rg ground``: class 2 ground, class 1 everything else."""
+
+from __future__ import annotations
+
+import argparse
+import os
+
+import numpy as np
+
+import pcl_rg
+
+from .._common import (
+    GROUND,
+    NEVER_CLASSIFIED,
+    UNCLASSIFIED,
+    add_io_arguments,
+    add_output_options,
+    class_array,
+    existing_classes,
+    noise_mask,
+    percent,
+    plots,
+    read_input,
+    say_written,
+    write,
+)
+from .._flags import Method, add_method_flags, method_params, method_summaries, params_dict
+from .._run import Run
+
+__all__ = ["configure", "execute", "methods"]
+
+
+def methods() -> dict[str, Method]:
+    """The ground filters, the default first."""
+    return {
+        "grid": Method(
+            "grid",
+            pcl_rg.grid_ground,
+            pcl_rg.GridGroundParams,
+            "grid region growing from the lowest point of each block (seed 000)",
+        ),
+        "tin": Method(
+            "tin",
+            pcl_rg.tin_ground,
+            pcl_rg.TinGroundParams,
+            "progressive TIN densification (seed 002, LiDAR360's settings)",
+        ),
+    }
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    ground_methods = methods()
+    parser.description = (
+        "Classify ground points: class 2 ground, class 1 everything else. "
+        "Points already classified as noise (7, 18) are left out and keep their class; "
+        "points with NaN coordinates are skipped (class 0 if the file had none). "
+        + method_summaries(ground_methods)
+    )
+    add_io_arguments(parser, "write only the ground points")
+    add_method_flags(parser, "ground filter parameters", "ground filter", ground_methods)
+    add_output_options(parser, execute)
+
+
+def execute(args: argparse.Namespace, run: Run) -> None:
+    method, params = method_params(args)
+    cloud, valid = read_input(args, run)
+    points = cloud.points
+    noise = noise_mask(existing_classes(cloud), len(cloud))
+    work = valid & ~noise
+    with run.stage("ground", f"ground filter ({method.name}) on {int(work.sum()):,} points"):
+        ground = method.function(points[work], params=params)
+    classes = class_array(cloud, NEVER_CLASSIFIED)
+    classes[work] = np.where(ground, GROUND, UNCLASSIFIED)
+    n_ground = int(ground.sum())
+    n_work = int(work.sum())
+    kept = np.zeros(len(cloud), bool)
+    kept[work] = ground
+    fields = dict(cloud.fields, classification=classes)
+    out = cloud.points
+    if args.drop:
+        out = points[kept]
+        fields = {k: v[kept] for k, v in fields.items()}
+    write(run, args.output, out, fields, cloud)
+    run.result.update(
+        input=os.path.abspath(args.input),
+        method=method.name,
+        preset=args.preset,
+        parameters=params_dict(params),
+        points_in=len(cloud),
+        filtered=n_work,
+        ground=n_ground,
+        object=n_work - n_ground,
+        skipped_noise=int((valid & noise).sum()),
+        skipped_invalid=int((~valid).sum()),
+        dropped=bool(args.drop),
+    )
+    run.say(
+        f"ground ({method.name}): {n_work:,} points filtered, {n_ground:,} ground "
+        f"({percent(n_ground, n_work)}), {n_work - n_ground:,} object"
+        + (
+            f"; {int((valid & noise).sum()):,} noise points left as they were"
+            if noise.any()
+            else ""
+        )
+        + (f"; {int((~valid).sum()):,} invalid (NaN) points skipped" if not valid.all() else "")
+    )
+    say_written(
+        run, args, len(out), (", ground only" if args.drop else ", class 2 ground, 1 other")
+    )
+    plots(
+        run,
+        args,
+        points,
+        classes=classes,
+        title=f"ground filter ({method.name}): {os.path.basename(args.input)}",
+    )

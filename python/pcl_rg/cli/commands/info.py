@@ -1,0 +1,121 @@
+"""``pcl-rg info``: format, point count, bounds, fields and classes of a file.
+
+Reads the file and nothing else: no algorithm and no compiled code is imported.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+from typing import Any
+
+import numpy as np
+
+from .._common import (
+    add_output_options,
+    check_extension,
+    check_plots,
+    counts,
+    existing_classes,
+    plots,
+    read,
+    segments_summary,
+    valid_points,
+)
+from .._flags import CliError
+from .._run import Run
+
+__all__ = ["configure", "execute"]
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    parser.description = "Format, point count, bounds, fields and classes of a file."
+    parser.add_argument("input", metavar="INPUT", help="point file (LAS/LAZ, PLY, PCD, XYZ text)")
+    add_output_options(parser, execute)
+
+
+def execute(args: argparse.Namespace, run: Run) -> None:
+    check_extension(args.input, "INPUT")
+    if not os.path.isfile(args.input):
+        raise CliError(f"INPUT {args.input!r} does not exist or is not a file")
+    check_plots(args.input, [args.plot, args.profile])
+    cloud = read(run, args.input)
+    points = cloud.points
+    valid = valid_points(points)
+    info: dict[str, Any] = {
+        "input": os.path.abspath(args.input),
+        "format": cloud.format,
+        "points": len(cloud),
+        "invalid_points": int((~valid).sum()),
+    }
+    if valid.any():
+        info["bounds"] = {"min": points[valid].min(axis=0), "max": points[valid].max(axis=0)}
+    header = cloud.header
+    if cloud.format in ("las", "laz"):
+        info["las"] = {
+            "version": str(header.version),
+            "point_format": int(header.point_format.id),
+            "scales": np.asarray(header.scales),
+            "offsets": np.asarray(header.offsets),
+            "vlrs": [type(v).__name__ for v in header.vlrs],
+            "extra_dimensions": list(header.point_format.extra_dimension_names),
+        }
+    elif header is not None:
+        layout = header._asdict()
+        layout["xyz_dtype"] = str(layout["xyz_dtype"])
+        info[cloud.format] = layout
+    info["fields"] = {}
+    for name, values in cloud.fields.items():
+        entry: dict[str, Any] = {"dtype": str(values.dtype), "shape": list(values.shape[1:])}
+        finite = values[np.isfinite(values)] if values.dtype.kind == "f" else values
+        if finite.size:
+            entry.update(min=finite.min(), max=finite.max())
+        info["fields"][name] = entry
+    codes = existing_classes(cloud)
+    if codes is not None:
+        info["classes"] = counts(codes)
+    if "segment_id" in cloud.fields:
+        info["segmentation"] = segments_summary(
+            np.asarray(cloud.fields["segment_id"]).astype(np.int64)
+        )
+    run.result.update(info)
+
+    run.say(f"{'file':<14}{info['input']}")
+    run.say(
+        f"{'format':<14}{cloud.format.upper()}"
+        + (
+            f" {info['las']['version']}, point format {info['las']['point_format']}"
+            if "las" in info
+            else ""
+        )
+    )
+    run.say(
+        f"{'points':<14}{len(cloud):,}"
+        + (f" ({info['invalid_points']:,} with NaN coordinates)" if info["invalid_points"] else "")
+    )
+    if "bounds" in info:
+        lo, hi = info["bounds"]["min"], info["bounds"]["max"]
+        for i, axis in enumerate("xyz"):
+            run.say(f"{axis + ' range':<14}{lo[i]:.3f} .. {hi[i]:.3f}  ({hi[i] - lo[i]:.3f} m)")
+    if "las" in info:
+        run.say(f"{'scale':<14}{' '.join(f'{s:g}' for s in info['las']['scales'])}")
+        run.say(f"{'offset':<14}{' '.join(f'{s:g}' for s in info['las']['offsets'])}")
+    elif header is not None:
+        run.say(f"{'layout':<14}" + ", ".join(f"{k} {v}" for k, v in info[cloud.format].items()))
+    run.say(
+        f"{'fields':<14}"
+        + (", ".join(f"{k} ({v['dtype']})" for k, v in info["fields"].items()) or "none")
+    )
+    if "classes" in info:
+        run.say(f"{'classes':<14}" + ", ".join(f"{k}: {v:,}" for k, v in info["classes"].items()))
+    if "segmentation" in info:
+        s = info["segmentation"]
+        run.say(f"{'segments':<14}{s['segments']:,} ({s['assigned']:,} points assigned)")
+    plots(
+        run,
+        args,
+        points,
+        classes=None if codes is None else codes.astype(np.int64),
+        segments=None,
+        title=os.path.basename(args.input),
+    )

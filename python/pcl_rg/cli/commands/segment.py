@@ -1,0 +1,82 @@
+"""``pcl-rg segment``: region growing, a ``segment_id`` per point (-1 for none)."""
+
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+
+import pcl_rg
+
+from .._common import (
+    add_io_arguments,
+    add_output_options,
+    check_neighbours,
+    finish_segments,
+    read_input,
+)
+from .._flags import (
+    Method,
+    add_method_flags,
+    method_params,
+    method_summaries,
+    params_dict,
+)
+from .._run import Run
+
+__all__ = ["configure", "execute", "methods"]
+
+
+def methods() -> dict[str, Method]:
+    """The region growing variants, the default first.
+
+    PCL's own class (``pcl_rg.pcl``, a separately built extension) is offered
+    only when it imports, so the command keeps working without it.
+    """
+    found = {
+        "curvature": Method(
+            "curvature",
+            pcl_rg.region_growing,
+            pcl_rg.RegionGrowingParams,
+            "curvature-seeded region growing (seed 004)",
+        )
+    }
+    try:
+        from ... import pcl
+    except ImportError:
+        return found
+    found["pcl"] = Method(
+        "pcl",
+        pcl.region_growing,
+        pcl.RegionGrowingPclParams,
+        "PCL's classic pcl::RegionGrowing (the baseline)",
+    )
+    return found
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    segment_methods = methods()
+    parser.description = (
+        "Region growing segmentation: OUTPUT gets a segment_id dimension "
+        "(int32; a LAS extra-bytes dimension), -1 for points in no kept region. "
+        + method_summaries(segment_methods)
+    )
+    add_io_arguments(parser, "write only the points with a segment")
+    add_method_flags(parser, "region growing parameters", "region growing variant", segment_methods)
+    add_output_options(parser, execute)
+
+
+def execute(args: argparse.Namespace, run: Run) -> None:
+    method, params = method_params(args)
+    cloud, valid = read_input(args, run)
+    points = cloud.points
+    n_valid = int(valid.sum())
+    check_neighbours("k", params.k, n_valid)
+    with run.stage("segment", f"region growing ({method.name}) on {n_valid:,} points"):
+        labels = method.function(points[valid], params=params)
+    segment = np.full(len(cloud), -1, dtype=np.int32)
+    segment[valid] = labels
+    finish_segments(run, args, cloud, segment, f"segment ({method.name})")
+    run.result.update(method=method.name, parameters=params_dict(params))
+    if "preset" in args:
+        run.result["preset"] = args.preset

@@ -1,0 +1,622 @@
+"""Seeded synthetic airborne-LiDAR scenes with ground truth (see pcl_rg.datasets)."""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .._validation import check_float, check_int
+
+__all__ = [
+    "BUILDING",
+    "GROUND",
+    "NOISE",
+    "VEGETATION",
+    "SyntheticScene",
+    "synthetic_scene",
+    "terrain_height",
+]
+
+# ASPRS LAS 1.4 classification codes (Table 17 of the specification).
+GROUND: int = 2
+VEGETATION: int = 5  # "high vegetation"
+BUILDING: int = 6
+NOISE: int = 7  # "low point (noise)"
+
+# Geometry of the scene, in metres unless stated otherwise.  Kept as module
+# constants so the docstring, the generator and the tests agree.
+_GROUND_ROUGHNESS = 0.03  # std of the Gaussian roughness added to the terrain
+_ROOF_ROUGHNESS = 0.02  # std of the roof-point heights around the flat roof
+_N_WAVES = 3  # sinusoids summed for the rolling terrain
+_WAVE_AMPLITUDE = (0.5, 1.5)  # per sinusoid
+_WAVE_LENGTH = (80.0, 400.0)  # clip range of the wavelengths (drawn as 0.5-1.5 x size)
+_RAMP_SLOPE_DEG = (15.0, 25.0)  # slope of the terrace ramp
+_RAMP_MAX_WIDTH = 40.0  # horizontal width of the ramp band (0.15 x size if smaller)
+_RAMP_CLEARANCE = 3.0  # buildings keep this far from the ramp band
+_LARGE_SIDES = ((25.0, 30.0), (20.5, 30.0))  # sides of the first, large building
+_SMALL_SIDE = (8.0, 18.0)  # sides of the other buildings
+_BUILDING_HEIGHT = (4.0, 15.0)
+_BUILDING_MARGIN = 2.0  # from the area border
+_BUILDING_GAP = 4.0  # between two buildings
+_WALL_DENSITY_RATIO = 0.15  # wall points per m^2 of wall, as a fraction of `density`
+_CROWN_RADIUS = (2.0, 5.0)
+_TREE_HEIGHT = (5.0, 20.0)
+_TREE_CLEARANCE = 1.0  # between a crown's edge and a building footprint
+_UNDERSTORY_RATIO = 0.1  # trunk/understory returns, as a fraction of the canopy returns
+_UNDER_CANOPY_KEEP = 0.5  # fraction of ground returns kept under a crown
+_LOW_NOISE_DEPTH = (1.0, 20.0)  # below the terrain
+_HIGH_NOISE_HEIGHT = (20.0, 100.0)  # above the terrain
+
+
+class SyntheticScene(NamedTuple):
+    """A synthetic labelled point cloud returned by :func:`synthetic_scene`.
+
+    Attributes
+    ----------
+    points : ndarray of float64, shape (N, 3)
+        x, y, z in metres, with ``origin`` added; in random order.
+    labels : ndarray of uint8, shape (N,)
+        ASPRS class of each point: :data:`GROUND`, :data:`BUILDING`,
+        :data:`VEGETATION` or :data:`NOISE`.
+    origin : ndarray of float64, shape (3,)
+        The offset added to every point (zeros when none was given).
+    buildings : ndarray of float64, shape (B, 5)
+        One row per building: ``[xmin, ymin, xmax, ymax, height]``, the
+        footprint in the coordinates of ``points`` (``origin`` included) and
+        the roof height in metres above the highest terrain under the footprint.
+    trees : ndarray of float64, shape (T, 4)
+        One row per tree: ``[x, y, crown_radius, height]``, the trunk position
+        in the coordinates of ``points``, the crown radius and the tree-top
+        height above the terrain at the trunk, in metres.
+    """
+
+    points: NDArray[np.float64]
+    labels: NDArray[np.uint8]
+    origin: NDArray[np.float64]
+    buildings: NDArray[np.float64]
+    trees: NDArray[np.float64]
+
+
+class _Terrain(NamedTuple):
+    """Parameters of the true terrain surface, drawn from the seed."""
+
+    amplitude: NDArray[np.float64]  # (W,) m
+    kx: NDArray[np.float64]  # (W,) rad/m
+    ky: NDArray[np.float64]  # (W,) rad/m
+    phase: NDArray[np.float64]  # (W,) rad
+    ramp_cos: float
+    ramp_sin: float
+    ramp_offset: float  # s at the area centre, so that the band is 0 <= s <= width
+    ramp_width: float  # m
+    ramp_tan: float  # rise per metre across the band
+    half: float  # size / 2
+
+
+# --------------------------------------------------------------------------
+# argument checks
+
+
+def _check_offset(offset: object) -> NDArray[np.float64]:
+    if offset is None:
+        return np.zeros(3)
+    try:
+        arr = np.asarray(offset, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(
+            f"offset must be a sequence of 3 finite numbers, got {offset!r}"
+        ) from None
+    if arr.shape != (3,):
+        raise ValueError(f"offset must have length 3, got shape {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"offset must be finite, got {arr.tolist()}")
+    return arr.copy()
+
+
+# --------------------------------------------------------------------------
+# terrain
+
+
+def _terrain(seed: int, size: float) -> _Terrain:
+    # The terrain has its own stream (spawn key 0) so that terrain_height() can
+    # rebuild it from (seed, size) without replaying the scene's draws.
+    rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(0,)))
+    amplitude = rng.uniform(*_WAVE_AMPLITUDE, _N_WAVES)
+    wavelength = np.clip(rng.uniform(0.5, 1.5, _N_WAVES) * size, *_WAVE_LENGTH)
+    direction = rng.uniform(0.0, 2.0 * np.pi, _N_WAVES)
+    phase = rng.uniform(0.0, 2.0 * np.pi, _N_WAVES)
+    k = 2.0 * np.pi / wavelength
+    ramp_dir = rng.uniform(0.0, 2.0 * np.pi)
+    ramp_centre = rng.uniform(-0.2, 0.2) * size  # band centre, from the area centre
+    ramp_slope = math.radians(rng.uniform(*_RAMP_SLOPE_DEG))
+    width = min(0.15 * size, _RAMP_MAX_WIDTH)
+    return _Terrain(
+        amplitude=amplitude,
+        kx=k * np.cos(direction),
+        ky=k * np.sin(direction),
+        phase=phase,
+        ramp_cos=math.cos(ramp_dir),
+        ramp_sin=math.sin(ramp_dir),
+        ramp_offset=0.5 * width - ramp_centre,
+        ramp_width=width,
+        ramp_tan=math.tan(ramp_slope),
+        half=0.5 * size,
+    )
+
+
+def _ramp_coordinate(t: _Terrain, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
+    """Signed distance across the ramp; the sloped band is 0 <= s <= width."""
+    s = (np.asarray(x) - t.half) * t.ramp_cos
+    s += (np.asarray(y) - t.half) * t.ramp_sin
+    s += t.ramp_offset
+    return s
+
+
+def _terrain_z(t: _Terrain, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
+    """Evaluate the terrain with in-place temporaries (the 10M-point path)."""
+    xb, yb = np.broadcast_arrays(np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64))
+    shape = xb.shape
+    xf, yf = xb.reshape(-1), yb.reshape(-1)
+    z = np.zeros(xf.shape)
+    tmp = np.empty(xf.shape)
+    tmp2 = np.empty(xf.shape)
+    for a, kx, ky, ph in zip(t.amplitude, t.kx, t.ky, t.phase):
+        np.multiply(xf, kx, out=tmp)
+        np.multiply(yf, ky, out=tmp2)
+        tmp += tmp2
+        tmp += ph
+        np.sin(tmp, out=tmp)
+        tmp *= a
+        z += tmp
+    np.subtract(xf, t.half, out=tmp)
+    tmp *= t.ramp_cos
+    np.subtract(yf, t.half, out=tmp2)
+    tmp2 *= t.ramp_sin
+    tmp += tmp2
+    tmp += t.ramp_offset  # tmp is now the ramp coordinate s
+    np.clip(tmp, 0.0, t.ramp_width, out=tmp)
+    tmp *= t.ramp_tan
+    z += tmp
+    return z.reshape(shape)
+
+
+def terrain_height(
+    x: ArrayLike, y: ArrayLike, *, seed: int = 0, size: float = 200.0
+) -> NDArray[np.float64]:
+    """True terrain height of the scene made by ``synthetic_scene(seed=seed, size=size)``.
+
+    Parameters
+    ----------
+    x, y : array_like of float
+        Horizontal coordinates in metres, relative to the scene's ``origin``
+        (subtract ``scene.origin[:2]`` first when an offset was used).
+        Broadcast against each other.
+    seed : int, default 0
+        The scene's seed.
+    size : float, default 200.0
+        The scene's side length in metres.
+
+    Returns
+    -------
+    ndarray of float64
+        Terrain height in metres (without the roughness of the ground points
+        and without the ``origin`` z offset), of the broadcast shape of x, y.
+
+    Raises
+    ------
+    ValueError
+        If ``seed`` is negative, ``size`` is not finite and > 0, or x, y
+        contain non-finite values.
+    TypeError
+        If ``seed`` is not an integer or ``size`` not a real number.
+
+    Notes
+    -----
+    The surface is the sum of a few low-frequency sinusoids (wavelength
+    80-400 m, amplitude 0.5-1.5 m each) plus a terrace: a straight band,
+    ``min(0.15 * size, 40)`` m wide across the whole area, in which the
+    ground rises at 15-25 degrees. The height is continuous; its slope jumps
+    at the two edges of the band (the slope breaks).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from pcl_rg.datasets import terrain_height
+    >>> z = terrain_height(np.array([0.0, 100.0]), np.array([0.0, 100.0]), seed=3)
+    >>> z.shape, z.dtype
+    ((2,), dtype('float64'))
+    """
+    seed = check_int("seed", seed, minimum=0)
+    size = check_float("size", size, positive=True)
+    xa = np.asarray(x, dtype=np.float64)
+    ya = np.asarray(y, dtype=np.float64)
+    for name, arr in (("x", xa), ("y", ya)):
+        if not np.all(np.isfinite(arr)):
+            raise ValueError(f"{name} must be finite, got {np.count_nonzero(~np.isfinite(arr))} "
+                             "non-finite values")
+    return _terrain_z(_terrain(seed, size), xa, ya)
+
+
+# --------------------------------------------------------------------------
+# objects
+
+
+def _place_buildings(
+    rng: np.random.Generator, n: int, size: float, terrain: _Terrain
+) -> NDArray[np.float64]:
+    """Seeded rejection sampling of non-overlapping boxes off the ramp.
+
+    Returns (n, 6): xmin, ymin, xmax, ymax, base (max terrain under the
+    footprint), height.
+    """
+    boxes = np.empty((n, 4))
+    placed = 0
+    max_attempts = 1000 + 500 * n
+    for _ in range(max_attempts):
+        if placed == n:
+            break
+        if placed == 0:
+            w = rng.uniform(*_LARGE_SIDES[0])
+            h = rng.uniform(*_LARGE_SIDES[1])
+            if rng.random() < 0.5:
+                w, h = h, w
+        else:
+            w, h = rng.uniform(*_SMALL_SIDE, 2)
+        u, v = rng.random(2)
+        span_x = size - 2.0 * _BUILDING_MARGIN - w
+        span_y = size - 2.0 * _BUILDING_MARGIN - h
+        if span_x < 0.0 or span_y < 0.0:
+            continue
+        xmin = _BUILDING_MARGIN + u * span_x
+        ymin = _BUILDING_MARGIN + v * span_y
+        # Keep the sloped band clear: a roof above a 20-degree ramp would make
+        # the slope-break test ambiguous.
+        s_c = _ramp_coordinate(terrain, xmin + 0.5 * w, ymin + 0.5 * h)
+        extent = 0.5 * w * abs(terrain.ramp_cos) + 0.5 * h * abs(terrain.ramp_sin)
+        if (s_c + extent > -_RAMP_CLEARANCE) and (
+            s_c - extent < terrain.ramp_width + _RAMP_CLEARANCE
+        ):
+            continue
+        prev = boxes[:placed]
+        apart = (
+            (xmin >= prev[:, 2] + _BUILDING_GAP)
+            | (xmin + w + _BUILDING_GAP <= prev[:, 0])
+            | (ymin >= prev[:, 3] + _BUILDING_GAP)
+            | (ymin + h + _BUILDING_GAP <= prev[:, 1])
+        )
+        if not np.all(apart):
+            continue
+        boxes[placed] = (xmin, ymin, xmin + w, ymin + h)
+        placed += 1
+    if placed < n:
+        raise ValueError(
+            f"n_buildings={n} non-overlapping buildings (the first {_LARGE_SIDES[0][0]:g}-"
+            f"{_LARGE_SIDES[0][1]:g} m long) do not fit in a {size:g} m square beside its "
+            "sloped band; use a larger size or fewer n_buildings"
+        )
+    # Flat roof above the highest terrain under the footprint (5 x 5 samples).
+    g = np.linspace(0.0, 1.0, 5)
+    gx = boxes[:, 0, None, None] + g[None, :, None] * (boxes[:, 2] - boxes[:, 0])[:, None, None]
+    gy = boxes[:, 1, None, None] + g[None, None, :] * (boxes[:, 3] - boxes[:, 1])[:, None, None]
+    base = _terrain_z(terrain, gx, gy).reshape(n, -1).max(axis=1) if n else np.empty(0)
+    height = rng.uniform(*_BUILDING_HEIGHT, n)
+    return np.column_stack([boxes, base, height])
+
+
+def _box_distance(
+    x: NDArray[np.float64], y: NDArray[np.float64], box: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    dx = np.maximum(np.maximum(box[0] - x, x - box[2]), 0.0)
+    dy = np.maximum(np.maximum(box[1] - y, y - box[3]), 0.0)
+    return np.hypot(dx, dy)
+
+
+def _place_trees(
+    rng: np.random.Generator, n: int, size: float, buildings: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """Crowns inside the area and clear of every footprint; may overlap each other.
+
+    Returns (n, 4): x, y, crown radius, height.
+    """
+    out = np.empty((0, 4))
+    for _ in range(100):
+        need = n - len(out)
+        if need == 0:
+            break
+        m = max(2 * need, 16)
+        r = rng.uniform(*_CROWN_RADIUS, m)
+        top = rng.uniform(*_TREE_HEIGHT, m)
+        x = r + rng.random(m) * (size - 2.0 * r)
+        y = r + rng.random(m) * (size - 2.0 * r)
+        ok = size >= 2.0 * r
+        for box in buildings:
+            ok &= _box_distance(x, y, box) > r + _TREE_CLEARANCE
+        cand = np.column_stack([x, y, r, top])[ok][:need]
+        out = np.concatenate([out, cand])
+    if len(out) < n:
+        raise ValueError(
+            f"could not place n_trees={n} trees clear of the buildings in a {size:g} m "
+            "square; use a larger size or fewer n_buildings/n_trees"
+        )
+    return out
+
+
+def _canopy_raster(
+    trees: NDArray[np.float64], size: float
+) -> tuple[NDArray[np.bool_], float]:
+    """Boolean raster, True where a cell centre lies under some crown."""
+    res = max(0.5, size / 4096.0)
+    nx = max(1, math.ceil(size / res))
+    raster = np.zeros((nx, nx), dtype=bool)
+    for tx, ty, r, _ in trees:
+        i0, i1 = max(0, int((tx - r) / res)), min(nx, int((tx + r) / res) + 1)
+        j0, j1 = max(0, int((ty - r) / res)), min(nx, int((ty + r) / res) + 1)
+        cx = (np.arange(i0, i1) + 0.5) * res - tx
+        cy = (np.arange(j0, j1) + 0.5) * res - ty
+        raster[i0:i1, j0:j1] |= cx[:, None] ** 2 + cy[None, :] ** 2 <= r * r
+    return raster, res
+
+
+# --------------------------------------------------------------------------
+# the scene
+
+
+def synthetic_scene(
+    *,
+    seed: int = 0,
+    size: float = 200.0,
+    density: float = 4.0,
+    n_buildings: int = 6,
+    n_trees: int = 40,
+    noise_fraction: float = 0.002,
+    offset: tuple[float, float, float] | None = None,
+) -> SyntheticScene:
+    """Generate a labelled airborne-LiDAR-like point cloud with known ground truth.
+
+    Parameters
+    ----------
+    seed : int, default 0
+        Seed of every random draw; the same arguments give identical arrays.
+    size : float, default 200.0
+        Side of the square area in metres; the scene covers
+        ``[0, size] x [0, size]`` before ``offset``.
+    density : float, default 4.0
+        Points per m^2 on the open ground, the roofs and the tree crowns.
+        The total is about ``density * size**2`` (160 000 with the defaults).
+    n_buildings : int, default 6
+        Number of axis-aligned box buildings. The first has sides of 20-30 m
+        (one side at least 25 m); the others 8-18 m. Heights 4-15 m.
+    n_trees : int, default 40
+        Number of trees: crown radius 2-5 m, tree top 5-20 m above the terrain.
+    noise_fraction : float, default 0.002
+        Fraction of the returned points that are outliers, in [0, 0.5): half
+        1-20 m below the terrain (multipath), half 20-100 m above it (birds).
+    offset : tuple of 3 float, optional
+        Added to every point, e.g. ``(500000.0, 5000000.0, 0.0)`` for
+        UTM-sized coordinates. The geometry relative to it does not depend on
+        it.
+
+    Returns
+    -------
+    SyntheticScene
+        ``points`` float64 (N, 3) in random order, ``labels`` uint8 (N,) with
+        the ASPRS codes GROUND (2), VEGETATION (5), BUILDING (6) and NOISE (7),
+        ``origin`` float64 (3,) (the offset, or zeros), ``buildings`` float64
+        (B, 5) ``[xmin, ymin, xmax, ymax, height]`` and ``trees`` float64
+        (T, 4) ``[x, y, crown_radius, height]``, both in the coordinates of
+        ``points``.
+
+    Raises
+    ------
+    ValueError
+        If ``size`` or ``density`` is not finite and > 0, ``seed``,
+        ``n_buildings`` or ``n_trees`` is negative, ``noise_fraction`` is not
+        in [0, 0.5), ``offset`` is not 3 finite numbers, or the buildings or
+        trees do not fit in the area.
+    TypeError
+        If a count or the seed is not an integer, or ``size``, ``density`` or
+        ``noise_fraction`` is not a real number.
+
+    See Also
+    --------
+    terrain_height : the true terrain surface of the same scene.
+
+    Notes
+    -----
+    The scene, in local coordinates ``[0, size]^2``:
+
+    * Terrain (:func:`terrain_height`): rolling sinusoids of a few metres plus
+      a terrace band, 15-25 degrees steep, whose edges are slope breaks.
+      Ground returns are uniform at ``density`` per m^2 with 3 cm Gaussian
+      roughness, none under a building footprint (occluded) and only half
+      under a tree crown (partial penetration).
+    * Buildings: placed by a seeded rejection loop, inside the area (2 m
+      margin), at least 4 m apart and clear of the sloped band. Flat roofs
+      (2 cm roughness) at ``density``, above the highest terrain under the
+      footprint; walls on the footprint edges at 0.15 x ``density`` per m^2
+      of wall, from the terrain up to the roof.
+    * Trees: upper half-ellipsoid crowns sampled at ``density`` over the
+      crown disc, returns penetrating a little into the crown, plus 10 % as
+      many returns on the trunk and understory (0.2-2 m above the terrain).
+      Crowns stay 1 m clear of footprints.
+    * Noise: ``noise_fraction`` of the total, uniform in x and y.
+
+    With buildings the square must hold the large one beside the sloped band:
+    ``size`` of about 80 m or more (60 m works for some seeds); smaller
+    scenes need ``n_buildings=0``.
+
+    Counts are Poisson draws, so N varies slightly with the seed. Peak memory is
+    about 60 bytes per point (10 million points: about 5 s and 0.6 GB).
+
+    References
+    ----------
+    .. [1] ASPRS, "LAS Specification 1.4 - R15", 2019, Table 17 (ASPRS
+       standard point classes).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from pcl_rg.datasets import GROUND, NOISE, synthetic_scene
+    >>> scene = synthetic_scene(seed=1, size=100.0, n_buildings=2, n_trees=5)
+    >>> scene.points.dtype, scene.points.shape[1], scene.labels.dtype
+    (dtype('float64'), 3, dtype('uint8'))
+    >>> bool(np.mean(scene.labels == GROUND) > 0.5)
+    True
+    >>> scene.buildings.shape, scene.trees.shape
+    ((2, 5), (5, 4))
+    """
+    seed = check_int("seed", seed, minimum=0)
+    size = check_float("size", size, positive=True)
+    density = check_float("density", density, positive=True)
+    n_buildings = check_int("n_buildings", n_buildings, minimum=0)
+    n_trees = check_int("n_trees", n_trees, minimum=0)
+    noise_fraction = check_float("noise_fraction", noise_fraction)
+    if not 0.0 <= noise_fraction < 0.5:
+        raise ValueError(f"noise_fraction must be in [0, 0.5), got {noise_fraction}")
+    origin = _check_offset(offset)
+
+    terrain = _terrain(seed, size)
+    # Everything else comes from the scene stream (spawn key 1), drawn in a
+    # fixed order; the offset is only added at the end.
+    rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(1,)))
+    buildings = _place_buildings(rng, n_buildings, size, terrain)
+    trees = _place_trees(rng, n_trees, size, buildings)
+
+    blocks: list[tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], int]] = []
+
+    # Ground: uniform candidates, dropped under footprints, thinned under crowns.
+    n_cand = int(rng.poisson(density * size * size))
+    gx = rng.uniform(0.0, size, n_cand)
+    gy = rng.uniform(0.0, size, n_cand)
+    thin = rng.random(n_cand) >= _UNDER_CANOPY_KEEP
+    canopy, res = _canopy_raster(trees, size)
+    last = canopy.shape[0] - 1
+    ix = np.minimum((gx / res).astype(np.intp), last)
+    iy = np.minimum((gy / res).astype(np.intp), last)
+    drop = canopy[ix, iy]
+    del ix, iy
+    drop &= thin
+    del thin
+    for xmin, ymin, xmax, ymax, _, _ in buildings:
+        inside = gx >= xmin
+        inside &= gx <= xmax
+        inside &= gy >= ymin
+        inside &= gy <= ymax
+        drop |= inside
+        del inside
+    keep = ~drop
+    del drop
+    gx, gy = gx[keep], gy[keep]
+    del keep
+    gz = _terrain_z(terrain, gx, gy)
+    gz += rng.normal(0.0, _GROUND_ROUGHNESS, gz.size)
+    blocks.append((gx, gy, gz, GROUND))
+
+    # Roofs and walls.
+    if n_buildings:
+        xmin, ymin, xmax, ymax, base, height = buildings.T
+        w, h = xmax - xmin, ymax - ymin
+        roof_z = base + height
+        counts = rng.poisson(density * w * h)
+        b = np.repeat(np.arange(n_buildings), counts)
+        rx = xmin[b] + rng.random(b.size) * w[b]
+        ry = ymin[b] + rng.random(b.size) * h[b]
+        rz = roof_z[b] + rng.normal(0.0, _ROOF_ROUGHNESS, b.size)
+        blocks.append((rx, ry, rz, BUILDING))
+
+        perimeter = 2.0 * (w + h)
+        counts = rng.poisson(_WALL_DENSITY_RATIO * density * perimeter * height)
+        b = np.repeat(np.arange(n_buildings), counts)
+        t = rng.random(b.size) * perimeter[b]  # arc length along the footprint edge
+        wb, hb = w[b], h[b]
+        e1, e2, e3 = wb, wb + hb, 2.0 * wb + hb
+        wx = np.select(
+            [t < e1, t < e2, t < e3],
+            [xmin[b] + t, xmax[b], xmax[b] - (t - e2)],
+            xmin[b],
+        )
+        wy = np.select(
+            [t < e1, t < e2, t < e3],
+            [ymin[b], ymin[b] + (t - e1), ymax[b]],
+            ymax[b] - (t - e3),
+        )
+        foot = _terrain_z(terrain, wx, wy)
+        wz = foot + rng.random(b.size) * (roof_z[b] - foot)
+        blocks.append((wx, wy, wz, BUILDING))
+
+    # Trees: crown surface with shallow penetration, then trunk and understory.
+    if n_trees:
+        tx, ty, radius, top = trees.T
+        tbase = _terrain_z(terrain, tx, ty)
+        semi_z = np.minimum(rng.uniform(0.8, 1.3, n_trees) * radius, 0.45 * top)
+        centre_z = top - semi_z  # height of the crown ellipsoid's centre above the base
+        area = np.pi * radius**2
+        counts = rng.poisson(density * area)
+        k = np.repeat(np.arange(n_trees), counts)
+        rho = np.sqrt(rng.random(k.size))  # uniform over the disc
+        phi = rng.uniform(0.0, 2.0 * np.pi, k.size)
+        cx = tx[k] + radius[k] * rho * np.cos(phi)
+        cy = ty[k] + radius[k] * rho * np.sin(phi)
+        surface = centre_z[k] + semi_z[k] * np.sqrt(1.0 - rho**2)
+        depth = np.minimum(rng.exponential(0.2, k.size), 1.3) * semi_z[k]
+        cz = tbase[k] + surface - depth
+        cz = np.maximum(cz, _terrain_z(terrain, cx, cy) + 0.5)  # crown edge on a slope
+        blocks.append((cx, cy, cz, VEGETATION))
+
+        counts = rng.poisson(_UNDERSTORY_RATIO * density * area)
+        k = np.repeat(np.arange(n_trees), counts)
+        trunk = rng.random(k.size) < 0.5
+        rho = np.where(trunk, 0.0, 0.8 * radius[k] * np.sqrt(rng.random(k.size)))
+        phi = rng.uniform(0.0, 2.0 * np.pi, k.size)
+        ux = tx[k] + rho * np.cos(phi) + np.where(trunk, rng.normal(0.0, 0.15, k.size), 0.0)
+        uy = ty[k] + rho * np.sin(phi) + np.where(trunk, rng.normal(0.0, 0.15, k.size), 0.0)
+        # Trunk returns anywhere between 0.3 m and the crown centre.
+        lift = np.where(
+            trunk,
+            0.3 + rng.random(k.size) * (centre_z[k] - 0.3),
+            rng.uniform(0.2, 2.0, k.size),
+        )
+        uz = _terrain_z(terrain, ux, uy) + lift
+        blocks.append((ux, uy, uz, VEGETATION))
+
+    # Noise, as a fraction of the total including itself.
+    n_signal = sum(blk[0].size for blk in blocks)
+    n_noise = int(round(noise_fraction * n_signal / (1.0 - noise_fraction)))
+    if n_noise:
+        n_low = n_noise // 2
+        nx_ = rng.uniform(0.0, size, n_noise)
+        ny_ = rng.uniform(0.0, size, n_noise)
+        dz = np.concatenate(
+            [
+                -rng.uniform(*_LOW_NOISE_DEPTH, n_low),
+                rng.uniform(*_HIGH_NOISE_HEIGHT, n_noise - n_low),
+            ]
+        )
+        blocks.append((nx_, ny_, _terrain_z(terrain, nx_, ny_) + dz, NOISE))
+
+    # Scatter the blocks straight into shuffled positions (no (N, 3) copy).
+    n_total = n_signal + n_noise
+    order = rng.permutation(n_total)
+    points = np.empty((n_total, 3))
+    labels = np.empty(n_total, dtype=np.uint8)
+    start = 0
+    for bx, by, bz, code in blocks:
+        idx = order[start : start + bx.size]
+        points[idx, 0] = bx
+        points[idx, 1] = by
+        points[idx, 2] = bz
+        labels[idx] = code
+        start += bx.size
+    del order, blocks
+
+    if offset is not None:
+        points += origin
+    footprints = np.column_stack([buildings[:, :4], buildings[:, 5:6]])
+    footprints[:, [0, 2]] += origin[0]
+    footprints[:, [1, 3]] += origin[1]
+    tree_rows = trees.copy()
+    tree_rows[:, 0] += origin[0]
+    tree_rows[:, 1] += origin[1]
+    return SyntheticScene(points, labels, origin, footprints, tree_rows)

@@ -1,0 +1,87 @@
+"""How every writer of :mod:`pcl_rg.io` puts bytes on disk.
+
+:func:`atomic_write` writes through a temporary file in the destination folder,
+renamed over the target only when complete; :func:`write_chunked` and
+:func:`write_ascii` stream a binary payload or columns of numbers as text rows
+into that temporary file in bounded pieces.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import secrets
+from collections.abc import Callable
+from typing import BinaryIO
+
+import numpy as np
+
+__all__ = [
+    "ASCII_CHUNK_ROWS",
+    "BINARY_CHUNK_BYTES",
+    "ascii_strings",
+    "atomic_write",
+    "write_ascii",
+    "write_chunked",
+]
+
+#: Rows formatted at a time by :func:`write_ascii`.
+ASCII_CHUNK_ROWS = 65536
+#: Bytes handed to one ``write`` call by :func:`write_chunked`.
+BINARY_CHUNK_BYTES = 1 << 24
+
+
+def ascii_strings(column: np.ndarray) -> list[str]:
+    """The values of a 1-D column as text, each the shortest that reads back exactly."""
+    # NumPy's text for a float32/float64 is the shortest that reads back to the
+    # same value at that precision (Dragon4), so ascii round-trips exactly and
+    # float32 0.1 is written "0.1", not "0.100000001"; NaN is "nan".
+    if column.dtype.kind == "f":
+        return column.astype(str).tolist()
+    return list(map(str, column.tolist()))
+
+
+def write_ascii(stream: BinaryIO, columns: list[np.ndarray], n: int) -> None:
+    """Write `n` rows of space-separated values; (N, count) columns give count values."""
+    for start in range(0, n, ASCII_CHUNK_ROWS):
+        stop = min(start + ASCII_CHUNK_ROWS, n)
+        texts = []
+        for array in columns:
+            block = array[start:stop]
+            if block.ndim == 1:
+                texts.append(ascii_strings(block))
+            else:
+                texts.extend(ascii_strings(block[:, c]) for c in range(block.shape[1]))
+        rows = [" ".join(row) for row in zip(*texts)]
+        stream.write(("\n".join(rows) + "\n").encode("ascii"))
+
+
+def write_chunked(stream: BinaryIO, payload: bytes | memoryview) -> None:
+    """Write `payload` in pieces of at most BINARY_CHUNK_BYTES."""
+    view = memoryview(payload)
+    for start in range(0, len(view), BINARY_CHUNK_BYTES):
+        stream.write(view[start : start + BINARY_CHUNK_BYTES])
+
+
+def atomic_write(path: str, write: Callable[[BinaryIO], None]) -> None:
+    """Write through a temporary file in the same folder, renamed into place."""
+    folder, base = os.path.split(os.path.abspath(path))
+    flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0)
+    while True:
+        temp = os.path.join(folder, f".{base}.{os.getpid()}.{secrets.token_hex(4)}.tmp")
+        try:
+            # os.open applies the umask, unlike tempfile's private 0600 files.
+            fd = os.open(temp, flags, 0o666)
+            break
+        except FileExistsError:
+            continue
+    try:
+        with open(fd, "wb") as stream:
+            write(stream)
+            stream.flush()
+            os.fsync(stream.fileno())
+        os.replace(temp, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(temp)
+        raise

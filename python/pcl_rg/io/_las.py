@@ -1,0 +1,253 @@
+"""LAS and LAZ files through laspy (with the lazrs backend for LAZ).
+
+The header is checked against the file size first (:mod:`pcl_rg.io._las_header`),
+so that a damaged or hostile header fails fast instead of making laspy loop or
+allocate; laspy is imported only when a LAS/LAZ file is read or written.
+"""
+
+from __future__ import annotations
+
+from typing import BinaryIO
+
+import numpy as np
+
+from ._atomic import atomic_write
+from ._las_header import check_las_header
+
+__all__ = ["read", "write"]
+
+
+def _laspy():
+    try:
+        import laspy
+    except ImportError as error:  # pragma: no cover - depends on the environment
+        raise ImportError(
+            "reading and writing LAS/LAZ needs laspy with lazrs: pip install 'pcl_rg[las]'"
+        ) from error
+    return laspy
+
+
+# Points decoded in the first step of a LAZ read; each later step doubles, up to the
+# last. A header's point count is so trusted only as far as the data bear it out
+# (LAZ sizes bound it only loosely), while large files still go in few big steps.
+_LAZ_FIRST_STEP = 1 << 16
+_LAZ_LARGEST_STEP = 1 << 22
+
+
+def read(path: str) -> tuple[np.ndarray, dict[str, np.ndarray], object]:
+    """Points, fields and the ``laspy.LasHeader``; any decoder failure as a ValueError."""
+    try:
+        return _decode_las(path)
+    except OSError as error:
+        if error.errno is not None:  # a real I/O error, not a decoder's complaint
+            raise
+        raise _bad_las(path, error) from None
+    except ValueError as error:
+        if str(error).startswith(("invalid LAS/LAZ file", "invalid LAS file")):
+            raise
+        raise _bad_las(path, error) from None
+    except Exception as error:  # laspy, lazrs and NumPy raise many kinds on corrupt data
+        raise _bad_las(path, error) from None
+
+
+def _decode_las(path: str) -> tuple[np.ndarray, dict[str, np.ndarray], object]:
+    laspy = _laspy()
+    with open(path, "rb") as stream:
+        facts = check_las_header(path, stream)
+        stream.seek(0)
+        parallel = facts.parallel_decompression
+        backend = laspy.LazBackend.LazrsParallel if parallel else laspy.LazBackend.Lazrs
+        with laspy.open(stream, closefd=False, laz_backend=backend) as reader:
+            header = reader.header
+            chunks = []
+            # Uncompressed: the size check made the count trustworthy, one step.
+            step = _LAZ_FIRST_STEP if facts.compressed else max(facts.point_count, 1)
+            while reader.points_read < facts.point_count:
+                chunk = reader.read_points(min(step, facts.point_count - reader.points_read))
+                if len(chunk) == 0:
+                    break
+                chunks.append(chunk.array)
+                step = min(2 * step, _LAZ_LARGEST_STEP)
+    read = sum(len(c) for c in chunks)
+    if read != facts.point_count:
+        raise ValueError(
+            f"invalid LAS file {path!r}: header says {facts.point_count} points, "
+            f"the file holds {read} (truncated?)"
+        )
+    dtype = header.point_format.dtype()
+    array = np.concatenate(chunks) if chunks else np.zeros(0, dtype=dtype)
+    record = laspy.ScaleAwarePointRecord(
+        array, header.point_format, scales=header.scales, offsets=header.offsets
+    )
+    points = np.column_stack([np.asarray(record.x), np.asarray(record.y), np.asarray(record.z)])
+    fields = {}
+    for dim in header.point_format.dimensions:
+        if dim.name in ("X", "Y", "Z"):
+            continue
+        fields[dim.name] = np.array(record[dim.name])
+    return points.astype(np.float64), fields, header
+
+
+def _bad_las(path: str, error: BaseException) -> ValueError:
+    detail = str(error) or type(error).__name__
+    return ValueError(f"invalid LAS/LAZ file {path!r}: {detail}")
+
+
+def _new_las_header(laspy, xyz: np.ndarray, names: set[str]):
+    point_format = 6
+    if {"red", "green", "blue"} <= names:
+        point_format = 8 if "nir" in names else 7
+    header = laspy.LasHeader(version="1.4", point_format=point_format)
+    if len(xyz):
+        lower = np.floor(xyz.min(axis=0))
+        extent = xyz.max(axis=0) - lower
+    else:
+        lower = np.zeros(3)
+        extent = np.zeros(3)
+    scale = np.full(3, 0.001)
+    # Stored integers are int32: coarsen the scale by 10 until the extent fits.
+    while np.any(extent / scale > 2**31 - 2):
+        scale = np.where(extent / scale > 2**31 - 2, scale * 10, scale)
+    header.offsets = lower
+    header.scales = scale
+    return header
+
+
+def write(
+    path: str,
+    xyz: np.ndarray,
+    columns: dict[str, np.ndarray],
+    template,
+    compress: bool,
+    source: str = "",
+) -> None:
+    """write_points for LAS/LAZ: the layout of `template` (a LasHeader), if any.
+
+    laspy's and lazrs's refusals of a header come back as ValueError naming
+    `path` and `source` (where the template came from).
+    """
+    try:
+        _write_las(path, xyz, columns, template, compress)
+    except UnicodeError as error:  # laspy encodes the header's text fields as ASCII
+        raise ValueError(
+            f"cannot write {path!r}{source}: a header text is not ASCII ({error})"
+        ) from None
+    except (OSError, ValueError, TypeError):
+        raise
+    except Exception as error:  # laspy or lazrs refusing the template's header
+        raise ValueError(f"cannot write {path!r}{source}: {error}") from None
+
+
+def _write_las(
+    path: str, xyz: np.ndarray, columns: dict[str, np.ndarray], template, compress: bool
+) -> None:
+    import copy
+
+    laspy = _laspy()
+    finite = np.isfinite(xyz).all(axis=1)
+    if not finite.all():
+        raise ValueError(
+            f"points has {int((~finite).sum())} row(s) with NaN or Inf coordinates, which "
+            "LAS cannot store; drop them or write PCD, PLY or XYZ"
+        )
+    if template is not None:
+        header = copy.deepcopy(template)
+    else:
+        header = _new_las_header(laspy, xyz, set(columns))
+    standard = {d.name: d for d in header.point_format.dimensions}
+    new_dims = []
+    for key, array in columns.items():
+        if key in standard:
+            continue
+        array = np.asarray(array)
+        base = np.dtype(np.uint8) if array.dtype == np.bool_ else array.dtype
+        if base.kind == "f" and base.itemsize < 4:
+            base = np.dtype(np.float32)
+        if array.ndim == 2 and array.shape[1] not in (1, 2, 3):
+            raise ValueError(
+                f"fields[{key!r}] has {array.shape[1]} values per point; LAS extra bytes "
+                "hold 1, 2 or 3"
+            )
+        kind = base.newbyteorder("<").str.lstrip("<|=")
+        type_str = kind if array.ndim == 1 or array.shape[1] == 1 else f"{array.shape[1]}{kind}"
+        new_dims.append(laspy.ExtraBytesParams(name=key, type=type_str))
+    if new_dims:
+        try:
+            header.add_extra_dims(new_dims)
+        except Exception as error:
+            raise ValueError(
+                f"cannot add extra-bytes dimensions to the LAS header: {error}"
+            ) from None
+        standard = {d.name: d for d in header.point_format.dimensions}
+
+    n = len(xyz)
+    record = laspy.ScaleAwarePointRecord.zeros(n, header=header)
+    scales = np.asarray(header.scales, dtype=np.float64)
+    offsets = np.asarray(header.offsets, dtype=np.float64)
+    for i, axis in enumerate("XYZ"):
+        stored = np.round((xyz[:, i] - offsets[i]) / scales[i])
+        if n and (stored.min() < -(2**31) or stored.max() > 2**31 - 1):
+            raise ValueError(
+                f"{'xyz'[i]} coordinates from {xyz[:, i].min()} to {xyz[:, i].max()} do not fit "
+                f"LAS int32 storage with scale {scales[i]} and offset {offsets[i]}"
+            )
+        record[axis] = stored.astype(np.int32)
+    for key, array in columns.items():
+        dim = standard[key]
+        values = np.asarray(array)
+        if values.dtype == np.bool_:
+            values = values.astype(np.uint8)
+        if values.ndim == 2 and values.shape[1] == 1:
+            values = values[:, 0]
+        if n and dim.kind != laspy.DimensionKind.FloatingPoint and not dim.is_scaled:
+            if values.dtype.kind == "f":
+                if not np.array_equal(values, np.round(values)):
+                    raise ValueError(
+                        f"fields[{key!r}] holds fractional values but LAS stores {key} as integers"
+                    )
+            low, high = values.min(), values.max()
+            if low < dim.min or high > dim.max:
+                raise ValueError(
+                    f"fields[{key!r}] has values from {low} to {high}, outside the range "
+                    f"[{dim.min}, {dim.max}] of LAS point format {header.point_format.id}"
+                )
+            values = values.astype(np.int64)
+        try:
+            record[key] = values
+        except (OverflowError, ValueError) as error:
+            raise ValueError(f"fields[{key!r}] cannot be stored in LAS: {error}") from None
+    las = laspy.LasData(header=header, points=record)
+
+    def write_data(stream: BinaryIO) -> None:
+        recorder = _RecordingStream(stream)
+        try:
+            las.write(recorder, do_compress=compress)
+        except Exception:
+            # lazrs turns an exception of the stream (e.g. ENOSPC) into its own
+            # LazrsError; surface the original.
+            if recorder.error is not None:
+                raise recorder.error from None
+            raise
+        if recorder.error is not None:
+            raise recorder.error
+
+    atomic_write(path, write_data)
+
+
+class _RecordingStream:
+    """A binary stream that remembers the first exception its write() raised."""
+
+    def __init__(self, stream: BinaryIO) -> None:
+        self._stream = stream
+        self.error: BaseException | None = None
+
+    def write(self, data) -> int:
+        try:
+            return self._stream.write(data)
+        except BaseException as error:
+            if self.error is None:
+                self.error = error
+            raise
+
+    def __getattr__(self, name: str):
+        return getattr(self._stream, name)

@@ -1,0 +1,306 @@
+"""Checks of a LAS/LAZ file's header against the file's size, before laspy reads it.
+
+laspy trusts the header: it loops over as many VLRs as the header claims and
+allocates ``point_count * record_length`` bytes before decompressing a single
+point. A damaged or hostile header then means minutes of looping or an allocation
+of terabytes. Every count and offset in the header is checked here against the
+file size first, with bounded work (at most one read per VLR, and the VLR count is
+checked against the bytes available before the walk).
+
+Layout of the public header block (ASPRS LAS 1.4 R15, table 3; the earlier
+versions are prefixes of it): version at byte 24, header size at 94, offset to
+the point data at 96, VLR count at 100, point format at 104, record length at
+105, the legacy point count at 107; LAS 1.4 adds the first EVLR's offset at 235,
+the EVLR count at 243 and the 64-bit point count at 247.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import struct
+from typing import BinaryIO, NamedTuple
+
+# Smallest public header block of each minor version 0-4.
+_HEADER_SIZE = {0: 227, 1: 227, 2: 227, 3: 235, 4: 375}
+# Smallest record of each point data format 0-10 (LAS 1.4 R15, tables 7-17).
+_RECORD_SIZE = (20, 28, 26, 34, 57, 63, 30, 36, 38, 59, 67)
+# reserved u16, user id 16 bytes, record id u16, length after header (u16 for a VLR,
+# u64 for an EVLR), description 32 bytes.
+_VLR_HEADER = 54
+_EVLR_HEADER = 60
+_LASZIP_USER_ID = b"laszip encoded"
+_LASZIP_RECORD_ID = 22204
+_VARIABLE_CHUNKS = 0xFFFFFFFF
+_LAYERED_CHUNKED = 3  # LASzip's compressor code for LAS 1.4 point formats 6-10
+_BYTE14 = 14
+_LAYERS = {10: 9, 11: 1, 12: 2, 13: 1}  # Point14, RGB14, RGBNIR14, Wavepacket14
+# Largest accepted ratio of a LAZ file's point records to its compressed bytes. A
+# million identical points compress about 3000-fold (point formats 0-7, measured
+# with lazrs); real surveys 5- to 10-fold. A larger claim is damage.
+_LAZ_MAX_RATIO = 100_000
+# Largest chunk handed to lazrs's parallel reader (LASzip's default chunk of 50 000
+# points takes 1.5-3.4 MB); files with larger chunks are read sequentially.
+_PARALLEL_CHUNK_BYTES = 64 << 20
+
+
+class LasFacts(NamedTuple):
+    """What the checks found, for the reader to size its work by."""
+
+    point_count: int
+    record_length: int
+    compressed: bool
+    parallel_decompression: bool
+    """False when a LAZ chunk is too large for lazrs's parallel reader, which
+    allocates a whole chunk's points at once; the sequential reader does not."""
+
+
+def _bad(path: str, problem: str) -> ValueError:
+    return ValueError(f"invalid LAS/LAZ file {path!r}: {problem}")
+
+
+def _read_at(stream: BinaryIO, offset: int, size: int) -> bytes:
+    stream.seek(offset)
+    return stream.read(size)
+
+
+def check_las_header(path: str, stream: BinaryIO) -> LasFacts:
+    """Raise ValueError naming the field if the header does not fit the file."""
+    file_size = os.fstat(stream.fileno()).st_size
+    head = _read_at(stream, 0, 375)
+    if len(head) < 227 or head[:4] != b"LASF":
+        raise _bad(path, f"file is {file_size} bytes, shorter than the 227-byte LAS header")
+    major, minor = head[24], head[25]
+    if major != 1 or minor not in _HEADER_SIZE:
+        raise _bad(path, f"version {major}.{minor} is not LAS 1.0-1.4")
+    (header_size, data_offset, vlr_count, format_byte, record_length, legacy_count) = (
+        struct.unpack_from("<HIIBHI", head, 94)
+    )
+    if not _HEADER_SIZE[minor] <= header_size <= file_size:
+        raise _bad(
+            path,
+            f"header size {header_size} must be between {_HEADER_SIZE[minor]} (LAS 1.{minor}) "
+            f"and the file size {file_size}",
+        )
+    if not header_size <= data_offset <= file_size:
+        raise _bad(
+            path,
+            f"offset to point data {data_offset} must be between the header size "
+            f"{header_size} and the file size {file_size}",
+        )
+    # Bits 6 and 7 of the format byte mark LASzip compression.
+    point_format, compressed = format_byte & 0x3F, bool(format_byte & 0xC0)
+    if point_format >= len(_RECORD_SIZE):
+        raise _bad(path, f"point data format {point_format} is not one of 0-10")
+    if record_length < _RECORD_SIZE[point_format]:
+        raise _bad(
+            path,
+            f"point record length {record_length} is shorter than the "
+            f"{_RECORD_SIZE[point_format]} bytes of point format {point_format}",
+        )
+    scales, offsets = struct.unpack_from("<3d", head, 131), struct.unpack_from("<3d", head, 155)
+    for axis, scale, offset in zip("xyz", scales, offsets):
+        # Stored coordinates are int32: every one of them must map to a finite number.
+        if not (scale != 0.0 and math.isfinite(abs(scale) * 2.0**31 + abs(offset))):
+            raise _bad(
+                path, f"{axis} scale {scale!r} and offset {offset!r} do not give finite coordinates"
+            )
+    point_count = legacy_count
+    evlr_start = evlr_count = 0
+    if minor >= 4:
+        evlr_start, evlr_count, point_count = struct.unpack_from("<QIQ", head, 235)
+
+    vlr_room = data_offset - header_size
+    if vlr_count * _VLR_HEADER > vlr_room:
+        raise _bad(
+            path,
+            f"header claims {vlr_count} VLRs, but the {vlr_room} bytes before the point data "
+            f"hold at most {vlr_room // _VLR_HEADER}",
+        )
+    laszip_vlr = None
+    position = header_size
+    for index in range(vlr_count):
+        vlr = _read_at(stream, position, _VLR_HEADER)
+        if len(vlr) < _VLR_HEADER:
+            raise _bad(path, f"VLR {index} at offset {position} is truncated")
+        (length,) = struct.unpack_from("<H", vlr, 20)
+        end = position + _VLR_HEADER + length
+        if end > data_offset:
+            raise _bad(
+                path,
+                f"VLR {index} ({length} bytes from offset {position}) runs past the start "
+                f"of the point data at {data_offset}",
+            )
+        user_id = vlr[2:18].rstrip(b"\0")
+        (record_id,) = struct.unpack_from("<H", vlr, 18)
+        if user_id == _LASZIP_USER_ID and record_id == _LASZIP_RECORD_ID:
+            laszip_vlr = _read_at(stream, position + _VLR_HEADER, length)
+        position = end
+
+    if evlr_count:
+        if not data_offset <= evlr_start <= file_size - evlr_count * _EVLR_HEADER:
+            raise _bad(
+                path,
+                f"{evlr_count} EVLRs from offset {evlr_start} do not fit between the point "
+                f"data at {data_offset} and the end of the file at {file_size}",
+            )
+        position = evlr_start
+        for index in range(evlr_count):
+            evlr = _read_at(stream, position, _EVLR_HEADER)
+            if len(evlr) < _EVLR_HEADER:
+                raise _bad(path, f"EVLR {index} at offset {position} is truncated")
+            (length,) = struct.unpack_from("<Q", evlr, 20)
+            if length > file_size - position - _EVLR_HEADER:
+                raise _bad(
+                    path,
+                    f"EVLR {index} ({length} bytes from offset {position}) runs past the "
+                    f"end of the file at {file_size}",
+                )
+            position += _EVLR_HEADER + length
+
+    point_end = evlr_start if evlr_count else file_size
+    payload = point_end - data_offset
+    if not compressed:
+        if point_count * record_length > payload:
+            raise _bad(
+                path,
+                f"header claims {point_count} points of {record_length} bytes "
+                f"({point_count * record_length} bytes), but the file holds {payload} "
+                "bytes of point data (truncated?)",
+            )
+    largest_chunk = 0
+    if compressed and point_count:
+        largest_chunk = _check_laz_payload(
+            path, stream, laszip_vlr, data_offset, point_end, point_count, record_length
+        )
+    parallel = largest_chunk * record_length <= _PARALLEL_CHUNK_BYTES
+    return LasFacts(point_count, record_length, compressed, parallel)
+
+
+def _check_laz_payload(
+    path: str,
+    stream: BinaryIO,
+    laszip_vlr: bytes | None,
+    data_offset: int,
+    point_end: int,
+    point_count: int,
+    record_length: int,
+) -> int:
+    """Bound a LAZ file's point count by its chunks; return the largest chunk's points.
+
+    LASzip compresses points in chunks and stores the first point of every chunk
+    uncompressed, so a chunk takes at least `record_length` bytes; with a fixed
+    chunk size, the points are at most chunks x chunk size. The chunk table's
+    offset is the first 8 bytes of the point data, and the table starts with its
+    version and chunk count (LASzip's laszip_dll and lazrs read it the same way).
+    """
+    if laszip_vlr is None or len(laszip_vlr) < 34:
+        raise _bad(path, "compressed points but no valid LASzip VLR (user 'laszip encoded')")
+    (chunk_size,) = struct.unpack_from("<I", laszip_vlr, 12)
+    if chunk_size == 0:
+        raise _bad(path, "LASzip VLR gives a chunk size of 0")
+    head = _read_at(stream, data_offset, 8)
+    if len(head) < 8:
+        raise _bad(path, "compressed point data is truncated (no chunk table offset)")
+    (table_offset,) = struct.unpack("<q", head)
+    payload = point_end - data_offset - 8
+    max_chunks = payload // record_length
+    if table_offset == -1:
+        # Written by a streaming LASzip that never came back to record the table:
+        # lazrs then decompresses without one, chunk after chunk.
+        chunks = max_chunks
+    else:
+        if not data_offset + 8 <= table_offset <= point_end - 8:
+            raise _bad(
+                path,
+                f"LASzip chunk table offset {table_offset} lies outside the point data "
+                f"({data_offset + 8} to {point_end - 8})",
+            )
+        version, chunks = struct.unpack("<II", _read_at(stream, table_offset, 8))
+        if version != 0:
+            raise _bad(path, f"LASzip chunk table version {version} is not 0")
+        if chunks > max_chunks:
+            raise _bad(
+                path,
+                f"LASzip chunk table claims {chunks} chunks, but {payload} bytes of "
+                f"compressed data hold at most {max_chunks} chunks of at least one "
+                f"{record_length}-byte point",
+            )
+    if chunk_size != _VARIABLE_CHUNKS and point_count > chunks * chunk_size:
+        raise _bad(
+            path,
+            f"header claims {point_count} points, but {chunks} LASzip chunks of "
+            f"{chunk_size} points hold at most {chunks * chunk_size} (truncated?)",
+        )
+    if point_count * record_length > _LAZ_MAX_RATIO * payload:
+        raise _bad(
+            path,
+            f"header claims {point_count} points of {record_length} bytes, more than "
+            f"{_LAZ_MAX_RATIO} times the {payload} bytes of compressed data (truncated?)",
+        )
+    if table_offset == -1:
+        return chunk_size if chunk_size != _VARIABLE_CHUNKS else point_count
+    return _check_chunk_table(path, stream, laszip_vlr, data_offset, table_offset)
+
+
+def _check_chunk_table(
+    path: str, stream: BinaryIO, laszip_vlr: bytes, data_offset: int, table_offset: int
+) -> int:
+    """Check the chunks' byte counts against the data; return the largest chunk's points.
+
+    lazrs's parallel reader allocates each chunk's stated bytes, and its stated
+    points (the chunk size, with fixed chunks), before reading it.
+    """
+    import lazrs
+
+    stream.seek(data_offset)
+    table = lazrs.read_chunk_table(stream, lazrs.LazVlr(laszip_vlr))
+    room = table_offset - data_offset - 8
+    total = largest = 0
+    for index, (points, byte_count) in enumerate(table):
+        largest = max(largest, points)
+        total += byte_count
+        if total > room:
+            raise _bad(
+                path,
+                f"LASzip chunk table: chunk {index} ends {total - room} bytes past the "
+                f"{room} bytes of compressed points",
+            )
+    (compressor,) = struct.unpack_from("<H", laszip_vlr, 0)
+    if compressor == _LAYERED_CHUNKED:
+        _check_layers(path, stream, laszip_vlr, data_offset + 8, table)
+    return largest
+
+
+def _check_layers(
+    path: str, stream: BinaryIO, laszip_vlr: bytes, start: int, table: list[tuple[int, int]]
+) -> None:
+    """LAS 1.4 layered chunks: the layer sizes must fit in their chunk.
+
+    A layered chunk holds its first point raw, its point count (u32) and one u32
+    byte count per layer, then the layers; lazrs allocates each layer's stated
+    size before reading it. Point14 items have 9 layers, RGB14 1, RGBNIR14 2,
+    wave packets 1 and extra bytes one per byte (LASzip's layered compressor).
+    """
+    (item_count,) = struct.unpack_from("<H", laszip_vlr, 32)
+    if len(laszip_vlr) < 34 + 6 * item_count:
+        raise _bad(path, f"LASzip VLR is too short for its {item_count} items")
+    raw_size = layers = 0
+    for i in range(item_count):
+        item_type, item_size, _ = struct.unpack_from("<HHH", laszip_vlr, 34 + 6 * i)
+        raw_size += item_size
+        layers += item_size if item_type == _BYTE14 else _LAYERS.get(item_type, 0)
+    head_size = raw_size + 4 + 4 * layers
+    position = start
+    for index, (_, byte_count) in enumerate(table):
+        head = _read_at(stream, position, head_size)
+        if byte_count < head_size or len(head) < head_size:
+            raise _bad(path, f"LASzip chunk {index} is shorter than its layer header")
+        sizes = struct.unpack_from(f"<{layers}I", head, raw_size + 4)
+        if sum(sizes) > byte_count - head_size:
+            raise _bad(
+                path,
+                f"LASzip chunk {index}: its layers claim {sum(sizes)} bytes, the chunk "
+                f"holds {byte_count - head_size}",
+            )
+        position += byte_count

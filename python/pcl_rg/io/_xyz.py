@@ -1,0 +1,129 @@
+"""XYZ text: one point per line, ``x y z`` and optional further columns."""
+
+from __future__ import annotations
+
+import os
+import re
+from typing import BinaryIO
+
+import numpy as np
+
+from ._atomic import atomic_write, write_ascii
+from ._columns import split_columns
+
+__all__ = ["read", "write"]
+
+_PTS_NAMES = {
+    4: ["intensity"],
+    6: ["red", "green", "blue"],
+    7: ["intensity", "red", "green", "blue"],
+}
+
+
+# Longest accepted line: far above any real row, low enough that one line cannot
+# turn into a parser's long loop over a single record.
+_MAX_XYZ_LINE = 1 << 16
+
+
+def _bad_xyz(path: str, problem: str) -> ValueError:
+    return ValueError(f"invalid XYZ text file {path!r}: {problem}")
+
+
+def read(path: str) -> tuple[np.ndarray, dict[str, np.ndarray], None]:
+    """Points and fields of an XYZ text file (the rules of :func:`pcl_rg.io.read_points`)."""
+    with open(path, "rb") as stream:
+        raw = stream.read()
+    try:
+        text = raw.decode("ascii")
+    except UnicodeDecodeError as exc:
+        raise _bad_xyz(path, f"non-ASCII byte at offset {exc.start} (binary data?)") from None
+    lines = text.splitlines()
+    if max(map(len, lines), default=0) > _MAX_XYZ_LINE:
+        number = next(i for i, line in enumerate(lines, start=1) if len(line) > _MAX_XYZ_LINE)
+        raise _bad_xyz(
+            path,
+            f"line {number} is longer than {_MAX_XYZ_LINE} characters (not point rows; a "
+            "row of x y z and a few attributes is well under 1000)",
+        )
+    # The last comment line before the first data line may name the columns.
+    header_names = None
+    first = len(lines)
+    for number, line in enumerate(lines):
+        stripped = line.strip()
+        if not stripped:
+            continue
+        if stripped.startswith(("#", "//")):
+            header_names = re.split(r"[\s,;]+", stripped.lstrip("#/").strip())
+            continue
+        first = number
+        break
+    body = lines[first:]
+    count_line = None
+    if body:
+        tokens = body[0].split()
+        if len(tokens) == 1 and re.fullmatch(r"\d+", tokens[0]):
+            count_line = int(tokens[0])
+            body = body[1:]
+    rows = [line for line in body if line.strip() and not line.lstrip().startswith(("#", "//"))]
+    if not rows:
+        if count_line:
+            raise _bad_xyz(path, f"first line announces {count_line} points but none follow")
+        named = header_names is not None and [h.lower() for h in header_names[:3]] == [
+            "x",
+            "y",
+            "z",
+        ]
+        if not named:
+            raise _bad_xyz(path, "no data rows (need x y z per line)")
+        # No rows under a "# x y z ..." header: an empty cloud, as write_points writes it.
+        empty = {key: np.zeros(0) for key in header_names[3:]}
+        return np.zeros((0, 3)), empty, None
+    try:
+        table = np.loadtxt(rows, dtype=np.float64, ndmin=2, comments=None)
+    except ValueError as exc:
+        message = str(exc).split("; use `usecols`")[0]
+        raise _bad_xyz(
+            path,
+            f"cannot read the rows as numbers (x y z [more] per line, whitespace-separated, "
+            f"the same count on every line): {message}",
+        ) from None
+    if table.shape[1] < 3:
+        raise _bad_xyz(path, f"rows hold {table.shape[1]} numbers, x y z need 3")
+    if count_line is not None and count_line != len(table):
+        raise _bad_xyz(path, f"first line announces {count_line} points but {len(table)} follow")
+    width = table.shape[1]
+    ext = os.path.splitext(path)[1].lower()
+    if (
+        header_names is not None
+        and len(header_names) == width
+        and [h.lower() for h in header_names[:3]] == ["x", "y", "z"]
+        and len(set(header_names)) == width
+    ):
+        names = header_names[3:]
+    elif ext == ".pts" and width in _PTS_NAMES:
+        names = _PTS_NAMES[width]
+    else:
+        names = [f"column_{i + 1}" for i in range(3, width)]
+    fields = {}
+    for i, key in enumerate(names, start=3):
+        column = table[:, i]
+        whole = np.isfinite(column).all() and np.array_equal(column, np.round(column))
+        if whole and np.abs(column).max() <= 2.0**53:
+            fields[key] = column.astype(np.int64)
+        else:
+            fields[key] = column.copy()
+    return np.ascontiguousarray(table[:, :3]), fields, None
+
+
+def write(path: str, xyz: np.ndarray, columns: dict[str, np.ndarray], layout: None = None) -> None:
+    """write_points for XYZ text: a ``# x y z ...`` comment, then one row per point."""
+    data = [("x", xyz[:, 0]), ("y", xyz[:, 1]), ("z", xyz[:, 2])]
+    for key, array in split_columns(columns):
+        data.append((key, array.astype(np.uint8) if array.dtype == np.bool_ else array))
+    head = ("# " + " ".join(key for key, _ in data) + "\n").encode("ascii", errors="replace")
+
+    def write_data(stream: BinaryIO) -> None:
+        stream.write(head)
+        write_ascii(stream, [array for _, array in data], len(xyz))
+
+    atomic_write(path, write_data)
