@@ -45,7 +45,7 @@ install: $(VENV)/.installed
 
 # The whole test suite against the C++ extension built with AddressSanitizer and
 # UndefinedBehaviorSanitizer (CMake option PCL_RG_SANITIZE). python is not
-# instrumented, so the ASan runtime is preloaded (libubsan comes in with _core), and
+# instrumented, so the ASan runtime is preloaded (libubsan comes in with the modules), and
 # libstdc++ with it: python does not link libstdc++, so otherwise ASan's __cxa_throw
 # interceptor finds no real __cxa_throw and aborts on the first C++ exception (in
 # matplotlib's ft2font). The subprocesses the tests start (python -m pcl_rg, pcl-rg,
@@ -54,7 +54,7 @@ install: $(VENV)/.installed
 #   design, thousands of reports that are not ours.
 # - alloc_dealloc_mismatch stays on: the one it reported (PCL's progressive
 #   morphological filter freeing its clouds through our exported C++17 copy of the
-#   shared_ptr deleter) was ours, fixed by the core's hidden visibility (CMakeLists.txt).
+#   shared_ptr deleter) was ours, fixed by hidden visibility (CMakeLists.txt).
 # - -s: pytest's fd capture would swallow the report of a process that aborts
 #   (UBSan ignores log_path next to ASan; --capture=sys breaks faulthandler).
 sanitize: $(SAN_VENV)/.installed
