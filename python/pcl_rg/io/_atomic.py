@@ -67,21 +67,28 @@ def atomic_write(path: str, write: Callable[[BinaryIO], None]) -> None:
     """Write through a temporary file in the same folder, renamed into place."""
     folder, base = os.path.split(os.path.abspath(path))
     flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0)
-    while True:
-        temp = os.path.join(folder, f".{base}.{os.getpid()}.{secrets.token_hex(4)}.tmp")
-        try:
-            # os.open applies the umask, unlike tempfile's private 0600 files.
-            fd = os.open(temp, flags, 0o666)
-            break
-        except FileExistsError:
-            continue
+    fd = -1
+    temp = ""  # set once the file is ours
     try:
-        with open(fd, "wb") as stream:
+        # Inside the try from the start: a KeyboardInterrupt between creating the
+        # temporary file and writing to it must still remove the file and close the fd.
+        while fd < 0:
+            name = os.path.join(folder, f".{base}.{os.getpid()}.{secrets.token_hex(4)}.tmp")
+            with contextlib.suppress(FileExistsError):
+                # os.open applies the umask, unlike tempfile's private 0600 files.
+                fd = os.open(name, flags, 0o666)
+                temp = name
+        stream = open(fd, "wb")  # owns fd from here on
+        fd = -1
+        with stream:
             write(stream)
             stream.flush()
             os.fsync(stream.fileno())
         os.replace(temp, path)
     except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(temp)
+        if fd >= 0:
+            os.close(fd)
+        if temp:
+            with contextlib.suppress(OSError):
+                os.unlink(temp)
         raise
