@@ -86,8 +86,9 @@ def atomic_write(path: str, write: Callable[[BinaryIO], None]) -> None:
             os.fsync(stream.fileno())
         os.replace(temp, path)
     except BaseException:
-        if fd >= 0:
+        if fd >= 0:  # opened, not yet handed to a stream: the file is ours
             os.close(fd)
+            temp = name
         if temp:
             with contextlib.suppress(OSError):
                 os.unlink(temp)
