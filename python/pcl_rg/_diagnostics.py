@@ -18,7 +18,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import Any, NamedTuple
 
-__all__ = ["Diagnostics", "Record", "collect_diagnostics", "record"]
+__all__ = ["Diagnostics", "Record", "collect_diagnostics", "record", "record_segmentation"]
 
 
 class Record(NamedTuple):
@@ -87,6 +87,19 @@ def collect_diagnostics() -> Iterator[Diagnostics]:
         yield collector
     finally:
         _ACTIVE.reset(token)
+
+
+def record_segmentation(
+    function: str, points: int, labels: Any, normals_seconds: float, growth_seconds: float
+) -> None:
+    """Record a region-growing call: its cluster count and its two stage times."""
+    record(
+        function,
+        points=points,
+        clusters=int(labels.max(initial=-1)) + 1,
+        normals_seconds=normals_seconds,
+        growth_seconds=growth_seconds,
+    )
 
 
 def record(function: str, **values: Any) -> None:

@@ -8,7 +8,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _core
-from ._diagnostics import record
+from ._diagnostics import record_segmentation
 from ._params import check_fields, param, resolve, to_core
 from ._validation import as_points
 
@@ -213,11 +213,5 @@ def region_growing(
     )
     xyz = as_points(points)
     labels, normals_seconds, growth_seconds = _core.region_growing(xyz, p.to_core())
-    record(
-        "region_growing",
-        points=len(xyz),
-        clusters=int(labels.max(initial=-1)) + 1,
-        normals_seconds=normals_seconds,
-        growth_seconds=growth_seconds,
-    )
+    record_segmentation("region_growing", len(xyz), labels, normals_seconds, growth_seconds)
     return labels

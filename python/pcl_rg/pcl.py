@@ -23,7 +23,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _pcl
-from ._diagnostics import record
+from ._diagnostics import record, record_segmentation
 from ._params import check_fields, param, resolve, to_core
 from ._region_growing import NO_MAX_CLUSTER_SIZE, check_cluster_sizes
 from ._statistical_outlier_removal import StatisticalOutlierRemovalParams
@@ -422,13 +422,7 @@ def region_growing(
     )
     xyz = as_points(points)
     labels, normals_seconds, growth_seconds = _pcl.region_growing(xyz, p.to_core())
-    record(
-        "pcl.region_growing",
-        points=len(xyz),
-        clusters=int(labels.max(initial=-1)) + 1,
-        normals_seconds=normals_seconds,
-        growth_seconds=growth_seconds,
-    )
+    record_segmentation("pcl.region_growing", len(xyz), labels, normals_seconds, growth_seconds)
     return labels
 
 
