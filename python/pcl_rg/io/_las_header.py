@@ -48,7 +48,6 @@ class LasFacts(NamedTuple):
     """What the checks found, for the reader to size its work by."""
 
     point_count: int
-    record_length: int
     compressed: bool
     parallel_decompression: bool
     """False when a LAZ chunk is too large for lazrs's parallel reader, which
@@ -174,7 +173,7 @@ def check_las_header(path: str, stream: BinaryIO) -> LasFacts:
             path, stream, laszip_vlr, data_offset, point_end, point_count, record_length
         )
     parallel = largest_chunk * record_length <= _PARALLEL_CHUNK_BYTES
-    return LasFacts(point_count, record_length, compressed, parallel)
+    return LasFacts(point_count, compressed, parallel)
 
 
 def _check_laz_payload(
