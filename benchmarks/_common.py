@@ -71,6 +71,8 @@ def dump_json(path: str | None, payload: Any) -> None:
 
 
 RESULTS = Path(__file__).resolve().parent / "RESULTS.md"
+# The shared data folder beside the checkout (../shared/data, see its README).
+SHARED_DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 
 
 def write_section(text: str, section: str, path: Path = RESULTS) -> None:
@@ -86,3 +88,23 @@ def write_section(text: str, section: str, path: Path = RESULTS) -> None:
     else:
         new = old.rstrip("\n") + "\n\n" + text
     path.write_text(new)
+
+
+def publish(text: str, section: str, write: bool) -> None:
+    """Print a report and, with ``--write``, put it into RESULTS.md as `section`."""
+    print(text)
+    if write:
+        write_section(text, section)
+
+
+def error_cells(
+    type_i: float, type_ii: float, total: float, kappa: float, seconds: float, digits: int = 2
+) -> list[str]:
+    """A ground filter's ISPRS errors as table cells: percentages, kappa, time."""
+    return [
+        f"{100 * type_i:.2f}",
+        f"{100 * type_ii:.2f}",
+        f"{100 * total:.2f}",
+        f"{kappa:.3f}",
+        f"{seconds:.{digits}f}",
+    ]

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -22,6 +23,7 @@ settings.load_profile(HYPOTHESIS_PROFILE)
 def examples(count: int) -> int:
     """A test's number of hypothesis examples under the active profile."""
     return count * FUZZ_FACTOR if HYPOTHESIS_PROFILE == "fuzz" else count
+
 
 # ../shared/data next to the repository (CI always provides it; see its README).
 SHARED_DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
@@ -54,3 +56,24 @@ def clustered_cloud(n: int, seed: int) -> np.ndarray:
     blob = centres[rng.integers(0, 8, n)] + rng.normal(0, 0.5, (n, 3))
     outliers = rng.uniform(-20, 40, (max(n // 50, 1), 3))
     return np.vstack([blob, outliers])
+
+
+def run_in_threads(call, threads: int = 4) -> list:
+    """`call()` from `threads` Python threads started together; their results in order.
+
+    The core releases the GIL, so the calls overlap: a result that differs from a
+    serial one means shared state in the core.
+    """
+    barrier = threading.Barrier(threads)
+    results: list = [None] * threads
+
+    def work(i: int) -> None:
+        barrier.wait()
+        results[i] = call()
+
+    workers = [threading.Thread(target=work, args=(i,)) for i in range(threads)]
+    for worker in workers:
+        worker.start()
+    for worker in workers:
+        worker.join()
+    return results

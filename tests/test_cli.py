@@ -647,35 +647,21 @@ def test_plots(capsys, tmp_path, scene_las):
     assert result["profile_points"] == int(along.sum())
     run_json(capsys, "info", scene_las, "--plot", tmp_path / "info.png")
     assert (tmp_path / "info.png").exists()
-    code, _, err = run(
-        capsys, "ground", scene_las, tmp_path / "x.las", "--plot", tmp_path / "a.jpg"
-    )
-    assert code == 2
-    assert_one_error_line(err, "must end in .png")
-    code, _, err = run(
-        capsys,
-        "ground",
-        scene_las,
-        tmp_path / "x.las",
-        "--profile",
-        tmp_path / "a.png",
-        "--profile-line",
-        "1,2,3",
-    )
-    assert code == 2
-    assert_one_error_line(err, "--profile-line", "expected 4 numbers")
-    code, _, err = run(
-        capsys,
-        "ground",
-        scene_las,
-        tmp_path / "x.las",
-        "--profile",
-        tmp_path / "a.png",
-        "--profile-width",
-        "0",
-    )
-    assert code == 2
-    assert_one_error_line(err, "--profile-width: must be > 0")
+    bad_plots = [
+        (["--plot", tmp_path / "a.jpg"], ["must end in .png"]),
+        (
+            ["--profile", tmp_path / "a.png", "--profile-line", "1,2,3"],
+            ["--profile-line", "expected 4 numbers"],
+        ),
+        (
+            ["--profile", tmp_path / "a.png", "--profile-width", "0"],
+            ["--profile-width: must be > 0"],
+        ),
+    ]
+    for flags, words in bad_plots:
+        code, _, err = run(capsys, "ground", scene_las, tmp_path / "x.las", *flags)
+        assert code == 2
+        assert_one_error_line(err, *words)
     assert not (tmp_path / "x.las").exists()
 
 

@@ -338,7 +338,7 @@ def test_offset_does_not_change_geometry() -> None:
 @pytest.mark.parametrize(
     ("kwargs", "match"),
     [
-        ({"size": 0.0}, "size must be > 0, got 0.0"),
+        ({"size": 0.0}, "size must be > 0, got 0"),
         ({"size": -5}, "size must be > 0"),
         ({"size": float("nan")}, "size must be finite"),
         ({"size": float("inf")}, "size must be finite"),

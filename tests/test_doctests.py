@@ -33,3 +33,22 @@ def test_every_public_function_has_an_example():
         and ">>>" not in (getattr(pcl_rg, name).__doc__ or "")
     ]
     assert not missing
+
+
+def _public_functions():
+    for module in (pcl_rg, pcl_rg.pcl, pcl_rg.pipeline):
+        for name in module.__all__:
+            value = getattr(module, name)
+            if callable(value) and not isinstance(value, type):
+                yield f"{module.__name__}.{name}", value
+
+
+def test_shared_docstring_entries_are_filled():
+    # pcl_rg._docstrings.fill_docstring replaces each "%(points)s" line; one left over
+    # means a function lacks the decorator or names an entry that does not exist.
+    unfilled = [name for name, function in _public_functions() if "%(" in function.__doc__]
+    assert not unfilled
+    filled = [
+        name for name, function in _public_functions() if "points : array_like" in function.__doc__
+    ]
+    assert "pcl_rg.pcl.voxel_grid" in filled and "pcl_rg.tin_ground" in filled

@@ -3,11 +3,10 @@
 from __future__ import annotations
 
 import dataclasses
-import threading
 
 import numpy as np
 import pytest
-from conftest import ISPRS_SAMPLES, examples, shared_data
+from conftest import ISPRS_SAMPLES, examples, run_in_threads, shared_data
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
@@ -298,16 +297,7 @@ def test_threads_give_the_serial_result():
     s = synthetic_scene(seed=4, size=250.0, density=4.0, n_buildings=4, n_trees=20)
     assert len(s.points) > 200_000
     expected = pcl_rg.grid_ground(s.points)
-    results: list = [None] * 4
-
-    def work(k: int) -> None:
-        results[k] = pcl_rg.grid_ground(s.points)
-
-    threads = [threading.Thread(target=work, args=(k,)) for k in range(4)]
-    for t in threads:
-        t.start()
-    for t in threads:
-        t.join()
+    results = run_in_threads(lambda: pcl_rg.grid_ground(s.points))
     for result in results:
         np.testing.assert_array_equal(result, expected)
 

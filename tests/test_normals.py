@@ -3,11 +3,10 @@
 from __future__ import annotations
 
 import dataclasses
-import threading
 
 import numpy as np
 import pytest
-from conftest import MOSD_SCENES, examples, shared_data
+from conftest import MOSD_SCENES, examples, run_in_threads, shared_data
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
@@ -241,16 +240,7 @@ def test_deterministic_and_input_untouched() -> None:
 def test_threads_give_the_serial_result() -> None:
     pts = noisy_scene(3000, 10)
     serial = pcl_rg.normals(pts, k=15)
-    results: list = [None] * 4
-
-    def work(i: int) -> None:
-        results[i] = pcl_rg.normals(pts, k=15)
-
-    threads = [threading.Thread(target=work, args=(i,)) for i in range(4)]
-    for t in threads:
-        t.start()
-    for t in threads:
-        t.join()
+    results = run_in_threads(lambda: pcl_rg.normals(pts, k=15))
     for result in results:
         for x, y in zip(serial, result):
             np.testing.assert_array_equal(x, y)

@@ -14,7 +14,8 @@ from pcl_rg import _core, _pcl
 from pcl_rg._params import Spec, spec_of, to_core
 
 # Each extension module with the public module holding its dataclasses: _core's
-# structs pair with pcl_rg's, _pcl's (PCL's classes) with pcl_rg.pcl's.
+# structs pair with pcl_rg's, _pcl's (PCL's classes) with pcl_rg.pcl's. _pcl's
+# filters take _core's VoxelGridParams and StatisticalOutlierRemovalParams.
 MODULES = [(_core, pcl_rg), (_pcl, pcl_rg.pcl)]
 PAIRS = [
     (cls, getattr(module, name))
@@ -39,6 +40,16 @@ def test_every_core_struct_has_a_dataclass(module, public):
     assert core_names == {cls.__name__ for cls, core in PAIRS if core.__module__ == module.__name__}
 
 
+def test_pcl_filters_take_the_core_structs() -> None:
+    # One C++ type, registered once: _pcl must not declare a second Python class for it.
+    assert not hasattr(_pcl, "VoxelGridParams")
+    assert not hasattr(_pcl, "StatisticalOutlierRemovalParams")
+    inlier = _pcl.statistical_outlier_removal(
+        CLOUD, pcl_rg.StatisticalOutlierRemovalParams().to_core()
+    )
+    assert inlier.shape == (len(CLOUD),)
+
+
 @pytest.mark.parametrize(("python_cls", "core_cls"), PAIRS, ids=_id)
 def test_fields_and_defaults_match(python_cls, core_cls):
     core = core_cls()
@@ -60,18 +71,20 @@ def test_fields_and_defaults_match(python_cls, core_cls):
 # --- Python and C++ reject the same values with the same words ------------------------
 
 CLOUD = np.random.default_rng(3).uniform(0.0, 10.0, (200, 3))
+# Every compiled function that takes a struct; each struct is checked by all of them.
 CORE_CALLS = {
-    _core.VoxelGridParams: _core.voxel_grid,
-    _core.StatisticalOutlierRemovalParams: _core.statistical_outlier_removal,
-    _core.NormalsParams: _core.normals,
-    _core.RegionGrowingParams: _core.region_growing,
-    _core.GridGroundParams: _core.grid_ground,
-    _core.TinGroundParams: _core.tin_ground,
-    _pcl.VoxelGridParams: _pcl.voxel_grid,
-    _pcl.StatisticalOutlierRemovalParams: _pcl.statistical_outlier_removal,
-    _pcl.NormalEstimationParams: _pcl.normal_estimation,
-    _pcl.RegionGrowingPclParams: _pcl.region_growing,
-    _pcl.ProgressiveMorphologicalFilterParams: _pcl.progressive_morphological_filter,
+    _core.VoxelGridParams: [_core.voxel_grid, _pcl.voxel_grid],
+    _core.StatisticalOutlierRemovalParams: [
+        _core.statistical_outlier_removal,
+        _pcl.statistical_outlier_removal,
+    ],
+    _core.NormalsParams: [_core.normals],
+    _core.RegionGrowingParams: [_core.region_growing],
+    _core.GridGroundParams: [_core.grid_ground],
+    _core.TinGroundParams: [_core.tin_ground],
+    _pcl.NormalEstimationParams: [_pcl.normal_estimation],
+    _pcl.RegionGrowingPclParams: [_pcl.region_growing],
+    _pcl.ProgressiveMorphologicalFilterParams: [_pcl.progressive_morphological_filter],
 }
 REQUIRED = {"VoxelGridParams": {"leaf_size": 1.0}}
 
@@ -107,13 +120,17 @@ def _cases() -> list[tuple[type, type, str, object]]:
     return cases
 
 
-def _core_message(cls: type, core_cls: type, name: str, value: object) -> str:
+def _core_messages(cls: type, core_cls: type, name: str, value: object) -> list[str]:
+    """What each compiled function taking the struct says of the value."""
     core = to_core(cls(**REQUIRED.get(cls.__name__, {})), core_cls())
     spec = spec_of(next(f for f in dataclasses.fields(cls) if f.name == name))
     setattr(core, name, [value] * spec.axes if spec.axes else value)
-    with pytest.raises(ValueError) as error:
-        CORE_CALLS[core_cls](CLOUD, core)
-    return str(error.value)
+    messages = []
+    for call in CORE_CALLS[core_cls]:
+        with pytest.raises(ValueError) as error:
+            call(CLOUD, core)
+        messages.append(str(error.value))
+    return messages
 
 
 @pytest.mark.parametrize(("cls", "core_cls", "name", "value"), _cases(), ids=_id)
@@ -124,7 +141,8 @@ def test_python_and_cpp_reject_the_same_value_with_the_same_message(
         cls(**{**REQUIRED.get(cls.__name__, {}), name: value})
     python_message = str(error.value)
     assert python_message.startswith(f"{name} must be "), python_message
-    assert python_message == _core_message(cls, core_cls, name, value)
+    for core_message in _core_messages(cls, core_cls, name, value):
+        assert python_message == core_message
 
 
 def test_every_bounded_parameter_is_covered() -> None:
@@ -154,7 +172,8 @@ def test_relations_between_parameters_are_worded_alike(cls, first, second, value
     fields = {f.name: spec_of(f) for f in dataclasses.fields(cls)}
     for name, value in zip((first, second), values):
         setattr(core, name, [value] * fields[name].axes if fields[name].axes else value)
-    with pytest.raises(ValueError) as core_error:
-        CORE_CALLS[type(core)](CLOUD, core)
-    assert str(error.value) == str(core_error.value)
+    for call in CORE_CALLS[type(core)]:
+        with pytest.raises(ValueError) as core_error:
+            call(CLOUD, core)
+        assert str(error.value) == str(core_error.value)
     assert str(error.value).startswith(f"{second} must be ")

@@ -9,11 +9,10 @@ hold them to it on more clouds), NormalEstimation + RegionGrowing, and the
 from __future__ import annotations
 
 import dataclasses
-import threading
 
 import numpy as np
 import pytest
-from conftest import MOSD_SCENES, examples, shared_data
+from conftest import MOSD_SCENES, examples, run_in_threads, shared_data
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
@@ -181,16 +180,7 @@ def test_translation_to_utm_is_exact() -> None:
 def test_threads_give_the_serial_result() -> None:
     pts = box_scene(seed=23)
     serial = region_growing_pcl(pts, k=10)
-    results: list = [None] * 3
-
-    def work(i: int) -> None:
-        results[i] = region_growing_pcl(pts, k=10)
-
-    threads = [threading.Thread(target=work, args=(i,)) for i in range(3)]
-    for t in threads:
-        t.start()
-    for t in threads:
-        t.join()
+    results = run_in_threads(lambda: region_growing_pcl(pts, k=10), threads=3)
     for result in results:
         np.testing.assert_array_equal(result, serial)
 

@@ -4,11 +4,10 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import threading
 
 import numpy as np
 import pytest
-from conftest import MOSD_SCENES, examples, shared_data
+from conftest import MOSD_SCENES, examples, run_in_threads, shared_data
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
@@ -297,16 +296,7 @@ def test_translation_to_utm_is_exact() -> None:
 def test_deterministic_and_threads_give_the_serial_result() -> None:
     pts = box_scene(seed=10)
     serial = pcl_rg.region_growing(pts, k=12)
-    results: list = [None] * 4
-
-    def work(i: int) -> None:
-        results[i] = pcl_rg.region_growing(pts, k=12)
-
-    threads = [threading.Thread(target=work, args=(i,)) for i in range(4)]
-    for t in threads:
-        t.start()
-    for t in threads:
-        t.join()
+    results = run_in_threads(lambda: pcl_rg.region_growing(pts, k=12))
     for result in results:
         np.testing.assert_array_equal(result, serial)
 

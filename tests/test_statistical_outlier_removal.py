@@ -3,11 +3,16 @@ float64 reference, invariants, errors, real data."""
 
 from __future__ import annotations
 
-import threading
-
 import numpy as np
 import pytest
-from conftest import ISPRS_SAMPLES, clustered_cloud, examples, shared_data, uniform_cloud
+from conftest import (
+    ISPRS_SAMPLES,
+    clustered_cloud,
+    examples,
+    run_in_threads,
+    shared_data,
+    uniform_cloud,
+)
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
@@ -198,16 +203,7 @@ def test_fuzz_equal_to_pcl(points, mean_k, std_mul):
 def test_threads_give_the_serial_result():
     points = clustered_cloud(40000, 5)
     expected = pcl_rg.statistical_outlier_removal(points, mean_k=8)
-    results = [None] * 4
-
-    def work(i):
-        results[i] = pcl_rg.statistical_outlier_removal(points, mean_k=8)
-
-    threads = [threading.Thread(target=work, args=(i,)) for i in range(4)]
-    for t in threads:
-        t.start()
-    for t in threads:
-        t.join()
+    results = run_in_threads(lambda: pcl_rg.statistical_outlier_removal(points, mean_k=8))
     for r in results:
         np.testing.assert_array_equal(r, expected)
 

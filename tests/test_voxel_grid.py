@@ -2,11 +2,9 @@
 
 from __future__ import annotations
 
-import threading
-
 import numpy as np
 import pytest
-from conftest import clustered_cloud, examples, shared_data, uniform_cloud
+from conftest import clustered_cloud, examples, run_in_threads, shared_data, uniform_cloud
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
@@ -287,16 +285,7 @@ def test_fuzz_only_clean_errors(points, leaf):
 def test_threads_give_the_serial_result():
     points = clustered_cloud(50000, 4)
     expected = pcl_rg.voxel_grid(points, 0.3)
-    results = [None] * 4
-
-    def work(i):
-        results[i] = pcl_rg.voxel_grid(points, 0.3)
-
-    threads = [threading.Thread(target=work, args=(i,)) for i in range(4)]
-    for t in threads:
-        t.start()
-    for t in threads:
-        t.join()
+    results = run_in_threads(lambda: pcl_rg.voxel_grid(points, 0.3))
     for r in results:
         np.testing.assert_array_equal(r.centroids, expected.centroids)
         np.testing.assert_array_equal(r.voxel_of_point, expected.voxel_of_point)

@@ -23,7 +23,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/_common.py
-from _common import machine, markdown_table, measure, write_section  # noqa: E402
+from _common import machine, markdown_table, measure, publish  # noqa: E402
 
 import pcl_rg
 from pcl_rg import reference
@@ -133,9 +133,7 @@ def main(argv: list[str] | None = None) -> int:
         + "\n".join(notes)
         + "\n"
     )
-    print(text)
-    if args.write:
-        write_section(text, SECTION)
+    publish(text, SECTION, args.write)
     return 0
 
 

@@ -28,9 +28,9 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/_common.py
-from _common import dump_json, machine, markdown_table, write_section  # noqa: E402
+from _common import SHARED_DATA, dump_json, machine, markdown_table, write_section  # noqa: E402
 
-DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "mosd"
+DATA = SHARED_DATA / "mosd"
 SECTION = "## Region growing speed (normals + growth, 1M points)"
 SCENES = ("learn0", "learn5", "learn17", "learn20", "learn25", "learn33", "learn40")
 

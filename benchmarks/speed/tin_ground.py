@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/_common.py
-from _common import machine, markdown_table, write_section  # noqa: E402
+from _common import machine, markdown_table, publish  # noqa: E402
 
 import pcl_rg
 from pcl_rg.datasets import GROUND, synthetic_scene
@@ -118,9 +118,7 @@ def main(argv: list[str] | None = None) -> int:
         "evaluated, after skipping points whose triangle did not change. Peak memory "
         f"added by the runs: {peak:.0f} MiB.\n\n" + markdown_table(header, rows) + "\n\n"
     )
-    print(text)
-    if args.write:
-        write_section(text, SECTION)
+    publish(text, SECTION, args.write)
     return 0
 
 

@@ -34,14 +34,14 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/_common.py
-from _common import RESULTS, machine, markdown_table, write_section  # noqa: E402
+from _common import RESULTS, SHARED_DATA, error_cells, machine, markdown_table, publish  # noqa: E402
 
 import pcl_rg
 import pcl_rg.pcl
 from pcl_rg.datasets import load_isprs
 from pcl_rg.evaluation import ground_errors
 
-DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "isprs"
+DATA = SHARED_DATA / "isprs"
 SAMPLES = ("samp11", "samp21", "samp31", "samp41", "samp51", "samp52", "samp61")
 SECTION = "## Ground filters on ISPRS (grid_ground)"
 
@@ -83,11 +83,11 @@ METHODS: list[tuple[str, Callable[[np.ndarray], np.ndarray]]] = [
     ("grid_ground (defaults)", lambda points: pcl_rg.grid_ground(points)),
     ("PCL ProgressiveMorphologicalFilter (tutorial)", pcl_pmf),
     ("CSF 1.1 (defaults)", csf),
-    ("tin_ground (LiDAR360 defaults)", lambda points: pcl_rg.tin_ground(points)),
     (
-        "tin_ground (tuned_isprs)",
-        lambda points: pcl_rg.tin_ground(points, params=pcl_rg.TinGroundParams.isprs()),
+        "tin_ground (LiDAR360 defaults)",
+        lambda points: pcl_rg.tin_ground(points, params=pcl_rg.TinGroundParams.lidar360()),
     ),
+    ("tin_ground (isprs preset, the defaults)", lambda points: pcl_rg.tin_ground(points)),
 ]
 
 
@@ -105,22 +105,13 @@ def score(samples, methods) -> list[list[str]]:
             seconds = time.perf_counter() - start
             e = ground_errors(truth, predicted)
             means[name].append([e.type_i, e.type_ii, e.total, e.kappa, seconds])
-            rows.append([sample, name, *_cells(e.type_i, e.type_ii, e.total, e.kappa, seconds)])
+            rows.append([sample, name, *error_cells(*means[name][-1])])
             print(f"  {sample} {name}: total {100 * e.total:.2f} %", file=sys.stderr)
     for name, values in means.items():
         m = np.mean(values, axis=0)
-        rows.append(["**mean**", f"**{name}**", *_cells(*m)])
+        rows.append(["**mean**", f"**{name}**", *error_cells(*m)])
     return rows
 
-
-def _cells(type_i, type_ii, total, kappa, seconds) -> list[str]:
-    return [
-        f"{100 * type_i:.2f}",
-        f"{100 * type_ii:.2f}",
-        f"{100 * total:.2f}",
-        f"{kappa:.3f}",
-        f"{seconds:.2f}",
-    ]
 
 
 def mean_total(samples, params: pcl_rg.GridGroundParams) -> float:
@@ -235,9 +226,7 @@ def main(argv: list[str] | None = None) -> int:
         + "\n"
     )
     text += "\n" + ablation(samples)
-    print(text)
-    if args.write:
-        write_section(text, SECTION)
+    publish(text, SECTION, args.write)
     return 0
 
 

@@ -38,17 +38,16 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/_common.py
-from _common import machine, markdown_table, write_section  # noqa: E402
+from _common import SHARED_DATA, machine, markdown_table, write_section  # noqa: E402
 
 import pcl_rg
-from pcl_rg import RegionGrowingParams, _core
+from pcl_rg import RegionGrowingParams
 from pcl_rg.datasets import load_mosd
 from pcl_rg.evaluation import segmentation_scores
 from pcl_rg.io import read_pcd
 from pcl_rg.pcl import RegionGrowingPclParams
-from pcl_rg.reference.region_growing import measure_values
 
-DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
+DATA = SHARED_DATA
 SCENES = ("learn0", "learn5", "learn17", "learn20", "learn25", "learn33", "learn40")
 LEAVES = (0.003, 0.004, 0.005, 0.006, 0.007, 0.008)  # voxel sizes, m: the pooled protocol
 TABLE_LEAF = 0.005  # m: the voxel size of the scene-by-scene table and the tutorial cloud
@@ -328,25 +327,15 @@ def grid() -> list[str]:
     for leaf in LEAVES:
         scenes = load(leaf)
         for k in ks:
-            # Normals and neighbour lists once per k; the growth alone per setting
-            # (exactly what pcl_rg.region_growing does, see tests/test_region_growing.py).
-            prepared = []
-            for _, truth, points, vop in scenes:
-                geometry = pcl_rg.normals(points, k=k)
-                lists = _core.neighbour_lists(points, pcl_rg.NormalsParams(k=k).to_core())
-                measures = {
-                    m: np.ascontiguousarray(measure_values(geometry, m, points)) for m in thresholds
-                }
-                prepared.append((truth, vop, geometry, lists, measures))
+            # The public function for every setting: it recomputes the normals each
+            # time, which makes the search slower but runs exactly what users run.
             for angle, (measure, values) in itertools.product(angles, thresholds.items()):
                 for c in values:
                     p = RegionGrowingParams(
                         k=k, smoothness_deg=angle, curvature_threshold=c, seed_measure=measure
                     )
-                    for truth, vop, geometry, lists, measures in prepared:
-                        labels = _core.grow_regions(
-                            lists, geometry.normals, measures[measure], p.to_core()
-                        )
+                    for _, truth, points, vop in scenes:
+                        labels = pcl_rg.region_growing(points, params=p)
                         scores.setdefault((measure, k, angle, c), []).append(
                             segmentation_scores(truth, carry(labels, vop))
                         )

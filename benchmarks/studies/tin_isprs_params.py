@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/_common.py
-from _common import machine, markdown_table, write_section  # noqa: E402
+from _common import error_cells, machine, markdown_table, publish  # noqa: E402
 from ground_isprs import METHODS, load_samples  # noqa: E402  (same folder)
 
 import pcl_rg
@@ -102,7 +102,7 @@ def comparison(samples) -> str:
             start = time.perf_counter()
             e = ground_errors(truth, method(points))
             values.append([e.type_i, e.type_ii, e.total, e.kappa, time.perf_counter() - start])
-        rows.append([name, *_cells(*np.mean(values, axis=0))])
+        rows.append([name, *error_cells(*np.mean(values, axis=0), digits=3)])
         print(f"  {name}: mean total {rows[-1][3]} %", file=sys.stderr, flush=True)
     header = ["method (mean of 7)", "Type I %", "Type II %", "total %", "kappa", "time s"]
     return (
@@ -125,8 +125,9 @@ def report(samples, command: str, compare: bool = False) -> str:
             seconds = time.perf_counter() - start
             e = ground_errors(truth, ground)
             values.append([e.type_i, e.type_ii, e.total, e.kappa, seconds])
-            rows.append([sample, label, *_cells(e.type_i, e.type_ii, e.total, e.kappa, seconds)])
-        rows.append(["**mean**", f"**{label}**", *_cells(*np.mean(values, axis=0))])
+            rows.append([sample, label, *error_cells(*values[-1], digits=3)])
+        mean = np.mean(values, axis=0)
+        rows.append(["**mean**", f"**{label}**", *error_cells(*mean, digits=3)])
     tuned = pcl_rg.TinGroundParams.isprs()
     ablation = [
         [name, f"{100 * mean_total(samples, dataclasses.replace(tuned, **{name: off})):.2f}"]
@@ -159,15 +160,6 @@ def report(samples, command: str, compare: bool = False) -> str:
     )
 
 
-def _cells(type_i, type_ii, total, kappa, seconds) -> list[str]:
-    return [
-        f"{100 * type_i:.2f}",
-        f"{100 * type_ii:.2f}",
-        f"{100 * total:.2f}",
-        f"{kappa:.3f}",
-        f"{seconds:.3f}",
-    ]
-
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -190,9 +182,7 @@ def main(argv: list[str] | None = None) -> int:
         + (" --write" if args.write else "")
     )
     text = report(samples, command, args.compare)
-    print(text)
-    if args.write:
-        write_section(text, SECTION)
+    publish(text, SECTION, args.write)
     return 0
 
 

@@ -6,12 +6,14 @@
 #include <pybind11/stl.h>
 
 #include <array>
+#include <cstdint>
 #include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include "pcl_rg/points.hpp"
+#include "without_gil.hpp"
 
 namespace pcl_rg::bindings {
 
@@ -42,6 +44,25 @@ py::array_t<T> to_numpy(std::vector<T>&& values, std::vector<py::ssize_t> shape)
     auto* owned = new std::vector<T>(std::move(values));
     py::capsule free_when_done(owned, [](void* p) { delete static_cast<std::vector<T>*>(p); });
     return py::array_t<T>(shape, owned->data(), free_when_done);
+}
+
+}  // namespace pcl_rg::bindings
+
+namespace pcl_rg::bindings {
+
+/// Runs a voxel grid (ours or PCL's) without the GIL and returns (centroids, counts,
+/// voxel_of_point). `run(view, voxel_of_point)` returns a struct with `centroids`
+/// (kept * 3 doubles) and `counts` (kept int64).
+template <class Run>
+py::tuple voxel_grid_to_numpy(const PointsArray& points, Run run) {
+    const PointsView view = points_view(points);
+    py::array_t<std::int64_t> voxel_of_point(static_cast<py::ssize_t>(view.size));
+    std::int64_t* out = voxel_of_point.mutable_data();
+    decltype(run(view, out)) result;
+    without_gil([&] { result = run(view, out); });
+    const auto kept = static_cast<py::ssize_t>(result.counts.size());
+    return py::make_tuple(to_numpy(std::move(result.centroids), {kept, 3}),
+                          to_numpy(std::move(result.counts), {kept}), voxel_of_point);
 }
 
 }  // namespace pcl_rg::bindings

@@ -15,6 +15,7 @@
 #include <string>
 
 #include "pcl_cloud.hpp"
+#include "pcl_rg/check.hpp"
 #include "pcl_rg/interrupt.hpp"
 
 namespace pcl_rg {
@@ -107,10 +108,7 @@ void pcl_statistical_outlier_removal(PointsView points,
     std::fill(inlier, inlier + points.size, false);
     if (points.size == 0) return;
     // PCL reads past its neighbour buffers when mean_k >= N: refuse, as the core does.
-    if (static_cast<std::size_t>(params.mean_k) >= points.size)
-        throw std::invalid_argument("mean_k must be < the number of points (" +
-                                    std::to_string(points.size) + "), got " +
-                                    std::to_string(params.mean_k));
+    check::fewer_than_points("mean_k", params.mean_k, points.size);
     const auto cloud = to_pcl_cloud(points, local_origin(points));
     poll_interrupt();
     pcl::StatisticalOutlierRemoval<pcl::PointXYZ> filter;

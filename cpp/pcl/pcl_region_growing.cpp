@@ -59,9 +59,7 @@ using Cloud = pcl::PointCloud<pcl::PointXYZ>;
 using Normals = pcl::PointCloud<pcl::Normal>;
 
 void check_size(std::size_t n, int k) {
-    if (static_cast<std::size_t>(k) >= n)
-        throw std::invalid_argument("k must be < the number of points (" + std::to_string(n) +
-                                    "), got " + std::to_string(k));
+    check::fewer_than_points("k", k, n);
     if (n > static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max()))
         throw std::invalid_argument("points: at most 2^31 - 1 points are supported, got " +
                                     std::to_string(n));

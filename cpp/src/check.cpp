@@ -56,4 +56,10 @@ void relation(bool ok, const char* name, const std::string& rule, double value) 
                                     format_value(value));
 }
 
+void fewer_than_points(const char* name, std::int64_t count, std::size_t n) {
+    if (count < 0 || static_cast<std::uint64_t>(count) >= n)
+        throw std::invalid_argument(std::string(name) + " must be < the number of points (" +
+                                    std::to_string(n) + "), got " + std::to_string(count));
+}
+
 }  // namespace pcl_rg::check

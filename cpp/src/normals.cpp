@@ -122,10 +122,8 @@ std::vector<std::uint32_t> neighbour_lists(PointsView points, const NormalsParam
     validate(params);
     const std::size_t n = points.size;
     if (n == 0) return {};
+    check::fewer_than_points("k", params.k, n);
     const auto k = static_cast<std::size_t>(params.k);
-    if (k >= n)
-        throw std::invalid_argument("k must be < the number of points (" + std::to_string(n) +
-                                    "), got " + std::to_string(k));
     const std::vector<float> local = to_local_float(points, local_origin(points));
     const KnnIndex index(local.data(), n);
     std::vector<std::uint32_t> lists(n * k);
@@ -148,10 +146,8 @@ void normals(PointsView points, const NormalsParams& params, const NormalsOutput
     const std::size_t n = points.size;
     if (neighbours) neighbours->clear();
     if (n == 0) return;
+    check::fewer_than_points("k", params.k, n);
     const auto k = static_cast<std::size_t>(params.k);
-    if (k >= n)
-        throw std::invalid_argument("k must be < the number of points (" + std::to_string(n) +
-                                    "), got " + std::to_string(k));
 
     const std::vector<float> local = to_local_float(points, local_origin(points));
     const KnnIndex index(local.data(), n);

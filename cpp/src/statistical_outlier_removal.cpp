@@ -41,10 +41,8 @@ StatisticalOutlierRemovalResult statistical_outlier_removal(
     if (n > std::numeric_limits<std::uint32_t>::max())  // the Morton order numbers points
         throw std::invalid_argument("points: at most 2^32 - 1 points are supported, got " +
                                     std::to_string(n));
+    check::fewer_than_points("mean_k", params.mean_k, n);
     const auto mean_k = static_cast<std::size_t>(params.mean_k);
-    if (mean_k >= n)
-        throw std::invalid_argument("mean_k must be < the number of points (" + std::to_string(n) +
-                                    "), got " + std::to_string(mean_k));
 
     // Query in Morton order on a Morton-ordered copy: the same float32 coordinates
     // (so the same distances), but memory is touched in order.

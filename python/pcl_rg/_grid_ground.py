@@ -9,7 +9,8 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _core
-from ._params import check_fields, format_value, param, preset, resolve, to_core
+from ._docstrings import fill_docstring
+from ._params import check_fields, format_value, param, preset, resolve_arguments, to_core
 from ._validation import as_points
 
 __all__ = ["GridGroundParams", "grid_ground"]
@@ -113,6 +114,7 @@ class GridGroundParams:
         return to_core(self, _core.GridGroundParams())
 
 
+@fill_docstring
 def grid_ground(
     points: npt.ArrayLike,
     *,
@@ -178,8 +180,7 @@ def grid_ground(
         Non-finite points, a wrong shape, a block or cell size <= 0, a cell
         larger than the block, a negative slope or tolerance,
         ``min_seed_component < 1`` or ``filter_passes < 0``.
-    TypeError
-        Non-numeric points or parameters of the wrong type.
+    %(type_error)s
 
     Notes
     -----
@@ -246,18 +247,6 @@ def grid_ground(
     >>> bool((pcl_rg.grid_ground(np.c_[xy, z], params=plain) == ~roof).all())
     True
     """
-    p = resolve(
-        GridGroundParams,
-        params,
-        block_size=block_size,
-        cell_size=cell_size,
-        slope=slope,
-        height_tolerance=height_tolerance,
-        min_seed_component=min_seed_component,
-        grow_across_blocks=grow_across_blocks,
-        filter_passes=filter_passes,
-        filter_slope=filter_slope,
-        filter_tolerance=filter_tolerance,
-    )
+    p = resolve_arguments(GridGroundParams, locals())
     xyz = as_points(points)
     return _core.grid_ground(xyz, p.to_core())

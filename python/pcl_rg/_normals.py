@@ -9,7 +9,8 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _core
-from ._params import check_fields, param, resolve, to_core
+from ._docstrings import fill_docstring
+from ._params import check_fields, param, resolve_arguments, to_core
 from ._validation import MAX_POINTS_UINT32, as_points
 
 __all__ = ["NormalsParams", "NormalsResult", "normals"]
@@ -47,6 +48,7 @@ class NormalsResult(NamedTuple):
     """float64 (N,): smaller principal curvature H - sqrt(max(H^2 - K, 0)) (1/m)."""
 
 
+@fill_docstring
 def normals(
     points: npt.ArrayLike, *, k: int | None = None, params: NormalsParams | None = None
 ) -> NormalsResult:
@@ -54,13 +56,11 @@ def normals(
 
     Parameters
     ----------
-    points : array_like, shape (N, 3)
-        Coordinates in metres (any real float or integer dtype, C or F order).
+    %(points)s
     k : int, optional
         Neighbourhood size: the `k` nearest points, the point itself included
         (default 30). Must be >= 3 and < N; curvatures need k >= 6.
-    params : NormalsParams, optional
-        All parameters at once; keywords given explicitly override it.
+    %(params)s
 
     Returns
     -------
@@ -73,8 +73,7 @@ def normals(
     ------
     ValueError
         Non-finite points, a wrong shape, ``k < 3`` or ``k >= N``.
-    TypeError
-        Non-numeric points or parameters of the wrong type.
+    %(type_error)s
 
     Notes
     -----
@@ -134,7 +133,7 @@ def normals(
     >>> round(float(np.median(result.mean_curvature)), 2)  # bowl seen from above: +1 / r
     0.2
     """
-    p = resolve(NormalsParams, params, k=k)
+    p = resolve_arguments(NormalsParams, locals())
     xyz = as_points(points, max_points=MAX_POINTS_UINT32)
     return NormalsResult(*_core.normals(xyz, p.to_core()))
 

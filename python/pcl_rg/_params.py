@@ -22,7 +22,7 @@ import dataclasses
 import math
 import numbers
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import Any, TypeVar
 
 import numpy as np
@@ -205,6 +205,19 @@ def check_value(name: str, value: Any, spec: Spec) -> Any:
     return _number(name, value, spec)
 
 
+def check_number(
+    name: str,
+    value: Any,
+    kind: type[int] | type[float],
+    *,
+    minimum: float | None = None,
+    above: float | None = None,
+    maximum: float | None = None,
+) -> Any:
+    """A plain argument (not a dataclass field) checked as a parameter would be."""
+    return _number(name, value, Spec(kind, "", "", minimum, above, maximum, None, None, None))
+
+
 def check_fields(params: Any) -> None:
     """Check and normalise every field of a frozen params dataclass in place."""
     for field in dataclasses.fields(params):
@@ -220,6 +233,16 @@ def resolve(cls: type[P], params: P | None, **overrides: Any) -> P:
     if params is None:
         return cls(**given)
     return dataclasses.replace(params, **given) if given else params
+
+
+def resolve_arguments(cls: type[P], arguments: Mapping[str, Any]) -> P:
+    """:func:`resolve` for a public function, given its ``locals()`` on entry.
+
+    Those hold ``params`` and one keyword per field of `cls` (tests/test_signatures.py
+    holds every signature to that), so the body does not name each parameter again.
+    """
+    fields = dataclasses.fields(cls)  # type: ignore[arg-type]
+    return resolve(cls, arguments["params"], **{f.name: arguments[f.name] for f in fields})
 
 
 def to_core(params: Any, core: C) -> C:

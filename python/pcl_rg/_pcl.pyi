@@ -3,15 +3,7 @@
 import numpy as np
 import numpy.typing as npt
 
-class VoxelGridParams:
-    leaf_size: list[float]
-    min_points_per_voxel: int
-    def __init__(self) -> None: ...
-
-class StatisticalOutlierRemovalParams:
-    mean_k: int
-    std_mul: float
-    def __init__(self) -> None: ...
+from pcl_rg._core import StatisticalOutlierRemovalParams, VoxelGridParams
 
 def voxel_grid(
     points: npt.NDArray[np.float64], params: VoxelGridParams

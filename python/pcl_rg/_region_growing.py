@@ -9,7 +9,8 @@ import numpy.typing as npt
 
 from . import _core
 from ._diagnostics import record_segmentation
-from ._params import check_fields, param, resolve, to_core
+from ._docstrings import fill_docstring
+from ._params import check_fields, param, resolve_arguments, to_core
 from ._validation import as_points
 
 __all__ = ["SEED_MEASURES", "RegionGrowingParams", "region_growing"]
@@ -82,6 +83,7 @@ def check_cluster_sizes(minimum: int, maximum: int) -> None:
         )
 
 
+@fill_docstring
 def region_growing(
     points: npt.ArrayLike,
     *,
@@ -98,8 +100,7 @@ def region_growing(
 
     Parameters
     ----------
-    points : array_like, shape (N, 3)
-        Coordinates in metres (any real float or integer dtype, C or F order).
+    %(points)s
     k : int, optional
         Neighbourhood size, the point itself included (default 15), for the
         normals, the curvatures and the growth. Must be >= 3 and < N (the
@@ -124,8 +125,7 @@ def region_growing(
         Sensor position for ``seed_measure="concavity"`` (default the origin,
         as PCL: right for Kinect and terrestrial scans in the sensor frame;
         for airborne data give a point high above the area).
-    params : RegionGrowingParams, optional
-        All parameters at once; keywords given explicitly override it.
+    %(params)s
 
     Returns
     -------
@@ -141,8 +141,7 @@ def region_growing(
         (``k < 3``, ``k >= N``, an angle outside (0, 180), a negative
         threshold, ``min_cluster_size > max_cluster_size``, an unknown
         ``seed_measure``).
-    TypeError
-        Non-numeric points or parameters of the wrong type.
+    %(type_error)s
 
     Notes
     -----
@@ -200,17 +199,7 @@ def region_growing(
     >>> np.unique(labels[:600]).tolist(), np.unique(labels[600:]).tolist()
     ([0], [1])
     """
-    p = resolve(
-        RegionGrowingParams,
-        params,
-        k=k,
-        smoothness_deg=smoothness_deg,
-        curvature_threshold=curvature_threshold,
-        min_cluster_size=min_cluster_size,
-        max_cluster_size=max_cluster_size,
-        seed_measure=seed_measure,
-        viewpoint=viewpoint,
-    )
+    p = resolve_arguments(RegionGrowingParams, locals())
     xyz = as_points(points)
     labels, normals_seconds, growth_seconds = _core.region_growing(xyz, p.to_core())
     record_segmentation("region_growing", len(xyz), labels, normals_seconds, growth_seconds)

@@ -9,7 +9,8 @@ import numpy.typing as npt
 
 from . import _core
 from ._diagnostics import record
-from ._params import check_fields, param, resolve, to_core
+from ._docstrings import fill_docstring
+from ._params import check_fields, param, resolve_arguments, to_core
 from ._validation import MAX_POINTS_UINT32, as_points
 
 __all__ = ["StatisticalOutlierRemovalParams", "statistical_outlier_removal"]
@@ -35,6 +36,7 @@ class StatisticalOutlierRemovalParams:
         return to_core(self, _core.StatisticalOutlierRemovalParams())
 
 
+@fill_docstring
 def statistical_outlier_removal(
     points: npt.ArrayLike,
     *,
@@ -46,15 +48,13 @@ def statistical_outlier_removal(
 
     Parameters
     ----------
-    points : array_like, shape (N, 3)
-        Coordinates in metres (any real float or integer dtype, C or F order).
+    %(points)s
     mean_k : int, optional
         Number of nearest neighbours averaged per point, the point itself
         excluded (default 50, PCL's tutorial value). Must be < N.
     std_mul : float, optional
         Standard-deviation multiplier of the threshold (default 1.0).
-    params : StatisticalOutlierRemovalParams, optional
-        All parameters at once; keywords given explicitly override it.
+    %(params)s
 
     Returns
     -------
@@ -66,8 +66,7 @@ def statistical_outlier_removal(
     ValueError
         Non-finite points, a wrong shape, ``mean_k < 1``, ``mean_k >= N``,
         or a negative or non-finite ``std_mul``.
-    TypeError
-        Non-numeric points or parameters of the wrong type.
+    %(type_error)s
 
     Notes
     -----
@@ -95,7 +94,7 @@ def statistical_outlier_removal(
     >>> bool(inlier[-1]), int(inlier.sum()) > 190
     (False, True)
     """
-    p = resolve(StatisticalOutlierRemovalParams, params, mean_k=mean_k, std_mul=std_mul)
+    p = resolve_arguments(StatisticalOutlierRemovalParams, locals())
     xyz = as_points(points, max_points=MAX_POINTS_UINT32)
     inlier, mean_distance, threshold = _core.statistical_outlier_removal(xyz, p.to_core())
     record(

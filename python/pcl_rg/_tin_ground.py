@@ -10,7 +10,15 @@ import numpy.typing as npt
 
 from . import _core
 from ._diagnostics import record
-from ._params import check_fields, deprecated_preset, param, preset, resolve, to_core
+from ._docstrings import fill_docstring
+from ._params import (
+    check_fields,
+    deprecated_preset,
+    param,
+    preset,
+    resolve_arguments,
+    to_core,
+)
 from ._validation import MAX_POINTS_INT32, as_points
 
 __all__ = ["TinGroundParams", "tin_ground"]
@@ -156,6 +164,7 @@ class TinGroundParams:
         return to_core(self, _core.TinGroundParams())
 
 
+@fill_docstring
 def tin_ground(
     points: npt.ArrayLike,
     *,
@@ -175,8 +184,7 @@ def tin_ground(
 
     Parameters
     ----------
-    points : array_like, shape (N, 3)
-        Coordinates in metres (any real float or integer dtype, C or F order).
+    %(points)s
     max_building_size : float, optional
         Seed-grid cell in metres (default 40; LiDAR360 20): the lowest point of each cell is a
         seed. Must exceed the largest building, or its flat roof becomes ground.
@@ -231,8 +239,7 @@ def tin_ground(
         Non-finite points, a wrong shape, 1 or 2 points, points all collinear in
         XY, or a parameter out of range (sizes must be > 0, iteration_angle in
         (0, 90], max_terrain_angle in (0, 90)).
-    TypeError
-        Non-numeric points or parameters of the wrong type.
+    %(type_error)s
 
     Notes
     -----
@@ -293,20 +300,7 @@ def tin_ground(
     >>> bool(ground[~roof].mean() > 0.75), bool(ground[roof].any())
     (True, False)
     """
-    p = resolve(
-        TinGroundParams,
-        params,
-        max_building_size=max_building_size,
-        max_terrain_angle=max_terrain_angle,
-        iteration_angle=iteration_angle,
-        iteration_distance=iteration_distance,
-        reduce_angle_edge=reduce_angle_edge,
-        stop_edge=stop_edge,
-        near_vertex_distance=near_vertex_distance,
-        seed_cell=seed_cell,
-        seed_tolerance=seed_tolerance,
-        outlier_depth=outlier_depth,
-    )
+    p = resolve_arguments(TinGroundParams, locals())
     # The TIN numbers vertices (the points and its 8 frame corners) with int32.
     xyz = as_points(points, max_points=MAX_POINTS_INT32 - 8)
     ground, stats = _core.tin_ground(xyz, p.to_core())

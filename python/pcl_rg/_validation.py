@@ -2,10 +2,6 @@
 
 from __future__ import annotations
 
-import math
-import numbers
-from typing import Any
-
 import numpy as np
 import numpy.typing as npt
 
@@ -13,8 +9,6 @@ __all__ = [
     "MAX_POINTS_INT32",
     "MAX_POINTS_UINT32",
     "as_points",
-    "check_int",
-    "check_float",
 ]
 
 
@@ -67,34 +61,3 @@ def as_points(
     return array
 
 
-def check_int(name: str, value: Any, *, minimum: int | None = None) -> int:
-    """Return `value` as int if it is an integral number >= minimum, else raise."""
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral):
-        raise TypeError(f"{name} must be an integer, got {value!r}")
-    value = int(value)
-    if minimum is not None and value < minimum:
-        raise ValueError(f"{name} must be >= {minimum}, got {value}")
-    return value
-
-
-def check_float(
-    name: str,
-    value: Any,
-    *,
-    minimum: float | None = None,
-    positive: bool = False,
-    maximum: float | None = None,
-) -> float:
-    """Return `value` as a finite float within the bounds, else raise."""
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
-        raise TypeError(f"{name} must be a real number, got {value!r}")
-    value = float(value)
-    if not math.isfinite(value):
-        raise ValueError(f"{name} must be finite, got {value}")
-    if positive and value <= 0:
-        raise ValueError(f"{name} must be > 0, got {value}")
-    if minimum is not None and value < minimum:
-        raise ValueError(f"{name} must be >= {minimum}, got {value}")
-    if maximum is not None and value > maximum:
-        raise ValueError(f"{name} must be <= {maximum}, got {value}")
-    return value

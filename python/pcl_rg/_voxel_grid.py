@@ -10,7 +10,8 @@ import numpy.typing as npt
 
 from . import _core
 from ._diagnostics import record
-from ._params import check_fields, param, resolve, to_core
+from ._docstrings import fill_docstring
+from ._params import check_fields, param, resolve_arguments, to_core
 from ._validation import MAX_POINTS_UINT32, as_points
 
 __all__ = ["VoxelGridParams", "VoxelGridResult", "voxel_grid"]
@@ -45,6 +46,7 @@ class VoxelGridResult(NamedTuple):
     """intp (N,): row of ``centroids`` holding each input point, -1 if its voxel was dropped."""
 
 
+@fill_docstring
 def voxel_grid(
     points: npt.ArrayLike,
     leaf_size: float | tuple[float, float, float] | None = None,
@@ -56,15 +58,13 @@ def voxel_grid(
 
     Parameters
     ----------
-    points : array_like, shape (N, 3)
-        Coordinates in metres (any real float or integer dtype, C or F order).
+    %(points)s
     leaf_size : float or sequence of 3 floats
         Voxel edge length, one value for all axes or one per axis (x, y, z),
         in metres. Required unless `params` is given.
     min_points_per_voxel : int, optional
         Voxels holding fewer points are dropped (default 1, keep all).
-    params : VoxelGridParams, optional
-        All parameters at once; keywords given explicitly override it.
+    %(params)s
 
     Returns
     -------
@@ -77,8 +77,7 @@ def voxel_grid(
     ------
     ValueError
         Non-finite points, a wrong shape, or a leaf size <= 0.
-    TypeError
-        Non-numeric points or parameters of the wrong type.
+    %(type_error)s
 
     Notes
     -----
@@ -109,9 +108,7 @@ def voxel_grid(
     """
     if leaf_size is None and params is None:
         raise TypeError("voxel_grid() needs leaf_size (or params)")
-    p = resolve(
-        VoxelGridParams, params, leaf_size=leaf_size, min_points_per_voxel=min_points_per_voxel
-    )
+    p = resolve_arguments(VoxelGridParams, locals())
     xyz = as_points(points, max_points=MAX_POINTS_UINT32)
     centroids, counts, voxel_of_point = _core.voxel_grid(xyz, p.to_core())
     record("voxel_grid", points=len(xyz), voxels=len(counts))

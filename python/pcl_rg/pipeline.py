@@ -10,6 +10,7 @@ import numpy as np
 import numpy.typing as npt
 
 from ._diagnostics import collect_diagnostics
+from ._docstrings import fill_docstring
 from ._region_growing import RegionGrowingParams, region_growing
 from ._statistical_outlier_removal import (
     StatisticalOutlierRemovalParams,
@@ -103,6 +104,7 @@ _DEFAULT_SOR = StatisticalOutlierRemovalParams()
 _DEFAULT_REGION = RegionGrowingParams()
 
 
+@fill_docstring
 def seed004(
     points: npt.ArrayLike,
     *,
@@ -115,8 +117,7 @@ def seed004(
 
     Parameters
     ----------
-    points : array_like, shape (N, 3)
-        Coordinates in metres (any real float or integer dtype, C or F order).
+    %(points)s
     sor : StatisticalOutlierRemovalParams or None, optional
         Denoising stage (default: PCL's tutorial values, mean_k 50, std_mul 1);
         None skips it.
@@ -143,8 +144,7 @@ def seed004(
     ValueError
         Non-finite points or a stage's parameter error (e.g. SOR's mean_k or
         region growing's k not below the number of points reaching it).
-    TypeError
-        Non-numeric points or parameters of the wrong type.
+    %(type_error)s
 
     Notes
     -----

@@ -12,7 +12,8 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 import numpy.typing as npt
 
-from ._validation import as_points, check_float, check_int
+from ._params import check_number
+from ._validation import as_points
 
 __all__ = ["CLASS_COLOURS", "profile", "segment_colours", "top_view"]
 
@@ -218,7 +219,7 @@ def top_view(
     True
     """
     xyz = as_points(points)
-    max_points = check_int("max_points", max_points, minimum=1)
+    max_points = check_number("max_points", max_points, int, minimum=1)
     classes = _labels("classes", classes, len(xyz))
     segments = _labels("segments", segments, len(xyz))
     plt = _pyplot()
@@ -326,11 +327,11 @@ def profile(
     length = float(np.hypot(*(b - a)))
     if length == 0.0:
         raise ValueError("start and end must differ")
-    width = check_float("width", width, positive=True)
-    vertical_exaggeration = check_float(
-        "vertical_exaggeration", vertical_exaggeration, positive=True
+    width = check_number("width", width, float, above=0.0)
+    vertical_exaggeration = check_number(
+        "vertical_exaggeration", vertical_exaggeration, float, above=0.0
     )
-    max_points = check_int("max_points", max_points, minimum=1)
+    max_points = check_number("max_points", max_points, int, minimum=1)
     classes = _labels("classes", classes, len(xyz))
     segments = _labels("segments", segments, len(xyz))
     direction = (b - a) / length

@@ -4,6 +4,7 @@
 // layers the same invalid values and compares the messages.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -30,6 +31,10 @@ void real(const char* name, double value, const Bounds& bounds);
 void integer(const char* name, std::int64_t value, const Bounds& bounds);
 /// A relation between two parameters: `ok`, else "<name> must be <rule>, got <value>".
 void relation(bool ok, const char* name, const std::string& rule, double value);
+
+/// A neighbour count that the cloud can supply: "<name> must be < the number of points
+/// (<n>), got <count>", the wording of the Python layer.
+void fewer_than_points(const char* name, std::int64_t count, std::size_t n);
 
 /// Common bounds by name.
 inline Bounds positive() { return Bounds{std::nullopt, 0.0, std::nullopt, std::nullopt}; }

@@ -21,8 +21,8 @@ from ._synthetic import (
     VEGETATION,
     SyntheticScene,
     synthetic_scene,
-    terrain_height,
 )
+from ._terrain import terrain_height
 
 __all__ = [
     "BUILDING",

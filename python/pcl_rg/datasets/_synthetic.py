@@ -6,9 +6,10 @@ import math
 from typing import NamedTuple
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
-from .._validation import check_float, check_int
+from .._params import check_number
+from ._terrain import Terrain, make_terrain, ramp_coordinate, terrain_z
 
 __all__ = [
     "BUILDING",
@@ -17,7 +18,6 @@ __all__ = [
     "VEGETATION",
     "SyntheticScene",
     "synthetic_scene",
-    "terrain_height",
 ]
 
 # ASPRS LAS 1.4 classification codes (Table 17 of the specification).
@@ -30,11 +30,6 @@ NOISE: int = 7  # "low point (noise)"
 # constants so the docstring, the generator and the tests agree.
 _GROUND_ROUGHNESS = 0.03  # std of the Gaussian roughness added to the terrain
 _ROOF_ROUGHNESS = 0.02  # std of the roof-point heights around the flat roof
-_N_WAVES = 3  # sinusoids summed for the rolling terrain
-_WAVE_AMPLITUDE = (0.5, 1.5)  # per sinusoid
-_WAVE_LENGTH = (80.0, 400.0)  # clip range of the wavelengths (drawn as 0.5-1.5 x size)
-_RAMP_SLOPE_DEG = (15.0, 25.0)  # slope of the terrace ramp
-_RAMP_MAX_WIDTH = 40.0  # horizontal width of the ramp band (0.15 x size if smaller)
 _RAMP_CLEARANCE = 3.0  # buildings keep this far from the ramp band
 _LARGE_SIDES = ((25.0, 30.0), (20.5, 30.0))  # sides of the first, large building
 _SMALL_SIDE = (8.0, 18.0)  # sides of the other buildings
@@ -80,21 +75,6 @@ class SyntheticScene(NamedTuple):
     trees: NDArray[np.float64]
 
 
-class _Terrain(NamedTuple):
-    """Parameters of the true terrain surface, drawn from the seed."""
-
-    amplitude: NDArray[np.float64]  # (W,) m
-    kx: NDArray[np.float64]  # (W,) rad/m
-    ky: NDArray[np.float64]  # (W,) rad/m
-    phase: NDArray[np.float64]  # (W,) rad
-    ramp_cos: float
-    ramp_sin: float
-    ramp_offset: float  # s at the area centre, so that the band is 0 <= s <= width
-    ramp_width: float  # m
-    ramp_tan: float  # rise per metre across the band
-    half: float  # size / 2
-
-
 # --------------------------------------------------------------------------
 # argument checks
 
@@ -116,135 +96,11 @@ def _check_offset(offset: object) -> NDArray[np.float64]:
 
 
 # --------------------------------------------------------------------------
-# terrain
-
-
-def _terrain(seed: int, size: float) -> _Terrain:
-    # The terrain has its own stream (spawn key 0) so that terrain_height() can
-    # rebuild it from (seed, size) without replaying the scene's draws.
-    rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(0,)))
-    amplitude = rng.uniform(*_WAVE_AMPLITUDE, _N_WAVES)
-    wavelength = np.clip(rng.uniform(0.5, 1.5, _N_WAVES) * size, *_WAVE_LENGTH)
-    direction = rng.uniform(0.0, 2.0 * np.pi, _N_WAVES)
-    phase = rng.uniform(0.0, 2.0 * np.pi, _N_WAVES)
-    k = 2.0 * np.pi / wavelength
-    ramp_dir = rng.uniform(0.0, 2.0 * np.pi)
-    ramp_centre = rng.uniform(-0.2, 0.2) * size  # band centre, from the area centre
-    ramp_slope = math.radians(rng.uniform(*_RAMP_SLOPE_DEG))
-    width = min(0.15 * size, _RAMP_MAX_WIDTH)
-    return _Terrain(
-        amplitude=amplitude,
-        kx=k * np.cos(direction),
-        ky=k * np.sin(direction),
-        phase=phase,
-        ramp_cos=math.cos(ramp_dir),
-        ramp_sin=math.sin(ramp_dir),
-        ramp_offset=0.5 * width - ramp_centre,
-        ramp_width=width,
-        ramp_tan=math.tan(ramp_slope),
-        half=0.5 * size,
-    )
-
-
-def _ramp_coordinate(t: _Terrain, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
-    """Signed distance across the ramp; the sloped band is 0 <= s <= width."""
-    s = (np.asarray(x) - t.half) * t.ramp_cos
-    s += (np.asarray(y) - t.half) * t.ramp_sin
-    s += t.ramp_offset
-    return s
-
-
-def _terrain_z(t: _Terrain, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
-    """Evaluate the terrain with in-place temporaries (the 10M-point path)."""
-    xb, yb = np.broadcast_arrays(np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64))
-    shape = xb.shape
-    xf, yf = xb.reshape(-1), yb.reshape(-1)
-    z = np.zeros(xf.shape)
-    tmp = np.empty(xf.shape)
-    tmp2 = np.empty(xf.shape)
-    for a, kx, ky, ph in zip(t.amplitude, t.kx, t.ky, t.phase):
-        np.multiply(xf, kx, out=tmp)
-        np.multiply(yf, ky, out=tmp2)
-        tmp += tmp2
-        tmp += ph
-        np.sin(tmp, out=tmp)
-        tmp *= a
-        z += tmp
-    np.subtract(xf, t.half, out=tmp)
-    tmp *= t.ramp_cos
-    np.subtract(yf, t.half, out=tmp2)
-    tmp2 *= t.ramp_sin
-    tmp += tmp2
-    tmp += t.ramp_offset  # tmp is now the ramp coordinate s
-    np.clip(tmp, 0.0, t.ramp_width, out=tmp)
-    tmp *= t.ramp_tan
-    z += tmp
-    return z.reshape(shape)
-
-
-def terrain_height(
-    x: ArrayLike, y: ArrayLike, *, seed: int = 0, size: float = 200.0
-) -> NDArray[np.float64]:
-    """True terrain height of the scene made by ``synthetic_scene(seed=seed, size=size)``.
-
-    Parameters
-    ----------
-    x, y : array_like of float
-        Horizontal coordinates in metres, relative to the scene's ``origin``
-        (subtract ``scene.origin[:2]`` first when an offset was used).
-        Broadcast against each other.
-    seed : int, default 0
-        The scene's seed.
-    size : float, default 200.0
-        The scene's side length in metres.
-
-    Returns
-    -------
-    ndarray of float64
-        Terrain height in metres (without the roughness of the ground points
-        and without the ``origin`` z offset), of the broadcast shape of x, y.
-
-    Raises
-    ------
-    ValueError
-        If ``seed`` is negative, ``size`` is not finite and > 0, or x, y
-        contain non-finite values.
-    TypeError
-        If ``seed`` is not an integer or ``size`` not a real number.
-
-    Notes
-    -----
-    The surface is the sum of a few low-frequency sinusoids (wavelength
-    80-400 m, amplitude 0.5-1.5 m each) plus a terrace: a straight band,
-    ``min(0.15 * size, 40)`` m wide across the whole area, in which the
-    ground rises at 15-25 degrees. The height is continuous; its slope jumps
-    at the two edges of the band (the slope breaks).
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from pcl_rg.datasets import terrain_height
-    >>> z = terrain_height(np.array([0.0, 100.0]), np.array([0.0, 100.0]), seed=3)
-    >>> z.shape, z.dtype
-    ((2,), dtype('float64'))
-    """
-    seed = check_int("seed", seed, minimum=0)
-    size = check_float("size", size, positive=True)
-    xa = np.asarray(x, dtype=np.float64)
-    ya = np.asarray(y, dtype=np.float64)
-    for name, arr in (("x", xa), ("y", ya)):
-        if not np.all(np.isfinite(arr)):
-            raise ValueError(f"{name} must be finite, got {np.count_nonzero(~np.isfinite(arr))} "
-                             "non-finite values")
-    return _terrain_z(_terrain(seed, size), xa, ya)
-
-
-# --------------------------------------------------------------------------
 # objects
 
 
 def _place_buildings(
-    rng: np.random.Generator, n: int, size: float, terrain: _Terrain
+    rng: np.random.Generator, n: int, size: float, terrain: Terrain
 ) -> NDArray[np.float64]:
     """Seeded rejection sampling of non-overlapping boxes off the ramp.
 
@@ -273,7 +129,7 @@ def _place_buildings(
         ymin = _BUILDING_MARGIN + v * span_y
         # Keep the sloped band clear: a roof above a 20-degree ramp would make
         # the slope-break test ambiguous.
-        s_c = _ramp_coordinate(terrain, xmin + 0.5 * w, ymin + 0.5 * h)
+        s_c = ramp_coordinate(terrain, xmin + 0.5 * w, ymin + 0.5 * h)
         extent = 0.5 * w * abs(terrain.ramp_cos) + 0.5 * h * abs(terrain.ramp_sin)
         if (s_c + extent > -_RAMP_CLEARANCE) and (
             s_c - extent < terrain.ramp_width + _RAMP_CLEARANCE
@@ -300,7 +156,7 @@ def _place_buildings(
     g = np.linspace(0.0, 1.0, 5)
     gx = boxes[:, 0, None, None] + g[None, :, None] * (boxes[:, 2] - boxes[:, 0])[:, None, None]
     gy = boxes[:, 1, None, None] + g[None, None, :] * (boxes[:, 3] - boxes[:, 1])[:, None, None]
-    base = _terrain_z(terrain, gx, gy).reshape(n, -1).max(axis=1) if n else np.empty(0)
+    base = terrain_z(terrain, gx, gy).reshape(n, -1).max(axis=1) if n else np.empty(0)
     height = rng.uniform(*_BUILDING_HEIGHT, n)
     return np.column_stack([boxes, base, height])
 
@@ -467,17 +323,17 @@ def synthetic_scene(
     >>> scene.buildings.shape, scene.trees.shape
     ((2, 5), (5, 4))
     """
-    seed = check_int("seed", seed, minimum=0)
-    size = check_float("size", size, positive=True)
-    density = check_float("density", density, positive=True)
-    n_buildings = check_int("n_buildings", n_buildings, minimum=0)
-    n_trees = check_int("n_trees", n_trees, minimum=0)
-    noise_fraction = check_float("noise_fraction", noise_fraction)
+    seed = check_number("seed", seed, int, minimum=0)
+    size = check_number("size", size, float, above=0.0)
+    density = check_number("density", density, float, above=0.0)
+    n_buildings = check_number("n_buildings", n_buildings, int, minimum=0)
+    n_trees = check_number("n_trees", n_trees, int, minimum=0)
+    noise_fraction = check_number("noise_fraction", noise_fraction, float)
     if not 0.0 <= noise_fraction < 0.5:
         raise ValueError(f"noise_fraction must be in [0, 0.5), got {noise_fraction}")
     origin = _check_offset(offset)
 
-    terrain = _terrain(seed, size)
+    terrain = make_terrain(seed, size)
     # Everything else comes from the scene stream (spawn key 1), drawn in a
     # fixed order; the offset is only added at the end.
     rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(1,)))
@@ -510,7 +366,7 @@ def synthetic_scene(
     del drop
     gx, gy = gx[keep], gy[keep]
     del keep
-    gz = _terrain_z(terrain, gx, gy)
+    gz = terrain_z(terrain, gx, gy)
     gz += rng.normal(0.0, _GROUND_ROUGHNESS, gz.size)
     blocks.append((gx, gy, gz, GROUND))
 
@@ -542,14 +398,14 @@ def synthetic_scene(
             [ymin[b], ymin[b] + (t - e1), ymax[b]],
             ymax[b] - (t - e3),
         )
-        foot = _terrain_z(terrain, wx, wy)
+        foot = terrain_z(terrain, wx, wy)
         wz = foot + rng.random(b.size) * (roof_z[b] - foot)
         blocks.append((wx, wy, wz, BUILDING))
 
     # Trees: crown surface with shallow penetration, then trunk and understory.
     if n_trees:
         tx, ty, radius, top = trees.T
-        tbase = _terrain_z(terrain, tx, ty)
+        tbase = terrain_z(terrain, tx, ty)
         semi_z = np.minimum(rng.uniform(0.8, 1.3, n_trees) * radius, 0.45 * top)
         centre_z = top - semi_z  # height of the crown ellipsoid's centre above the base
         area = np.pi * radius**2
@@ -562,7 +418,7 @@ def synthetic_scene(
         surface = centre_z[k] + semi_z[k] * np.sqrt(1.0 - rho**2)
         depth = np.minimum(rng.exponential(0.2, k.size), 1.3) * semi_z[k]
         cz = tbase[k] + surface - depth
-        cz = np.maximum(cz, _terrain_z(terrain, cx, cy) + 0.5)  # crown edge on a slope
+        cz = np.maximum(cz, terrain_z(terrain, cx, cy) + 0.5)  # crown edge on a slope
         blocks.append((cx, cy, cz, VEGETATION))
 
         counts = rng.poisson(_UNDERSTORY_RATIO * density * area)
@@ -578,7 +434,7 @@ def synthetic_scene(
             0.3 + rng.random(k.size) * (centre_z[k] - 0.3),
             rng.uniform(0.2, 2.0, k.size),
         )
-        uz = _terrain_z(terrain, ux, uy) + lift
+        uz = terrain_z(terrain, ux, uy) + lift
         blocks.append((ux, uy, uz, VEGETATION))
 
     # Noise, as a fraction of the total including itself.
@@ -594,7 +450,7 @@ def synthetic_scene(
                 rng.uniform(*_HIGH_NOISE_HEIGHT, n_noise - n_low),
             ]
         )
-        blocks.append((nx_, ny_, _terrain_z(terrain, nx_, ny_) + dz, NOISE))
+        blocks.append((nx_, ny_, terrain_z(terrain, nx_, ny_) + dz, NOISE))
 
     # Scatter the blocks straight into shuffled positions (no (N, 3) copy).
     n_total = n_signal + n_noise

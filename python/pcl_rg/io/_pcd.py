@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING, BinaryIO
 import numpy as np
 from numpy.typing import ArrayLike, DTypeLike
 
-from .._validation import check_int
+from .._params import check_number
 from ._atomic import atomic_write, write_ascii, write_chunked
 from ._columns import check_path, check_xyz, exact_float32, field_name
 from ._pcd_header import (
@@ -262,9 +262,9 @@ def _check_fields(fields: Mapping[str, ArrayLike] | None, n: int) -> list[tuple[
 
 def _check_shape(n: int, width: int | None, height: int | None) -> tuple[int, int]:
     if width is not None:
-        width = check_int("width", width, minimum=0)
+        width = check_number("width", width, int, minimum=0)
     if height is not None:
-        height = check_int("height", height, minimum=0)
+        height = check_number("height", height, int, minimum=0)
     if width is None and height is None:
         width, height = n, 1
     elif width is None:

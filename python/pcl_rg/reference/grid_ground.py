@@ -11,7 +11,7 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from .._grid_ground import GridGroundParams
-from .._params import resolve
+from .._params import resolve_arguments
 from .._validation import as_points
 
 __all__ = ["GridNeighbours", "grid_ground", "grid_neighbours"]
@@ -137,19 +137,7 @@ def grid_ground(
     >>> reference.grid_ground(pts, params=plain).tolist()
     [True, True, False]
     """
-    p = resolve(
-        GridGroundParams,
-        params,
-        block_size=block_size,
-        cell_size=cell_size,
-        slope=slope,
-        height_tolerance=height_tolerance,
-        min_seed_component=min_seed_component,
-        grow_across_blocks=grow_across_blocks,
-        filter_passes=filter_passes,
-        filter_slope=filter_slope,
-        filter_tolerance=filter_tolerance,
-    )
+    p = resolve_arguments(GridGroundParams, locals())
     xyz = as_points(points)
     n = len(xyz)
     if n == 0:

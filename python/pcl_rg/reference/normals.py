@@ -7,7 +7,7 @@ import numpy.typing as npt
 from scipy.spatial import cKDTree
 
 from .._normals import NormalsParams, NormalsResult
-from .._params import resolve
+from .._params import resolve_arguments
 from .._validation import as_points
 
 __all__ = ["neighbour_lists", "normals", "QUADRIC_CONDITION_LIMIT"]
@@ -116,7 +116,7 @@ def normals(
     >>> float(np.abs(result.normals[:, 2]).min()), float(np.abs(result.gaussian_curvature).max())
     (1.0, 0.0)
     """
-    p = resolve(NormalsParams, params, k=k)
+    p = resolve_arguments(NormalsParams, locals())
     xyz = as_points(points)
     n, k = len(xyz), p.k
     nan = np.full(n, np.nan)

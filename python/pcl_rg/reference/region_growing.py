@@ -8,7 +8,7 @@ import numpy as np
 import numpy.typing as npt
 
 from .._normals import NormalsResult
-from .._params import resolve
+from .._params import resolve_arguments
 from .._region_growing import RegionGrowingParams
 from .._validation import as_points
 from .normals import neighbour_lists, normals
@@ -153,17 +153,7 @@ def region_growing(
     >>> np.unique(labels).tolist()
     [0]
     """
-    p = resolve(
-        RegionGrowingParams,
-        params,
-        k=k,
-        smoothness_deg=smoothness_deg,
-        curvature_threshold=curvature_threshold,
-        min_cluster_size=min_cluster_size,
-        max_cluster_size=max_cluster_size,
-        seed_measure=seed_measure,
-        viewpoint=viewpoint,
-    )
+    p = resolve_arguments(RegionGrowingParams, locals())
     xyz = as_points(points)
     if len(xyz) == 0:
         return np.empty(0, dtype=np.int32)

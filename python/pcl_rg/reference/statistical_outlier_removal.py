@@ -6,7 +6,7 @@ import numpy as np
 import numpy.typing as npt
 from scipy.spatial import cKDTree
 
-from .._params import resolve
+from .._params import resolve_arguments
 from .._statistical_outlier_removal import StatisticalOutlierRemovalParams
 from .._validation import as_points
 
@@ -44,7 +44,7 @@ def statistical_outlier_removal(
     >>> bool(reference.statistical_outlier_removal(pts, mean_k=8, std_mul=2.0)[-1])
     False
     """
-    p = resolve(StatisticalOutlierRemovalParams, params, mean_k=mean_k, std_mul=std_mul)
+    p = resolve_arguments(StatisticalOutlierRemovalParams, locals())
     xyz = as_points(points)
     if len(xyz) == 0:
         return np.empty(0, dtype=bool)

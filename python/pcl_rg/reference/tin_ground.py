@@ -19,7 +19,7 @@ import numpy.typing as npt
 from scipy import ndimage
 from scipy.spatial import Delaunay, cKDTree
 
-from .._params import resolve
+from .._params import resolve_arguments
 from .._tin_ground import TinGroundParams
 from .._validation import as_points
 
@@ -239,20 +239,7 @@ def tin_ground(
     >>> bool(ground[:20].any()), bool(ground[20:].mean() > 0.95)
     (False, True)
     """
-    p = resolve(
-        TinGroundParams,
-        params,
-        max_building_size=max_building_size,
-        max_terrain_angle=max_terrain_angle,
-        iteration_angle=iteration_angle,
-        iteration_distance=iteration_distance,
-        reduce_angle_edge=reduce_angle_edge,
-        stop_edge=stop_edge,
-        near_vertex_distance=near_vertex_distance,
-        seed_cell=seed_cell,
-        seed_tolerance=seed_tolerance,
-        outlier_depth=outlier_depth,
-    )
+    p = resolve_arguments(TinGroundParams, locals())
     xyz = as_points(points)
     n = len(xyz)
     if n == 0:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
-from .._params import resolve
+from .._params import resolve_arguments
 from .._validation import as_points
 from .._voxel_grid import VoxelGridParams, VoxelGridResult
 
@@ -29,9 +29,7 @@ def voxel_grid(
     """
     if leaf_size is None and params is None:
         raise TypeError("voxel_grid() needs leaf_size (or params)")
-    p = resolve(
-        VoxelGridParams, params, leaf_size=leaf_size, min_points_per_voxel=min_points_per_voxel
-    )
+    p = resolve_arguments(VoxelGridParams, locals())
     xyz = as_points(points)
     n = len(xyz)
     if n == 0:

@@ -1,0 +1,47 @@
+"""Docstring entries that every algorithm shares, written once.
+
+A line of a docstring that holds only ``%(name)s`` is replaced by the entry
+``name``, indented as that line was (the convention of SciPy's ``doccer``). The
+entries describe what :func:`pcl_rg._validation.as_points` and
+:func:`pcl_rg._params.resolve` do for every function, so they are worded there
+once instead of in each docstring.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Callable
+from typing import TypeVar
+
+__all__ = ["ENTRIES", "fill_docstring"]
+
+ENTRIES = {
+    "points": """\
+points : array_like, shape (N, 3)
+    Coordinates in metres (any real float or integer dtype, C or F order).""",
+    # {params_type} is the function's own annotation of `params`, without "| None".
+    "params": """\
+params : {params_type}, optional
+    All parameters at once; keywords given explicitly override it.""",
+    "type_error": """\
+TypeError
+    Non-numeric points or parameters of the wrong type.""",
+}
+
+Function = TypeVar("Function", bound=Callable)
+_PLACEHOLDER = re.compile(r"^(?P<indent>[ \t]*)%\((?P<name>\w+)\)s[ \t]*$", re.M)
+
+
+def fill_docstring(function: Function) -> Function:
+    """Replace each ``%(name)s`` line of ``function.__doc__`` by ``ENTRIES[name]``."""
+
+    params_type = str(function.__annotations__.get("params", "")).removesuffix(" | None")
+
+    def entry(match: re.Match[str]) -> str:
+        indent = match.group("indent")
+        text = ENTRIES[match.group("name")].replace("{params_type}", params_type)
+        return "\n".join(indent + line for line in text.splitlines())
+
+    if function.__doc__:
+        function.__doc__ = _PLACEHOLDER.sub(entry, function.__doc__)
+    return function
