@@ -105,8 +105,8 @@ def test_more_inliers_as_std_mul_grows():
 def test_permutation_changes_only_threshold_rounding():
     points = clustered_cloud(4000, 12)
     order = np.random.default_rng(12).permutation(len(points))
-    _, d, threshold = core_details(points, 8, 1.0)
-    _, d_perm, threshold_perm = core_details(points[order], 8, 1.0)
+    _, d, threshold, _ = core_details(points, 8, 1.0)
+    _, d_perm, threshold_perm, _ = core_details(points[order], 8, 1.0)
     # d_i depend only on the neighbour distances, never on the order.
     np.testing.assert_array_equal(d[order], d_perm)
     # The threshold's sums run in index order: rounding only.
@@ -125,7 +125,7 @@ def test_translation_to_utm_loses_nothing():
     offset = np.array([5e5, 5e6, 0.0])
     base = pcl_rg.statistical_outlier_removal(points, mean_k=8, std_mul=1.0)
     moved = pcl_rg.statistical_outlier_removal(points + offset, mean_k=8, std_mul=1.0)
-    _, d, threshold = core_details(points, 8, 1.0)
+    _, d, threshold, _ = core_details(points, 8, 1.0)
     differ = base != moved
     # float64 rounding of the offset sum moves coordinates by < 1e-9 m.
     assert np.all(np.abs(d[differ] - threshold) <= 1e-6)
@@ -226,3 +226,16 @@ def test_pcl_tutorial_clouds(name):
     inlier = assert_near_reference(points, 50, 1.0)
     np.testing.assert_array_equal(inlier, pcl_mask(points, 50, 1.0))
     assert 0.8 < inlier.mean() < 1.0
+
+
+@pytest.mark.parametrize("mean_k", [1, 8, 30])
+def test_farthest_distance_is_the_kth_neighbour(mean_k):
+    # Batch denoising trusts d_i of a tile's point only where this distance is below
+    # the point's distance to the buffer's edge, so it must be the k-th distance.
+    from scipy.spatial import cKDTree
+
+    points = clustered_cloud(3000, 11)
+    _, _, _, farthest = core_details(points, mean_k, 1.0)
+    local = points - points.min(axis=0)
+    distance, _ = cKDTree(local).query(local, k=mean_k + 1)
+    np.testing.assert_allclose(farthest, distance[:, -1], rtol=1e-5, atol=1e-5)

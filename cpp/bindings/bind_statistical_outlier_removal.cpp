@@ -22,10 +22,11 @@ void bind_statistical_outlier_removal(py::module_& m) {
             without_gil([&] { result = statistical_outlier_removal(view, params, out); });
             const auto n = static_cast<py::ssize_t>(result.mean_distance.size());
             return py::make_tuple(inlier, to_numpy(std::move(result.mean_distance), {n}),
-                                  result.threshold);
+                                  result.threshold,
+                                  to_numpy(std::move(result.farthest_distance), {n}));
         },
         py::arg("points").noconvert(), py::arg("params"),
-        "Core SOR: (inlier, mean_distance float32, threshold). Use "
+        "Core SOR: (inlier, mean_distance float32, threshold, farthest_distance float32). Use "
         "pcl_rg.statistical_outlier_removal.");
 }
 

@@ -57,6 +57,7 @@ StatisticalOutlierRemovalResult statistical_outlier_removal(
     const Interruption interruption;
     interruption.check_now();
     result.mean_distance.resize(n);
+    result.farthest_distance.resize(n);
     const std::size_t k = mean_k + 1;  // the query point comes back as its own neighbour
 
 #pragma omp parallel firstprivate(interruption)
@@ -70,6 +71,7 @@ StatisticalOutlierRemovalResult statistical_outlier_removal(
             double sum = 0.0;
             for (std::size_t j = 1; j < k; ++j) sum += std::sqrt(nn_sqdist[j]);
             result.mean_distance[order[s]] = static_cast<float>(sum / static_cast<double>(mean_k));
+            result.farthest_distance[order[s]] = std::sqrt(nn_sqdist[k - 1]);
         }
     }
 

@@ -36,7 +36,17 @@ _NAMES = {
     "Diagnostics": "_diagnostics",
     "collect_diagnostics": "_diagnostics",
 }
-_SUBMODULES = ("datasets", "demo", "evaluation", "io", "pcl", "pipeline", "plot", "reference")
+_SUBMODULES = (
+    "batch",
+    "datasets",
+    "demo",
+    "evaluation",
+    "io",
+    "pcl",
+    "pipeline",
+    "plot",
+    "reference",
+)
 
 __all__ = sorted([*_NAMES, *_SUBMODULES])
 

@@ -96,7 +96,7 @@ def statistical_outlier_removal(
     """
     p = resolve_arguments(StatisticalOutlierRemovalParams, locals())
     xyz = as_points(points, max_points=MAX_POINTS_UINT32)
-    inlier, mean_distance, threshold = _core.statistical_outlier_removal(xyz, p.to_core())
+    inlier, mean_distance, threshold, _ = _core.statistical_outlier_removal(xyz, p.to_core())
     record(
         "statistical_outlier_removal",
         points=len(xyz),

@@ -20,8 +20,11 @@ void validate(const StatisticalOutlierRemovalParams& params);
 
 struct StatisticalOutlierRemovalResult {
     std::vector<float> mean_distance;  ///< d_i per point, in float32 as PCL keeps it (m)
-    double threshold = 0.0;            ///< mu + std_mul * sigma (m); NaN when sigma is
-                                       ///< not a number, in which case every point is kept
+    /// Distance to the farthest of the mean_k neighbours (m): a caller that ran on a tile
+    /// plus a buffer knows d_i is exact where this is below the distance to the buffer's edge.
+    std::vector<float> farthest_distance;
+    double threshold = 0.0;  ///< mu + std_mul * sigma (m); NaN when sigma is
+                             ///< not a number, in which case every point is kept
 };
 
 /// Fills `inlier[i]` for every point and returns the per-point statistics.

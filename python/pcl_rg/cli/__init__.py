@@ -30,7 +30,7 @@ import os
 import sys
 from collections.abc import Iterable, Sequence
 
-from ._flags import EXIT_FAILURE, EXIT_INTERRUPTED, EXIT_OK, EXIT_USAGE, CliError, Parser
+from ._flags import EXIT_FAILURE, EXIT_INTERRUPTED, EXIT_USAGE, CliError, Parser
 from .commands import COMMANDS, configure
 
 __all__ = ["build_parser", "main"]
@@ -86,7 +86,7 @@ def _execute(argv: Sequence[str]) -> int:
     run = Run(args)
     args.run(args, run)
     run.finish()
-    return EXIT_OK
+    return run.exit_status
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -14,6 +14,18 @@ from typing import Any
 
 import numpy as np
 
+from .._classification import (
+    GROUND,
+    NEVER_CLASSIFIED,
+    NOISE,
+    NOISE_CLASSES,
+    UNCLASSIFIED,
+    class_array,
+    existing_classes,
+    noise_classes,
+    noise_mask,
+    valid_points,
+)
 from ..io import EXTENSIONS, PointFile, read_points, write_points
 from ._flags import EXIT_FAILURE, CliError, float_type, line_type
 from ._run import Run
@@ -48,12 +60,6 @@ __all__ = [
     "write",
 ]
 
-# ASPRS classes written by the commands.
-UNCLASSIFIED = 1
-GROUND = 2
-NOISE = 7
-NOISE_CLASSES = (7, 18)  # low noise, high noise (LAS 1.4)
-NEVER_CLASSIFIED = 0
 
 
 # ----------------------------------------------------------------- options
@@ -192,33 +198,9 @@ def check_neighbours(name: str, value: int, n_valid: int) -> None:
         )
 
 
-def valid_points(points: np.ndarray) -> np.ndarray:
-    """Rows with finite coordinates (the others are skipped and reported)."""
-    return np.isfinite(points).all(axis=1)
 
 
 # ---------------------------------------------------------------- classes
-
-
-def existing_classes(cloud: PointFile) -> np.ndarray | None:
-    codes = cloud.classification
-    if codes is None:
-        return None
-    codes = np.asarray(codes)
-    if codes.ndim != 1 or codes.dtype.kind not in "iuf":
-        return None
-    return codes
-
-
-def class_array(cloud: PointFile, fill: int) -> np.ndarray:
-    """A writable classification column: the file's (as uint8 when possible) or `fill`."""
-    codes = existing_classes(cloud)
-    n = len(cloud)
-    if codes is None:
-        return np.full(n, fill, dtype=np.uint8)
-    if codes.dtype.kind in "iu" and codes.dtype.itemsize >= 1:
-        return codes.copy()
-    return codes.astype(np.int64)
 
 
 def counts(codes: np.ndarray) -> dict[str, int]:
@@ -228,27 +210,6 @@ def counts(codes: np.ndarray) -> dict[str, int]:
 
 def percent(part: int, whole: int) -> str:
     return f"{100.0 * part / whole:.1f} %" if whole else "-"
-
-
-def noise_mask(codes: np.ndarray | None, n: int) -> np.ndarray:
-    """Points already classified as noise (7 low, 18 high): left out, keeping their class."""
-    if codes is None:
-        return np.zeros(n, bool)
-    return np.isin(codes, NOISE_CLASSES)
-
-
-def noise_classes(cloud: PointFile, valid: np.ndarray, outlier: np.ndarray) -> np.ndarray:
-    """The classification after outlier removal: outliers 7, other points keep their class.
-
-    A file without classes gets 1 (0 for points with NaN coordinates); a point of an
-    earlier run's noise class that is now an inlier becomes 1 again.
-    """
-    classes = class_array(cloud, UNCLASSIFIED)
-    if existing_classes(cloud) is None:
-        classes[~valid] = NEVER_CLASSIFIED
-    classes[outlier] = NOISE
-    classes[valid & ~outlier & (classes == NOISE)] = UNCLASSIFIED
-    return classes
 
 
 def segments_summary(labels: np.ndarray) -> dict[str, Any]:

@@ -31,6 +31,9 @@ class Run:
         self.result: dict[str, Any] = {"command": args.command}
         self.lines: list[str] = []
         self.start = time.perf_counter()
+        # A command that finished but must report a failure (batch: some tiles failed)
+        # sets this; its result is still printed.
+        self.exit_status = 0
 
     @contextmanager
     def stage(self, key: str, description: str) -> Iterator[None]:

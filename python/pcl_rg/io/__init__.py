@@ -37,6 +37,7 @@ from numpy.typing import ArrayLike
 
 from . import _las, _pcd, _ply, _xyz
 from ._columns import check_columns, check_path, check_xyz
+from ._extent import Extent, read_extent
 from ._pcd import write_pcd
 from ._pcd_header import KEYWORDS as _PCD_KEYWORDS
 
@@ -45,6 +46,8 @@ __all__ = [
     "PcdLayout",
     "PlyLayout",
     "PointFile",
+    "Extent",
+    "read_extent",
     "read_pcd",
     "read_points",
     "write_pcd",

@@ -19,6 +19,7 @@ COMMANDS = {
     "downsample": "replace the points of each voxel by their centroid",
     "segment": "region growing: a segment_id per point (-1 none)",
     "pipeline": "seed 004: SOR, voxel grid, normals, region growing",
+    "batch": "a survey of many tiles on Dask: ground, denoise or downsample",
     "evaluate": "score a classified file against ground truth",
     "info": "describe a point file",
     "demo": "run every algorithm on the built-in synthetic scene",

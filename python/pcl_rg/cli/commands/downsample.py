@@ -9,6 +9,7 @@ import numpy as np
 
 import pcl_rg
 
+from ..._classification import MEAN_ATTRIBUTES, voxel_attributes
 from .._common import (
     add_io_arguments,
     add_output_options,
@@ -19,7 +20,7 @@ from .._common import (
 from .._flags import add_param_flags, params_dict, params_from_args, show
 from .._run import Run
 
-__all__ = ["MEAN_ATTRIBUTES", "configure", "execute", "voxel_attributes"]
+__all__ = ["configure", "execute"]
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -34,36 +35,6 @@ def configure(parser: argparse.ArgumentParser) -> None:
     flags = add_param_flags(parser, "voxel grid parameters", {"voxel": pcl_rg.VoxelGridParams})
     parser.set_defaults(flags=flags)
     add_output_options(parser, execute)
-
-
-#: Attributes averaged over a voxel's points (rounded for integer types); every
-#: other integer attribute (class, return numbers, flags, ids) is the first point's.
-MEAN_ATTRIBUTES = ("intensity", "red", "green", "blue", "nir", "gps_time")
-
-
-def voxel_attributes(
-    fields: dict[str, np.ndarray], rows: np.ndarray, voxel: np.ndarray, counts: np.ndarray
-) -> dict[str, np.ndarray]:
-    """Per-voxel attributes: mean of float fields and MEAN_ATTRIBUTES, else the first point's."""
-    m = len(counts)
-    first = np.full(m, np.iinfo(np.int64).max, dtype=np.int64)
-    np.minimum.at(first, voxel, rows)
-    out = {}
-    for name, values in fields.items():
-        values = np.asarray(values)
-        if values.dtype.kind == "f" or (name in MEAN_ATTRIBUTES and values.dtype.kind in "iu"):
-            flat = values[rows].reshape(len(rows), -1).astype(np.float64)
-            sums = np.stack(
-                [np.bincount(voxel, weights=flat[:, j], minlength=m) for j in range(flat.shape[1])],
-                axis=1,
-            )
-            mean = sums / counts[:, None]
-            if values.dtype.kind in "iu":
-                mean = np.round(mean)
-            out[name] = mean.reshape((m,) + values.shape[1:]).astype(values.dtype)
-        else:
-            out[name] = values[first]
-    return out
 
 
 def execute(args: argparse.Namespace, run: Run) -> None:

@@ -9,13 +9,10 @@ import numpy as np
 
 import pcl_rg
 
+from ..._classification import ground_classes
 from .._common import (
-    GROUND,
-    NEVER_CLASSIFIED,
-    UNCLASSIFIED,
     add_io_arguments,
     add_output_options,
-    class_array,
     existing_classes,
     noise_mask,
     percent,
@@ -69,8 +66,7 @@ def execute(args: argparse.Namespace, run: Run) -> None:
     work = valid & ~noise
     with run.stage("ground", f"ground filter ({method.name}) on {int(work.sum()):,} points"):
         ground = method.function(points[work], params=params)
-    classes = class_array(cloud, NEVER_CLASSIFIED)
-    classes[work] = np.where(ground, GROUND, UNCLASSIFIED)
+    classes = ground_classes(cloud, work, ground)
     n_ground = int(ground.sum())
     n_work = int(work.sum())
     kept = np.zeros(len(cloud), bool)

@@ -1,0 +1,123 @@
+"""How the commands classify a file: ASPRS codes, noise, ground and voxel attributes.
+
+One place for the rules a single-file command and a batch tile both apply, so a tile
+of a survey comes out exactly as the single-file command would write it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .io import PointFile
+
+__all__ = [
+    "GROUND",
+    "MEAN_ATTRIBUTES",
+    "NEVER_CLASSIFIED",
+    "NOISE",
+    "NOISE_CLASSES",
+    "UNCLASSIFIED",
+    "class_array",
+    "existing_classes",
+    "ground_classes",
+    "noise_classes",
+    "noise_mask",
+    "valid_points",
+    "voxel_attributes",
+]
+
+# ASPRS classes written by the commands.
+UNCLASSIFIED = 1
+GROUND = 2
+NOISE = 7
+NOISE_CLASSES = (7, 18)  # low noise, high noise (LAS 1.4)
+NEVER_CLASSIFIED = 0
+
+
+def valid_points(points: np.ndarray) -> np.ndarray:
+    """Rows with finite coordinates (the others are skipped and reported)."""
+    return np.isfinite(points).all(axis=1)
+
+
+def existing_classes(cloud: PointFile) -> np.ndarray | None:
+    codes = cloud.classification
+    if codes is None:
+        return None
+    codes = np.asarray(codes)
+    if codes.ndim != 1 or codes.dtype.kind not in "iuf":
+        return None
+    return codes
+
+
+def class_array(cloud: PointFile, fill: int) -> np.ndarray:
+    """A writable classification column: the file's (as uint8 when possible) or `fill`."""
+    codes = existing_classes(cloud)
+    n = len(cloud)
+    if codes is None:
+        return np.full(n, fill, dtype=np.uint8)
+    if codes.dtype.kind in "iu" and codes.dtype.itemsize >= 1:
+        return codes.copy()
+    return codes.astype(np.int64)
+
+
+def noise_mask(codes: np.ndarray | None, n: int) -> np.ndarray:
+    """Points already classified as noise (7 low, 18 high): left out, keeping their class."""
+    if codes is None:
+        return np.zeros(n, bool)
+    return np.isin(codes, NOISE_CLASSES)
+
+
+def noise_classes(cloud: PointFile, valid: np.ndarray, outlier: np.ndarray) -> np.ndarray:
+    """The classification after outlier removal: outliers 7, other points keep their class.
+
+    A file without classes gets 1 (0 for points with NaN coordinates); a point of an
+    earlier run's noise class that is now an inlier becomes 1 again.
+    """
+    classes = class_array(cloud, UNCLASSIFIED)
+    if existing_classes(cloud) is None:
+        classes[~valid] = NEVER_CLASSIFIED
+    classes[outlier] = NOISE
+    classes[valid & ~outlier & (classes == NOISE)] = UNCLASSIFIED
+    return classes
+
+
+def ground_classes(cloud: PointFile, work: np.ndarray, ground: np.ndarray) -> np.ndarray:
+    """The classification after ground filtering: 2 ground, 1 other filtered points.
+
+    `work` marks the points that were filtered (valid and not noise) and `ground` holds
+    the filter's answer for them; every other point keeps its class (0 when the file
+    had none).
+    """
+    classes = class_array(cloud, NEVER_CLASSIFIED)
+    classes[work] = np.where(ground, GROUND, UNCLASSIFIED)
+    return classes
+
+
+#: Attributes averaged over a voxel's points (rounded for integer types); every
+#: other integer attribute (class, return numbers, flags, ids) is the first point's.
+MEAN_ATTRIBUTES = ("intensity", "red", "green", "blue", "nir", "gps_time")
+
+
+def voxel_attributes(
+    fields: dict[str, np.ndarray], rows: np.ndarray, voxel: np.ndarray, counts: np.ndarray
+) -> dict[str, np.ndarray]:
+    """Per-voxel attributes: mean of float fields and MEAN_ATTRIBUTES, else the first point's."""
+    m = len(counts)
+    first = np.full(m, np.iinfo(np.int64).max, dtype=np.int64)
+    np.minimum.at(first, voxel, rows)
+    out = {}
+    for name, values in fields.items():
+        values = np.asarray(values)
+        if values.dtype.kind == "f" or (name in MEAN_ATTRIBUTES and values.dtype.kind in "iu"):
+            flat = values[rows].reshape(len(rows), -1).astype(np.float64)
+            sums = np.stack(
+                [np.bincount(voxel, weights=flat[:, j], minlength=m) for j in range(flat.shape[1])],
+                axis=1,
+            )
+            mean = sums / counts[:, None]
+            if values.dtype.kind in "iu":
+                mean = np.round(mean)
+            out[name] = mean.reshape((m,) + values.shape[1:]).astype(values.dtype)
+        else:
+            out[name] = values[first]
+    return out

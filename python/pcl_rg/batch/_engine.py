@@ -1,0 +1,348 @@
+"""A batch run on Dask: plan the tiles, submit their tasks, follow them, clean up.
+
+Dask does the scheduling, the placement on workers, the retries when a worker dies
+and the transfers of the small results between tasks; this module only builds the
+task graph and reports. Point data never travels through the scheduler: tasks get
+paths and read their own input (and, memory-mapped, their neighbours' buffer rows
+from the scratch folder, which is why the output folder must be on a file system
+every worker sees).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import glob
+import json
+import logging
+import os
+import shutil
+import sys
+import tempfile
+import time
+from collections.abc import Iterator, Sequence
+from typing import Any
+
+from .. import __version__
+from ..io import Extent
+from . import _tasks
+from ._manifest import Manifest, file_signature
+from ._plan import Box, box_of, expand_inputs, neighbours, output_paths, survey_box
+
+__all__ = ["BatchReport", "TileReport", "run"]
+
+
+@dataclasses.dataclass
+class TileReport:
+    """What happened to one input file."""
+
+    input: str
+    output: str
+    status: str  # "done", "skipped" (up to date) or "failed"
+    points: int = 0
+    seconds: float = 0.0
+    error: str = ""
+    no_buffer_from: list[str] = dataclasses.field(default_factory=list)
+    """Input files that should have given this tile a buffer but could not be read."""
+    details: dict[str, Any] = dataclasses.field(default_factory=dict)
+
+
+@dataclasses.dataclass
+class BatchReport:
+    """The result of a batch run: one :class:`TileReport` per input, in input order."""
+
+    operation: str
+    tiles: list[TileReport]
+    seconds: float
+    workers: int
+    buffer: float
+    dashboard: str | None = None
+
+    @property
+    def failed(self) -> list[TileReport]:
+        return [t for t in self.tiles if t.status == "failed"]
+
+    @property
+    def points(self) -> int:
+        """Points of the tiles processed in this run (skipped tiles not counted)."""
+        return sum(t.points for t in self.tiles if t.status == "done")
+
+    @property
+    def points_per_second(self) -> float:
+        return self.points / self.seconds if self.seconds > 0 else 0.0
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain data (for JSON)."""
+        result = dataclasses.asdict(self)
+        result.update(
+            points=self.points,
+            points_per_second=self.points_per_second,
+            failed=[t.input for t in self.failed],
+        )
+        return result
+
+
+@contextlib.contextmanager
+def _client(workers: int | None, scheduler: str | None) -> Iterator[Any]:
+    """A Dask client: of `scheduler`, or of a local cluster of one-thread processes."""
+    from distributed import Client, LocalCluster
+
+    if scheduler:
+        with Client(scheduler) as client:
+            yield client
+        return
+    try:
+        import bokeh  # noqa: F401  (the dashboard needs it)
+
+        dashboard: str | None = ":0"
+    except ImportError:
+        dashboard = None
+    with (
+        LocalCluster(
+            n_workers=workers or os.cpu_count() or 1,
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=dashboard,
+            silence_logs=logging.ERROR,
+        ) as cluster,
+        Client(cluster) as client,
+    ):
+        yield client
+
+
+class _Progress:
+    """A bar over tiles on stderr with the points per second, when asked for."""
+
+    def __init__(self, total: int, enabled: bool, what: str) -> None:
+        self.bar = None
+        self.points = 0
+        self.start = time.perf_counter()
+        if enabled and total:
+            try:
+                from tqdm import tqdm
+            except ImportError:  # the progress extra is not installed: no bar
+                return
+            self.bar = tqdm(total=total, desc=what, unit="tile", file=sys.stderr)
+
+    def update(self, points: int) -> None:
+        self.points += points
+        if self.bar is not None:
+            rate = self.points / max(time.perf_counter() - self.start, 1e-9)
+            self.bar.set_postfix_str(f"{rate / 1e6:.2f} M points/s", refresh=False)
+            self.bar.update(1)
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+
+
+def _remove_partial_outputs(outputs: Sequence[str]) -> None:
+    """Temporary files of writes cut short (a killed worker, Ctrl-C): never left behind."""
+    for output in outputs:
+        folder, base = os.path.split(output)
+        for stray in glob.glob(os.path.join(glob.escape(folder), f".{glob.escape(base)}.*.tmp")):
+            with contextlib.suppress(OSError):
+                os.unlink(stray)
+
+
+def _plain(value: Any) -> Any:
+    """`value` as it comes back from JSON, for comparing with the manifest."""
+    return json.loads(json.dumps(value, default=str))
+
+
+def run(
+    job_template: _tasks.Job,
+    inputs: Sequence[str | os.PathLike[str]],
+    out: str | os.PathLike[str],
+    *,
+    workers: int | None,
+    scheduler: str | None,
+    progress: bool,
+    resume: bool,
+    on_dashboard: Any = None,
+) -> BatchReport:
+    """Run one operation over every input; see :func:`pcl_rg.batch.ground`."""
+    start = time.perf_counter()
+    paths = expand_inputs(inputs)
+    folder = os.path.abspath(os.fspath(out))
+    os.makedirs(folder, exist_ok=True)
+    outputs = output_paths(paths, folder)
+    reports = [TileReport(p, o, "failed") for p, o in zip(paths, outputs, strict=True)]
+    manifest = Manifest(folder)
+    if not resume:
+        manifest.entries.clear()
+    scratch = tempfile.mkdtemp(prefix=".pcl_rg-scratch-", dir=folder)
+    job = dataclasses.replace(job_template, scratch=scratch)
+    parameters = _plain(dataclasses.asdict(job.params))
+    dashboard = None
+    try:
+        with _client(workers, scheduler) as client:
+            dashboard = getattr(client, "dashboard_link", None)
+            if on_dashboard and dashboard:
+                on_dashboard(dashboard)
+            n_workers = len(client.scheduler_info().get("workers", {}))
+            futures: list[Any] = []
+            try:
+                _run_on(
+                    client, job, paths, outputs, reports, manifest, parameters, progress, futures
+                )
+            except BaseException:
+                client.cancel(futures, force=True)
+                raise
+    finally:
+        shutil.rmtree(scratch, ignore_errors=True)
+        _remove_partial_outputs(outputs)
+    return BatchReport(
+        job.operation, reports, time.perf_counter() - start, n_workers, job.buffer, dashboard
+    )
+
+
+def _run_on(
+    client: Any,
+    job: _tasks.Job,
+    paths: list[str],
+    outputs: list[str],
+    reports: list[TileReport],
+    manifest: Manifest,
+    parameters: Any,
+    progress: bool,
+    futures: list[Any],
+) -> None:
+    from distributed import as_completed
+
+    extents = client.gather(client.map(_tasks.tile_extent, paths, pure=False))
+    boxes: list[Box | None] = []
+    for report, extent in zip(reports, extents, strict=True):
+        if not extent["ok"]:
+            report.error = extent["error"]
+            boxes.append(None)
+            continue
+        e = Extent(*extent["extent"])
+        finite = all(v == v for v in (e.xmin, e.ymin, e.xmax, e.ymax))
+        boxes.append(box_of(e) if finite and e.points else None)
+        report.points = e.points
+    readable = [i for i, e in enumerate(extents) if e["ok"]]
+    # Denoising's statistics are global: every tile is context for every other.
+    near = (
+        [[j for j in readable if j != i and boxes[j]] for i in range(len(paths))]
+        if job.operation == "denoise"
+        else neighbours(boxes, job.buffer)
+    )
+    unreadable = [os.path.basename(paths[i]) for i, e in enumerate(extents) if not e["ok"]]
+
+    def inputs_of(i: int) -> Any:
+        return _plain(
+            {
+                "operation": job.operation,
+                "method": job.method,
+                "parameters": parameters,
+                "buffer": job.buffer,
+                "version": __version__,
+                "input": file_signature(paths[i]),
+                "context": [file_signature(paths[j]) for j in near[i]],
+                "unreadable": unreadable,
+            }
+        )
+
+    todo = []
+    for i in readable:
+        if manifest.done(outputs[i], inputs_of(i)):
+            reports[i].status = "skipped"
+        else:
+            todo.append(i)
+    needed = sorted(set(todo) | {j for i in todo for j in near[i]})
+    cached = {i: client.submit(_tasks.cache_tile, job, i, paths[i], pure=False) for i in needed}
+    futures += cached.values()
+    bar = _Progress(len(todo), progress, f"{job.operation} ({len(todo)} tiles)")
+    try:
+        if job.operation == "denoise":
+            stage = _denoise(client, job, paths, outputs, boxes, near, todo, cached, futures)
+        else:
+            stage = {}
+            task = _tasks.ground_tile if job.operation == "ground" else _tasks.downsample_tile
+            for i in todo:
+                ready = [cached[i]] + [cached[j] for j in near[i]]
+                stage[
+                    client.submit(
+                        task,
+                        job,
+                        i,
+                        paths[i],
+                        outputs[i],
+                        boxes[i] or Box(0, 0, 0, 0),
+                        [(j, paths[j]) for j in near[i]],
+                        ready,
+                        pure=False,
+                    )
+                ] = i
+            futures += stage.keys()
+        for future in as_completed(list(stage)):
+            i = stage[future]
+            result = future.result()
+            report = reports[i]
+            report.details = {k: v for k, v in result.items() if k not in ("ok", "error")}
+            report.seconds = result.get("seconds", 0.0)
+            if result["ok"]:
+                report.status, report.error = "done", ""
+                report.points = result.get("points", report.points)
+                manifest.record(outputs[i], inputs_of(i))
+            else:
+                report.status, report.error = "failed", result["error"]
+                manifest.forget(outputs[i])
+            bar.update(report.points)
+    finally:
+        bar.close()
+    for i in cached:
+        if not cached[i].result()["ok"]:
+            reports[i].status, reports[i].error = "failed", cached[i].result()["error"]
+    for i, report in enumerate(reports):
+        missing = [j for j in near[i] if j in cached and not cached[j].result()["ok"]]
+        report.no_buffer_from = [os.path.basename(paths[j]) for j in missing] + unreadable
+
+
+def _denoise(
+    client: Any,
+    job: _tasks.Job,
+    paths: list[str],
+    outputs: list[str],
+    boxes: list[Box | None],
+    near: list[list[int]],
+    todo: list[int],
+    cached: dict[int, Any],
+    futures: list[Any],
+) -> dict[Any, int]:
+    """Distances per tile, one global threshold, then the writes (stages 2 and 3)."""
+    stage1 = {i: f.result() for i, f in cached.items()}
+    nowhere = Box(0.0, 0.0, 0.0, 0.0)  # the box of a tile without a finite point
+    survey = survey_box([boxes[i] for i in cached if stage1[i]["ok"]]) or nowhere
+    distances = {}
+    for i in todo:
+        if not stage1[i]["ok"]:
+            continue
+        others = [(j, paths[j], boxes[j]) for j in near[i] if stage1.get(j, {}).get("ok")]
+        distances[i] = client.submit(
+            _tasks.denoise_distances,
+            job,
+            i,
+            paths[i],
+            boxes[i] or nowhere,
+            survey,
+            others,
+            pure=False,
+        )
+    futures += distances.values()
+    sums = {i: f.result() for i, f in distances.items()}
+    good = [s for s in sums.values() if s["ok"]]
+    threshold = _tasks.sor_threshold(good, job.params.std_mul) if good else float("nan")
+    stage: dict[Any, int] = {}
+    for i in todo:
+        if i in sums and sums[i]["ok"]:
+            future = client.submit(
+                _tasks.denoise_write, job, i, paths[i], outputs[i], threshold, sums[i], pure=False
+            )
+        else:
+            failure = sums.get(i) or stage1[i]
+            future = client.submit(_tasks.passed_on, failure, pure=False)
+        stage[future] = i
+    futures += stage.keys()
+    return stage

@@ -1,0 +1,54 @@
+"""The record in the output folder that lets a rerun skip the tiles already done.
+
+A tile is done when its output exists as it was written and everything it was
+computed from is unchanged: the operation, method, parameters, buffer and pcl_rg
+version, the input file and the files that gave it a buffer (size and modification
+time of each). Anything else, and the tile is redone.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from typing import Any
+
+from ..io._atomic import atomic_write
+
+__all__ = ["MANIFEST", "Manifest", "file_signature"]
+
+MANIFEST = ".pcl_rg-batch.json"
+
+
+def file_signature(path: str) -> list[Any]:
+    """[path, size, mtime in ns]: what says a file has not changed."""
+    stat = os.stat(path)
+    return [os.path.abspath(path), stat.st_size, stat.st_mtime_ns]
+
+
+class Manifest:
+    """Entries by output file name; saved atomically after every finished tile."""
+
+    def __init__(self, folder: str) -> None:
+        self.path = os.path.join(folder, MANIFEST)
+        try:
+            with open(self.path, encoding="utf-8") as stream:
+                entries = json.load(stream)
+            self.entries: dict[str, Any] = entries if isinstance(entries, dict) else {}
+        except (OSError, ValueError):
+            self.entries = {}  # none yet, or damaged: every tile is redone
+
+    def done(self, output: str, inputs: dict[str, Any]) -> bool:
+        """Whether `output` exists as recorded, computed from exactly `inputs`."""
+        entry = self.entries.get(os.path.basename(output))
+        if not entry or entry.get("inputs") != inputs or not os.path.exists(output):
+            return False
+        return entry.get("output") == file_signature(output)
+
+    def record(self, output: str, inputs: dict[str, Any]) -> None:
+        entry = {"inputs": inputs, "output": file_signature(output)}
+        self.entries[os.path.basename(output)] = entry
+        text = json.dumps(self.entries, indent=1, sort_keys=True).encode()
+        atomic_write(self.path, lambda stream: stream.write(text))
+
+    def forget(self, output: str) -> None:
+        self.entries.pop(os.path.basename(output), None)

@@ -1,0 +1,399 @@
+"""The work of one tile, run inside a Dask worker: only paths and small results travel.
+
+Stage 1 (`cache_tile`) decodes a tile once and stores its arrays as ``.npy`` files in
+the run's scratch folder. Stage 2 reads its own tile back and, memory-mapped, only
+the rows of its neighbours that fall inside its buffer, runs the algorithm on both,
+and writes the tile's own points. Denoising needs a global mean and deviation, so
+its stage 2 returns sums and a stage 3 (`denoise_write`) applies the threshold.
+
+Every task returns a dict and raises nothing for a bad file: a failed tile is a
+result, so its neighbours still run (without its buffer).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import pickle
+import resource
+import shutil
+import time
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from .. import _core, grid_ground, tin_ground, voxel_grid
+from .._classification import (
+    existing_classes,
+    ground_classes,
+    noise_classes,
+    noise_mask,
+    valid_points,
+    voxel_attributes,
+)
+from ..io import PointFile, read_extent, read_points, write_points
+from ._plan import Box, grow
+
+__all__ = [
+    "Job",
+    "cache_tile",
+    "denoise_distances",
+    "denoise_write",
+    "downsample_tile",
+    "ground_tile",
+    "passed_on",
+    "remove_cache",
+    "tile_extent",
+]
+
+GROUND_METHODS: dict[str, Callable[..., np.ndarray]] = {"grid": grid_ground, "tin": tin_ground}
+
+
+@dataclasses.dataclass(frozen=True)
+class Job:
+    """What every task of a run needs to know, besides its tile."""
+
+    operation: str  # "ground", "denoise" or "downsample"
+    params: Any  # the operation's params dataclass
+    buffer: float  # m
+    scratch: str  # folder of the stage-1 arrays
+    method: str = "grid"  # ground only
+
+
+def _failure(error: BaseException) -> dict[str, Any]:
+    return {"ok": False, "error": f"{type(error).__name__}: {error}"}
+
+
+def _peak_mib() -> float:
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
+def _guarded(work: Callable[[], dict[str, Any]]) -> dict[str, Any]:
+    """`work()` with its time and the worker's peak memory; bad input as a failure."""
+    start = time.perf_counter()
+    try:
+        result = work()
+    except (ValueError, TypeError, OSError, MemoryError, RuntimeError) as error:
+        return _failure(error)
+    result.update(ok=True, seconds=time.perf_counter() - start, peak_mib=_peak_mib())
+    return result
+
+
+def passed_on(result: dict[str, Any]) -> dict[str, Any]:
+    """A result known before any work (a tile that failed earlier), as a task."""
+    return result
+
+
+def tile_extent(path: str) -> dict[str, Any]:
+    """Stage 0: the tile's box, from the header for LAS/LAZ."""
+    return _guarded(lambda: {"extent": tuple(read_extent(path))})
+
+
+# ---------------------------------------------------------------- stage 1
+
+
+def _folder(job: Job, index: int) -> str:
+    return os.path.join(job.scratch, str(index))
+
+
+def cache_tile(job: Job, index: int, path: str) -> dict[str, Any]:
+    """Stage 1: decode the tile and store points, fields and layout for stage 2."""
+
+    def work() -> dict[str, Any]:
+        cloud = read_points(path)
+        folder = _folder(job, index)
+        os.makedirs(folder, exist_ok=True)
+        np.save(os.path.join(folder, "points.npy"), cloud.points)
+        names = list(cloud.fields)
+        for k, name in enumerate(names):
+            np.save(os.path.join(folder, f"field{k}.npy"), np.asarray(cloud.fields[name]))
+        with open(os.path.join(folder, "layout.pkl"), "wb") as stream:
+            pickle.dump((cloud.format, cloud.header, names), stream)
+        return {"points": len(cloud)}
+
+    return _guarded(work)
+
+
+def _load(job: Job, index: int, path: str, mmap: bool = False) -> PointFile:
+    folder = _folder(job, index)
+    with open(os.path.join(folder, "layout.pkl"), "rb") as stream:
+        fmt, header, names = pickle.load(stream)
+    mode = "r" if mmap else None
+    points = np.load(os.path.join(folder, "points.npy"), mmap_mode=mode)
+    fields = {
+        name: np.load(os.path.join(folder, f"field{k}.npy"), mmap_mode=mode)
+        for k, name in enumerate(names)
+    }
+    return PointFile(points, fields, fmt, header, path)
+
+
+def remove_cache(job: Job, index: int) -> None:
+    shutil.rmtree(_folder(job, index), ignore_errors=True)
+
+
+# ---------------------------------------------------------------- context
+
+
+def _inside(points: np.ndarray, box: Box) -> np.ndarray:
+    x, y = points[:, 0], points[:, 1]
+    return (x >= box.xmin) & (x <= box.xmax) & (y >= box.ymin) & (y <= box.ymax)
+
+
+def _context(
+    job: Job,
+    neighbours: list[tuple[int, str]],
+    box: Box,
+    keep: Callable[[PointFile], np.ndarray],
+    fields: bool = False,
+) -> list[tuple[int, np.ndarray, PointFile]]:
+    """(tile, rows, rows' points and fields) of each neighbour inside `box`.
+
+    The neighbours' arrays are memory-mapped and read in slices, so a task holds its
+    own tile and the buffer rows, never a neighbour's whole tile.
+    """
+    parts = []
+    step = 1 << 20
+    for index, path in neighbours:
+        cloud = _load(job, index, path, mmap=True)
+        classes = cloud.classification
+        rows = []
+        for start in range(0, len(cloud), step):
+            stop = min(start + step, len(cloud))
+            piece = PointFile(
+                np.asarray(cloud.points[start:stop]),
+                {} if classes is None else {"classification": np.asarray(classes[start:stop])},
+                cloud.format,
+            )
+            rows.append(np.flatnonzero(_inside(piece.points, box) & keep(piece)) + start)
+        chosen = np.concatenate(rows) if rows else np.empty(0, np.intp)
+        subset = PointFile(
+            np.asarray(cloud.points[chosen]),
+            {n: np.asarray(v[chosen]) for n, v in cloud.fields.items()} if fields else {},
+            cloud.format,
+        )
+        parts.append((index, chosen, subset))
+        del cloud, classes
+    return parts
+
+
+def _ground_work(cloud: PointFile) -> np.ndarray:
+    """The points a ground filter sees: finite and not already noise (as pcl-rg ground)."""
+    return valid_points(cloud.points) & ~noise_mask(existing_classes(cloud), len(cloud))
+
+
+def _valid(cloud: PointFile) -> np.ndarray:
+    return valid_points(cloud.points)
+
+
+# ---------------------------------------------------------------- ground
+
+
+def ground_tile(
+    job: Job,
+    index: int,
+    path: str,
+    output: str,
+    box: Box,
+    neighbours: list[tuple[int, str]],
+    ready: list[dict[str, Any]],
+) -> dict[str, Any]:
+    """Stage 2 of ``ground``: filter the tile with its buffer, write the tile's points.
+
+    `ready` holds the stage-1 results of the tile and then of each neighbour: Dask
+    starts this task once they exist, and a neighbour that failed gives no buffer.
+    """
+    if not ready[0]["ok"]:
+        return ready[0]
+    neighbours = [n for n, result in zip(neighbours, ready[1:], strict=True) if result["ok"]]
+
+    def work() -> dict[str, Any]:
+        own = _load(job, index, path)
+        work_rows = _ground_work(own)
+        parts = _context(job, neighbours, grow(box, job.buffer), _ground_work)
+        xyz = np.concatenate([own.points[work_rows]] + [p.points for _, _, p in parts])
+        ground = GROUND_METHODS[job.method](xyz, params=job.params)[: int(work_rows.sum())]
+        classes = ground_classes(own, work_rows, ground)
+        write_points(output, own.points, dict(own.fields, classification=classes), template=own)
+        return {
+            "points": len(own),
+            "buffer_points": len(xyz) - int(work_rows.sum()),
+            "ground": int(ground.sum()),
+        }
+
+    return _guarded(work)
+
+
+# ---------------------------------------------------------------- denoise
+
+
+def _room(points: np.ndarray, box: Box, survey: Box) -> np.ndarray:
+    """Distance from each point to the nearest side of `box` beyond which points may lie.
+
+    A side at or outside the survey's box has nothing beyond it: infinite room.
+    """
+    room = np.full(len(points), np.inf)
+    x, y = points[:, 0], points[:, 1]
+    if box.xmin > survey.xmin:
+        room = np.minimum(room, x - box.xmin)
+    if box.xmax < survey.xmax:
+        room = np.minimum(room, box.xmax - x)
+    if box.ymin > survey.ymin:
+        room = np.minimum(room, y - box.ymin)
+    if box.ymax < survey.ymax:
+        room = np.minimum(room, box.ymax - y)
+    return room
+
+
+def denoise_distances(
+    job: Job,
+    index: int,
+    path: str,
+    box: Box,
+    survey: Box,
+    others: list[tuple[int, str, Box]],
+) -> dict[str, Any]:
+    """Stage 2 of ``denoise``: each own point's mean neighbour distance, exact.
+
+    The k nearest neighbours of a point are exact when the farthest of them is closer
+    than the buffer's edge. Where it is not, the buffer doubles (up to the whole
+    survey) until it is: the distances are then those of the merged cloud.
+    """
+
+    def work() -> dict[str, Any]:
+        own = _load(job, index, path)
+        valid = _valid(own)
+        mine = np.ascontiguousarray(own.points[valid])
+        margin = job.buffer
+        while True:
+            reach = grow(box, margin)
+            near = [(j, p) for j, p, other in others if _meets(reach, other)]
+            parts = _context(job, near, reach, _valid)
+            xyz = np.concatenate([mine] + [p.points for _, _, p in parts])
+            if len(mine) and job.params.mean_k >= len(xyz):
+                raise ValueError(
+                    f"mean_k must be < the number of points ({len(xyz)}), got {job.params.mean_k}"
+                )
+            if not len(mine):
+                distance = np.empty(0, np.float32)
+                break
+            _, distance, _, farthest = _core.statistical_outlier_removal(xyz, job.params.to_core())
+            distance, farthest = distance[: len(mine)], farthest[: len(mine)]
+            short = farthest > _room(mine, reach, survey)
+            if not short.any() or reach == grow(survey, 0.0) or _covers(reach, survey):
+                break
+            margin = max(2.0 * margin, float(farthest[short].max()) * 1.01 + margin)
+        np.save(os.path.join(_folder(job, index), "distance.npy"), distance)
+        d64 = distance.astype(np.float64)
+        squares = (distance * distance).astype(np.float64)  # float products, as PCL sums them
+        return {
+            "points": len(own),
+            "count": len(distance),
+            "sum": float(d64.sum()),
+            "sum_sq": float(squares.sum()),
+            "buffer_used": margin,
+        }
+
+    return _guarded(work)
+
+
+def _meets(a: Box, b: Box) -> bool:
+    return a.xmin <= b.xmax and b.xmin <= a.xmax and a.ymin <= b.ymax and b.ymin <= a.ymax
+
+
+def _covers(a: Box, b: Box) -> bool:
+    return a.xmin <= b.xmin and a.ymin <= b.ymin and a.xmax >= b.xmax and a.ymax >= b.ymax
+
+
+def denoise_write(
+    job: Job, index: int, path: str, output: str, threshold: float, measured: dict[str, Any]
+) -> dict[str, Any]:
+    """Stage 3 of ``denoise``: the global threshold applied, class 7 for outliers.
+
+    `measured` is the tile's stage-2 result; its buffer and time are reported too.
+    """
+
+    def work() -> dict[str, Any]:
+        own = _load(job, index, path)
+        valid = _valid(own)
+        distance = np.load(os.path.join(_folder(job, index), "distance.npy"))
+        outlier = np.zeros(len(own), bool)
+        outlier[valid] = distance > threshold
+        classes = noise_classes(own, valid, outlier)
+        write_points(output, own.points, dict(own.fields, classification=classes), template=own)
+        return {
+            "points": len(own),
+            "noise": int(outlier.sum()),
+            "threshold": threshold,
+            "buffer_used": measured["buffer_used"],
+            "distance_seconds": measured["seconds"],
+        }
+
+    return _guarded(work)
+
+
+def sor_threshold(sums: list[dict[str, Any]], std_mul: float) -> float:
+    """mu + std_mul * sigma over every tile's distances, as the core computes it."""
+    count = float(sum(s["count"] for s in sums))
+    total = sum(s["sum"] for s in sums)
+    total_sq = sum(s["sum_sq"] for s in sums)
+    mean = total / count
+    variance = (total_sq - total * total / count) / (count - 1.0)
+    return mean + std_mul * float(np.sqrt(variance)) if variance >= 0 else float("nan")
+
+
+# ---------------------------------------------------------------- downsample
+
+
+def _field(cloud: PointFile, name: str, like: np.ndarray) -> np.ndarray:
+    """A neighbour's column `name`, zeros of the own tile's dtype where it has none."""
+    if name in cloud.fields:
+        return np.asarray(cloud.fields[name]).astype(like.dtype, copy=False)
+    return np.zeros((len(cloud),) + like.shape[1:], like.dtype)
+
+
+def downsample_tile(
+    job: Job,
+    index: int,
+    path: str,
+    output: str,
+    box: Box,
+    neighbours: list[tuple[int, str]],
+    ready: list[dict[str, Any]],
+) -> dict[str, Any]:
+    """Stage 2 of ``downsample``: the voxels this tile owns, from it and its buffer.
+
+    A voxel straddling tiles belongs to the lowest-numbered tile with a point in it;
+    the buffer (at least one leaf) holds every point of every voxel the tile touches,
+    and the points are ordered by (tile, row) as in the merged cloud, so centroids,
+    counts and first-point attributes are those of the merged run. `ready` as in
+    :func:`ground_tile`.
+    """
+    if not ready[0]["ok"]:
+        return ready[0]
+    neighbours = [n for n, result in zip(neighbours, ready[1:], strict=True) if result["ok"]]
+
+    def work() -> dict[str, Any]:
+        own = _load(job, index, path)
+        rows = np.flatnonzero(_valid(own))
+        parts = _context(job, neighbours, grow(box, job.buffer), _valid, fields=True)
+        parts.append((index, rows, own.take(rows)))
+        parts.sort(key=lambda part: part[0])
+        xyz = np.concatenate([p.points for _, _, p in parts])
+        tile_of = np.concatenate([np.full(len(r), t) for t, r, _ in parts])
+        fields = {
+            name: np.concatenate([_field(p, name, values) for _, _, p in parts])
+            for name, values in own.fields.items()
+        }
+        grid = voxel_grid(xyz, params=job.params)
+        member = np.flatnonzero(grid.voxel_of_point >= 0)
+        voxel = grid.voxel_of_point[member]
+        owner = np.full(len(grid.counts), np.iinfo(np.int64).max)
+        np.minimum.at(owner, voxel, tile_of[member])
+        mine = owner == index
+        attributes = voxel_attributes(fields, member, voxel, grid.counts)
+        centroids = grid.centroids[mine]
+        write_points(output, centroids, {n: v[mine] for n, v in attributes.items()}, template=own)
+        return {"points": len(own), "voxels": int(mine.sum())}
+
+    return _guarded(work)

@@ -1,0 +1,420 @@
+"""pcl_rg.batch and ``pcl-rg batch``: seamless tiles, faults, resuming, the engine.
+
+Most tests share one local Dask cluster (two one-thread worker processes) through
+`scheduler=`; the engine's own local cluster, a cluster of `dask scheduler` and
+`dask worker` processes, a worker killed mid-run and Ctrl-C get tests of their own.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+
+import numpy as np
+import pytest
+from conftest import ISPRS_SAMPLES, shared_data
+
+import pcl_rg
+from pcl_rg import batch
+from pcl_rg.batch._manifest import MANIFEST
+from pcl_rg.datasets import load_isprs, synthetic_survey
+from pcl_rg.io import read_points, write_points
+
+PYTHON = sys.executable
+
+
+@pytest.fixture(scope="module")
+def scheduler():
+    from distributed import LocalCluster
+
+    with LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+    ) as cluster:
+        yield cluster.scheduler_address
+
+
+@pytest.fixture(scope="module")
+def survey(tmp_path_factory):
+    """A 5 x 5 synthetic survey (about 140k points) with objects across tile borders."""
+    folder = tmp_path_factory.mktemp("survey")
+    return synthetic_survey(folder, tiles=(5, 5), tile_size=60.0, seed=7)
+
+
+def merged(paths):
+    """The merged cloud of `paths`, in input order: what a single-process run sees."""
+    return [read_points(p) for p in paths]
+
+
+def outputs_of(report):
+    return [read_points(t.output) for t in report.tiles]
+
+
+def agreement(report, expected_classes):
+    got = np.concatenate([c.classification for c in outputs_of(report)])
+    return float((got == expected_classes).mean())
+
+
+def ground_of_merged(paths, method, params=None):
+    points = np.concatenate([c.points for c in merged(paths)])
+    function = pcl_rg.grid_ground if method == "grid" else pcl_rg.tin_ground
+    return np.where(function(points, params=params), 2, 1)
+
+
+def quadrants(folder, sample, fmt="las"):
+    """An ISPRS sample cut into four tiles at its middle (half-open), written as files."""
+    points, _ = load_isprs(
+        shared_data("isprs", f"{sample}-utm.pcd"), shared_data("isprs", f"{sample}-utm-ground.pcd")
+    )
+    mid = (points[:, :2].min(axis=0) + points[:, :2].max(axis=0)) / 2
+    paths = []
+    for east in (False, True):
+        for north in (False, True):
+            inside = ((points[:, 0] >= mid[0]) == east) & ((points[:, 1] >= mid[1]) == north)
+            path = os.path.join(folder, f"{sample}_{int(north)}{int(east)}.{fmt}")
+            write_points(path, points[inside], classification=np.ones(inside.sum(), np.uint8))
+            paths.append(path)
+    return paths
+
+
+# ---------------------------------------------------------------- seamless results
+
+
+@pytest.mark.parametrize(("method", "target"), [("grid", 0.999), ("tin", 0.995)])
+def test_ground_on_a_survey_matches_the_merged_run(survey, tmp_path, scheduler, method, target):
+    report = batch.ground(survey.paths, tmp_path, method=method, scheduler=scheduler)
+    assert [t.status for t in report.tiles] == ["done"] * len(survey.paths)
+    assert agreement(report, ground_of_merged(survey.paths, method)) >= target
+
+
+@pytest.mark.parametrize("sample", ISPRS_SAMPLES)
+def test_ground_on_isprs_quadrants_matches_the_merged_run(sample, tmp_path, scheduler):
+    paths = quadrants(tmp_path, sample)
+    for method, target in (("grid", 0.999), ("tin", 0.995)):
+        report = batch.ground(paths, tmp_path / method, method=method, scheduler=scheduler)
+        assert not report.failed
+        assert agreement(report, ground_of_merged(paths, method)) >= target, method
+
+
+def test_a_buffer_of_zero_leaves_seams(survey, tmp_path, scheduler):
+    # The buffer is what makes tiles agree: without it the grid filter disagrees more.
+    expected = ground_of_merged(survey.paths, "grid")
+    none = batch.ground(survey.paths, tmp_path / "0", buffer=0.0, scheduler=scheduler)
+    full = batch.ground(survey.paths, tmp_path / "d", scheduler=scheduler)
+    assert agreement(none, expected) < agreement(full, expected)
+
+
+@pytest.mark.parametrize("sample", ["samp11", "samp52"])
+def test_denoise_is_identical_to_the_merged_run(sample, tmp_path, scheduler):
+    paths = quadrants(tmp_path, sample)
+    params = pcl_rg.StatisticalOutlierRemovalParams(mean_k=12, std_mul=1.0)
+    report = batch.denoise(paths, tmp_path / "out", params=params, scheduler=scheduler)
+    points = np.concatenate([c.points for c in merged(paths)])
+    expected = ~pcl_rg.statistical_outlier_removal(points, params=params)
+    got = np.concatenate([c.classification for c in outputs_of(report)]) == 7
+    assert expected.any() and np.array_equal(got, expected)
+
+
+def test_denoise_grows_a_buffer_that_is_too_small(survey, tmp_path, scheduler):
+    params = pcl_rg.StatisticalOutlierRemovalParams(mean_k=30)
+    report = batch.denoise(survey.paths, tmp_path, params=params, buffer=0.5, scheduler=scheduler)
+    assert max(t.details["buffer_used"] for t in report.tiles) > 0.5
+    points = np.concatenate([c.points for c in merged(survey.paths)])
+    expected = ~pcl_rg.statistical_outlier_removal(points, params=params)
+    got = np.concatenate([c.classification for c in outputs_of(report)]) == 7
+    assert np.array_equal(got, expected)
+
+
+def voxel_rows(clouds):
+    """Centroids with their attributes as sorted rows, to compare sets of voxels."""
+    rows = np.concatenate(
+        [np.column_stack([c.points, c.fields["intensity"], c.classification]) for c in clouds]
+    )
+    return rows[np.lexsort(rows.T[::-1])]
+
+
+@pytest.mark.parametrize("leaf", [1.0, 2.5])
+def test_downsample_writes_the_voxels_of_the_merged_run_once(leaf, tmp_path, scheduler):
+    source = synthetic_survey(tmp_path / "in", tiles=(3, 3), tile_size=40.0, seed=2, format="ply")
+    params = pcl_rg.VoxelGridParams(leaf_size=leaf)
+    report = batch.downsample(source.paths, tmp_path / "out", params=params, scheduler=scheduler)
+    clouds = merged(source.paths)
+    points = np.concatenate([c.points for c in clouds])
+    grid = pcl_rg.voxel_grid(points, params=params)
+    from pcl_rg._classification import voxel_attributes
+
+    fields = {n: np.concatenate([c.fields[n] for c in clouds]) for n in clouds[0].fields}
+    rows = np.arange(len(points))
+    attributes = voxel_attributes(fields, rows, grid.voxel_of_point, grid.counts)
+    expected = np.column_stack(
+        [grid.centroids, attributes["intensity"], attributes["classification"]]
+    )
+    got = voxel_rows(outputs_of(report))
+    assert got.shape == expected.shape
+    np.testing.assert_allclose(got, expected[np.lexsort(expected.T[::-1])], rtol=0, atol=1e-9)
+
+
+# ---------------------------------------------------------------- runs and faults
+
+
+def test_rerun_skips_what_is_up_to_date_and_redoes_what_changed(survey, tmp_path, scheduler):
+    import shutil
+
+    inputs = tmp_path / "in"
+    shutil.copytree(os.path.dirname(survey.paths[0]), inputs)
+    out = tmp_path / "out"
+    first = batch.ground(inputs, out, scheduler=scheduler)
+    assert {t.status for t in first.tiles} == {"done"}
+    again = batch.ground(inputs, out, scheduler=scheduler)
+    assert {t.status for t in again.tiles} == {"skipped"}
+    # A changed input redoes its tile and every tile it gave a buffer to.
+    changed = again.tiles[12].input
+    cloud = read_points(changed)
+    write_points(changed, cloud.points[:-1], cloud.take(np.arange(len(cloud) - 1)).fields)
+    third = batch.ground(inputs, out, scheduler=scheduler)
+    redone = {os.path.basename(t.input) for t in third.tiles if t.status == "done"}
+    assert os.path.basename(changed) in redone and 1 < len(redone) < len(third.tiles)
+    # A changed output (or parameter) is redone too.
+    os.unlink(third.tiles[0].output)
+    params = pcl_rg.GridGroundParams(slope=0.35)
+    fourth = batch.ground(inputs, out, params=params, scheduler=scheduler)
+    assert {t.status for t in fourth.tiles} == {"done"}
+    assert json.loads((out / MANIFEST).read_text())
+
+
+def corrupt_points(path):
+    """Damage the point data of a LAZ file, keeping its size and header."""
+    data = bytearray(open(path, "rb").read())
+    start = len(data) // 3
+    data[start : start + 4096] = os.urandom(4096)
+    open(path, "wb").write(bytes(data))
+
+
+def test_a_corrupt_tile_fails_alone_and_its_neighbours_say_so(tmp_path, scheduler):
+    source = synthetic_survey(tmp_path / "in", tiles=(3, 3), tile_size=60.0, seed=5)
+    bad = source.paths[4]  # the middle tile: every other tile borders it
+    corrupt_points(bad)
+    report = batch.ground(source.paths, tmp_path / "out", scheduler=scheduler)
+    assert [t.input for t in report.failed] == [bad]
+    assert "LAZ" in report.failed[0].error or "LAS" in report.failed[0].error
+    for tile in report.tiles:
+        if tile.input != bad:
+            assert tile.status == "done" and os.path.basename(bad) in tile.no_buffer_from
+    assert not os.path.exists(report.failed[0].output)
+    result = subprocess.run(
+        [
+            PYTHON,
+            "-m",
+            "pcl_rg",
+            "batch",
+            "ground",
+            *source.paths,
+            "--out",
+            str(tmp_path / "c"),
+            "--scheduler",
+            scheduler,
+            "--json",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert result.returncode == 2, result.stderr
+    assert os.path.basename(bad) in result.stderr
+    assert json.loads(result.stdout)["failed"] == [bad]
+
+
+def test_bad_arguments_fail_before_any_work(tmp_path, survey):
+    with pytest.raises(ValueError, match="no such file"):
+        batch.ground([tmp_path / "missing.laz"], tmp_path / "out")
+    with pytest.raises(ValueError, match="matches no point file"):
+        batch.ground([str(tmp_path / "*.laz")], tmp_path / "out")
+    with pytest.raises(ValueError, match="is the input itself"):
+        batch.ground(survey.paths, os.path.dirname(survey.paths[0]))
+    with pytest.raises(ValueError, match="buffer must be"):
+        batch.ground(survey.paths, tmp_path / "out", buffer=-1.0)
+    with pytest.raises(ValueError, match="method must be"):
+        batch.ground(survey.paths, tmp_path / "out", method="pmf")
+    with pytest.raises(TypeError, match="GridGroundParams"):
+        batch.ground(survey.paths, tmp_path / "out", params=pcl_rg.TinGroundParams())
+    with pytest.raises(ValueError, match="workers must be"):
+        batch.ground(survey.paths, tmp_path / "out", workers=0)
+
+
+def test_same_file_names_from_two_folders_are_refused(tmp_path, survey):
+    import shutil
+
+    for name in ("a", "b"):
+        shutil.copytree(os.path.dirname(survey.paths[0]), tmp_path / name)
+    with pytest.raises(ValueError, match="same file name"):
+        batch.ground([tmp_path / "a", tmp_path / "b"], tmp_path / "out")
+
+
+def test_the_embedded_local_cluster_and_the_command_line(tmp_path):
+    source = synthetic_survey(tmp_path / "in", tiles=(2, 2), tile_size=50.0, seed=3)
+    result = subprocess.run(
+        [
+            PYTHON,
+            "-m",
+            "pcl_rg",
+            "batch",
+            "ground",
+            str(tmp_path / "in"),
+            "--out",
+            str(tmp_path / "out"),
+            "--workers",
+            "2",
+            "--method",
+            "tin",
+            "--preset",
+            "isprs",
+            "--json",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert result.returncode == 0, result.stderr
+    summary = json.loads(result.stdout)
+    assert summary["workers"] == 2 and summary["operation"] == "ground"
+    assert [t["status"] for t in summary["tiles"]] == ["done"] * 4
+    expected = ground_of_merged(source.paths, "tin")
+    got = np.concatenate([read_points(t["output"]).classification for t in summary["tiles"]])
+    assert (got == expected).mean() >= 0.995
+    for path, tile in zip(source.paths, summary["tiles"], strict=True):
+        original, written = read_points(path), read_points(tile["output"])
+        assert written.format == original.format == "laz"
+        np.testing.assert_array_equal(written.points, original.points)
+        assert set(written.fields) == set(original.fields)
+        np.testing.assert_array_equal(written.fields["intensity"], original.fields["intensity"])
+
+
+def test_a_cluster_of_dask_scheduler_and_dask_worker_processes(tmp_path, survey, scheduler):
+    dask = os.path.join(os.path.dirname(PYTHON), "dask")
+    port_file = tmp_path / "scheduler.json"
+    env = dict(os.environ, PYTHONWARNINGS="ignore")
+    procs = [
+        subprocess.Popen(
+            [
+                dask,
+                "scheduler",
+                "--port",
+                "0",
+                "--no-dashboard",
+                "--scheduler-file",
+                str(port_file),
+            ],
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+            env=env,
+        )
+    ]
+    try:
+        deadline = time.time() + 60
+        while not port_file.exists() and time.time() < deadline:
+            time.sleep(0.2)
+        address = json.loads(port_file.read_text())["address"]
+        for _ in range(2):
+            procs.append(
+                subprocess.Popen(
+                    [dask, "worker", address, "--nthreads", "1", "--no-dashboard"],
+                    stdout=subprocess.DEVNULL,
+                    stderr=subprocess.DEVNULL,
+                    env=env,
+                )
+            )
+        from distributed import Client
+
+        with Client(address) as client:
+            client.wait_for_workers(2, timeout=60)
+        report = batch.ground(survey.paths, tmp_path / "out", scheduler=address)
+        assert report.workers == 2 and not report.failed
+        local = batch.ground(survey.paths, tmp_path / "local", scheduler=scheduler)
+        for a, b in zip(outputs_of(report), outputs_of(local), strict=True):
+            np.testing.assert_array_equal(a.classification, b.classification)
+    finally:
+        for proc in reversed(procs):
+            proc.terminate()
+        for proc in procs:
+            proc.wait(timeout=30)
+
+
+def test_a_killed_worker_is_replaced_and_the_outputs_are_those_of_a_clean_run(tmp_path, survey):
+    from distributed import Client, LocalCluster
+
+    clean = batch.ground(survey.paths, tmp_path / "clean", method="tin", workers=1)
+    with LocalCluster(n_workers=2, threads_per_worker=1, dashboard_address=None) as cluster:
+        with Client(cluster) as client:
+            pids = client.run(os.getpid)
+            outcome = {}
+            run = threading.Thread(
+                target=lambda: outcome.update(
+                    report=batch.ground(
+                        survey.paths,
+                        tmp_path / "killed",
+                        method="tin",
+                        scheduler=cluster.scheduler_address,
+                    )
+                )
+            )
+            run.start()
+            killed = None
+            deadline = time.time() + 120
+            while killed is None and time.time() < deadline:
+                for worker, keys in client.processing().items():
+                    if any("ground_tile" in str(k) for k in keys):
+                        killed = pids[worker]
+                        os.kill(killed, signal.SIGKILL)
+                        break
+                time.sleep(0.01)
+            run.join(timeout=300)
+            assert killed is not None, "no ground task was seen running"
+            assert killed not in client.run(os.getpid).values()  # replaced by the nanny
+    report = outcome["report"]
+    assert not report.failed
+    for a, b in zip(outputs_of(report), outputs_of(clean), strict=True):
+        np.testing.assert_array_equal(a.classification, b.classification)
+    assert not [n for n in os.listdir(tmp_path / "killed") if n.endswith(".tmp")]
+
+
+def test_ctrl_c_stops_the_run_and_leaves_no_partial_file(tmp_path):
+    source = synthetic_survey(tmp_path / "in", tiles=(4, 4), tile_size=120.0, seed=9)
+    out = tmp_path / "out"
+    proc = subprocess.Popen(
+        [
+            PYTHON,
+            "-m",
+            "pcl_rg",
+            "batch",
+            "ground",
+            *source.paths,
+            "--out",
+            str(out),
+            "--workers",
+            "2",
+            "--method",
+            "tin",
+            "--quiet",
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    deadline = time.time() + 120
+    while time.time() < deadline and not (
+        out.exists() and any(n.endswith(".laz") for n in os.listdir(out))
+    ):
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err
+    assert "interrupted" in err
+    left = os.listdir(out)
+    assert not [n for n in left if n.endswith(".tmp") or n.startswith(".pcl_rg-scratch")]
+    for name in left:
+        if name.endswith(".laz"):
+            assert len(read_points(out / name)) > 0  # complete files only
