@@ -7,6 +7,11 @@ carries its ASPRS class code, the terrain is available as a function
 returned with the points. Everything is pure NumPy and reproducible from the
 seed alone.
 
+:func:`synthetic_survey` writes such a scene, as large as wanted, as a grid of
+LAS/LAZ (or PLY, PCD) tiles with the class in each file, its buildings and
+trees straddling the tile borders: test data for processing a survey tile by
+tile, one tile in memory at a time.
+
 The real benchmark data sets load from here too: :func:`load_isprs` (an ISPRS
 filter-test sample and its ground truth) and :func:`load_mosd` (an mOSD scene
 with its segment labels and pixel indices).
@@ -14,6 +19,7 @@ with its segment labels and pixel indices).
 
 from ._isprs import IsprsSample, load_isprs
 from ._mosd import MosdScene, load_mosd
+from ._survey import SyntheticSurvey, synthetic_survey
 from ._synthetic import (
     BUILDING,
     GROUND,
@@ -32,8 +38,10 @@ __all__ = [
     "IsprsSample",
     "MosdScene",
     "SyntheticScene",
+    "SyntheticSurvey",
     "load_isprs",
     "load_mosd",
     "synthetic_scene",
+    "synthetic_survey",
     "terrain_height",
 ]
