@@ -14,6 +14,7 @@ import subprocess
 import sys
 import threading
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -33,7 +34,7 @@ def scheduler():
     from distributed import LocalCluster
 
     with LocalCluster(
-        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0"
     ) as cluster:
         yield cluster.scheduler_address
 
@@ -188,10 +189,10 @@ def test_rerun_skips_what_is_up_to_date_and_redoes_what_changed(survey, tmp_path
 
 def corrupt_points(path):
     """Damage the point data of a LAZ file, keeping its size and header."""
-    data = bytearray(open(path, "rb").read())
+    data = bytearray(Path(path).read_bytes())
     start = len(data) // 3
-    data[start : start + 4096] = os.urandom(4096)
-    open(path, "wb").write(bytes(data))
+    data[start : start + 4096] = np.random.default_rng(0).bytes(4096)
+    Path(path).write_bytes(bytes(data))
 
 
 def test_a_corrupt_tile_fails_alone_and_its_neighbours_say_so(tmp_path, scheduler):
@@ -347,7 +348,7 @@ def test_a_killed_worker_is_replaced_and_the_outputs_are_those_of_a_clean_run(tm
     from distributed import Client, LocalCluster
 
     clean = batch.ground(survey.paths, tmp_path / "clean", method="tin", workers=1)
-    with LocalCluster(n_workers=2, threads_per_worker=1, dashboard_address=None) as cluster:
+    with LocalCluster(n_workers=2, threads_per_worker=1, dashboard_address=":0") as cluster:
         with Client(cluster) as client:
             pids = client.run(os.getpid)
             outcome = {}

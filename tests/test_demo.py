@@ -21,6 +21,7 @@ STAGES = [
     "segment: curvature (voxels)",
     "segment: pcl (voxels)",
     "pipeline: seed 004",
+    "batch: ground, 4 tiles",
 ]
 
 
@@ -53,6 +54,10 @@ def test_table_matches_the_files(demo):
         assert (written.classification == 7).sum() == denoise["points_in"] - denoise["points_out"]
     # The grid filter with the demo's stated parameters separates this scene well.
     assert rows["ground: grid"]["kappa"] > 0.9
+    # The survey step: its tiles as the merged run, to the batch target.
+    survey = rows["batch: ground, 4 tiles"]
+    assert float(survey["result"].split(" %")[0]) >= 99.9
+    assert len(list((folder / "survey_ground").glob("*.laz"))) == 4
     for name in ("segments_curvature", "segments_pcl", "pipeline"):
         segments = read_points(folder / f"{name}.laz").fields["segment_id"]
         assert segments.dtype == np.int32 and len(segments) == len(truth)

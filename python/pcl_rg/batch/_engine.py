@@ -91,23 +91,28 @@ def _client(workers: int | None, scheduler: str | None) -> Iterator[Any]:
         with Client(scheduler) as client:
             yield client
         return
-    try:
-        import bokeh  # noqa: F401  (the dashboard needs it)
-
-        dashboard: str | None = ":0"
-    except ImportError:
-        dashboard = None
     with (
         LocalCluster(
             n_workers=workers or os.cpu_count() or 1,
             threads_per_worker=1,
             processes=True,
-            dashboard_address=dashboard,
+            # Any free port: the scheduler's HTTP server (the dashboard, when bokeh is
+            # installed) must not collide with another cluster's 8787.
+            dashboard_address=":0",
             silence_logs=logging.ERROR,
         ) as cluster,
         Client(cluster) as client,
     ):
         yield client
+
+
+def _dashboard(client: Any) -> str | None:
+    """The dashboard's address; None without bokeh, which serves it."""
+    try:
+        import bokeh  # noqa: F401
+    except ImportError:
+        return None
+    return getattr(client, "dashboard_link", None)
 
 
 class _Progress:
@@ -177,7 +182,7 @@ def run(
     dashboard = None
     try:
         with _client(workers, scheduler) as client:
-            dashboard = getattr(client, "dashboard_link", None)
+            dashboard = _dashboard(client)
             if on_dashboard and dashboard:
                 on_dashboard(dashboard)
             n_workers = len(client.scheduler_info().get("workers", {}))

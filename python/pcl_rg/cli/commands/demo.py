@@ -30,6 +30,11 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "--size", type=float_type, default=300.0, help="scene side length in metres (default: 300)"
     )
     p.add_argument("--no-plots", action="store_true", help="skip the PNG figures")
+    p.add_argument(
+        "--no-survey",
+        action="store_true",
+        help="skip the small survey batch (4 tiles on 2 local Dask workers)",
+    )
     add_common_options(p)
     p.set_defaults(run=execute)
 
@@ -39,7 +44,12 @@ def execute(args: argparse.Namespace, run: Run) -> None:
 
     try:
         report = run_demo(
-            args.output, seed=args.seed, size=args.size, plots=not args.no_plots, stage=run.stage
+            args.output,
+            seed=args.seed,
+            size=args.size,
+            plots=not args.no_plots,
+            survey=not args.no_survey,
+            stage=run.stage,
         )
     except ValueError as error:
         raise CliError(str(error)) from None
