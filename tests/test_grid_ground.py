@@ -15,6 +15,7 @@ import pcl_rg
 from pcl_rg import GridGroundParams, _core, reference
 from pcl_rg.datasets import GROUND, load_isprs, synthetic_scene
 from pcl_rg.evaluation import ground_errors
+from pcl_rg.reference.grid_ground import grid_neighbours
 
 DEFINITION = GridGroundParams.definition()
 
@@ -223,18 +224,17 @@ def test_slope_filter_removes_a_roof_the_growth_would_reach():
 
 
 def test_across_blocks_reaches_ground_the_blocks_split():
-    # A gentle ramp over two 10 m blocks (the grid starts at x = 0.25, the minimum); the
-    # second block's lowest point is an isolated pit 1 m down. Per block, that block's
-    # ground is the pit alone; across blocks, the first seed's component takes the ramp.
+    # A gentle ramp over two 10 m blocks (the grid starts at x = 0 on the world lattice,
+    # below the minimum 0.25); the second block's lowest point is an isolated pit 1 m
+    # down. Per block, that block's ground is the pit alone; across blocks, the first
+    # seed's component takes the ramp.
     x = np.arange(0.25, 20, 0.5)
     z = 0.01 * x
     pit = x > 17
     z[pit] = -1.0
     points = np.c_[x, np.zeros_like(x), z]
     plain = GridGroundParams.definition(block_size=10, cell_size=1, slope=0.05)
-    np.testing.assert_array_equal(
-        assert_core_equals_reference(points, plain), (x - 0.25 < 10) | pit
-    )
+    np.testing.assert_array_equal(assert_core_equals_reference(points, plain), (x < 10) | pit)
     across = dataclasses.replace(plain, grow_across_blocks=True)
     assert assert_core_equals_reference(points, across).all()
 
@@ -262,18 +262,79 @@ def test_permutation_invariance(scene):
         )
 
 
-def test_utm_translation_gives_the_same_result(scene):
-    """Shift by (5e5, 5e6, 0). The points are first rounded to multiples of 2^-10 m, so
-    p + offset and (p + offset) - min are exact in float64 (at most 33 significant
-    bits): the local coordinates, hence every test, are bit for bit the same. Without
-    the rounding a few points within float64 rounding of a threshold could flip."""
+def test_translation_by_whole_blocks_gives_the_same_result(scene):
+    """Shift by whole 30 m blocks to UTM-sized coordinates. The points are first rounded
+    to multiples of 2^-10 m, so p + offset and (p + offset) - origin are exact in
+    float64 (at most 33 significant bits): the local coordinates, hence every test, are
+    bit for bit the same. Without the rounding a few points within float64 rounding of a
+    threshold could flip."""
     points = np.round(scene.points * 1024) / 1024
-    shifted = points + np.array([5e5, 5e6, 0.0])
-    np.testing.assert_array_equal(shifted - shifted.min(axis=0), points - points.min(axis=0))
+    offset = np.array([16_667 * 30.0, 166_667 * 30.0, 7.0])  # about (5e5, 5e6)
+    shifted = points + offset
     for params in (DEFINITION, GridGroundParams()):
+        assert params.block_size == (30.0, 30.0)
+        moved, here = grid_neighbours(shifted, params), grid_neighbours(points, params)
+        np.testing.assert_array_equal(moved.origin - here.origin, offset)
+        np.testing.assert_array_equal(moved.block_xy, here.block_xy)
         np.testing.assert_array_equal(
             pcl_rg.grid_ground(shifted, params=params), pcl_rg.grid_ground(points, params=params)
         )
+
+
+def test_blocks_lie_on_the_world_lattice_not_at_the_minimum_corner():
+    """The terraces of test_blocks_have_their_own_seed_and_no_links_between_them moved by
+    3 m: blocks stay [0, 10), [10, 20), [20, 30) in world x, so the block [10, 20) now
+    holds the end of the lower terrace (x < 13), its seed, and the start of the upper
+    one, which is 5 m up and not linked to it. Blocks anchored at the minimum corner
+    (3.25) would cut at the terrace edge and keep every terrace point ground."""
+    x = np.arange(0.25, 20, 0.5) + 3.0
+    points = np.c_[x, np.zeros_like(x), np.where(x < 13, 0.0, 5.0)]
+    points = np.vstack([points, [[18.0, 0.0, 9.0]]])
+    plain = GridGroundParams.definition(block_size=10, cell_size=1, slope=0.2)
+    ground = assert_core_equals_reference(points, plain)
+    np.testing.assert_array_equal(ground, np.r_[(x < 13) | (x >= 20), False])
+    np.testing.assert_array_equal(grid_neighbours(points, plain).origin, [0, 0, 0])
+
+
+def test_a_tile_cut_at_block_boundaries_keeps_the_blocks_and_labels(scene):
+    """Move the scene to start at (7, 13), inside a block, and cut it at x = 30 and
+    y = 30 (block boundaries): the tile's minimum corner is inside a block too, at
+    another place in it, yet its points keep the block membership they have in the whole
+    scene, their block indices differing by one constant. Under the definition links and
+    seeds stay within a block, so the tile's labels are the whole scene's. Points on the
+    2^-10 m grid make every local coordinate and difference exact in both runs."""
+    points = np.round(scene.points * 1024) / 1024 + [7.0, 13.0, 0.0]
+    tile = (points[:, 0] >= 30.0) & (points[:, 1] >= 30.0)
+    corner = points[tile].min(axis=0)
+    assert (corner[:2] > 30.0).all() and (corner[:2] % 30.0 > 0.0).all()  # off the lattice
+    whole = grid_neighbours(points, DEFINITION)
+    part = grid_neighbours(points[tile], DEFINITION)
+    offset = whole.block_xy[tile] - part.block_xy
+    assert len(np.unique(part.block)) >= 4
+    np.testing.assert_array_equal(offset, np.broadcast_to(offset[0], offset.shape))
+    np.testing.assert_array_equal(part.origin[:2], [30.0, 30.0])
+    for params in (DEFINITION, GridGroundParams.definition(min_seed_component=10)):
+        np.testing.assert_array_equal(
+            assert_core_equals_reference(points[tile], params),
+            pcl_rg.grid_ground(points, params=params)[tile],
+        )
+
+
+def test_lattice_corner_never_lies_above_the_minimum():
+    """floor(3.4999999999999996 / 0.7) is 5, and 5 * 0.7 = 3.5 lies above the minimum:
+    the origin must be one block lower, or the lowest point would get block -1."""
+    low = 3.4999999999999996
+    assert np.floor(low / 0.7) * 0.7 > low
+    corner = reference.lattice_floor(low, 0.7)
+    assert corner <= low < corner + 0.7
+    rng = np.random.default_rng(4)
+    points = np.c_[low + rng.uniform(0, 5, (300, 2)), rng.uniform(0, 1, 300)]
+    points[0, :2] = low
+    params = GridGroundParams.definition(block_size=0.7, cell_size=0.7, slope=0.5)
+    nb = grid_neighbours(points, params)
+    assert (nb.origin[:2] == corner).all() and nb.block_xy.min() == 0
+    for p in (params, GridGroundParams(block_size=0.7, cell_size=0.35)):
+        assert_core_equals_reference(points, p)
 
 
 def test_input_is_not_modified_and_any_layout_works(scene):

@@ -20,6 +20,7 @@ import pcl_rg
 from pcl_rg import _core, reference
 from pcl_rg.datasets import GROUND, load_isprs, synthetic_scene
 from pcl_rg.evaluation import ground_errors
+from pcl_rg.reference.tin_ground import seeds
 
 LIDAR360 = pcl_rg.TinGroundParams.lidar360()
 ISPRS = pcl_rg.TinGroundParams.isprs()
@@ -258,13 +259,76 @@ def test_point_order_does_not_matter() -> None:
         np.testing.assert_array_equal(pcl_rg.tin_ground(points[perm], params=params), ground[perm])
 
 
-def test_utm_translation_gives_the_same_mask() -> None:
-    # Coordinates on a 2^-10 m grid, so that adding the offset is exact in float64.
+def test_translation_by_whole_seed_cells_gives_the_same_mask() -> None:
+    # Coordinates on a 2^-10 m grid, so that adding the offset is exact in float64. The
+    # offset is a whole number of seed cells (20 m for lidar360, 2 m for isprs), so the
+    # seed cells, anchored on the world lattice, hold the same points.
     points = np.round(scene(5).points * 1024.0) / 1024.0
-    for params in (LIDAR360, ISPRS):
+    offset = np.array([500_000.0, 5_000_000.0, 300.0])
+    for params, cell in ((LIDAR360, LIDAR360.max_building_size), (ISPRS, ISPRS.seed_cell)):
+        assert (offset[:2] % cell == 0.0).all()
         ground = pcl_rg.tin_ground(points, params=params)
-        moved = pcl_rg.tin_ground(points + [500_000.0, 5_000_000.0, 300.0], params=params)
+        moved = pcl_rg.tin_ground(points + offset, params=params)
         np.testing.assert_array_equal(moved, ground)
+        np.testing.assert_array_equal(seeds(points + offset, params), seeds(points, params))
+
+
+def test_seed_cells_lie_on_the_world_lattice_not_at_the_minimum_corner() -> None:
+    # Cells [0, 20) and [20, 40) on x: two seeds. Cells anchored at the minimum corner
+    # (x = 15) would make [15, 35) one cell and one seed.
+    points = np.array([[15.0, 0.0, 5.0], [25.0, 0.0, 4.0], [18.0, 3.0, 6.0]])
+    params = pcl_rg.TinGroundParams.lidar360(max_building_size=20.0)
+    np.testing.assert_array_equal(seeds(points, params), [0, 1])
+    assert run_core(points, params)[1]["seeds"] == 2
+    # Moved by half a cell, all three lie in [20, 40): one seed, the lowest.
+    np.testing.assert_array_equal(seeds(points + [10.0, 0.0, 0.0], params), [1])
+    # Seed cells of seed_cell, too: the opening's windows are counted in those cells.
+    morph = dataclasses.replace(ISPRS, seed_cell=20.0, max_building_size=20.0)
+    np.testing.assert_array_equal(seeds(points, morph), [0, 1])
+    assert run_core(points, morph)[1]["seeds"] == 2
+
+
+@pytest.mark.parametrize("params", [LIDAR360, ISPRS], ids=["lidar360", "isprs"])
+def test_a_tile_cut_at_cell_boundaries_keeps_the_seed_cells(params) -> None:
+    # The scene moved to start at (7, 13), inside a cell, then cut at x = 60 and y = 20,
+    # multiples of both presets' seed cells (20 m and 2 m); the tile's minimum corner
+    # lies inside a cell too, at another place in it. With lidar360 a seed is the lowest
+    # point of its cell, so the tile's seeds are exactly the whole scene's in the tile.
+    # With isprs the opening's window (r = 10 cells of 2 m each way, applied twice) and
+    # the outlier test's look across the cut: the seeds agree beyond 2r + 4 cells from it.
+    scene_ = synthetic_scene(seed=14, size=160.0, density=0.6, n_buildings=3, n_trees=10)
+    points = scene_.points + [7.0, 13.0, 0.0]
+    tile = (points[:, 0] >= 60.0) & (points[:, 1] >= 20.0)
+    corner = points[tile].min(axis=0)
+    assert corner[0] > 60.0 and corner[1] > 20.0
+    index = np.flatnonzero(tile)
+    whole = np.intersect1d(seeds(points, params), index)
+    part = index[seeds(points[tile], params)]
+    if params.seed_cell == 0.0:
+        np.testing.assert_array_equal(part, whole)
+    else:
+        reach = (2 * math.floor(params.max_building_size / (2 * params.seed_cell)) + 4) * 2.0
+        far = (points[:, 0] >= 60.0 + reach) & (points[:, 1] >= 20.0 + reach)
+        np.testing.assert_array_equal(part[far[part]], whole[far[whole]])
+        assert far[whole].sum() > 50
+    assert run_core(points[tile], params)[1]["seeds"] == len(part)
+
+
+def test_seed_cell_corner_never_lies_above_the_minimum() -> None:
+    # floor(3.4999999999999996 / 0.7) * 0.7 = 3.5 lies above the lowest x: the cells must
+    # start one cell lower, or the lowest point would fall in cell -1.
+    low = 3.4999999999999996
+    rng = np.random.default_rng(6)
+    points = np.c_[low + rng.uniform(0.0, 6.0, (300, 2)), rng.normal(0.0, 0.05, 300)]
+    points[0, :2] = low
+    for params in (
+        pcl_rg.TinGroundParams.lidar360(max_building_size=0.7),
+        dataclasses.replace(ISPRS, seed_cell=0.7),
+    ):
+        np.testing.assert_array_equal(
+            pcl_rg.tin_ground(points, params=params), reference.tin_ground(points, params=params)
+        )
+        assert run_core(points, params)[1]["seeds"] == len(seeds(points, params))
 
 
 def test_input_is_not_modified_and_any_layout_works() -> None:

@@ -2,8 +2,11 @@
 // based on region growing", reproducing "LiDAR point cloud data filtering based on
 // regional growth" with the slope rule of G. Vosselman, "Slope based filtering of laser
 // altimetry data", IAPRS 33(B3), 2000); the exact definition is algorithms.md section 3:
-//   1. split the XY extent into blocks of dx by dy (anchored at the minimum corner);
-//   2. grid the points into cells of bx by by, so neighbours are found in O(1);
+//   1. split the XY extent into blocks of dx by dy, anchored at multiples of dx, dy in
+//      world coordinates so that tiles of a survey share one lattice;
+//   2. grid the points into cells of bx by by from the same corner, so neighbours are
+//      found in O(1) (cells line up across tiles too when dx, dy are whole multiples
+//      of bx, by);
 //   3. the seed of a block is its lowest point (ties: lowest index);
 //   4. p, q of one block are linked when q lies in p's cell or one of the 8 around it and
 //      |z_p - z_q| <= S * d_xy(p, q) + t; ground is the seed's connected component.
@@ -15,8 +18,12 @@
 //
 // Exactness: links are symmetric, so the components do not depend on the visiting order
 // and the NumPy reference (scipy connected_components) agrees point for point. Both
-// evaluate every test in float64 on l = p - min corner with the same operations in the
-// same order (CMake sets -ffp-contract=off, so no FMA changes a rounding).
+// take the same origin (x, y: lattice_floor(min, block size), the block corner at or
+// below the minimum corner; z: the minimum) and evaluate every index and test in float64
+// on l = p - origin with the same operations in the same order (CMake sets
+// -ffp-contract=off, so no FMA changes a rounding). A tile and the merged cloud differ in
+// the origin by whole blocks, so their indices of a point differ by one constant, except
+// where float64 rounding of l / size decides (a point within a few ulps of a boundary).
 //
 // Speed: one stable counting sort of the points into a flat CSR cell grid (dense, or
 // sorted occupied cells when the extent is far larger than the cloud), so a point's
@@ -505,7 +512,10 @@ void grid_ground(PointsView points, const GridGroundParams& params, bool* ground
     if (n > static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max()))
         throw std::invalid_argument("points: at most 2^31 - 1 points are supported, got " +
                                     std::to_string(n));
-    const std::array<double, 3> origin = local_origin(points);
+    // Blocks and cells anchored at the world lattice of blocks: the block corner at or
+    // below the minimum corner, so l >= 0 and every index is >= 0.
+    std::array<double, 3> origin = local_origin(points);
+    for (int a = 0; a < 2; ++a) origin[a] = lattice_floor(origin[a], params.block_size[a]);
     const bool parallel = n >= kParallelMin;
     double extent_x = 0.0, extent_y = 0.0;
 #pragma omp parallel for schedule(guided) if (parallel) reduction(max : extent_x, extent_y)

@@ -2,6 +2,7 @@
 #include "pcl_rg/points.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 
 namespace pcl_rg {
@@ -13,6 +14,15 @@ std::array<double, 3> local_origin(PointsView points) {
     for (std::size_t i = 0; i < points.size; ++i)
         for (int a = 0; a < 3; ++a) lo[a] = std::min(lo[a], points.coord(i, a));
     return lo;
+}
+
+double lattice_floor(double low, double size) {
+    const double quotient = low / size;
+    if (!(std::fabs(quotient) < 0x1p52)) return low;
+    double k = std::floor(quotient);
+    double corner = k * size;
+    while (corner > low) corner = (k -= 1.0) * size;  // at most once for |k| < 2^52
+    return corner;
 }
 
 std::vector<float> to_local_float(PointsView points, const std::array<double, 3>& origin) {

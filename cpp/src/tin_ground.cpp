@@ -11,10 +11,12 @@
 //      quantum <= extent / 2^29, micrometres for kilometre tiles), in which the TIN's
 //      predicates are exact. Heights stay float64 relative to the minimum corner.
 //   2. Seeds: the lowest point (ties: smallest index) of each max_building_size cell,
-//      cells anchored at the minimum corner. The four corners of the extent, one grid
-//      step outside it, are virtual vertices at the height of their nearest seed
-//      (exact squared grid distance, ties: smallest index), so every point lies inside
-//      the TIN. Seeds are ground; of seeds sharing an XY, the smallest index is inserted.
+//      cells anchored at multiples of max_building_size in world coordinates
+//      (lattice_floor, points.hpp), so that tiles of a survey share one lattice. The
+//      four corners of the extent, one grid step outside it, are virtual vertices at
+//      the height of their nearest seed (exact squared grid distance, ties: smallest
+//      index), so every point lies inside the TIN. Seeds are ground; of seeds sharing
+//      an XY, the smallest index is inserted.
 //   3. Each iteration tests every unclassified point against the TIN as it was when
 //      the iteration began, in the triangle holding p + (eps, eps^2) (delaunay.hpp):
 //        d = distance from p to the triangle's plane,
@@ -45,6 +47,21 @@
 //     window (Zhao et al.'s morphological seeds): dense on open terrain, none on roofs.
 //   * outlier_depth: before the opening, cells far below the 9th lowest of their 5 x 5
 //     window are dropped, repeatedly, so clusters of low outliers give no seeds.
+//
+// Grids and tiles: the grids that decide which points are seeds are anchored on the
+// world lattice of the seed cells (seed_cell when > 0, else max_building_size): the
+// cells themselves, and the opening's and the outlier test's windows, which are counted
+// in those cells around each cell (clipping them at the raster's border is the same as
+// empty cells there). So a tile cut at a seed-cell boundary gets the seed cells of the
+// merged cloud, and the same seeds away from the cut (the windows of cells near it lose
+// the cells on the other side). Left at the minimum corner: the snapping frame of step
+// 1, whose quantum depends on the extent, so no anchor could make a tile's the merged
+// cloud's (it moves a point by at most half a quantum, micrometres, and changes a
+// verdict only where that rounding decides it), and the Morton order built on it, which
+// speeds up point location and orders the insertions: it can change a result only where
+// the Delaunay triangulation is not unique (four or more co-circular vertices). The TIN
+// itself spans the whole input, so a tile's result differs from the merged cloud's near
+// the tile's border whatever the grids.
 //
 // Speed: points are processed in Morton order; each unclassified point sits in a list
 // of the triangle slot it was last tested in, and only the points of slots an
@@ -424,12 +441,20 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& params, bool
             "max_building_size is too small for the XY extent (more than "
             "2^31 seed cells per axis), got " +
             check::format_value(cell));
+    // The seed cells (of seed_cell, else of max_building_size) on the world lattice of
+    // their size: their corner at or below the minimum corner; z stays the minimum.
+    const double seed_size = params.seed_cell > 0.0 ? params.seed_cell : cell;
+    const std::array<double, 3> seed_origin{lattice_floor(origin[0], seed_size),
+                                            lattice_floor(origin[1], seed_size), origin[2]};
+    const double sex = upper[0] - seed_origin[0], sey = upper[1] - seed_origin[1];
+    if (!std::isfinite(sex) || !std::isfinite(sey))
+        throw std::invalid_argument("points: the XY extent is too large (not finite in float64)");
     const std::vector<std::uint32_t> seeds =
         params.seed_cell > 0.0
-            ? morphological_seeds(points, origin, ex, ey, params)
-            : lowest_points(points, origin, cell,
-                            static_cast<std::int64_t>(std::floor(ex / cell)) + 1,
-                            static_cast<std::int64_t>(std::floor(ey / cell)) + 1);
+            ? morphological_seeds(points, seed_origin, sex, sey, params)
+            : lowest_points(points, seed_origin, cell,
+                            static_cast<std::int64_t>(std::floor(sex / cell)) + 1,
+                            static_cast<std::int64_t>(std::floor(sey / cell)) + 1);
     interruption.check_now();
     stats.seeds = static_cast<std::int64_t>(seeds.size());
     for (const std::uint32_t s : seeds) ground[s] = true;

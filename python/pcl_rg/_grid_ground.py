@@ -184,11 +184,18 @@ def grid_ground(
 
     Notes
     -----
-    The definition (algorithms.md section 3). Let ``l = p - m`` be the points
-    in float64 local coordinates, ``m`` the minimum corner of the input: the
-    block and cell grids are anchored at that corner (not at the world
-    origin), so tiles of one survey get different grids but the result does
-    not change when the input is translated.
+    The definition (algorithms.md section 3). Blocks are anchored at
+    multiples of block_size in world coordinates so that tiles of a survey
+    share one lattice: a tile cut at block boundaries has the blocks it has in
+    the merged cloud. Cells start at the same corner, so they line up across
+    tiles too whenever block_size is a whole multiple of cell_size (as for
+    the defaults, 30 and 3). Let ``l = p - o`` be the points in float64 local
+    coordinates, with ``o_x, o_y`` the block corner at or below the input's
+    minimum corner, ``floor(min / block_size) * block_size`` per axis (one
+    block lower where rounding puts that above the minimum), and ``o_z`` the
+    minimum z. A translation by whole blocks leaves the blocks, the cells and,
+    up to float64 rounding, the result unchanged; any other may move block and
+    cell boundaries through the points.
 
     1. Block of a point: ``floor(l_xy / block_size)``; cell:
        ``floor(l_xy / cell_size)``, both per axis in float64. Two points are

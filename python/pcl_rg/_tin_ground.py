@@ -272,6 +272,21 @@ def tin_ground(
     LiDAR360's own set: with an 8 degree angle, reduced below 5 m edges, few
     objects but much ground is missed on 1-3 m spaced data.
 
+    The seed cells are anchored at multiples of their size in world
+    coordinates so that tiles of a survey share one lattice: cells of
+    ``seed_cell`` when it is > 0, else of ``max_building_size``, start at
+    ``floor(min / cell) * cell`` per axis (one cell lower where rounding puts
+    that above the input's minimum corner). The windows of the opening and of
+    the outlier test are counted in those cells around each cell, so they
+    follow. A tile cut at cell boundaries therefore has the seed cells of the
+    merged cloud, and the same seeds away from the cut (with ``seed_cell``,
+    farther than the windows reach); its TIN, which spans the tile, still
+    differs from the merged cloud's near the tile's border. A translation by
+    whole cells leaves the seed cells and, up to float64 rounding, the result
+    unchanged; any other may move cell boundaries through the points. The
+    TIN's snapping grid (step 2) stays at the minimum corner: its step depends
+    on the extent, and it moves points by micrometres.
+
     The result does not depend on the order of the points except through ties
     broken by index, nor on the number of threads. The C++ core runs with the
     GIL released; the float64 input is shifted to a local origin first.

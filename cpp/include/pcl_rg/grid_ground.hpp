@@ -14,10 +14,13 @@ namespace pcl_rg {
 /// slope rule height_tolerance = 0.
 struct GridGroundParams {
     /// Block edge lengths along x, y (> 0, m): one seed per block; should exceed the
-    /// largest building. The block grid is anchored at the input's minimum corner.
+    /// largest building. Blocks are anchored at multiples of block_size in world
+    /// coordinates, so that tiles of a survey share one lattice.
     std::array<double, 2> block_size{30.0, 30.0};
     /// Cell edge lengths along x, y (> 0, m, at most the block size): links reach the
-    /// 3 x 3 cells around a point. Cells are anchored at the minimum corner too.
+    /// 3 x 3 cells around a point. Cells start at the block corner below the input's
+    /// minimum corner, so they line up across tiles when block_size is a whole
+    /// multiple of cell_size (as for the defaults, 30 and 3).
     std::array<double, 2> cell_size{3.0, 3.0};
     /// S, tangent of the steepest terrain (>= 0, finite): p, q are linked when
     /// |z_p - z_q| <= slope * d_xy(p, q) + height_tolerance.
@@ -46,8 +49,10 @@ struct GridGroundParams {
 void validate(const GridGroundParams& params);
 
 /// Fills `ground[i]` (N entries) with the ground mask of algorithms.md section 3 and the
-/// options above. In float64 local coordinates l = p - min corner, block = floor(l /
-/// block_size) and cell = floor(l / cell_size) per axis (x, y); p, q are neighbours when
+/// options above. In float64 local coordinates l = p - o, with o_x, o_y the block corner
+/// lattice_floor(min, block_size) at or below the minimum corner and o_z the minimum z,
+/// block = floor(l / block_size) and cell = floor(l / cell_size) per axis (x, y): the
+/// world lattice's indices less a constant of the call. p, q are neighbours when
 /// their cells differ by at most 1 on x and on y, and linked when they are neighbours in
 /// the same block (any block with grow_across_blocks), both pass the pre-filter, and
 /// |lz_p - lz_q| <= slope * sqrt(dx * dx + dy * dy) + height_tolerance (that operation

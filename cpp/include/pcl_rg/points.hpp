@@ -20,6 +20,14 @@ struct PointsView {
 /// becomes float32, so UTM-sized coordinates lose nothing (zeros for an empty view).
 std::array<double, 3> local_origin(PointsView points);
 
+/// The largest k * size (k a whole number, the product in float64) that is <= low: the
+/// corner of the world lattice of step `size` at or below `low`, so that grids anchored
+/// there line up across tiles. floor(low / size) * size alone can land above low, as the
+/// quotient may round up to a whole number; then k goes down by one. Returns low itself
+/// when |low / size| >= 2^52, where whole numbers k are no longer all representable (a
+/// lattice that fine has no use). NumPy twin: pcl_rg.reference.lattice_floor.
+double lattice_floor(double low, double size);
+
 /// The points minus `origin`, as row-major float32 x, y, z: the local frame in which
 /// distances are computed exactly as PCL computes them on its float clouds.
 std::vector<float> to_local_float(PointsView points, const std::array<double, 3>& origin);

@@ -14,6 +14,8 @@ namespace pcl_rg {
 struct TinGroundParams {
     /// Seed-grid cell (m, > 0): the lowest point of each cell is a seed. LiDAR360 "Max
     /// Building Size"; must exceed the largest building, or its flat roof becomes ground.
+    /// The cells (and those of seed_cell) are anchored at multiples of their size in world
+    /// coordinates, so that tiles of a survey share one lattice.
     double max_building_size = 40.0;
     /// Steepest triangle a point may form with its triangle's vertices (deg, (0, 90)).
     /// LiDAR360 "Max Terrain Angle".

@@ -12,6 +12,7 @@ except ImportError as error:  # pragma: no cover - depends on the environment
         "pcl_rg.reference needs SciPy: pip install 'pcl_rg[reference]'"
     ) from error
 
+from ._lattice import lattice_floor
 from .grid_ground import grid_ground
 from .normals import normals
 from .region_growing import region_growing
@@ -21,6 +22,7 @@ from .voxel_grid import voxel_grid
 
 __all__ = [
     "grid_ground",
+    "lattice_floor",
     "normals",
     "region_growing",
     "statistical_outlier_removal",

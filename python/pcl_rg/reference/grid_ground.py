@@ -13,6 +13,7 @@ from scipy.spatial import cKDTree
 from .._grid_ground import GridGroundParams
 from .._params import resolve_arguments
 from .._validation import as_points
+from ._lattice import lattice_floor
 
 __all__ = ["GridNeighbours", "grid_ground", "grid_neighbours"]
 
@@ -31,19 +32,35 @@ class GridNeighbours(NamedTuple):
     same_block: np.ndarray
     """bool (P,): both points in one block."""
     block: np.ndarray
-    """intp (N,): block number of every point."""
+    """intp (N,): block number of every point (0, 1, ... over the occupied blocks)."""
     z: np.ndarray
     """float64 (N,): local z of every point."""
+    block_xy: np.ndarray
+    """int64 (N, 2): block index of every point on x and y, ``floor(l_xy / block_size)``:
+    the world lattice's index less a constant of the call."""
+    origin: np.ndarray
+    """float64 (3,): the origin ``o`` of the local coordinates ``l = p - o``."""
 
 
 def grid_neighbours(points: npt.ArrayLike, params: GridGroundParams) -> GridNeighbours:
     """All pairs of points whose cells differ by at most 1 on x and on y.
 
-    In float64 local coordinates ``l = p - min corner``: block
-    ``floor(l_xy / block_size)``, cell ``floor(l_xy / cell_size)``.
+    In float64 local coordinates ``l = p - o``: block ``floor(l_xy / block_size)``,
+    cell ``floor(l_xy / cell_size)``. The origin ``o`` is, on x and y, the corner
+    of the world lattice of blocks at or below the minimum corner
+    (:func:`lattice_floor`), and the minimum z, so blocks (and cells, when
+    block_size is a whole multiple of cell_size) line up across tiles.
     """
     xyz = as_points(points)
-    local = xyz - xyz.min(axis=0)
+    lowest = xyz.min(axis=0)
+    origin = np.array(
+        [
+            lattice_floor(float(lowest[0]), params.block_size[0]),
+            lattice_floor(float(lowest[1]), params.block_size[1]),
+            lowest[2],
+        ]
+    )
+    local = xyz - origin
     block_xy = np.floor(local[:, :2] / np.asarray(params.block_size)).astype(np.int64)
     block = np.unique(block_xy, axis=0, return_inverse=True)[1].ravel().astype(np.intp)
     scaled = local[:, :2] / np.asarray(params.cell_size)
@@ -61,7 +78,7 @@ def grid_neighbours(points: npt.ArrayLike, params: GridGroundParams) -> GridNeig
     dy = local[i, 1] - local[j, 1]
     d = np.sqrt(dx * dx + dy * dy)
     dz = local[i, 2] - local[j, 2]
-    return GridNeighbours(i, j, d, dz, block[i] == block[j], block, local[:, 2])
+    return GridNeighbours(i, j, d, dz, block[i] == block[j], block, local[:, 2], block_xy, origin)
 
 
 def _slope_filter(nb: GridNeighbours, p: GridGroundParams, against: np.ndarray) -> np.ndarray:

@@ -22,8 +22,9 @@ from scipy.spatial import Delaunay, cKDTree
 from .._params import resolve_arguments
 from .._tin_ground import TinGroundParams
 from .._validation import as_points
+from ._lattice import lattice_floor
 
-__all__ = ["grid_quantum", "locate", "tin_ground", "triangulate"]
+__all__ = ["grid_quantum", "locate", "seeds", "tin_ground", "triangulate"]
 
 _DEG_TO_RAD = math.pi / 180.0
 
@@ -159,6 +160,55 @@ def _morphological_seeds(
     return np.sort(lowest[keep])
 
 
+def _seeds(xyz: np.ndarray, ex: float, ey: float, p: TinGroundParams) -> np.ndarray:
+    """Step 2's seeds, sorted; `ex`, `ey` the XY extent from the minimum corner."""
+    cell = p.max_building_size
+    if not (ex / cell < 2.0**31 and ey / cell < 2.0**31):
+        raise ValueError(
+            "max_building_size is too small for the XY extent (more than 2^31 seed cells "
+            f"per axis), got {cell:g}"
+        )
+    # The seed cells on the world lattice of their size: their corner at or below the
+    # minimum corner (as in tin_ground.cpp); z stays relative to the minimum.
+    lowest = xyz.min(axis=0)
+    size = p.seed_cell if p.seed_cell > 0 else cell
+    origin = np.array(
+        [lattice_floor(float(lowest[0]), size), lattice_floor(float(lowest[1]), size), lowest[2]]
+    )
+    local = xyz - origin
+    sex, sey = local[:, 0].max(), local[:, 1].max()
+    if not (math.isfinite(sex) and math.isfinite(sey)):
+        raise ValueError("points: the XY extent is too large (not finite in float64)")
+    if p.seed_cell > 0:
+        return _morphological_seeds(xyz, local, sex, sey, p)
+    return np.sort(_lowest_in_cells(xyz, local, cell, math.floor(sey / cell) + 1)[1])
+
+
+def seeds(points: npt.ArrayLike, params: TinGroundParams) -> np.ndarray:
+    """Indices of the seeds of :func:`tin_ground`, sorted (step 2, before the TIN).
+
+    The lowest point of every ``max_building_size`` cell, or with ``seed_cell > 0``
+    the morphological seeds of the ``seed_cell`` cells; the cells are anchored at
+    multiples of their size in world coordinates, so a tile cut at a cell boundary
+    gets the cells of the merged cloud.
+
+    Examples
+    --------
+    >>> from pcl_rg import TinGroundParams
+    >>> from pcl_rg.reference.tin_ground import seeds
+    >>> pts = [[15.0, 0.0, 5.0], [25.0, 0.0, 4.0], [18.0, 3.0, 6.0]]
+    >>> seeds(pts, TinGroundParams.lidar360(max_building_size=20.0)).tolist()
+    [0, 1]
+
+    Cells [0, 20) and [20, 40) on x, not [15, 35) from the minimum corner.
+    """
+    xyz = as_points(points)
+    if len(xyz) == 0:
+        return np.empty(0, dtype=np.intp)
+    ex, ey, _ = xyz.max(axis=0) - xyz.min(axis=0)
+    return _seeds(xyz, ex, ey, params)
+
+
 def _evaluate(tri, vx, vy, vz, q, px, py, pz, p: TinGroundParams):  # type: ignore[no-untyped-def]
     """(accepted, stop, d) per point; the formulas of ``evaluate`` in tin_ground.cpp."""
     x = (vx[tri] - 1).astype(np.float64) * q
@@ -267,19 +317,10 @@ def tin_ground(
         )
 
     # 2. Seeds: lowest point (ties: index) of each max_building_size cell.
-    cell = p.max_building_size
-    if not (ex / cell < 2.0**31 and ey / cell < 2.0**31):
-        raise ValueError(
-            "max_building_size is too small for the XY extent (more than 2^31 seed cells "
-            f"per axis), got {cell:g}"
-        )
-    if p.seed_cell > 0:
-        seeds = _morphological_seeds(xyz, local, ex, ey, p)
-    else:
-        seeds = np.sort(_lowest_in_cells(xyz, local, cell, math.floor(ey / cell) + 1)[1])
+    seed = _seeds(xyz, ex, ey, p)
     ground = np.zeros(n, dtype=bool)
-    ground[seeds] = True
-    by_xy = seeds[np.lexsort((seeds, gy[seeds], gx[seeds]))]
+    ground[seed] = True
+    by_xy = seed[np.lexsort((seed, gy[seed], gx[seed]))]
     first = np.r_[True, (gx[by_xy][1:] != gx[by_xy][:-1]) | (gy[by_xy][1:] != gy[by_xy][:-1])]
     vertex_seeds = by_xy[first]
 
@@ -288,8 +329,8 @@ def tin_ground(
     corner_y = np.array([0, 0, height, height], dtype=np.int64)
     corner_z = np.empty(4)
     for c in range(4):
-        d2 = (gx[seeds] - corner_x[c]) ** 2 + (gy[seeds] - corner_y[c]) ** 2
-        corner_z[c] = pz[seeds[np.lexsort((seeds, d2))[0]]]
+        d2 = (gx[seed] - corner_x[c]) ** 2 + (gy[seed] - corner_y[c]) ** 2
+        corner_z[c] = pz[seed[np.lexsort((seed, d2))[0]]]
     vx = np.r_[corner_x, gx[vertex_seeds]]
     vy = np.r_[corner_y, gy[vertex_seeds]]
     vz = np.r_[corner_z, pz[vertex_seeds]]

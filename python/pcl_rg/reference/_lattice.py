@@ -1,0 +1,34 @@
+"""The world lattice that the ground filters anchor their grids at."""
+
+from __future__ import annotations
+
+import math
+
+__all__ = ["lattice_floor"]
+
+
+def lattice_floor(low: float, size: float) -> float:
+    """The largest ``k * size`` (k a whole number, the product in float64) <= `low`.
+
+    The corner of the lattice of step `size` at or below `low`, so that grids
+    anchored there line up across tiles. ``floor(low / size) * size`` alone can
+    land above `low`, as the quotient may round up to a whole number; then k
+    goes down by one. Returns `low` itself when ``|low / size| >= 2**52``, where
+    whole numbers are no longer all representable. Same operations as
+    ``lattice_floor`` in ``cpp/src/points.cpp``.
+
+    Examples
+    --------
+    >>> from pcl_rg.reference import lattice_floor
+    >>> lattice_floor(71.5, 30.0), lattice_floor(-0.5, 30.0), lattice_floor(60.0, 30.0)
+    (60.0, -30.0, 60.0)
+    """
+    quotient = low / size
+    if not abs(quotient) < 2.0**52:
+        return low
+    k = float(math.floor(quotient))
+    corner = k * size
+    while corner > low:
+        k -= 1.0
+        corner = k * size
+    return corner
