@@ -97,8 +97,25 @@ def _folder(job: Job, index: int) -> str:
     return os.path.join(job.scratch, str(index))
 
 
+# Side of the grid of cells over which stage 1 indexes a tile's context points: a
+# neighbour reads only the cells its buffer touches.
+INDEX_CELLS = 32
+
+
+def _context_rows(job: Job, cloud: PointFile) -> np.ndarray:
+    """The rows a neighbour may take as context: those the operation itself would use."""
+    if job.operation == "ground":
+        return np.flatnonzero(_ground_work(cloud))
+    return np.flatnonzero(_valid(cloud))
+
+
 def cache_tile(job: Job, index: int, path: str) -> dict[str, Any]:
-    """Stage 1: decode the tile and store points, fields and layout for stage 2."""
+    """Stage 1: decode the tile and store points, fields and layout for stage 2.
+
+    Also an index of the context rows by cell of a 32 x 32 grid over the tile's
+    box (``cell_rows.npy`` sorted by cell, ``cell_start.npy``), so a neighbour
+    reads the cells near its buffer and not the whole tile.
+    """
 
     def work() -> dict[str, Any]:
         cloud = read_points(path)
@@ -108,8 +125,19 @@ def cache_tile(job: Job, index: int, path: str) -> dict[str, Any]:
         names = list(cloud.fields)
         for k, name in enumerate(names):
             np.save(os.path.join(folder, f"field{k}.npy"), np.asarray(cloud.fields[name]))
+        rows = _context_rows(job, cloud)
+        xy = cloud.points[rows, :2]
+        low = xy.min(axis=0) if len(rows) else np.zeros(2)
+        high = xy.max(axis=0) if len(rows) else np.zeros(2)
+        size = np.maximum((high - low) / INDEX_CELLS, 1e-9)
+        cell_xy = np.clip(((xy - low) / size).astype(np.int64), 0, INDEX_CELLS - 1)
+        cell = cell_xy[:, 1] * INDEX_CELLS + cell_xy[:, 0]
+        order = np.argsort(cell, kind="stable")
+        np.save(os.path.join(folder, "cell_rows.npy"), rows[order])
+        starts = np.searchsorted(cell[order], np.arange(INDEX_CELLS * INDEX_CELLS + 1))
+        np.save(os.path.join(folder, "cell_start.npy"), starts)
         with open(os.path.join(folder, "layout.pkl"), "wb") as stream:
-            pickle.dump((cloud.format, cloud.header, names), stream)
+            pickle.dump((cloud.format, cloud.header, names, low, size), stream)
         return {"points": len(cloud)}
 
     return _guarded(work)
@@ -118,7 +146,7 @@ def cache_tile(job: Job, index: int, path: str) -> dict[str, Any]:
 def _load(job: Job, index: int, path: str, mmap: bool = False) -> PointFile:
     folder = _folder(job, index)
     with open(os.path.join(folder, "layout.pkl"), "rb") as stream:
-        fmt, header, names = pickle.load(stream)
+        fmt, header, names, _, _ = pickle.load(stream)
     mode = "r" if mmap else None
     points = np.load(os.path.join(folder, "points.npy"), mmap_mode=mode)
     fields = {
@@ -144,36 +172,44 @@ def _context(
     job: Job,
     neighbours: list[tuple[int, str]],
     box: Box,
-    keep: Callable[[PointFile], np.ndarray],
     fields: bool = False,
 ) -> list[tuple[int, np.ndarray, PointFile]]:
-    """(tile, rows, rows' points and fields) of each neighbour inside `box`.
+    """(tile, rows, rows' points and fields) of each neighbour's context rows in `box`.
 
-    The neighbours' arrays are memory-mapped and read in slices, so a task holds its
-    own tile and the buffer rows, never a neighbour's whole tile.
+    Through the cell index of stage 1, only the cells that meet `box` are read from
+    the memory-mapped arrays, so a task holds its own tile and its buffer rows.
     """
     parts = []
-    step = 1 << 20
     for index, path in neighbours:
-        cloud = _load(job, index, path, mmap=True)
-        classes = cloud.classification
-        rows = []
-        for start in range(0, len(cloud), step):
-            stop = min(start + step, len(cloud))
-            piece = PointFile(
-                np.asarray(cloud.points[start:stop]),
-                {} if classes is None else {"classification": np.asarray(classes[start:stop])},
-                cloud.format,
+        folder = _folder(job, index)
+        with open(os.path.join(folder, "layout.pkl"), "rb") as stream:
+            _, _, _, low, size = pickle.load(stream)
+        first = np.floor((np.array([box.xmin, box.ymin]) - low) / size).astype(np.int64)
+        last = np.floor((np.array([box.xmax, box.ymax]) - low) / size).astype(np.int64)
+        first, last = np.clip(first, 0, INDEX_CELLS - 1), np.clip(last, 0, INDEX_CELLS - 1)
+        starts = np.load(os.path.join(folder, "cell_start.npy"))
+        cell_rows = np.load(os.path.join(folder, "cell_rows.npy"), mmap_mode="r")
+        # Cells of one grid row are consecutive: one slice per row of cells.
+        pieces = [
+            np.asarray(
+                cell_rows[
+                    starts[r * INDEX_CELLS + first[0]] : starts[r * INDEX_CELLS + last[0] + 1]
+                ]
             )
-            rows.append(np.flatnonzero(_inside(piece.points, box) & keep(piece)) + start)
-        chosen = np.concatenate(rows) if rows else np.empty(0, np.intp)
+            for r in range(first[1], last[1] + 1)
+        ]
+        candidates = np.sort(np.concatenate(pieces)) if pieces else np.empty(0, np.int64)
+        cloud = _load(job, index, path, mmap=True)
+        xyz = np.asarray(cloud.points[candidates])
+        inside = _inside(xyz, box)
+        chosen = candidates[inside]
         subset = PointFile(
-            np.asarray(cloud.points[chosen]),
+            xyz[inside],
             {n: np.asarray(v[chosen]) for n, v in cloud.fields.items()} if fields else {},
             cloud.format,
         )
         parts.append((index, chosen, subset))
-        del cloud, classes
+        del cloud, cell_rows
     return parts
 
 
@@ -210,7 +246,7 @@ def ground_tile(
     def work() -> dict[str, Any]:
         own = _load(job, index, path)
         work_rows = _ground_work(own)
-        parts = _context(job, neighbours, grow(box, job.buffer), _ground_work)
+        parts = _context(job, neighbours, grow(box, job.buffer))
         xyz = np.concatenate([own.points[work_rows]] + [p.points for _, _, p in parts])
         ground = GROUND_METHODS[job.method](xyz, params=job.params)[: int(work_rows.sum())]
         classes = ground_classes(own, work_rows, ground)
@@ -268,7 +304,7 @@ def denoise_distances(
         while True:
             reach = grow(box, margin)
             near = [(j, p) for j, p, other in others if _meets(reach, other)]
-            parts = _context(job, near, reach, _valid)
+            parts = _context(job, near, reach)
             xyz = np.concatenate([mine] + [p.points for _, _, p in parts])
             if len(mine) and job.params.mean_k >= len(xyz):
                 raise ValueError(
@@ -376,7 +412,7 @@ def downsample_tile(
     def work() -> dict[str, Any]:
         own = _load(job, index, path)
         rows = np.flatnonzero(_valid(own))
-        parts = _context(job, neighbours, grow(box, job.buffer), _valid, fields=True)
+        parts = _context(job, neighbours, grow(box, job.buffer), fields=True)
         parts.append((index, rows, own.take(rows)))
         parts.sort(key=lambda part: part[0])
         xyz = np.concatenate([p.points for _, _, p in parts])
