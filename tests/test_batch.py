@@ -425,3 +425,25 @@ def test_ctrl_c_stops_the_run_and_leaves_no_partial_file(tmp_path):
     for name in left:
         if name.endswith(".laz"):
             assert len(read_points(out / name)) > 0  # complete files only
+
+
+def test_hostile_headers_among_the_tiles_fail_fast_and_alone(tmp_path, scheduler):
+    import shutil
+
+    source = synthetic_survey(tmp_path / "in", tiles=(1, 2), tile_size=40.0, seed=4)
+    fuzz = [shared_data("fuzz", n) for n in ("bad-version.las", "vlr-count-hang.laz")]
+    for path in fuzz:
+        shutil.copy(path, tmp_path / "in")
+    start = time.perf_counter()
+    report = batch.ground(tmp_path / "in", tmp_path / "out", scheduler=scheduler)
+    assert time.perf_counter() - start < 60
+    failed = sorted(os.path.basename(t.input) for t in report.failed)
+    assert failed == sorted(p.name for p in fuzz)
+    done = [t for t in report.tiles if t.status == "done"]
+    assert len(done) == 2
+    # A file whose header cannot be read has no known box: every tile reports it.
+    for tile in done:
+        assert set(tile.no_buffer_from) == set(failed)
+    assert sorted(os.listdir(tmp_path / "out")) == sorted(
+        [os.path.basename(p) for p in source.paths] + [MANIFEST]
+    )

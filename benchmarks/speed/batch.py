@@ -47,22 +47,22 @@ def survey_paths(folder: Path, tiles: tuple[int, int], tile_size: float, density
     return sorted(survey.paths)
 
 
-def loop(paths: list[str], out: Path, method: str) -> float:
+def loop(paths: list[str], out: Path, method: str, threads: int | None = None) -> float:
+    """A loop of single-file runs; `threads` limits OpenMP (None: every core)."""
     shutil.rmtree(out, ignore_errors=True)
     out.mkdir(parents=True)
+    env = dict(os.environ)
+    env.pop("OMP_NUM_THREADS", None)
+    if threads is not None:
+        env["OMP_NUM_THREADS"] = str(threads)
     start = time.perf_counter()
     for path in paths:
+        name = str(out / os.path.basename(path))
         subprocess.run(
-            [
-                *PCL_RG,
-                "ground",
-                path,
-                str(out / os.path.basename(path)),
-                "--method",
-                method,
-                "--quiet",
-            ],
+            [*PCL_RG, "ground", path, name, "--method", method, "--quiet"],
             check=True,
+            env=env,
+            stdout=subprocess.DEVNULL,
         )
     return time.perf_counter() - start
 
