@@ -389,7 +389,9 @@ def test_a_killed_worker_is_replaced_and_the_outputs_are_those_of_a_clean_run(tm
 
 
 def test_ctrl_c_stops_the_run_and_leaves_no_partial_file(tmp_path):
-    source = synthetic_survey(tmp_path / "in", tiles=(4, 4), tile_size=120.0, seed=9)
+    # About 4M points: the TIN filter keeps both workers busy for seconds after the
+    # first tile is written, so the signal lands mid-run.
+    source = synthetic_survey(tmp_path / "in", tiles=(4, 4), tile_size=250.0, seed=9)
     out = tmp_path / "out"
     proc = subprocess.Popen(
         [
@@ -421,6 +423,7 @@ def test_ctrl_c_stops_the_run_and_leaves_no_partial_file(tmp_path):
     assert proc.returncode == 130, err
     assert "interrupted" in err
     left = os.listdir(out)
+    assert len([n for n in left if n.endswith(".laz")]) < len(source.paths)
     assert not [n for n in left if n.endswith(".tmp") or n.startswith(".pcl_rg-scratch")]
     for name in left:
         if name.endswith(".laz"):

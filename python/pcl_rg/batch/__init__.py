@@ -84,6 +84,15 @@ def default_buffer(operation: str, params: Any) -> float:
     raise TypeError(f"no batch operation takes {type(params).__name__} ({operation})")
 
 
+#: The keywords every operation passes on to the engine unchanged.
+_ENGINE_OPTIONS = ("buffer", "workers", "scheduler", "progress", "resume", "on_dashboard")
+
+
+def _engine_options(arguments: dict[str, Any]) -> dict[str, Any]:
+    """The engine's keywords out of an operation's ``locals()``."""
+    return {name: arguments[name] for name in _ENGINE_OPTIONS}
+
+
 def _run(
     operation: str,
     params: Any,
@@ -197,19 +206,7 @@ def ground(
         params = kind()
     if not isinstance(params, kind):
         raise TypeError(f"params must be a {kind.__name__} for method {method!r}")
-    return _run(
-        "ground",
-        params,
-        inputs,
-        out,
-        method=method,
-        buffer=buffer,
-        workers=workers,
-        scheduler=scheduler,
-        progress=progress,
-        resume=resume,
-        on_dashboard=on_dashboard,
-    )
+    return _run("ground", params, inputs, out, method=method, **_engine_options(locals()))
 
 
 def denoise(
@@ -245,18 +242,7 @@ def denoise(
     params = params if params is not None else StatisticalOutlierRemovalParams()
     if not isinstance(params, StatisticalOutlierRemovalParams):
         raise TypeError("params must be a StatisticalOutlierRemovalParams")
-    return _run(
-        "denoise",
-        params,
-        inputs,
-        out,
-        buffer=buffer,
-        workers=workers,
-        scheduler=scheduler,
-        progress=progress,
-        resume=resume,
-        on_dashboard=on_dashboard,
-    )
+    return _run("denoise", params, inputs, out, **_engine_options(locals()))
 
 
 def downsample(
@@ -291,15 +277,4 @@ def downsample(
     """
     if not isinstance(params, VoxelGridParams):
         raise TypeError("params must be a VoxelGridParams")
-    return _run(
-        "downsample",
-        params,
-        inputs,
-        out,
-        buffer=buffer,
-        workers=workers,
-        scheduler=scheduler,
-        progress=progress,
-        resume=resume,
-        on_dashboard=on_dashboard,
-    )
+    return _run("downsample", params, inputs, out, **_engine_options(locals()))
