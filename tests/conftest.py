@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import sys
 import threading
 from pathlib import Path
 
@@ -77,3 +78,13 @@ def run_in_threads(call, threads: int = 4) -> list:
     for worker in workers:
         worker.join()
     return results
+
+
+# `python -m pcl_rg`, with SIGINT handled as in a terminal also when the tests run in
+# the background of a shell, which starts its children with SIGINT ignored.
+CLI_WITH_SIGINT = [
+    sys.executable,
+    "-c",
+    "import runpy, signal; signal.signal(signal.SIGINT, signal.default_int_handler); "
+    "runpy.run_module('pcl_rg', run_name='__main__', alter_sys=True)",
+]

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import ISPRS_SAMPLES, shared_data
+from conftest import CLI_WITH_SIGINT, ISPRS_SAMPLES, shared_data
 
 import pcl_rg
 from pcl_rg import batch
@@ -395,9 +395,7 @@ def test_ctrl_c_stops_the_run_and_leaves_no_partial_file(tmp_path):
     out = tmp_path / "out"
     proc = subprocess.Popen(
         [
-            PYTHON,
-            "-m",
-            "pcl_rg",
+            *CLI_WITH_SIGINT,
             "batch",
             "ground",
             *source.paths,

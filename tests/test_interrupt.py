@@ -25,19 +25,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import CLI_WITH_SIGINT
 
 import pcl_rg
 from pcl_rg.io import write_points
 
 PROBE = Path(__file__).with_name("interrupt_probe.py")
-# `python -m pcl_rg`, with SIGINT handled as in a terminal also when the tests run in
-# the background of a shell, which starts its children with SIGINT ignored.
-CLI = [
-    sys.executable,
-    "-c",
-    "import runpy, signal; signal.signal(signal.SIGINT, signal.default_int_handler); "
-    "runpy.run_module('pcl_rg', run_name='__main__', alter_sys=True)",
-]
+CLI = CLI_WITH_SIGINT
 MAX_LATENCY = 2.0  # seconds from SIGINT to KeyboardInterrupt
 SIGNAL_AFTER = 1.0  # seconds after the call started
 

@@ -160,8 +160,8 @@ def descend(samples, start: pcl_rg.GridGroundParams, lines: list[str]):
     return best, best_error
 
 
-def search(samples) -> str:
-    lines: list[str] = []
+def choose(samples, lines: list[str]) -> tuple[pcl_rg.GridGroundParams, float]:
+    """The search's pick on `samples`: (params, mean total error)."""
     # Two starts: the plain definition, and the definition with every option on at a
     # middle value; the descent is local, so the better end point wins.
     plain = pcl_rg.GridGroundParams.definition(
@@ -175,9 +175,14 @@ def search(samples) -> str:
         filter_slope=0.7,
         filter_tolerance=0.5,
     )
-    best, best_error = min(
+    return min(
         (descend(samples, start, lines) for start in (plain, options_on)), key=lambda r: r[1]
     )
+
+
+def search(samples) -> str:
+    lines: list[str] = []
+    best, best_error = choose(samples, lines)
     lines.append(f"chosen: {best}")
     lines.append(f"mean total error {100 * best_error:.2f} %")
     lines.append("ablation (each option back to the definition):")
