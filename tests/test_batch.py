@@ -448,3 +448,22 @@ def test_hostile_headers_among_the_tiles_fail_fast_and_alone(tmp_path, scheduler
     assert sorted(os.listdir(tmp_path / "out")) == sorted(
         [os.path.basename(p) for p in source.paths] + [MANIFEST]
     )
+
+
+@pytest.mark.parametrize("operation", ["ground", "denoise", "downsample"])
+def test_empty_and_nan_tiles_come_out_like_their_inputs(operation, tmp_path, scheduler):
+    source = synthetic_survey(tmp_path / "in", tiles=(1, 2), tile_size=40.0, seed=1, format="pcd")
+    write_points(tmp_path / "in" / "empty.las", np.empty((0, 3)))
+    holes = read_points(source.paths[0]).points + [100.0, 0.0, 0.0]
+    holes[::7] = np.nan  # an organized PCD's invalid points
+    write_points(tmp_path / "in" / "holes.pcd", holes)
+    options = {"params": pcl_rg.VoxelGridParams(leaf_size=1.0)} if operation == "downsample" else {}
+    report = getattr(batch, operation)(
+        tmp_path / "in", tmp_path / "out", scheduler=scheduler, **options
+    )
+    assert [t.status for t in report.tiles] == ["done"] * 4, [t.error for t in report.tiles]
+    outputs = {os.path.basename(t.output): read_points(t.output) for t in report.tiles}
+    assert len(outputs["empty.las"]) == 0 and outputs["empty.las"].format == "las"
+    if operation != "downsample":
+        written = outputs["holes.pcd"].points
+        assert written.shape == holes.shape and np.isnan(written[::7]).all()

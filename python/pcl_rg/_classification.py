@@ -109,7 +109,8 @@ def voxel_attributes(
     for name, values in fields.items():
         values = np.asarray(values)
         if values.dtype.kind == "f" or (name in MEAN_ATTRIBUTES and values.dtype.kind in "iu"):
-            flat = values[rows].reshape(len(rows), -1).astype(np.float64)
+            width = int(np.prod(values.shape[1:]))  # 1 for a column; stays valid at N = 0
+            flat = values[rows].reshape(len(rows), width).astype(np.float64)
             sums = np.stack(
                 [np.bincount(voxel, weights=flat[:, j], minlength=m) for j in range(flat.shape[1])],
                 axis=1,
