@@ -445,9 +445,11 @@ def test_hostile_headers_among_the_tiles_fail_fast_and_alone(tmp_path, scheduler
     # A file whose header cannot be read has no known box: every tile reports it.
     for tile in done:
         assert set(tile.no_buffer_from) == set(failed)
-    assert sorted(os.listdir(tmp_path / "out")) == sorted(
-        [os.path.basename(p) for p in source.paths] + [MANIFEST]
-    )
+    written = sorted(n for n in os.listdir(tmp_path / "out") if not n.startswith("."))
+    assert written == sorted(os.path.basename(p) for p in source.paths)
+    # Tiles that lacked a buffer are not recorded as done: a rerun redoes them.
+    again = batch.ground(tmp_path / "in", tmp_path / "out", scheduler=scheduler)
+    assert [t.status for t in again.tiles].count("done") == 2
 
 
 @pytest.mark.parametrize("operation", ["ground", "denoise", "downsample"])
@@ -467,3 +469,54 @@ def test_empty_and_nan_tiles_come_out_like_their_inputs(operation, tmp_path, sch
     if operation != "downsample":
         written = outputs["holes.pcd"].points
         assert written.shape == holes.shape and np.isnan(written[::7]).all()
+
+
+def test_a_resumed_denoise_uses_every_tile_for_its_threshold(survey, tmp_path, scheduler):
+    # Redoing one tile must not compute the global mean and deviation from it alone.
+    params = pcl_rg.StatisticalOutlierRemovalParams(mean_k=8)
+    first = batch.denoise(survey.paths, tmp_path, params=params, scheduler=scheduler)
+    os.unlink(first.tiles[3].output)
+    again = batch.denoise(survey.paths, tmp_path, params=params, scheduler=scheduler)
+    assert [t.status for t in again.tiles].count("done") == 1
+    assert again.tiles[3].details["threshold"] == first.tiles[3].details["threshold"]
+    points = np.concatenate([c.points for c in merged(survey.paths)])
+    expected = ~pcl_rg.statistical_outlier_removal(points, params=params)
+    got = np.concatenate([c.classification for c in outputs_of(again)]) == 7
+    assert np.array_equal(got, expected)
+
+
+def test_denoise_grows_the_buffer_of_a_tile_with_too_few_points(tmp_path, scheduler):
+    source = synthetic_survey(tmp_path / "in", tiles=(1, 1), tile_size=40.0, seed=6)
+    few = read_points(source.paths[0]).points[:5] + [0.0, 80.0, 0.0]  # 40 m beyond it
+    write_points(tmp_path / "in" / "few.las", few)
+    params = pcl_rg.StatisticalOutlierRemovalParams(mean_k=10)
+    report = batch.denoise(tmp_path / "in", tmp_path / "out", params=params, scheduler=scheduler)
+    assert not report.failed, [t.error for t in report.tiles]
+    points = np.concatenate([c.points for c in merged([t.input for t in report.tiles])])
+    expected = ~pcl_rg.statistical_outlier_removal(points, params=params)
+    got = np.concatenate([c.classification for c in outputs_of(report)]) == 7
+    assert np.array_equal(got, expected)
+
+
+def test_reordered_inputs_redo_downsample_tiles(tmp_path, scheduler):
+    # Which tile writes a shared voxel follows the input order: a new order redoes all.
+    source = synthetic_survey(tmp_path / "in", tiles=(1, 3), tile_size=30.0, seed=8)
+    params = pcl_rg.VoxelGridParams(leaf_size=3.0)
+    out = tmp_path / "out"
+    forward = batch.downsample(source.paths, out, params=params, scheduler=scheduler)
+    backward = batch.downsample(source.paths[::-1], out, params=params, scheduler=scheduler)
+    assert {t.status for t in backward.tiles} == {"done"}
+    points = np.concatenate([c.points for c in merged(source.paths[::-1])])
+    voxels = len(pcl_rg.voxel_grid(points, params=params).counts)
+    assert sum(len(c) for c in outputs_of(backward)) == voxels
+    assert sum(len(c) for c in outputs_of(forward)) == voxels
+    with pytest.raises(ValueError, match="leaf size"):
+        batch.downsample(source.paths, out, params=params, buffer=1.0)
+
+
+def test_a_damaged_manifest_redoes_the_tiles(survey, tmp_path, scheduler):
+    out = tmp_path / "out"
+    batch.ground(survey.paths[:2], out, scheduler=scheduler)
+    (out / MANIFEST).write_text(json.dumps({os.path.basename(survey.paths[0]): 1}))
+    report = batch.ground(survey.paths[:2], out, scheduler=scheduler)
+    assert {t.status for t in report.tiles} == {"done"}

@@ -112,6 +112,12 @@ def _run(
     buffer = float(buffer)
     if not buffer >= 0.0 or buffer == float("inf"):
         raise ValueError(f"buffer must be a finite number >= 0, got {buffer}")
+    if isinstance(params, VoxelGridParams) and buffer < max(params.leaf_size[:2]):
+        # A thinner buffer would let two tiles each write part of a shared voxel.
+        raise ValueError(
+            f"buffer must be >= the leaf size ({max(params.leaf_size[:2]):g} m) for "
+            f"downsample, got {buffer:g}"
+        )
     if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int)):
         raise TypeError(f"workers must be an integer, got {workers!r}")
     if workers is not None and workers < 1:

@@ -13,6 +13,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import glob
+import hashlib
 import json
 import logging
 import os
@@ -235,29 +236,54 @@ def _run_on(
     )
     unreadable = [os.path.basename(paths[i]) for i, e in enumerate(extents) if not e["ok"]]
 
-    def inputs_of(i: int) -> Any:
-        return _plain(
+    # What each output is computed from, taken once before any work (an input edited
+    # during the run must not be recorded as the one its output came from).
+    signatures = {i: file_signature(paths[i]) for i in readable}
+    if job.operation == "denoise":
+        # Global statistics: every output depends on every readable input, in order.
+        survey = hashlib.sha256(json.dumps([signatures[i] for i in readable]).encode())
+        contexts = {i: survey.hexdigest() for i in readable}
+    else:
+        # The neighbours with their positions: downsample's voxel ownership follows
+        # the input order, so a reordering must redo the tiles.
+        contexts = {i: [[j, signatures[j]] for j in near[i] if j in signatures] for i in readable}
+    expected = {
+        i: _plain(
             {
                 "operation": job.operation,
                 "method": job.method,
                 "parameters": parameters,
                 "buffer": job.buffer,
                 "version": __version__,
-                "input": file_signature(paths[i]),
-                "context": [file_signature(paths[j]) for j in near[i]],
+                "position": i,
+                "input": signatures[i],
+                "context": contexts[i],
                 "unreadable": unreadable,
             }
         )
+        for i in readable
+    }
 
     todo = []
     for i in readable:
-        if manifest.done(outputs[i], inputs_of(i)):
+        if manifest.done(outputs[i], expected[i]):
             reports[i].status = "skipped"
         else:
             todo.append(i)
-    needed = sorted(set(todo) | {j for i in todo for j in near[i]})
+    if job.operation == "denoise" and todo:
+        # The threshold needs every tile's distances, also those of tiles skipped.
+        needed = list(readable)
+    else:
+        needed = sorted(set(todo) | {j for i in todo for j in near[i]})
     cached = {i: client.submit(_tasks.cache_tile, job, i, paths[i], pure=False) for i in needed}
     futures += cached.values()
+    known: dict[int, bool] = {}
+
+    def stage1_ok(j: int) -> bool:  # each stage-1 outcome fetched once
+        if j not in known:
+            known[j] = bool(_outcome(cached[j])["ok"])
+        return known[j]
+
     bar = _Progress(len(todo), progress, f"{job.operation} ({len(todo)} tiles)")
     try:
         if job.operation == "denoise":
@@ -283,26 +309,41 @@ def _run_on(
             futures += stage.keys()
         for future in as_completed(list(stage)):
             i = stage[future]
-            result = future.result()
+            result = _outcome(future)
             report = reports[i]
             report.details = {k: v for k, v in result.items() if k not in ("ok", "error")}
             report.seconds = result.get("seconds", 0.0)
+            # Stage 2 ran after every neighbour's stage 1: their outcomes are known.
+            short = [j for j in near[i] if j in cached and not stage1_ok(j)]
             if result["ok"]:
                 report.status, report.error = "done", ""
                 report.points = result.get("points", report.points)
-                manifest.record(outputs[i], inputs_of(i))
+                if short or unreadable:  # redo it next time, when the buffer may be whole
+                    manifest.forget(outputs[i])
+                else:
+                    manifest.record(outputs[i], expected[i])
             else:
                 report.status, report.error = "failed", result["error"]
                 manifest.forget(outputs[i])
             bar.update(report.points)
     finally:
         bar.close()
-    for i in cached:
-        if not cached[i].result()["ok"]:
-            reports[i].status, reports[i].error = "failed", cached[i].result()["error"]
+    stage1 = {i: _outcome(f) for i, f in cached.items()}
+    for i, result in stage1.items():
+        if not result["ok"]:
+            reports[i].status, reports[i].error = "failed", result["error"]
     for i, report in enumerate(reports):
-        missing = [j for j in near[i] if j in cached and not cached[j].result()["ok"]]
+        missing = [j for j in near[i] if j in stage1 and not stage1[j]["ok"]]
         report.no_buffer_from = [os.path.basename(paths[j]) for j in missing] + unreadable
+
+
+def _outcome(future: Any) -> dict[str, Any]:
+    """A task's result; a task that raised (e.g. its worker died again and again,
+    ``KilledWorker``) as a failed result, so one tile cannot abort the run."""
+    try:
+        return future.result()
+    except Exception as error:  # noqa: BLE001 - reported per tile, never swallowed
+        return {"ok": False, "error": f"{type(error).__name__}: {error}"}
 
 
 def _denoise(
@@ -317,11 +358,11 @@ def _denoise(
     futures: list[Any],
 ) -> dict[Any, int]:
     """Distances per tile, one global threshold, then the writes (stages 2 and 3)."""
-    stage1 = {i: f.result() for i, f in cached.items()}
+    stage1 = {i: _outcome(f) for i, f in cached.items()}
     nowhere = Box(0.0, 0.0, 0.0, 0.0)  # the box of a tile without a finite point
     survey = survey_box([boxes[i] for i in cached if stage1[i]["ok"]]) or nowhere
     distances = {}
-    for i in todo:
+    for i in cached:
         if not stage1[i]["ok"]:
             continue
         others = [(j, paths[j], boxes[j]) for j in near[i] if stage1.get(j, {}).get("ok")]
@@ -336,7 +377,7 @@ def _denoise(
             pure=False,
         )
     futures += distances.values()
-    sums = {i: f.result() for i, f in distances.items()}
+    sums = {i: _outcome(f) for i, f in distances.items()}
     good = [s for s in sums.values() if s["ok"]]
     threshold = _tasks.sor_threshold(good, job.params.std_mul) if good else float("nan")
     stage: dict[Any, int] = {}

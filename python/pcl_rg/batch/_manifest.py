@@ -40,7 +40,9 @@ class Manifest:
     def done(self, output: str, inputs: dict[str, Any]) -> bool:
         """Whether `output` exists as recorded, computed from exactly `inputs`."""
         entry = self.entries.get(os.path.basename(output))
-        if not entry or entry.get("inputs") != inputs or not os.path.exists(output):
+        if not isinstance(entry, dict) or entry.get("inputs") != inputs:
+            return False  # none, another computation, or a damaged entry
+        if not os.path.exists(output):
             return False
         return entry.get("output") == file_signature(output)
 

@@ -74,7 +74,7 @@ def _guarded(work: Callable[[], dict[str, Any]]) -> dict[str, Any]:
     start = time.perf_counter()
     try:
         result = work()
-    except (ValueError, TypeError, OSError, MemoryError, RuntimeError) as error:
+    except Exception as error:  # noqa: BLE001 - any failure is this tile's, and reported
         return _failure(error)
     result.update(ok=True, seconds=time.perf_counter() - start, peak_mib=_peak_mib())
     return result
@@ -306,17 +306,22 @@ def denoise_distances(
             near = [(j, p) for j, p, other in others if _meets(reach, other)]
             parts = _context(job, near, reach)
             xyz = np.concatenate([mine] + [p.points for _, _, p in parts])
-            if len(mine) and job.params.mean_k >= len(xyz):
-                raise ValueError(
-                    f"mean_k must be < the number of points ({len(xyz)}), got {job.params.mean_k}"
-                )
+            whole = _covers(reach, survey)
             if not len(mine):
                 distance = np.empty(0, np.float32)
                 break
+            if job.params.mean_k >= len(xyz):  # too few points yet: a wider buffer
+                if whole:
+                    raise ValueError(
+                        f"mean_k must be < the number of points ({len(xyz)}), "
+                        f"got {job.params.mean_k}"
+                    )
+                margin = max(2.0 * margin, 1.0)  # from a zero buffer too
+                continue
             _, distance, _, farthest = _core.statistical_outlier_removal(xyz, job.params.to_core())
             distance, farthest = distance[: len(mine)], farthest[: len(mine)]
             short = farthest > _room(mine, reach, survey)
-            if not short.any() or reach == grow(survey, 0.0) or _covers(reach, survey):
+            if not short.any() or whole:
                 break
             margin = max(2.0 * margin, float(farthest[short].max()) * 1.01 + margin)
         np.save(os.path.join(_folder(job, index), "distance.npy"), distance)
@@ -371,6 +376,8 @@ def denoise_write(
 def sor_threshold(sums: list[dict[str, Any]], std_mul: float) -> float:
     """mu + std_mul * sigma over every tile's distances, as the core computes it."""
     count = float(sum(s["count"] for s in sums))
+    if count < 2:  # no deviation to measure: as the core, no point is an outlier
+        return float("nan")
     total = sum(s["sum"] for s in sums)
     total_sq = sum(s["sum_sq"] for s in sums)
     mean = total / count
