@@ -19,15 +19,9 @@ with its segment labels and pixel indices).
 
 from ._isprs import IsprsSample, load_isprs
 from ._mosd import MosdScene, load_mosd
+from ._objects import BUILDING, GROUND, NOISE, VEGETATION
 from ._survey import SyntheticSurvey, synthetic_survey
-from ._synthetic import (
-    BUILDING,
-    GROUND,
-    NOISE,
-    VEGETATION,
-    SyntheticScene,
-    synthetic_scene,
-)
+from ._synthetic import SyntheticScene, synthetic_scene
 from ._terrain import terrain_height
 
 __all__ = [

@@ -10,7 +10,7 @@ from numpy.typing import NDArray
 
 from .._params import check_number
 from ..io import write_points
-from ._synthetic import (
+from ._objects import (
     BUILDING,
     GROUND,
     NOISE,
@@ -18,8 +18,6 @@ from ._synthetic import (
     Block,
     _assemble,
     _building_points,
-    _check_noise_fraction,
-    _check_offset,
     _crown_semi_axes,
     _ground_points,
     _noise_points,
@@ -28,6 +26,7 @@ from ._synthetic import (
     _place_trees,
     _tree_points,
 )
+from ._synthetic import _check_noise_fraction, _check_offset
 from ._terrain import Terrain, make_terrain
 
 __all__ = ["SyntheticSurvey", "synthetic_survey"]
@@ -45,7 +44,10 @@ _SCAN_STRIP = 2.0  # m: points are stored strip by strip along y, by x within a 
 # Mean and standard deviation of the 16-bit intensity, by ASPRS class code.
 _INTENSITY = np.zeros((256, 2))
 _INTENSITY[[GROUND, BUILDING, VEGETATION, NOISE]] = [
-    (1200.0, 250.0), (1800.0, 300.0), (700.0, 250.0), (300.0, 200.0)
+    (1200.0, 250.0),
+    (1800.0, 300.0),
+    (700.0, 250.0),
+    (300.0, 200.0),
 ]
 
 
@@ -145,8 +147,20 @@ def _layout(
     semi_z = _crown_semi_axes(rng, trees)
     edges_x = np.round((origin[0] + tile_size * np.arange(cols + 1)) * _MM)
     edges_y = np.round((origin[1] + tile_size * np.arange(rows + 1)) * _MM)
-    return _Layout(seed, tiles, tile_size, density, noise_fraction, origin, terrain,
-                   edges_x, edges_y, buildings, trees, semi_z)
+    return _Layout(
+        seed,
+        tiles,
+        tile_size,
+        density,
+        noise_fraction,
+        origin,
+        terrain,
+        edges_x,
+        edges_y,
+        buildings,
+        trees,
+        semi_z,
+    )
 
 
 def _in_tile(block: Block, layout: _Layout, row: int, col: int) -> Block:
@@ -202,8 +216,9 @@ def _tile(
 
     # Stored strip by strip across the tile, like the lines of a scan (and
     # compressed far better than a random order).
-    strip = np.concatenate([np.floor((blk[1] - layout.edges_y[row]) / (_SCAN_STRIP * _MM))
-                            for blk in blocks])
+    strip = np.concatenate(
+        [np.floor((blk[1] - layout.edges_y[row]) / (_SCAN_STRIP * _MM)) for blk in blocks]
+    )
     strip *= layout.edges_x[col + 1] - layout.edges_x[col] + 1.0
     strip += np.concatenate([blk[0] - layout.edges_x[col] for blk in blocks])
     order = np.empty(strip.size, dtype=np.intp)
@@ -223,8 +238,10 @@ def _check_tiles(tiles: object) -> tuple[int, int]:
         rows, cols = tiles  # type: ignore[misc]
     except (TypeError, ValueError):
         raise ValueError(f"tiles must be a pair (rows, cols), got {tiles!r}") from None
-    return (check_number("tiles[0]", rows, int, minimum=1),
-            check_number("tiles[1]", cols, int, minimum=1))
+    return (
+        check_number("tiles[0]", rows, int, minimum=1),
+        check_number("tiles[1]", cols, int, minimum=1),
+    )
 
 
 def synthetic_survey(
@@ -351,8 +368,9 @@ def synthetic_survey(
     tile_size = check_number("tile_size", tile_size, float, minimum=1.0)
     density = check_number("density", density, float, above=0.0)
     seed = check_number("seed", seed, int, minimum=0)
-    buildings_per_km2 = check_number("buildings_per_km2", buildings_per_km2, float,
-                                     minimum=0.0, maximum=_MAX_BUILDINGS_PER_KM2)
+    buildings_per_km2 = check_number(
+        "buildings_per_km2", buildings_per_km2, float, minimum=0.0, maximum=_MAX_BUILDINGS_PER_KM2
+    )
     trees_per_km2 = check_number("trees_per_km2", trees_per_km2, float, minimum=0.0)
     noise_fraction = _check_noise_fraction(noise_fraction)
     offset = _check_offset(origin, "origin")
@@ -361,8 +379,16 @@ def synthetic_survey(
     if format not in _FORMATS:
         raise ValueError(f"format must be one of {', '.join(_FORMATS)}, got {format!r}")
 
-    layout = _layout(seed, (rows, cols), tile_size, density, buildings_per_km2,
-                     trees_per_km2, noise_fraction, offset)
+    layout = _layout(
+        seed,
+        (rows, cols),
+        tile_size,
+        density,
+        buildings_per_km2,
+        trees_per_km2,
+        noise_fraction,
+        offset,
+    )
     os.makedirs(folder, exist_ok=True)
     paths, counts = [], []
     for row in range(rows):
@@ -373,12 +399,25 @@ def synthetic_survey(
             paths.append(path)
             counts.append(len(points))
             del points, labels, intensity
-    bounds = np.column_stack([
-        np.repeat(layout.edges_x[None, :-1], rows, axis=0).ravel(),
-        np.repeat(layout.edges_y[:-1], cols),
-        np.repeat(layout.edges_x[None, 1:], rows, axis=0).ravel(),
-        np.repeat(layout.edges_y[1:], cols),
-    ]) / _MM
+    bounds = (
+        np.column_stack(
+            [
+                np.repeat(layout.edges_x[None, :-1], rows, axis=0).ravel(),
+                np.repeat(layout.edges_y[:-1], cols),
+                np.repeat(layout.edges_x[None, 1:], rows, axis=0).ravel(),
+                np.repeat(layout.edges_y[1:], cols),
+            ]
+        )
+        / _MM
+    )
     buildings, trees = _object_rows(layout.buildings, layout.trees, offset)
-    return SyntheticSurvey(paths, bounds, np.array(counts, dtype=np.int64), (rows, cols),
-                           offset, max(rows, cols) * tile_size, buildings, trees)
+    return SyntheticSurvey(
+        paths,
+        bounds,
+        np.array(counts, dtype=np.int64),
+        (rows, cols),
+        offset,
+        max(rows, cols) * tile_size,
+        buildings,
+        trees,
+    )

@@ -150,6 +150,8 @@ def terrain_height(
     ya = np.asarray(y, dtype=np.float64)
     for name, arr in (("x", xa), ("y", ya)):
         if not np.all(np.isfinite(arr)):
-            raise ValueError(f"{name} must be finite, got {np.count_nonzero(~np.isfinite(arr))} "
-                             "non-finite values")
+            raise ValueError(
+                f"{name} must be finite, got {np.count_nonzero(~np.isfinite(arr))} "
+                "non-finite values"
+            )
     return terrain_z(make_terrain(seed, size), xa, ya)
