@@ -46,6 +46,7 @@
 #include <vector>
 
 #include "pcl_rg/check.hpp"
+#include "pcl_rg/grid_cells.hpp"
 #include "pcl_rg/interrupt.hpp"
 
 namespace pcl_rg {
@@ -74,14 +75,6 @@ namespace {
 // integers and neighbour arithmetic cannot overflow.
 constexpr double kMaxIndex = 0x1p40;
 constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
-// Below this many points a call takes about 0.1 s on one core, and threads cost more
-// than they save: every parallel loop ends in a barrier, which stalls whenever another
-// process holds one of the cores.
-constexpr std::size_t kParallelMin = 500000;
-
-std::int64_t grid_index(double local, double size) {
-    return static_cast<std::int64_t>(std::floor(local / size));
-}
 
 // Disjoint sets that many threads may unite at once (lock-free): a root is only ever
 // linked, by compare-and-swap, under a smaller root, and path halving only shortens
@@ -93,7 +86,7 @@ class ConcurrentDisjointSets {
 
     void reset() {
         const auto n = static_cast<std::ptrdiff_t>(parent_.size());
-        const bool parallel = parent_.size() >= kParallelMin;
+        const bool parallel = parent_.size() >= kGridParallelMin;
 #pragma omp parallel for schedule(guided) if (parallel)
         for (std::ptrdiff_t i = 0; i < n; ++i)
             parent_[i].store(static_cast<std::uint32_t>(i), std::memory_order_relaxed);
@@ -128,179 +121,6 @@ class ConcurrentDisjointSets {
     std::vector<std::atomic<std::uint32_t>> parent_;
 };
 
-// A point in local coordinates (x, y, z together: one cache line per test).
-struct Local {
-    double x, y, z;
-};
-
-// The points in cell order (a CSR grid) with everything the passes read.
-struct CellGrid {
-    std::vector<Local> p;              // local coordinates, by sorted position
-    std::vector<std::uint32_t> id;     // input index of each position
-    std::vector<std::uint32_t> block;  // block number of each position
-    std::vector<std::uint32_t> cell;   // cell number of each position
-    std::vector<std::size_t> start;    // positions of cell c: [start[c], start[c + 1])
-    std::size_t blocks = 0;
-    std::vector<std::size_t> block_start;     // members of block b: block_member[
-    std::vector<std::uint32_t> block_member;  //   block_start[b] .. block_start[b + 1])
-    // Cell numbering: dense c = cy * width + cx, or the index in `occupied` (sorted).
-    bool dense = true;
-    std::int64_t width = 0, height = 0;
-    std::vector<std::pair<std::int64_t, std::int64_t>> occupied;  // (cy, cx)
-
-    std::size_t cells() const { return start.size() - 1; }
-
-    std::pair<std::int64_t, std::int64_t> cell_xy(std::size_t c) const {
-        if (dense)
-            return {static_cast<std::int64_t>(c) % width, static_cast<std::int64_t>(c) / width};
-        return {occupied[c].second, occupied[c].first};
-    }
-
-    // Cell number of (cx, cy), or -1 when no point lies in it.
-    std::ptrdiff_t find(std::int64_t cx, std::int64_t cy) const {
-        if (cx < 0 || cy < 0 || cx >= width || cy >= height) return -1;
-        if (dense) {
-            const auto c = static_cast<std::size_t>(cy * width + cx);
-            return start[c] == start[c + 1] ? -1 : static_cast<std::ptrdiff_t>(c);
-        }
-        const auto key = std::make_pair(cy, cx);
-        const auto it = std::lower_bound(occupied.begin(), occupied.end(), key);
-        if (it == occupied.end() || *it != key) return -1;
-        return it - occupied.begin();
-    }
-
-    // The occupied cells of the 3 x 3 neighbourhood of cell c; returns their count.
-    int neighbours(std::size_t c, std::ptrdiff_t out[9]) const {
-        const auto [cx, cy] = cell_xy(c);
-        int count = 0;
-        for (int dv = -1; dv <= 1; ++dv)
-            for (int du = -1; du <= 1; ++du) {
-                const std::ptrdiff_t other = find(cx + du, cy + dv);
-                if (other >= 0) out[count++] = other;
-            }
-        return count;
-    }
-};
-
-// Steps 1 and 2: block and cell of every point, and the counting sorts.
-CellGrid build_grid(PointsView points, const GridGroundParams& params,
-                    const std::array<double, 3>& origin, const std::array<double, 2>& extent) {
-    const std::size_t n = points.size;
-    const auto count = static_cast<std::ptrdiff_t>(n);
-    const bool parallel = n >= kParallelMin;
-    CellGrid grid;
-    grid.width = grid_index(extent[0], params.cell_size[0]) + 1;
-    grid.height = grid_index(extent[1], params.cell_size[1]) + 1;
-    // Dense numbering while the grid is at most a few times the cloud (or 2^20).
-    const double limit = std::max(4.0 * static_cast<double>(n), 1048576.0);
-    grid.dense = static_cast<double>(grid.width) * static_cast<double>(grid.height) <= limit;
-
-    std::vector<std::uint32_t> key(n);  // cell number, then block number, per input point
-    std::size_t cells;
-    if (grid.dense) {
-        cells = static_cast<std::size_t>(grid.width * grid.height);
-#pragma omp parallel for schedule(guided) if (parallel)
-        for (std::ptrdiff_t i = 0; i < count; ++i) {
-            const std::int64_t cx = grid_index(points.coord(i, 0) - origin[0], params.cell_size[0]);
-            const std::int64_t cy = grid_index(points.coord(i, 1) - origin[1], params.cell_size[1]);
-            key[i] = static_cast<std::uint32_t>(cy * grid.width + cx);
-        }
-    } else {
-        std::vector<std::pair<std::int64_t, std::int64_t>> cell(n);
-#pragma omp parallel for schedule(guided) if (parallel)
-        for (std::ptrdiff_t i = 0; i < count; ++i)
-            cell[i] = {grid_index(points.coord(i, 1) - origin[1], params.cell_size[1]),
-                       grid_index(points.coord(i, 0) - origin[0], params.cell_size[0])};
-        grid.occupied = cell;
-        std::sort(grid.occupied.begin(), grid.occupied.end());
-        grid.occupied.erase(std::unique(grid.occupied.begin(), grid.occupied.end()),
-                            grid.occupied.end());
-        cells = grid.occupied.size();
-#pragma omp parallel for schedule(guided) if (parallel)
-        for (std::ptrdiff_t i = 0; i < count; ++i)
-            key[i] = static_cast<std::uint32_t>(
-                std::lower_bound(grid.occupied.begin(), grid.occupied.end(), cell[i]) -
-                grid.occupied.begin());
-    }
-
-    // Stable counting sort by cell: within a cell, input order. Serial sweeps that miss
-    // the cache: polled every few thousand points.
-    const Interruption interruption;
-    interruption.check_now();
-    grid.start.assign(cells + 1, 0);
-    for (std::size_t i = 0; i < n; ++i) {
-        if (i % 4096 == 0) interruption.check();
-        ++grid.start[key[i] + 1];
-    }
-    for (std::size_t c = 0; c < cells; ++c) grid.start[c + 1] += grid.start[c];
-    grid.id.resize(n);
-    {
-        std::vector<std::size_t> fill(grid.start.begin(), grid.start.end() - 1);
-        for (std::size_t i = 0; i < n; ++i) {
-            if (i % 4096 == 0) interruption.check();
-            grid.id[fill[key[i]]++] = static_cast<std::uint32_t>(i);
-        }
-    }
-    grid.p.resize(n);
-    grid.cell.resize(n);
-    // The gathers miss the cache too: in blocks of points, polled once each.
-    constexpr std::ptrdiff_t kBlock = 4096;
-#pragma omp parallel for schedule(guided) if (parallel) firstprivate(interruption)
-    for (std::ptrdiff_t b = 0; b < (count + kBlock - 1) / kBlock; ++b) {
-        if (interruption.requested()) continue;
-        for (std::ptrdiff_t s = b * kBlock; s < std::min(count, (b + 1) * kBlock); ++s) {
-            const std::size_t i = grid.id[s];
-            grid.p[s] = {points.coord(i, 0) - origin[0], points.coord(i, 1) - origin[1],
-                         points.coord(i, 2) - origin[2]};
-            grid.cell[s] = key[i];
-        }
-    }
-    interruption.check();
-
-    // Blocks, numbered densely unless the block grid is far larger than the cloud.
-    const std::int64_t nbx = grid_index(extent[0], params.block_size[0]) + 1;
-    const std::int64_t nby = grid_index(extent[1], params.block_size[1]) + 1;
-    grid.block.resize(n);
-    if (static_cast<double>(nbx) * static_cast<double>(nby) <= limit) {
-        grid.blocks = static_cast<std::size_t>(nbx * nby);
-#pragma omp parallel for schedule(guided) if (parallel)
-        for (std::ptrdiff_t s = 0; s < count; ++s)
-            grid.block[s] =
-                static_cast<std::uint32_t>(grid_index(grid.p[s].y, params.block_size[1]) * nbx +
-                                           grid_index(grid.p[s].x, params.block_size[0]));
-    } else {
-        std::vector<std::pair<std::int64_t, std::int64_t>> block(n);
-#pragma omp parallel for schedule(guided) if (parallel)
-        for (std::ptrdiff_t s = 0; s < count; ++s)
-            block[s] = {grid_index(grid.p[s].y, params.block_size[1]),
-                        grid_index(grid.p[s].x, params.block_size[0])};
-        std::vector<std::pair<std::int64_t, std::int64_t>> occupied(block);
-        std::sort(occupied.begin(), occupied.end());
-        occupied.erase(std::unique(occupied.begin(), occupied.end()), occupied.end());
-        grid.blocks = occupied.size();
-#pragma omp parallel for schedule(guided) if (parallel)
-        for (std::ptrdiff_t s = 0; s < count; ++s)
-            grid.block[s] = static_cast<std::uint32_t>(
-                std::lower_bound(occupied.begin(), occupied.end(), block[s]) - occupied.begin());
-    }
-    interruption.check_now();
-    grid.block_start.assign(grid.blocks + 1, 0);
-    for (std::size_t s = 0; s < n; ++s) {
-        if (s % 4096 == 0) interruption.check();
-        ++grid.block_start[grid.block[s] + 1];
-    }
-    for (std::size_t b = 0; b < grid.blocks; ++b) grid.block_start[b + 1] += grid.block_start[b];
-    grid.block_member.resize(n);
-    {
-        std::vector<std::size_t> fill(grid.block_start.begin(), grid.block_start.end() - 1);
-        for (std::size_t s = 0; s < n; ++s) {
-            if (s % 4096 == 0) interruption.check();
-            grid.block_member[fill[grid.block[s]]++] = static_cast<std::uint32_t>(s);
-        }
-    }
-    return grid;
-}
-
 // Pre-filter: candidate[s] = 0 when s lies higher than a point q of its 3 x 3 cells with
 // against[q] set by more than filter_slope * d + filter_tolerance. Points with
 // kept_by_all[s] set passed against every point, so they pass against any subset too and
@@ -310,7 +130,7 @@ void slope_filter(const CellGrid& grid, const GridGroundParams& params,
                   const std::vector<unsigned char>* kept_by_all,
                   std::vector<unsigned char>& candidate) {
     const double slope = params.filter_slope, tolerance = params.filter_tolerance;
-    const bool parallel = grid.p.size() >= kParallelMin;
+    const bool parallel = grid.p.size() >= kGridParallelMin;
     const auto cells = static_cast<std::ptrdiff_t>(grid.cells());
     // Lowest tested point per cell: if z_s - lowest <= tolerance no test in the cell can
     // fail, since z_s - z_q <= z_s - lowest and slope * d + tolerance >= tolerance hold
@@ -404,7 +224,7 @@ void label_components(const CellGrid& grid, const GridGroundParams& params,
     const std::size_t n = grid.p.size();
     const double slope = params.slope, tolerance = params.height_tolerance;
     const bool across = params.grow_across_blocks;
-    const bool parallel = n >= kParallelMin;
+    const bool parallel = n >= kGridParallelMin;
     const auto joinable = [&](std::size_t s, std::size_t q) {
         return candidate[q] && (across || grid.block[q] == grid.block[s]) &&
                linked(grid, s, q, slope, tolerance);
@@ -467,7 +287,7 @@ void grow(const CellGrid& grid, const GridGroundParams& params,
           std::vector<unsigned char>& ground) {
     const std::size_t n = grid.p.size();
     const auto count = static_cast<std::ptrdiff_t>(n);
-    const bool parallel = n >= kParallelMin;
+    const bool parallel = n >= kGridParallelMin;
     label_components(grid, params, candidate, sets);
     poll_interrupt();
     std::vector<std::uint32_t> root(n);
@@ -516,7 +336,7 @@ void grid_ground(PointsView points, const GridGroundParams& params, bool* ground
     // below the minimum corner, so l >= 0 and every index is >= 0.
     std::array<double, 3> origin = local_origin(points);
     for (int a = 0; a < 2; ++a) origin[a] = lattice_floor(origin[a], params.block_size[a]);
-    const bool parallel = n >= kParallelMin;
+    const bool parallel = n >= kGridParallelMin;
     double extent_x = 0.0, extent_y = 0.0;
 #pragma omp parallel for schedule(guided) if (parallel) reduction(max : extent_x, extent_y)
     for (std::ptrdiff_t i = 0; i < static_cast<std::ptrdiff_t>(n); ++i) {

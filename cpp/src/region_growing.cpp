@@ -30,6 +30,7 @@
 #include "pcl_rg/check.hpp"
 #include "pcl_rg/interrupt.hpp"
 #include "pcl_rg/normals.hpp"
+#include "pcl_rg/timer.hpp"
 
 namespace pcl_rg {
 
@@ -131,13 +132,7 @@ void grow_regions(std::size_t n, std::size_t k, const std::uint32_t* neighbours,
     }
 }
 
-namespace {
-
-double seconds_since(std::chrono::steady_clock::time_point start) {
-    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
-}  // namespace
+namespace {}  // namespace
 
 RegionGrowingTimings region_growing(PointsView points, const RegionGrowingParams& params,
                                     std::int32_t* labels) {

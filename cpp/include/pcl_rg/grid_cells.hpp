@@ -1,0 +1,81 @@
+// Steps 1 and 2 of the grid ground filter: the points sorted into a CSR grid of cells,
+// with their blocks. Part of grid_ground, split out to keep files small.
+#pragma once
+
+#include <algorithm>
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <utility>
+#include <vector>
+
+#include "pcl_rg/grid_ground.hpp"
+#include "pcl_rg/points.hpp"
+
+namespace pcl_rg {
+
+// Below this many points a call takes about 0.1 s on one core, and threads cost more
+// than they save: every parallel loop ends in a barrier, which stalls whenever another
+// process holds one of the cores.
+constexpr std::size_t kGridParallelMin = 500000;
+
+// A point in local coordinates (x, y, z together: one cache line per test).
+struct Local {
+    double x, y, z;
+};
+
+// The points in cell order (a CSR grid) with everything the passes read.
+struct CellGrid {
+    std::vector<Local> p;              // local coordinates, by sorted position
+    std::vector<std::uint32_t> id;     // input index of each position
+    std::vector<std::uint32_t> block;  // block number of each position
+    std::vector<std::uint32_t> cell;   // cell number of each position
+    std::vector<std::size_t> start;    // positions of cell c: [start[c], start[c + 1])
+    std::size_t blocks = 0;
+    std::vector<std::size_t> block_start;     // members of block b: block_member[
+    std::vector<std::uint32_t> block_member;  //   block_start[b] .. block_start[b + 1])
+    // Cell numbering: dense c = cy * width + cx, or the index in `occupied` (sorted).
+    bool dense = true;
+    std::int64_t width = 0, height = 0;
+    std::vector<std::pair<std::int64_t, std::int64_t>> occupied;  // (cy, cx)
+
+    std::size_t cells() const { return start.size() - 1; }
+
+    std::pair<std::int64_t, std::int64_t> cell_xy(std::size_t c) const {
+        if (dense)
+            return {static_cast<std::int64_t>(c) % width, static_cast<std::int64_t>(c) / width};
+        return {occupied[c].second, occupied[c].first};
+    }
+
+    // Cell number of (cx, cy), or -1 when no point lies in it.
+    std::ptrdiff_t find(std::int64_t cx, std::int64_t cy) const {
+        if (cx < 0 || cy < 0 || cx >= width || cy >= height) return -1;
+        if (dense) {
+            const auto c = static_cast<std::size_t>(cy * width + cx);
+            return start[c] == start[c + 1] ? -1 : static_cast<std::ptrdiff_t>(c);
+        }
+        const auto key = std::make_pair(cy, cx);
+        const auto it = std::lower_bound(occupied.begin(), occupied.end(), key);
+        if (it == occupied.end() || *it != key) return -1;
+        return it - occupied.begin();
+    }
+
+    // The occupied cells of the 3 x 3 neighbourhood of cell c; returns their count.
+    int neighbours(std::size_t c, std::ptrdiff_t out[9]) const {
+        const auto [cx, cy] = cell_xy(c);
+        int count = 0;
+        for (int dv = -1; dv <= 1; ++dv)
+            for (int du = -1; du <= 1; ++du) {
+                const std::ptrdiff_t other = find(cx + du, cy + dv);
+                if (other >= 0) out[count++] = other;
+            }
+        return count;
+    }
+};
+
+/// Steps 1 and 2: block and cell of every point (local coordinates l = p - origin),
+/// and the counting sorts. `extent` is the largest l in x and y.
+CellGrid build_grid(PointsView points, const GridGroundParams& params,
+                    const std::array<double, 3>& origin, const std::array<double, 2>& extent);
+
+}  // namespace pcl_rg

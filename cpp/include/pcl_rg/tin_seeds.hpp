@@ -1,0 +1,22 @@
+// Step 2 of progressive TIN densification: the seed points the first TIN is built on
+// (LiDAR360's lowest point per cell, or the morphological seeds of
+// TinGroundParams::seed_cell). Part of tin_ground, split out to keep files small.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "pcl_rg/points.hpp"
+#include "pcl_rg/tin_ground.hpp"
+
+namespace pcl_rg {
+
+/// The seeds of tin_ground, sorted by index: the lowest point of each max_building_size
+/// cell, or the morphological seeds when params.seed_cell > 0; the cells lie on the world
+/// lattice of their size. `origin` (the minimum corner) and `upper` bound the points' box.
+std::vector<std::uint32_t> tin_seeds(PointsView points, const TinGroundParams& params,
+                                     const std::array<double, 3>& origin,
+                                     const std::array<double, 3>& upper);
+
+}  // namespace pcl_rg
