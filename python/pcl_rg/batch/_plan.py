@@ -9,7 +9,17 @@ from typing import NamedTuple
 
 from ..io import EXTENSIONS, Extent
 
-__all__ = ["Box", "box_of", "expand_inputs", "grow", "neighbours", "output_paths", "survey_box"]
+__all__ = [
+    "Box",
+    "box_of",
+    "covers",
+    "expand_inputs",
+    "grow",
+    "meets",
+    "neighbours",
+    "output_paths",
+    "survey_box",
+]
 
 
 class Box(NamedTuple):
@@ -80,7 +90,8 @@ def grow(box: Box, margin: float) -> Box:
     return Box(box.xmin - margin, box.ymin - margin, box.xmax + margin, box.ymax + margin)
 
 
-def _overlap(a: Box, b: Box) -> bool:
+def meets(a: Box, b: Box) -> bool:
+    """Whether two closed boxes share a point."""
     return a.xmin <= b.xmax and b.xmin <= a.xmax and a.ymin <= b.ymax and b.ymin <= a.ymax
 
 
@@ -96,9 +107,14 @@ def neighbours(boxes: Sequence[Box | None], margin: float) -> list[list[int]]:
             continue
         reach = grow(box, margin)
         result.append(
-            [j for j, other in enumerate(boxes) if j != i and other and _overlap(reach, other)]
+            [j for j, other in enumerate(boxes) if j != i and other and meets(reach, other)]
         )
     return result
+
+
+def covers(a: Box, b: Box) -> bool:
+    """Whether box `a` holds all of box `b`."""
+    return a.xmin <= b.xmin and a.ymin <= b.ymin and a.xmax >= b.xmax and a.ymax >= b.ymax
 
 
 def survey_box(boxes: Sequence[Box | None]) -> Box | None:

@@ -16,7 +16,6 @@ import dataclasses
 import os
 import pickle
 import resource
-import shutil
 import time
 from collections.abc import Callable
 from typing import Any
@@ -33,7 +32,7 @@ from .._classification import (
     voxel_attributes,
 )
 from ..io import PointFile, read_extent, read_points, write_points
-from ._plan import Box, grow
+from ._plan import Box, covers, grow, meets
 
 __all__ = [
     "Job",
@@ -43,7 +42,6 @@ __all__ = [
     "downsample_tile",
     "ground_tile",
     "passed_on",
-    "remove_cache",
     "tile_extent",
 ]
 
@@ -154,10 +152,6 @@ def _load(job: Job, index: int, path: str, mmap: bool = False) -> PointFile:
         for k, name in enumerate(names)
     }
     return PointFile(points, fields, fmt, header, path)
-
-
-def remove_cache(job: Job, index: int) -> None:
-    shutil.rmtree(_folder(job, index), ignore_errors=True)
 
 
 # ---------------------------------------------------------------- context
@@ -303,10 +297,10 @@ def denoise_distances(
         margin = job.buffer
         while True:
             reach = grow(box, margin)
-            near = [(j, p) for j, p, other in others if _meets(reach, other)]
+            near = [(j, p) for j, p, other in others if meets(reach, other)]
             parts = _context(job, near, reach)
             xyz = np.concatenate([mine] + [p.points for _, _, p in parts])
-            whole = _covers(reach, survey)
+            whole = covers(reach, survey)
             if not len(mine):
                 distance = np.empty(0, np.float32)
                 break
@@ -336,14 +330,6 @@ def denoise_distances(
         }
 
     return _guarded(work)
-
-
-def _meets(a: Box, b: Box) -> bool:
-    return a.xmin <= b.xmax and b.xmin <= a.xmax and a.ymin <= b.ymax and b.ymin <= a.ymax
-
-
-def _covers(a: Box, b: Box) -> bool:
-    return a.xmin <= b.xmin and a.ymin <= b.ymin and a.xmax >= b.xmax and a.ymax >= b.ymax
 
 
 def denoise_write(
