@@ -16,20 +16,38 @@ from pathlib import Path
 from typing import Any
 
 
-def _child(setup: Callable[[], Any], run: Callable[[Any], Any], repeats: int, queue) -> None:
+def _report(work: Callable[[], dict], queue) -> None:
     try:
-        data = setup()
-        base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-        times = []
-        for _ in range(repeats):
-            start = time.perf_counter()
-            output = run(data)
-            times.append(time.perf_counter() - start)
-            del output
-        peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-        queue.put({"times": times, "peak_mib": (peak - base) / 1024.0})
+        queue.put(work())
     except Exception as error:  # reported in the table, never hidden
         queue.put({"error": f"{type(error).__name__}: {error}"})
+
+
+def in_child(work: Callable[[], dict]) -> dict:
+    """`work()` in a forked child process: its result, or ``{"error": ...}``.
+
+    A fresh child per case keeps each case's peak memory its own.
+    """
+    ctx = mp.get_context("fork")
+    queue = ctx.Queue()
+    process = ctx.Process(target=_report, args=(work, queue))
+    process.start()
+    result = queue.get()
+    process.join()
+    return result
+
+
+def _timed_runs(setup: Callable[[], Any], run: Callable[[Any], Any], repeats: int) -> dict:
+    data = setup()
+    base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        output = run(data)
+        times.append(time.perf_counter() - start)
+        del output
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return {"times": times, "peak_mib": (peak - base) / 1024.0}
 
 
 def measure(setup: Callable[[], Any], run: Callable[[Any], Any], repeats: int) -> dict:
@@ -38,12 +56,7 @@ def measure(setup: Callable[[], Any], run: Callable[[Any], Any], repeats: int) -
     Peak memory is the growth of the child's maximum RSS during the runs (MiB),
     beyond what the input data already occupied.
     """
-    ctx = mp.get_context("fork")
-    queue = ctx.Queue()
-    process = ctx.Process(target=_child, args=(setup, run, repeats, queue))
-    process.start()
-    result = queue.get()
-    process.join()
+    result = in_child(lambda: _timed_runs(setup, run, repeats))
     if "times" in result:
         result["median"] = statistics.median(result["times"])
     return result

@@ -20,10 +20,10 @@ import ctypes
 import hashlib
 import json
 import sys
-import threading
 from collections.abc import Callable
 
 import numpy as np
+from conftest import run_in_threads  # this script runs from tests/
 
 import pcl_rg
 from pcl_rg import datasets
@@ -113,18 +113,7 @@ def _in_parallel_region(job: Callable[[], str]) -> str:
 
 
 def _from_python_threads(job: Callable[[], str], count: int = 8) -> str:
-    results: list[str | None] = [None] * count
-    barrier = threading.Barrier(count)
-
-    def run(slot: int) -> None:
-        barrier.wait()
-        results[slot] = job()
-
-    threads = [threading.Thread(target=run, args=(i,)) for i in range(count)]
-    for t in threads:
-        t.start()
-    for t in threads:
-        t.join()
+    results = run_in_threads(job, count)
     return results[0] if len(set(results)) == 1 and results[0] else "threads disagree"
 
 

@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import multiprocessing as mp
 import os
 import statistics
 import subprocess
@@ -28,7 +27,14 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/_common.py
-from _common import SHARED_DATA, dump_json, machine, markdown_table, write_section  # noqa: E402
+from _common import (  # noqa: E402
+    SHARED_DATA,
+    dump_json,
+    in_child,
+    machine,
+    markdown_table,
+    write_section,
+)
 
 DATA = SHARED_DATA / "mosd"
 SECTION = "## Region growing speed (normals + growth, 1M points)"
@@ -73,27 +79,19 @@ def run_pcl(points: np.ndarray) -> tuple[float, float]:
     return timings["normals_seconds"], timings["growth_seconds"]
 
 
-def _child(n: int, method: str, repeats: int, queue) -> None:
-    try:
-        points = cloud(n)
-        run = run_ours if method == "ours" else run_pcl
-        rows = []
-        for _ in range(repeats):
-            start = time.perf_counter()
-            normals_s, growth_s = run(points)
-            rows.append((time.perf_counter() - start, normals_s, growth_s))
-        queue.put({"rows": rows})
-    except Exception as error:  # reported, never hidden
-        queue.put({"error": f"{type(error).__name__}: {error}"})
+def _timed_runs(n: int, method: str, repeats: int) -> dict:
+    points = cloud(n)
+    run = run_ours if method == "ours" else run_pcl
+    rows = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        normals_s, growth_s = run(points)
+        rows.append((time.perf_counter() - start, normals_s, growth_s))
+    return {"rows": rows}
 
 
 def measure(n: int, method: str, repeats: int) -> dict:
-    ctx = mp.get_context("fork")
-    queue = ctx.Queue()
-    process = ctx.Process(target=_child, args=(n, method, repeats, queue))
-    process.start()
-    result = queue.get()
-    process.join()
+    result = in_child(lambda: _timed_runs(n, method, repeats))
     if "rows" in result:
         columns = list(zip(*result["rows"]))
         result["total"], result["normals"], result["growth"] = (

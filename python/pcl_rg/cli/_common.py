@@ -58,8 +58,8 @@ __all__ = [
     "segments_summary",
     "valid_points",
     "write",
+    "write_output",
 ]
-
 
 
 # ----------------------------------------------------------------- options
@@ -178,6 +178,25 @@ def write(
     run.result["points_out"] = int(len(points))
 
 
+def write_output(
+    run: Run,
+    args: argparse.Namespace,
+    cloud: PointFile,
+    fields: dict[str, np.ndarray],
+    keep: np.ndarray,
+) -> int:
+    """Write INPUT's points with `fields` to OUTPUT, only the `keep` ones with --drop.
+
+    Returns the number of points written.
+    """
+    out = cloud.points
+    if args.drop:
+        out = out[keep]
+        fields = {name: values[keep] for name, values in fields.items()}
+    write(run, args.output, out, fields, cloud)
+    return len(out)
+
+
 def read_input(args: argparse.Namespace, run: Run) -> tuple[PointFile, np.ndarray]:
     """INPUT after the checks of INPUT, OUTPUT and figures; and its finite rows."""
     check_paths(args.input, args.output, [args.plot, args.profile])
@@ -196,8 +215,6 @@ def check_neighbours(name: str, value: int, n_valid: int) -> None:
             f"argument --{name.replace('_', '-')}: {name} must be < the number of points "
             f"({n_valid}), got {value}"
         )
-
-
 
 
 # ---------------------------------------------------------------- classes
@@ -235,12 +252,7 @@ def finish_segments(
     fields = dict(cloud.fields, segment_id=segment)
     if classes is not None:
         fields["classification"] = classes
-    out = cloud.points
-    if args.drop:
-        keep = segment >= 0
-        out = out[keep]
-        fields = {k: v[keep] for k, v in fields.items()}
-    write(run, args.output, out, fields, cloud)
+    n_written = write_output(run, args, cloud, fields, segment >= 0)
     summary = segments_summary(segment)
     run.result.update(
         input=os.path.abspath(args.input), points_in=len(cloud), dropped=bool(args.drop), **summary
@@ -252,7 +264,7 @@ def finish_segments(
     say_written(
         run,
         args,
-        len(out),
+        n_written,
         ", segment_id -1 = none" + (", segmented points only" if args.drop else ""),
     )
     plots(

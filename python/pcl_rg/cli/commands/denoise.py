@@ -18,7 +18,7 @@ from .._common import (
     plots,
     read_input,
     say_written,
-    write,
+    write_output,
 )
 from .._flags import add_param_flags, params_dict, params_from_args
 from .._run import Run
@@ -53,12 +53,7 @@ def execute(args: argparse.Namespace, run: Run) -> None:
     keep[valid] = inlier
     outlier = valid & ~keep
     classes = noise_classes(cloud, valid, outlier)
-    fields = dict(cloud.fields, classification=classes)
-    out = points
-    if args.drop:
-        out = points[keep]
-        fields = {k: v[keep] for k, v in fields.items()}
-    write(run, args.output, out, fields, cloud)
+    n_written = write_output(run, args, cloud, dict(cloud.fields, classification=classes), keep)
     n_noise = int(outlier.sum())
     run.result.update(
         input=os.path.abspath(args.input),
@@ -71,7 +66,7 @@ def execute(args: argparse.Namespace, run: Run) -> None:
         dropped=bool(args.drop),
     )
     run.say(f"denoise (SOR): {n_valid:,} points, {n_noise:,} noise ({percent(n_noise, n_valid)})")
-    say_written(run, args, len(out), (", inliers only" if args.drop else ", class 7 noise"))
+    say_written(run, args, n_written, (", inliers only" if args.drop else ", class 7 noise"))
     plots(
         run,
         args,
