@@ -41,7 +41,6 @@ __all__ = [
     "add_output_options",
     "add_plot_options",
     "check_extension",
-    "check_neighbours",
     "check_paths",
     "check_plots",
     "class_array",
@@ -197,18 +196,27 @@ def write_output(
     return len(out)
 
 
-def read_input(args: argparse.Namespace, run: Run) -> tuple[PointFile, np.ndarray]:
-    """INPUT after the checks of INPUT, OUTPUT and figures; and its finite rows."""
+def read_input(
+    args: argparse.Namespace, run: Run, neighbours: tuple[str, int] | None = None
+) -> tuple[PointFile, np.ndarray]:
+    """INPUT after the checks of INPUT, OUTPUT and figures; and its finite rows.
+
+    `neighbours`, a (flag name, count) pair, is checked against the finite rows:
+    the count must leave a point out.
+    """
     check_paths(args.input, args.output, [args.plot, args.profile])
     cloud = read(run, args.input)
-    return cloud, valid_points(cloud.points)
+    valid = valid_points(cloud.points)
+    if neighbours is not None:
+        _check_neighbours(*neighbours, int(valid.sum()))
+    return cloud, valid
 
 
 def say_written(run: Run, args: argparse.Namespace, n: int, what: str) -> None:
     run.say(f"wrote {os.path.abspath(args.output)} ({n:,} points{what})")
 
 
-def check_neighbours(name: str, value: int, n_valid: int) -> None:
+def _check_neighbours(name: str, value: int, n_valid: int) -> None:
     """A neighbour count must leave a point out: < the number of valid points."""
     if n_valid and value >= n_valid:
         raise CliError(

@@ -12,7 +12,6 @@ import pcl_rg
 from .._common import (
     add_io_arguments,
     add_output_options,
-    check_neighbours,
     noise_classes,
     percent,
     plots,
@@ -43,10 +42,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 def execute(args: argparse.Namespace, run: Run) -> None:
     params = params_from_args(args, args.flags, "sor", pcl_rg.StatisticalOutlierRemovalParams)
-    cloud, valid = read_input(args, run)
+    cloud, valid = read_input(args, run, ("mean_k", params.mean_k))
     points = cloud.points
     n_valid = int(valid.sum())
-    check_neighbours("mean_k", params.mean_k, n_valid)
     with run.stage("denoise", f"statistical outlier removal on {n_valid:,} points"):
         inlier = pcl_rg.statistical_outlier_removal(points[valid], params=params)
     keep = np.zeros(len(cloud), bool)
