@@ -78,6 +78,9 @@ def _jobs(c: dict[str, np.ndarray]) -> dict[str, Callable[[], str]]:
         "pcl.normals": lambda: _digest(*pcl_rg.pcl.normals(surf, k=12)),
         "pcl.voxel_grid": pcl_voxel,
         "pcl.statistical_outlier_removal": pcl_sor,
+        "pcl.lccp": lambda: _digest(
+            pcl_rg.pcl.lccp(surf, voxel_resolution=0.6, seed_resolution=2.4, viewpoint=surf.min(0))
+        ),
         "pcl.progressive_morphological_filter": lambda: _digest(
             pcl_rg.pcl.progressive_morphological_filter(air[:20_000])
         ),
