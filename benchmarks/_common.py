@@ -110,6 +110,27 @@ def publish(text: str, section: str, write: bool) -> None:
         write_section(text, section)
 
 
+def publish_report(
+    section: str,
+    command: str,
+    about: str,
+    header: list[str],
+    rows: list[list[str]],
+    notes: list[str] = (),  # type: ignore[assignment]
+    *,
+    write: bool,
+) -> None:
+    """The usual section: command and machine, what was run, the table, then notes.
+
+    `command` is the script's path and options; " --write" is added when writing.
+    """
+    command += " --write" if write else ""
+    text = f"{section}\n\n`{command}` on {machine()}. {about}\n\n{markdown_table(header, rows)}\n"
+    if notes:
+        text += "\n" + "\n".join(notes) + "\n"
+    publish(text, section, write)
+
+
 def error_cells(
     type_i: float, type_ii: float, total: float, kappa: float, seconds: float, digits: int = 2
 ) -> list[str]:
