@@ -327,7 +327,9 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& params, bool
 
     // --- 3. initial TIN: virtual corners, then the seeds ------------------------------
     Delaunay tin(frame.width, frame.height);
+    tin.reserve(n + 4);  // every point may become a vertex: the arrays never move
     std::vector<double> vz(corner_z.begin(), corner_z.end());
+    vz.reserve(n + 4);
     {
         std::int32_t last = 0;
         for (std::size_t s = 0; s < n; ++s) {
@@ -352,33 +354,27 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& params, bool
                      std::sin(params.iteration_angle * kDegToRad),
                      std::cos(params.max_terrain_angle * kDegToRad)};
     // Per sorted position: ground flag, the triangle slot the point was last located in,
-    // its verdict there, and its place in the doubly linked list of the unclassified
+    // its verdict there, and its place in the singly linked list of the unclassified
     // points of that slot. A point is tested again only when its slot was rewritten
     // (its triangle is gone) or it was accepted but not chosen: a failed test against
-    // a triangle that is still there would fail again.
+    // a triangle that is still there would fail again. The points to test are gathered
+    // through a bitmap, so they stay in sorted (Morton) order: consecutive tests read
+    // neighbouring points and triangles, and the chosen points come out sorted.
     std::vector<std::uint8_t> is_ground(n, 0), accepted(n, 0), stop(n, 0);
-    std::vector<std::int32_t> tri(n, -1), next(n, -1), prev(n, -1), queued(n, -1);
+    std::vector<std::int32_t> tri(n, -1), next(n, -1);
     std::vector<double> dist(n, 0.0);
+    std::vector<std::uint64_t> retest((n + 63) / 64, 0);  // bit s: test point s again
+    auto mark = [&](std::uint32_t s) { retest[s >> 6] |= std::uint64_t{1} << (s & 63); };
     std::vector<std::int32_t> head;     // per triangle slot: first unclassified point
     std::vector<std::int32_t> best_of;  // per triangle slot: chosen point
-    std::vector<std::uint32_t> work, chosen, pending;
+    std::vector<std::uint32_t> work, chosen;
     for (std::size_t s = 0; s < n; ++s) {
         is_ground[s] = ground[order[s]];
         if (!is_ground[s]) work.push_back(static_cast<std::uint32_t>(s));
     }
-    auto link = [&](std::uint32_t s) {
-        const std::int32_t t = tri[s];
-        prev[s] = -1;
-        next[s] = head[t];
-        if (head[t] >= 0) prev[head[t]] = static_cast<std::int32_t>(s);
-        head[t] = static_cast<std::int32_t>(s);
-    };
-    auto unlink = [&](std::uint32_t s) {
-        if (prev[s] >= 0)
-            next[prev[s]] = next[s];
-        else
-            head[tri[s]] = next[s];
-        if (next[s] >= 0) prev[next[s]] = prev[s];
+    // Point a before point b as the choice of a triangle: smallest d, then smallest index.
+    auto better = [&](std::int32_t a, std::int32_t b) {
+        return dist[a] < dist[b] || (dist[a] == dist[b] && order[a] < order[b]);
     };
 
     for (std::int32_t iteration = 0;; ++iteration) {
@@ -416,36 +412,39 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& params, bool
         interruption.check();
         stats.tests += m;
 
-        // One chosen point per densifiable triangle: smallest d, then smallest index.
+        // One chosen point per densifiable triangle. The minimum under a total order
+        // does not depend on the order of the updates, so they run in parallel, each a
+        // compare-and-swap that retries while the candidate is still better.
         best_of.resize(tin.triangle_count(), -1);
-        std::int64_t added = 0;
-        for (const std::uint32_t s : work) {
-            if (!accepted[s]) continue;
-            if (stop[s]) {
-                is_ground[s] = 1;
-                ++added;
-                continue;
-            }
-            std::int32_t& b = best_of[tri[s]];
-            if (b < 0 || dist[s] < dist[b] || (dist[s] == dist[b] && order[s] < order[b]))
-                b = static_cast<std::int32_t>(s);
-        }
-        chosen.clear();
-        pending.clear();
-        for (const std::uint32_t s : work) {
+#pragma omp parallel for schedule(static) if (m > 4096)
+        for (std::ptrdiff_t k = 0; k < m; ++k) {
+            const auto s = static_cast<std::int32_t>(work[k]);
             if (!accepted[s] || stop[s]) continue;
-            if (best_of[tri[s]] == static_cast<std::int32_t>(s)) {
-                chosen.push_back(s);
+            std::int32_t* slot = &best_of[tri[s]];
+            std::int32_t b = __atomic_load_n(slot, __ATOMIC_RELAXED);
+            while ((b < 0 || better(s, b)) &&
+                   !__atomic_compare_exchange_n(slot, &b, s, false, __ATOMIC_RELAXED,
+                                                __ATOMIC_RELAXED)) {
+            }
+        }
+        // Stop-edge acceptances and chosen points become ground; accepted points not
+        // chosen are tested again on the denser TIN; the others wait in their slot's list.
+        chosen.clear();
+        std::int64_t added = 0;
+        head.resize(tin.triangle_count(), -1);
+        for (const std::uint32_t s : work) {
+            if (!accepted[s]) {
+                next[s] = head[tri[s]];
+                head[tri[s]] = static_cast<std::int32_t>(s);
+            } else if (stop[s] || best_of[tri[s]] == static_cast<std::int32_t>(s)) {
                 is_ground[s] = 1;
                 ++added;
+                if (!stop[s]) chosen.push_back(s);  // in sorted order, as work is
             } else {
-                pending.push_back(s);  // accepted, not chosen: try again on the denser TIN
+                mark(s);
             }
         }
         for (const std::uint32_t s : chosen) best_of[tri[s]] = -1;
-        head.resize(tin.triangle_count(), -1);
-        for (const std::uint32_t s : work)
-            if (!is_ground[s]) link(s);
         stats.classification_seconds += seconds_since(clock);
         stats.iterations = iteration + 1;
         if (added == 0) break;
@@ -453,7 +452,6 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& params, bool
         // Insert the chosen points in Morton order, each walking from its own triangle.
         clock = std::chrono::steady_clock::now();
         tin.set_stamp(iteration + 1);
-        std::sort(chosen.begin(), chosen.end());
         for (const std::uint32_t s : chosen) {
             interruption.check();
             bool inserted = false;
@@ -462,23 +460,19 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& params, bool
         }
         stats.triangulation_seconds += seconds_since(clock);
 
-        // Next work: the points of rewritten slots, and the pending ones.
+        // Next work, in sorted order: the points of rewritten slots, and the marked ones.
         clock = std::chrono::steady_clock::now();
-        work.clear();
         head.resize(tin.triangle_count(), -1);
         for (const std::int32_t t : tin.touched()) {
-            for (std::int32_t s = head[t]; s >= 0; s = next[s]) {
-                work.push_back(static_cast<std::uint32_t>(s));
-                queued[s] = iteration;
-            }
+            for (std::int32_t s = head[t]; s >= 0; s = next[s]) mark(static_cast<std::uint32_t>(s));
             head[t] = -1;
         }
-        for (const std::uint32_t s : pending)
-            if (queued[s] != iteration) {
-                unlink(s);
-                work.push_back(s);
-                queued[s] = iteration;
-            }
+        work.clear();
+        for (std::size_t w = 0; w < retest.size(); ++w) {
+            for (std::uint64_t bits = retest[w]; bits != 0; bits &= bits - 1)
+                work.push_back(static_cast<std::uint32_t>(w * 64 + __builtin_ctzll(bits)));
+            retest[w] = 0;
+        }
         stats.classification_seconds += seconds_since(clock);
     }
     for (std::size_t s = 0; s < n; ++s) ground[order[s]] = is_ground[s];
