@@ -200,6 +200,20 @@ Verdict evaluate(const Delaunay& tin, const std::vector<double>& vz, const Limit
     return out;
 }
 
+// Sets bit s of a bitmap; atomic, as neighbouring points may be marked by two threads.
+void mark(std::vector<std::uint64_t>& bits, std::uint32_t s) {
+    __atomic_fetch_or(&bits[s >> 6], std::uint64_t{1} << (s & 63), __ATOMIC_RELAXED);
+}
+
+// Appends the set bits' positions to `out`, in increasing order, and clears them.
+void take_marked(std::vector<std::uint64_t>& bits, std::vector<std::uint32_t>& out) {
+    for (std::size_t w = 0; w < bits.size(); ++w) {
+        for (std::uint64_t word = bits[w]; word != 0; word &= word - 1)
+            out.push_back(static_cast<std::uint32_t>(w * 64 + __builtin_ctzll(word)));
+        bits[w] = 0;
+    }
+}
+
 }  // namespace
 
 void validate(const TinGroundParams& params) {
@@ -363,8 +377,8 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& params, bool
     std::vector<std::uint8_t> is_ground(n, 0), accepted(n, 0), stop(n, 0);
     std::vector<std::int32_t> tri(n, -1), next(n, -1);
     std::vector<double> dist(n, 0.0);
-    std::vector<std::uint64_t> retest((n + 63) / 64, 0);  // bit s: test point s again
-    auto mark = [&](std::uint32_t s) { retest[s >> 6] |= std::uint64_t{1} << (s & 63); };
+    std::vector<std::uint64_t> retest((n + 63) / 64, 0);       // bit s: test point s again
+    std::vector<std::uint64_t> chosen_bits((n + 63) / 64, 0);  // bit s: insert point s
     std::vector<std::int32_t> head;     // per triangle slot: first unclassified point
     std::vector<std::int32_t> best_of;  // per triangle slot: chosen point
     std::vector<std::uint32_t> work, chosen;
@@ -428,22 +442,28 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& params, bool
             }
         }
         // Stop-edge acceptances and chosen points become ground; accepted points not
-        // chosen are tested again on the denser TIN; the others wait in their slot's list.
-        chosen.clear();
+        // chosen are tested again on the denser TIN; the others wait in their slot's
+        // list. In parallel: the lists are pushed to atomically, in an order that does
+        // not matter (they are only ever read as sets), and the chosen points are
+        // gathered through a bitmap, in sorted order.
         std::int64_t added = 0;
         head.resize(tin.triangle_count(), -1);
-        for (const std::uint32_t s : work) {
+#pragma omp parallel for schedule(static) reduction(+ : added) if (m > 4096)
+        for (std::ptrdiff_t k = 0; k < m; ++k) {
+            const std::uint32_t s = work[k];
             if (!accepted[s]) {
-                next[s] = head[tri[s]];
-                head[tri[s]] = static_cast<std::int32_t>(s);
+                next[s] = __atomic_exchange_n(&head[tri[s]], static_cast<std::int32_t>(s),
+                                              __ATOMIC_RELAXED);
             } else if (stop[s] || best_of[tri[s]] == static_cast<std::int32_t>(s)) {
                 is_ground[s] = 1;
                 ++added;
-                if (!stop[s]) chosen.push_back(s);  // in sorted order, as work is
+                if (!stop[s]) mark(chosen_bits, s);
             } else {
-                mark(s);
+                mark(retest, s);
             }
         }
+        chosen.clear();
+        take_marked(chosen_bits, chosen);
         for (const std::uint32_t s : chosen) best_of[tri[s]] = -1;
         stats.classification_seconds += seconds_since(clock);
         stats.iterations = iteration + 1;
@@ -463,16 +483,17 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& params, bool
         // Next work, in sorted order: the points of rewritten slots, and the marked ones.
         clock = std::chrono::steady_clock::now();
         head.resize(tin.triangle_count(), -1);
-        for (const std::int32_t t : tin.touched()) {
-            for (std::int32_t s = head[t]; s >= 0; s = next[s]) mark(static_cast<std::uint32_t>(s));
+        const std::vector<std::int32_t>& touched = tin.touched();
+        const auto rewritten = static_cast<std::ptrdiff_t>(touched.size());
+#pragma omp parallel for schedule(static) if (rewritten > 4096)
+        for (std::ptrdiff_t k = 0; k < rewritten; ++k) {
+            const std::int32_t t = touched[k];
+            for (std::int32_t s = head[t]; s >= 0; s = next[s])
+                mark(retest, static_cast<std::uint32_t>(s));
             head[t] = -1;
         }
         work.clear();
-        for (std::size_t w = 0; w < retest.size(); ++w) {
-            for (std::uint64_t bits = retest[w]; bits != 0; bits &= bits - 1)
-                work.push_back(static_cast<std::uint32_t>(w * 64 + __builtin_ctzll(bits)));
-            retest[w] = 0;
-        }
+        take_marked(retest, work);
         stats.classification_seconds += seconds_since(clock);
     }
     for (std::size_t s = 0; s < n; ++s) ground[order[s]] = is_ground[s];
