@@ -30,17 +30,36 @@ bool lower(PointsView points, std::size_t a, std::size_t b) {
 }
 
 // Lowest point (ties: smallest index) of every cell of a dense ncx x ncy grid of square
-// cells anchored at the origin, row-major by x then y; -1 for an empty cell.
+// cells anchored at the origin, row-major by x then y; -1 for an empty cell. When the
+// grid is small next to the cloud, each thread scans a share of the points into its own
+// grid and the grids are merged: the lowest under a total order does not depend on how
+// the points were shared out.
 std::vector<std::int64_t> lowest_in_cells(PointsView points, const std::array<double, 3>& origin,
                                           double cell, std::int64_t ncx, std::int64_t ncy) {
-    std::vector<std::int64_t> lowest(static_cast<std::size_t>(ncx * ncy), -1);
+    const auto cells = static_cast<std::size_t>(ncx * ncy);
+    std::vector<std::int64_t> lowest(cells, -1);
+    auto keep_lower = [&](std::int64_t& b, std::int64_t i) {
+        if (b < 0 || lower(points, static_cast<std::size_t>(i), static_cast<std::size_t>(b))) b = i;
+    };
+    const auto n = static_cast<std::int64_t>(points.size);
     const Interruption interruption;
-    for (std::size_t i = 0; i < points.size; ++i) {
-        if (i % 4096 == 0) interruption.check();
-        std::int64_t& b = lowest[static_cast<std::size_t>(cell_key(points, origin, cell, ncy, i))];
-        if (b < 0 || lower(points, i, static_cast<std::size_t>(b)))
-            b = static_cast<std::int64_t>(i);
+#pragma omp parallel if (cells <= points.size / 8 && n > 65536) firstprivate(interruption)
+    {
+        std::vector<std::int64_t> mine(cells, -1);
+        bool stop = false;
+#pragma omp for schedule(static) nowait
+        for (std::int64_t i = 0; i < n; ++i) {
+            if (i % 4096 == 0) stop = interruption.requested();
+            if (stop) continue;
+            keep_lower(mine[static_cast<std::size_t>(
+                           cell_key(points, origin, cell, ncy, static_cast<std::size_t>(i)))],
+                       i);
+        }
+#pragma omp critical(pcl_rg_lowest_in_cells)
+        for (std::size_t k = 0; k < cells; ++k)
+            if (mine[k] >= 0) keep_lower(lowest[k], mine[k]);
     }
+    interruption.check();
     return lowest;
 }
 
