@@ -67,9 +67,14 @@
 // of the triangle slot it was last tested in, and only the points of slots an
 // insertion rewrote (Delaunay::touched) and the accepted-but-not-chosen ones are
 // tested again: a failed test against a triangle that is still there would fail
-// again. Location walks from the point's previous slot; tests run in parallel and
-// write only their own point's entries; insertions are serial in Morton order, so the
-// result does not depend on the number of threads.
+// again. The points to test are gathered through a bitmap, so each iteration tests
+// them in Morton order (neighbouring points and triangles one after another). Location
+// walks from the point's previous slot; tests run in parallel, write only their own
+// point's entries and, by atomic operations whose outcome does not depend on their
+// order, push a rejected point onto its slot's list and pick each triangle's chosen
+// point (a minimum under a total order); insertions are serial in Morton order, so the
+// result does not depend on the number of threads. The TIN's arrays are reserved for
+// every point up front (no copying as they grow).
 #include "pcl_rg/tin_ground.hpp"
 
 #include <algorithm>
@@ -397,7 +402,18 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& params, bool
         std::exception_ptr failure;
         const auto m = static_cast<std::ptrdiff_t>(work.size());
         constexpr std::ptrdiff_t kChunk = 1024;  // tests per chunk, shared dynamically
-#pragma omp parallel if (m > 4096) firstprivate(interruption)
+        // Small iterations (most of them, late on) run serially: on a shared machine a
+        // parallel region can wait a whole time slice for a descheduled thread.
+        constexpr std::ptrdiff_t kParallelTests = 65536;
+        // Each test also does what needs no other point's verdict: a rejected point is
+        // pushed onto its slot's list (atomically; the lists are only ever read as sets,
+        // so their order does not matter), and an accepted one in a densifiable triangle
+        // competes for the triangle's choice, smallest d then smallest index, by a
+        // compare-and-swap that retries while it is still better: the minimum under a
+        // total order does not depend on the order of the updates.
+        best_of.resize(tin.triangle_count(), -1);
+        head.resize(tin.triangle_count(), -1);
+#pragma omp parallel if (m > kParallelTests) firstprivate(interruption)
         {
             std::int32_t last = 0;
 #pragma omp for schedule(dynamic, 1)
@@ -415,6 +431,18 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& params, bool
                         accepted[s] = verdict.accepted;
                         stop[s] = verdict.stop;
                         dist[s] = verdict.d;
+                        const auto self = static_cast<std::int32_t>(s);
+                        if (!verdict.accepted) {
+                            next[s] = __atomic_exchange_n(&head[t], self, __ATOMIC_RELAXED);
+                        } else if (!verdict.stop) {
+                            // Release: whoever loads this id also sees dist[s].
+                            std::int32_t best = __atomic_load_n(&best_of[t], __ATOMIC_ACQUIRE);
+                            while ((best < 0 || better(self, best)) &&
+                                   !__atomic_compare_exchange_n(&best_of[t], &best, self, false,
+                                                                __ATOMIC_ACQ_REL,
+                                                                __ATOMIC_ACQUIRE)) {
+                            }
+                        }
                     } catch (...) {
 #pragma omp critical(pcl_rg_tin_ground_failure)
                         if (!failure) failure = std::current_exception();
@@ -426,35 +454,15 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& params, bool
         interruption.check();
         stats.tests += m;
 
-        // One chosen point per densifiable triangle. The minimum under a total order
-        // does not depend on the order of the updates, so they run in parallel, each a
-        // compare-and-swap that retries while the candidate is still better.
-        best_of.resize(tin.triangle_count(), -1);
-#pragma omp parallel for schedule(static) if (m > 4096)
-        for (std::ptrdiff_t k = 0; k < m; ++k) {
-            const auto s = static_cast<std::int32_t>(work[k]);
-            if (!accepted[s] || stop[s]) continue;
-            std::int32_t* slot = &best_of[tri[s]];
-            std::int32_t b = __atomic_load_n(slot, __ATOMIC_RELAXED);
-            while ((b < 0 || better(s, b)) &&
-                   !__atomic_compare_exchange_n(slot, &b, s, false, __ATOMIC_RELAXED,
-                                                __ATOMIC_RELAXED)) {
-            }
-        }
         // Stop-edge acceptances and chosen points become ground; accepted points not
-        // chosen are tested again on the denser TIN; the others wait in their slot's
-        // list. In parallel: the lists are pushed to atomically, in an order that does
-        // not matter (they are only ever read as sets), and the chosen points are
-        // gathered through a bitmap, in sorted order.
+        // chosen are tested again on the denser TIN. The chosen points are gathered
+        // through a bitmap, in sorted order.
         std::int64_t added = 0;
-        head.resize(tin.triangle_count(), -1);
-#pragma omp parallel for schedule(static) reduction(+ : added) if (m > 4096)
+#pragma omp parallel for schedule(static) reduction(+ : added) if (m > 4 * kParallelTests)
         for (std::ptrdiff_t k = 0; k < m; ++k) {
             const std::uint32_t s = work[k];
-            if (!accepted[s]) {
-                next[s] = __atomic_exchange_n(&head[tri[s]], static_cast<std::int32_t>(s),
-                                              __ATOMIC_RELAXED);
-            } else if (stop[s] || best_of[tri[s]] == static_cast<std::int32_t>(s)) {
+            if (!accepted[s]) continue;
+            if (stop[s] || best_of[tri[s]] == static_cast<std::int32_t>(s)) {
                 is_ground[s] = 1;
                 ++added;
                 if (!stop[s]) mark(chosen_bits, s);
@@ -485,7 +493,7 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& params, bool
         head.resize(tin.triangle_count(), -1);
         const std::vector<std::int32_t>& touched = tin.touched();
         const auto rewritten = static_cast<std::ptrdiff_t>(touched.size());
-#pragma omp parallel for schedule(static) if (rewritten > 4096)
+#pragma omp parallel for schedule(static) if (rewritten > kParallelTests)
         for (std::ptrdiff_t k = 0; k < rewritten; ++k) {
             const std::int32_t t = touched[k];
             for (std::int32_t s = head[t]; s >= 0; s = next[s])
