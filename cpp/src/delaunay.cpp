@@ -125,6 +125,14 @@ Delaunay::Delaunay(std::int32_t width, std::int32_t height) {
     ts_ = {stamp_, stamp_};
 }
 
+void Delaunay::reserve(std::size_t vertices) {
+    // A triangulation of V vertices whose hull is the 4 box corners has 2V - 6 triangles.
+    xy_.reserve(vertices);
+    vt_.reserve(vertices);
+    tri_.reserve(2 * vertices);
+    ts_.reserve(2 * vertices);
+}
+
 void Delaunay::write(std::int32_t t, std::int32_t a, std::int32_t b, std::int32_t c,
                      std::int32_t na, std::int32_t nb, std::int32_t nc) {
     tri_[t] = Triangle{{a, b, c}, {na, nb, nc}};

@@ -67,9 +67,14 @@
 // of the triangle slot it was last tested in, and only the points of slots an
 // insertion rewrote (Delaunay::touched) and the accepted-but-not-chosen ones are
 // tested again: a failed test against a triangle that is still there would fail
-// again. Location walks from the point's previous slot; tests run in parallel and
-// write only their own point's entries; insertions are serial in Morton order, so the
-// result does not depend on the number of threads.
+// again. The points to test are gathered through a bitmap, so each iteration tests
+// them in Morton order (neighbouring points and triangles one after another). Location
+// walks from the point's previous slot; tests run in parallel, write only their own
+// point's entries and, by atomic operations whose outcome does not depend on their
+// order, push a rejected point onto its slot's list and pick each triangle's chosen
+// point (a minimum under a total order); insertions are serial in Morton order, so the
+// result does not depend on the number of threads. The TIN's arrays are reserved for
+// every point up front (no copying as they grow).
 #include "pcl_rg/tin_ground.hpp"
 
 #include <algorithm>
@@ -200,6 +205,20 @@ Verdict evaluate(const Delaunay& tin, const std::vector<double>& vz, const Limit
     return out;
 }
 
+// Sets bit s of a bitmap; atomic, as neighbouring points may be marked by two threads.
+void mark(std::vector<std::uint64_t>& bits, std::uint32_t s) {
+    __atomic_fetch_or(&bits[s >> 6], std::uint64_t{1} << (s & 63), __ATOMIC_RELAXED);
+}
+
+// Appends the set bits' positions to `out`, in increasing order, and clears them.
+void take_marked(std::vector<std::uint64_t>& bits, std::vector<std::uint32_t>& out) {
+    for (std::size_t w = 0; w < bits.size(); ++w) {
+        for (std::uint64_t word = bits[w]; word != 0; word &= word - 1)
+            out.push_back(static_cast<std::uint32_t>(w * 64 + __builtin_ctzll(word)));
+        bits[w] = 0;
+    }
+}
+
 }  // namespace
 
 void validate(const TinGroundParams& params) {
@@ -327,7 +346,9 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& params, bool
 
     // --- 3. initial TIN: virtual corners, then the seeds ------------------------------
     Delaunay tin(frame.width, frame.height);
+    tin.reserve(n + 4);  // every point may become a vertex: the arrays never move
     std::vector<double> vz(corner_z.begin(), corner_z.end());
+    vz.reserve(n + 4);
     {
         std::int32_t last = 0;
         for (std::size_t s = 0; s < n; ++s) {
@@ -352,33 +373,27 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& params, bool
                      std::sin(params.iteration_angle * kDegToRad),
                      std::cos(params.max_terrain_angle * kDegToRad)};
     // Per sorted position: ground flag, the triangle slot the point was last located in,
-    // its verdict there, and its place in the doubly linked list of the unclassified
+    // its verdict there, and its place in the singly linked list of the unclassified
     // points of that slot. A point is tested again only when its slot was rewritten
     // (its triangle is gone) or it was accepted but not chosen: a failed test against
-    // a triangle that is still there would fail again.
+    // a triangle that is still there would fail again. The points to test are gathered
+    // through a bitmap, so they stay in sorted (Morton) order: consecutive tests read
+    // neighbouring points and triangles, and the chosen points come out sorted.
     std::vector<std::uint8_t> is_ground(n, 0), accepted(n, 0), stop(n, 0);
-    std::vector<std::int32_t> tri(n, -1), next(n, -1), prev(n, -1), queued(n, -1);
+    std::vector<std::int32_t> tri(n, -1), next(n, -1);
     std::vector<double> dist(n, 0.0);
+    std::vector<std::uint64_t> retest((n + 63) / 64, 0);       // bit s: test point s again
+    std::vector<std::uint64_t> chosen_bits((n + 63) / 64, 0);  // bit s: insert point s
     std::vector<std::int32_t> head;     // per triangle slot: first unclassified point
     std::vector<std::int32_t> best_of;  // per triangle slot: chosen point
-    std::vector<std::uint32_t> work, chosen, pending;
+    std::vector<std::uint32_t> work, chosen;
     for (std::size_t s = 0; s < n; ++s) {
         is_ground[s] = ground[order[s]];
         if (!is_ground[s]) work.push_back(static_cast<std::uint32_t>(s));
     }
-    auto link = [&](std::uint32_t s) {
-        const std::int32_t t = tri[s];
-        prev[s] = -1;
-        next[s] = head[t];
-        if (head[t] >= 0) prev[head[t]] = static_cast<std::int32_t>(s);
-        head[t] = static_cast<std::int32_t>(s);
-    };
-    auto unlink = [&](std::uint32_t s) {
-        if (prev[s] >= 0)
-            next[prev[s]] = next[s];
-        else
-            head[tri[s]] = next[s];
-        if (next[s] >= 0) prev[next[s]] = prev[s];
+    // Point a before point b as the choice of a triangle: smallest d, then smallest index.
+    auto better = [&](std::int32_t a, std::int32_t b) {
+        return dist[a] < dist[b] || (dist[a] == dist[b] && order[a] < order[b]);
     };
 
     for (std::int32_t iteration = 0;; ++iteration) {
@@ -387,7 +402,18 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& params, bool
         std::exception_ptr failure;
         const auto m = static_cast<std::ptrdiff_t>(work.size());
         constexpr std::ptrdiff_t kChunk = 1024;  // tests per chunk, shared dynamically
-#pragma omp parallel if (m > 4096) firstprivate(interruption)
+        // Small iterations (most of them, late on) run serially: on a shared machine a
+        // parallel region can wait a whole time slice for a descheduled thread.
+        constexpr std::ptrdiff_t kParallelTests = 65536;
+        // Each test also does what needs no other point's verdict: a rejected point is
+        // pushed onto its slot's list (atomically; the lists are only ever read as sets,
+        // so their order does not matter), and an accepted one in a densifiable triangle
+        // competes for the triangle's choice, smallest d then smallest index, by a
+        // compare-and-swap that retries while it is still better: the minimum under a
+        // total order does not depend on the order of the updates.
+        best_of.resize(tin.triangle_count(), -1);
+        head.resize(tin.triangle_count(), -1);
+#pragma omp parallel if (m > kParallelTests) firstprivate(interruption)
         {
             std::int32_t last = 0;
 #pragma omp for schedule(dynamic, 1)
@@ -405,6 +431,18 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& params, bool
                         accepted[s] = verdict.accepted;
                         stop[s] = verdict.stop;
                         dist[s] = verdict.d;
+                        const auto self = static_cast<std::int32_t>(s);
+                        if (!verdict.accepted) {
+                            next[s] = __atomic_exchange_n(&head[t], self, __ATOMIC_RELAXED);
+                        } else if (!verdict.stop) {
+                            // Release: whoever loads this id also sees dist[s].
+                            std::int32_t best = __atomic_load_n(&best_of[t], __ATOMIC_ACQUIRE);
+                            while ((best < 0 || better(self, best)) &&
+                                   !__atomic_compare_exchange_n(&best_of[t], &best, self, false,
+                                                                __ATOMIC_ACQ_REL,
+                                                                __ATOMIC_ACQUIRE)) {
+                            }
+                        }
                     } catch (...) {
 #pragma omp critical(pcl_rg_tin_ground_failure)
                         if (!failure) failure = std::current_exception();
@@ -416,36 +454,25 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& params, bool
         interruption.check();
         stats.tests += m;
 
-        // One chosen point per densifiable triangle: smallest d, then smallest index.
-        best_of.resize(tin.triangle_count(), -1);
+        // Stop-edge acceptances and chosen points become ground; accepted points not
+        // chosen are tested again on the denser TIN. The chosen points are gathered
+        // through a bitmap, in sorted order.
         std::int64_t added = 0;
-        for (const std::uint32_t s : work) {
+#pragma omp parallel for schedule(static) reduction(+ : added) if (m > 4 * kParallelTests)
+        for (std::ptrdiff_t k = 0; k < m; ++k) {
+            const std::uint32_t s = work[k];
             if (!accepted[s]) continue;
-            if (stop[s]) {
+            if (stop[s] || best_of[tri[s]] == static_cast<std::int32_t>(s)) {
                 is_ground[s] = 1;
                 ++added;
-                continue;
+                if (!stop[s]) mark(chosen_bits, s);
+            } else {
+                mark(retest, s);
             }
-            std::int32_t& b = best_of[tri[s]];
-            if (b < 0 || dist[s] < dist[b] || (dist[s] == dist[b] && order[s] < order[b]))
-                b = static_cast<std::int32_t>(s);
         }
         chosen.clear();
-        pending.clear();
-        for (const std::uint32_t s : work) {
-            if (!accepted[s] || stop[s]) continue;
-            if (best_of[tri[s]] == static_cast<std::int32_t>(s)) {
-                chosen.push_back(s);
-                is_ground[s] = 1;
-                ++added;
-            } else {
-                pending.push_back(s);  // accepted, not chosen: try again on the denser TIN
-            }
-        }
+        take_marked(chosen_bits, chosen);
         for (const std::uint32_t s : chosen) best_of[tri[s]] = -1;
-        head.resize(tin.triangle_count(), -1);
-        for (const std::uint32_t s : work)
-            if (!is_ground[s]) link(s);
         stats.classification_seconds += seconds_since(clock);
         stats.iterations = iteration + 1;
         if (added == 0) break;
@@ -453,7 +480,6 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& params, bool
         // Insert the chosen points in Morton order, each walking from its own triangle.
         clock = std::chrono::steady_clock::now();
         tin.set_stamp(iteration + 1);
-        std::sort(chosen.begin(), chosen.end());
         for (const std::uint32_t s : chosen) {
             interruption.check();
             bool inserted = false;
@@ -462,23 +488,20 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& params, bool
         }
         stats.triangulation_seconds += seconds_since(clock);
 
-        // Next work: the points of rewritten slots, and the pending ones.
+        // Next work, in sorted order: the points of rewritten slots, and the marked ones.
         clock = std::chrono::steady_clock::now();
-        work.clear();
         head.resize(tin.triangle_count(), -1);
-        for (const std::int32_t t : tin.touched()) {
-            for (std::int32_t s = head[t]; s >= 0; s = next[s]) {
-                work.push_back(static_cast<std::uint32_t>(s));
-                queued[s] = iteration;
-            }
+        const std::vector<std::int32_t>& touched = tin.touched();
+        const auto rewritten = static_cast<std::ptrdiff_t>(touched.size());
+#pragma omp parallel for schedule(static) if (rewritten > kParallelTests)
+        for (std::ptrdiff_t k = 0; k < rewritten; ++k) {
+            const std::int32_t t = touched[k];
+            for (std::int32_t s = head[t]; s >= 0; s = next[s])
+                mark(retest, static_cast<std::uint32_t>(s));
             head[t] = -1;
         }
-        for (const std::uint32_t s : pending)
-            if (queued[s] != iteration) {
-                unlink(s);
-                work.push_back(s);
-                queued[s] = iteration;
-            }
+        work.clear();
+        take_marked(retest, work);
         stats.classification_seconds += seconds_since(clock);
     }
     for (std::size_t s = 0; s < n; ++s) ground[order[s]] = is_ground[s];

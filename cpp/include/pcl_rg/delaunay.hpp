@@ -85,6 +85,10 @@ class Delaunay {
     /// vertex's id is returned and *inserted is set to false.
     std::int32_t insert(std::int32_t x, std::int32_t y, std::int32_t start, bool* inserted);
 
+    /// Makes room for `vertices` vertices in all (the box corners included) and their
+    /// triangles, so that the arrays are not copied while the triangulation grows.
+    void reserve(std::size_t vertices);
+
     std::size_t vertex_count() const { return xy_.size(); }
     std::size_t triangle_count() const { return tri_.size(); }
     std::int32_t vertex_x(std::int32_t v) const { return xy_[v].x; }
