@@ -107,7 +107,11 @@ def params_classes(command: str) -> list[type]:
         "ground": [pcl_rg.GridGroundParams, pcl_rg.TinGroundParams],
         "denoise": [pcl_rg.StatisticalOutlierRemovalParams],
         "downsample": [pcl_rg.VoxelGridParams],
-        "segment": [pcl_rg.RegionGrowingParams, pcl_rg.pcl.RegionGrowingPclParams],
+        "segment": [
+            pcl_rg.RegionGrowingParams,
+            pcl_rg.ConvexSegmentationParams,
+            pcl_rg.pcl.RegionGrowingPclParams,
+        ],
     }[command]
 
 

@@ -66,7 +66,8 @@ def test_same_segments_at_any_scale() -> None:
     # Scale-free: the same cloud in millimetres (x1000) gives the same partition.
     pts, _ = table_scene(seed=1)
     metres = pcl_rg.convex_segmentation(pts, viewpoint=VIEW)
-    millimetres = pcl_rg.convex_segmentation(pts * 1000.0, viewpoint=tuple(1000.0 * v for v in VIEW))
+    view_mm = tuple(1000.0 * v for v in VIEW)
+    millimetres = pcl_rg.convex_segmentation(pts * 1000.0, viewpoint=view_mm)
     assert matched_agreement(metres, millimetres) >= 0.999
 
 
@@ -88,8 +89,8 @@ def test_core_equals_reference(seed: int) -> None:
     p = ConvexSegmentationParams(k=k, viewpoint=VIEW, min_cluster_size=15)
     core = pcl_rg.convex_segmentation(pts, params=p)
     ref = reference.convex_segmentation(pts, params=p)
-    # Equal up to the growth's rounding and the k-th place ties (normals agree to ~1e-12): the merge itself
-    # is order-free and is compared exactly below.
+    # Equal up to the growth's rounding and the k-th place ties (normals agree to
+    # ~1e-12): the merge itself is order-free and is compared exactly below.
     assert matched_agreement(core, ref) >= 0.999
     assert_numbered_by_smallest_index(core)
 

@@ -48,7 +48,8 @@ void bind_convex_segmentation(py::module_& m) {
 
     m.def(
         "merge_convex",
-        [](const PointsArray& points, const py::array_t<std::uint32_t, py::array::c_style>& neighbours,
+        [](const PointsArray& points,
+           const py::array_t<std::uint32_t, py::array::c_style>& neighbours,
            const py::array_t<double, py::array::c_style>& normals,
            const py::array_t<std::int32_t, py::array::c_style>& patches,
            const ConvexSegmentationParams& params) {

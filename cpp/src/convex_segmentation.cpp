@@ -66,10 +66,10 @@ void merge_convex(PointsView points, std::size_t k, const std::uint32_t* neighbo
                                     std::to_string(n));
     std::int64_t n_patches = 0;
     for (std::size_t i = 0; i < n; ++i) {
-        if (patches[i] < -1 || static_cast<std::size_t>(patches[i]) >= n)
-            if (patches[i] != -1)
-                throw std::invalid_argument("patches: id " + std::to_string(patches[i]) +
-                                            " out of range for " + std::to_string(n) + " points");
+        const std::int32_t a = patches[i];
+        if (a < -1 || (a >= 0 && static_cast<std::size_t>(a) >= n))
+            throw std::invalid_argument("patches: id " + std::to_string(a) + " out of range for " +
+                                        std::to_string(n) + " points");
         n_patches = std::max<std::int64_t>(n_patches, static_cast<std::int64_t>(patches[i]) + 1);
     }
     for (std::size_t i = 0; i < n * k; ++i)

@@ -64,7 +64,7 @@ PointScale point_scale(PointsView points) {
             }
             covariance /= static_cast<double>(k);
             const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(covariance,
-                                                                         Eigen::EigenvaluesOnly);
+                                                                        Eigen::EigenvaluesOnly);
             noise[r] = std::sqrt(std::max(solver.eigenvalues()[0], 0.0));
         }
     }

@@ -139,9 +139,9 @@ def auto_leaf_size(points: npt.ArrayLike) -> float | None:
     >>> from pcl_rg.pipeline import auto_leaf_size
     >>> rng = np.random.default_rng(0)
     >>> dense = np.column_stack([rng.uniform(0, 1, (200000, 2)), rng.normal(0, 1e-3, 200000)])
-    >>> round(auto_leaf_size(dense), 3)  # 10 x the 1 mm noise, above the 1.3 mm spacing
-    0.01
-    >>> print(auto_leaf_size(dense[:5000]))  # 8 mm spacing: already coarser
+    >>> round(auto_leaf_size(dense), 3)  # 10 x the measured noise, above the 1.5 mm spacing
+    0.008
+    >>> print(auto_leaf_size(dense[:1000]))  # 15 mm spacing: already coarser
     None
     """
     scale = point_scale(points)

@@ -29,7 +29,7 @@ struct ConvexSegmentationParams {
     double curvature_threshold = 0.6;
     /// Two adjacent patches merge when each one's centroid lies at most this far
     /// above the other's mean plane, as an elevation angle in degrees, in [0, 90).
-    double concavity_tolerance_deg = 2.5;
+    double concavity_tolerance_deg = 0.0;
     /// Patches with fewer points take no part in the convexity test: each joins the
     /// merged segment it shares most neighbour pairs with (>= 1); a segment that
     /// ends smaller is dropped.

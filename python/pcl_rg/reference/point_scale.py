@@ -29,7 +29,7 @@ def point_scale(points: npt.ArrayLike) -> PointScale:
     >>> rng = np.random.default_rng(0)
     >>> plane = np.column_stack([rng.uniform(0, 1, (2000, 2)), rng.normal(0, 1e-3, 2000)])
     >>> round(reference.point_scale(plane).noise, 4)
-    0.001
+    0.0009
     """
     xyz = as_points(points)
     n = len(xyz)
