@@ -18,8 +18,8 @@ from typing import Any
 import numpy as np
 
 from . import datasets
-from ._grid_ground import grid_ground
 from ._convex_segmentation import convex_segmentation
+from ._grid_ground import grid_ground
 from ._region_growing import RegionGrowingParams, region_growing
 from ._statistical_outlier_removal import (
     StatisticalOutlierRemovalParams,
