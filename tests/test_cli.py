@@ -107,7 +107,11 @@ def params_classes(command: str) -> list[type]:
         "ground": [pcl_rg.GridGroundParams, pcl_rg.TinGroundParams],
         "denoise": [pcl_rg.StatisticalOutlierRemovalParams],
         "downsample": [pcl_rg.VoxelGridParams],
-        "segment": [pcl_rg.RegionGrowingParams, pcl_rg.pcl.RegionGrowingPclParams],
+        "segment": [
+            pcl_rg.RegionGrowingParams,
+            pcl_rg.ConvexSegmentationParams,
+            pcl_rg.pcl.RegionGrowingPclParams,
+        ],
     }[command]
 
 
@@ -508,11 +512,20 @@ def test_pipeline(capsys, tmp_path, scene_las):
         "min_points_per_voxel": 1,
     }
     # Without SOR and voxel grid: region growing on every point; classes untouched.
-    run_json(capsys, "pipeline", scene_las, tmp_path / "q.laz", "--no-sor", "--region-k", "12")
-    expected = seed004(source.points, sor=None, region=pcl_rg.RegionGrowingParams(k=12))
+    run_json(capsys, "pipeline", scene_las, tmp_path / "q.laz", "--no-sor", "--no-auto-voxel",
+             "--region-k", "12")
+    expected = seed004(source.points, sor=None, region=pcl_rg.RegionGrowingParams(k=12),
+                       auto_voxel=False)
     written = read_points(tmp_path / "q.laz")
     np.testing.assert_array_equal(written.fields["segment_id"], expected.labels)
     np.testing.assert_array_equal(written.classification, source.classification)
+    # Without a leaf size the grid's leaf comes from the data, and the report says which.
+    result = run_json(capsys, "pipeline", scene_las, tmp_path / "r.laz", "--no-sor")
+    expected = seed004(source.points, sor=None)
+    np.testing.assert_array_equal(
+        read_points(tmp_path / "r.laz").fields["segment_id"], expected.labels
+    )
+    assert result["stages"][0]["name"].startswith("voxel grid (auto leaf ")
     code, _, err = run(
         capsys, "pipeline", scene_las, tmp_path / "x.laz", "--no-sor", "--sor-std-mul", "2"
     )

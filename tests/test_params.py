@@ -80,6 +80,7 @@ CORE_CALLS = {
     ],
     _core.NormalsParams: [_core.normals],
     _core.RegionGrowingParams: [_core.region_growing],
+    _core.ConvexSegmentationParams: [_core.convex_segmentation],
     _core.GridGroundParams: [_core.grid_ground],
     _core.TinGroundParams: [_core.tin_ground],
     _pcl.NormalEstimationParams: [_pcl.normal_estimation],

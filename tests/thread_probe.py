@@ -74,6 +74,8 @@ def _jobs(c: dict[str, np.ndarray]) -> dict[str, Callable[[], str]]:
         ),
         "normals": normals,
         "region_growing": lambda: _digest(pcl_rg.region_growing(surf)),
+        "convex_segmentation": lambda: _digest(pcl_rg.convex_segmentation(surf)),
+        "point_scale": lambda: _digest(np.asarray(pcl_rg.point_scale(surf))),
         "pcl.region_growing": lambda: _digest(pcl_rg.pcl.region_growing(surf)),
         "pcl.normals": lambda: _digest(*pcl_rg.pcl.normals(surf, k=12)),
         "pcl.voxel_grid": pcl_voxel,

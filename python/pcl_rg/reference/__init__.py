@@ -13,17 +13,21 @@ except ImportError as error:  # pragma: no cover - depends on the environment
     ) from error
 
 from ._lattice import lattice_floor
+from .convex_segmentation import convex_segmentation
 from .grid_ground import grid_ground
 from .normals import normals
+from .point_scale import point_scale
 from .region_growing import region_growing
 from .statistical_outlier_removal import statistical_outlier_removal
 from .tin_ground import tin_ground
 from .voxel_grid import voxel_grid
 
 __all__ = [
+    "convex_segmentation",
     "grid_ground",
     "lattice_floor",
     "normals",
+    "point_scale",
     "region_growing",
     "statistical_outlier_removal",
     "tin_ground",

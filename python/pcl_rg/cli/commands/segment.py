@@ -38,7 +38,14 @@ def methods() -> dict[str, Method]:
             pcl_rg.region_growing,
             pcl_rg.RegionGrowingParams,
             "curvature-seeded region growing (seed 004)",
-        )
+        ),
+        "convex": Method(
+            "convex",
+            pcl_rg.convex_segmentation,
+            pcl_rg.ConvexSegmentationParams,
+            "smooth patches merged across convex edges, scale-free defaults (objects, "
+            "not faces)",
+        ),
     }
     try:
         from ... import pcl
