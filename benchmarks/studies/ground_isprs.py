@@ -136,6 +136,10 @@ SEARCH_GRID = {
     "filter_passes": [0, 1, 2, 3],
     "filter_slope": [0.3, 0.5, 0.7, 1.0, 1.5],
     "filter_tolerance": [0.1, 0.3, 0.5, 0.8, 1.2],
+    "final_cell": [0.0, 2.0, 3.0, 4.0, 5.0, 6.0, 8.0],
+    "final_above": [0.2, 0.3, 0.5, 0.8, 1.0, 1.2],
+    "final_below": [0.5, 1.0, 2.0, 5.0],
+    "final_slope": [0.0, 0.5, 1.0, 1.5, 2.0, 3.0],
 }
 
 
@@ -163,7 +167,8 @@ def descend(samples, start: pcl_rg.GridGroundParams, lines: list[str]):
 def choose(samples, lines: list[str]) -> tuple[pcl_rg.GridGroundParams, float]:
     """The search's pick on `samples`: (params, mean total error)."""
     # Two starts: the plain definition, and the definition with every option on at a
-    # middle value; the descent is local, so the better end point wins.
+    # middle value (the final pass included); the descent is local, so the better end
+    # point wins.
     plain = pcl_rg.GridGroundParams.definition(
         block_size=30.0, cell_size=3.0, slope=0.8, height_tolerance=0.0
     )
@@ -174,6 +179,10 @@ def choose(samples, lines: list[str]) -> tuple[pcl_rg.GridGroundParams, float]:
         filter_passes=2,
         filter_slope=0.7,
         filter_tolerance=0.5,
+        final_cell=4.0,
+        final_above=0.5,
+        final_below=1.0,
+        final_slope=1.0,
     )
     return min(
         (descend(samples, start, lines) for start in (plain, options_on)), key=lambda r: r[1]

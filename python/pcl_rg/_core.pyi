@@ -32,6 +32,10 @@ class GridGroundParams:
     filter_passes: int
     filter_slope: float
     filter_tolerance: float
+    final_cell: float
+    final_above: float
+    final_below: float
+    final_slope: float
     def __init__(self) -> None: ...
 
 def grid_ground(
