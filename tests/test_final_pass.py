@@ -158,3 +158,72 @@ def test_too_small_a_cell_for_the_extent():
         pcl_rg.grid_ground(points, block_size=1e9, cell_size=1e9, final_cell=1e-6)
     with pytest.raises(ValueError, match="final_cell is too small"):
         reference.grid_ground(points, block_size=1e9, cell_size=1e9, final_cell=1e-6)
+
+
+# --------------------------------------------------------------------------
+# the same pass as an option of tin_ground
+
+TIN_WITHOUT = pcl_rg.TinGroundParams.isprs(final_cell=0.0)
+
+
+@pytest.mark.parametrize("setting", SETTINGS[:3], ids=range(3))
+def test_tin_core_equals_reference(setting):
+    """Random XY: both TINs (the densification's and the pass's) are unique: exact."""
+    points = synthetic_scene(seed=6, size=70.0, density=1.5, n_buildings=1, n_trees=5).points
+    params = dataclasses.replace(TIN_WITHOUT, **setting)
+    core = pcl_rg.tin_ground(points, params=params)
+    np.testing.assert_array_equal(core, reference.tin_ground(points, params=params))
+    assert (core != pcl_rg.tin_ground(points, params=TIN_WITHOUT)).any()
+
+
+@pytest.mark.parametrize("sample", ["samp21", "samp41"])
+def test_tin_isprs_core_agrees_with_reference(sample):
+    """As tests/test_tin_ground.py bounds the densification on these gridded files
+    (co-circular vertices: qhull and the incremental TIN may choose other diagonals):
+    1 point in 1000."""
+    points, _ = load_isprs(
+        shared_data("isprs", f"{sample}-utm.pcd"), shared_data("isprs", f"{sample}-utm-ground.pcd")
+    )
+    params = dataclasses.replace(TIN_WITHOUT, **SETTINGS[0])
+    core = pcl_rg.tin_ground(points, params=params)
+    assert (core != reference.tin_ground(points, params=params)).sum() <= len(points) // 1000
+
+
+def test_tin_thread_count_does_not_change_the_result():
+    code = (
+        "import hashlib, pcl_rg\n"
+        "from pcl_rg.datasets import synthetic_scene\n"
+        "s = synthetic_scene(seed=8, size=120.0, density=4.0, n_buildings=3, n_trees=20)\n"
+        "g = pcl_rg.tin_ground(s.points, final_cell=2.0, final_above=0.3, final_below=2.0)\n"
+        "print(hashlib.sha256(g.tobytes()).hexdigest(), int(g.sum()))\n"
+    )
+    digests = set()
+    for threads in ("1", "2", "3"):
+        env = {**os.environ, "OMP_NUM_THREADS": threads}
+        done = subprocess.run(
+            [sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True
+        )
+        digests.add(done.stdout)
+    assert len(digests) == 1
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"final_cell": -1.0}, "final_cell must be >= 0"),
+        ({"final_above": np.nan}, "final_above must be finite"),
+        ({"final_below": -1.0}, "final_below must be >= 0"),
+        ({"final_slope": -0.5}, "final_slope must be >= 0"),
+    ],
+)
+def test_tin_bad_parameters(kwargs, match):
+    points = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+    with pytest.raises(ValueError, match=match):
+        pcl_rg.tin_ground(points, **kwargs)
+    with pytest.raises(ValueError, match=match):
+        reference.tin_ground(points, **kwargs)
+    core = pcl_rg.TinGroundParams().to_core()
+    name, value = next(iter(kwargs.items()))
+    setattr(core, name, value)
+    with pytest.raises(ValueError, match=match):
+        _core.tin_ground(points, core)

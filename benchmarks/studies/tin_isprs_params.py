@@ -50,10 +50,19 @@ SEARCH_GRID: dict[str, list] = {
     "seed_cell": [0.0, 1.0, 1.5, 2.0, 3.0, 4.0],
     "seed_tolerance": [0.3, 0.5, 1.0, 1.5, 2.0],
     "outlier_depth": [0.0, 2.0, 3.0, 4.0, 5.0, 6.0],
+    "final_cell": [0.0, 1.0, 2.0, 3.0, 4.0],
+    "final_above": [0.2, 0.3, 0.5, 0.8],
+    "final_below": [0.5, 1.0, 2.0, 5.0],
+    "final_slope": [0.0, 0.5, 1.0, 2.0],
 }
 
 # The improvements and the value that switches each off (the plain definition).
-IMPROVEMENTS = {"near_vertex_distance": 0.0, "seed_cell": 0.0, "outlier_depth": 0.0}
+IMPROVEMENTS = {
+    "near_vertex_distance": 0.0,
+    "seed_cell": 0.0,
+    "outlier_depth": 0.0,
+    "final_cell": 0.0,
+}
 
 
 def errors(samples, params: pcl_rg.TinGroundParams) -> list:
@@ -74,6 +83,10 @@ def search(samples) -> tuple[pcl_rg.TinGroundParams, list[str]]:
         near_vertex_distance=1.0,
         seed_cell=2.0,
         outlier_depth=4.0,
+        final_cell=2.0,
+        final_above=0.5,
+        final_below=1.0,
+        final_slope=1.0,
     )
     best_error = mean_total(samples, best)
     lines = [f"start {best}: mean total {100 * best_error:.2f} %"]

@@ -53,6 +53,10 @@ class TinGroundParams:
     seed_cell: float
     seed_tolerance: float
     outlier_depth: float
+    final_cell: float
+    final_above: float
+    final_below: float
+    final_slope: float
     def __init__(self) -> None: ...
 
 def tin_ground(

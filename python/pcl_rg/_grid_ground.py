@@ -125,8 +125,9 @@ class GridGroundParams:
         """The plain rule of algorithms.md section 3: every option off.
 
         ``min_seed_component=1, grow_across_blocks=False, filter_passes=0``,
-        no final pass (``final_cell=0``) and the seed's pure slope rule ``height_tolerance=0``; the other fields
-        keep their defaults unless given in `overrides`.
+        no final pass (``final_cell=0``) and the seed's pure slope rule
+        ``height_tolerance=0``; the other fields keep their defaults unless
+        given in `overrides`.
         """
         values: dict[str, Any] = {
             "height_tolerance": 0.0,
