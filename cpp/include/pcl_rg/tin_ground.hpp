@@ -55,11 +55,11 @@ struct TinGroundParams {
     /// every point is then ground when -final_below <= z - z_TIN <= final_above +
     /// final_slope * |grad z_TIN| (final_pass.hpp; TerraScan, Zhao et al. 2016), so ground
     /// is complete below the stop edge.
-    double final_cell = 0.0;
+    double final_cell = 3.0;
     /// Height above the final TIN up to which a point is ground on flat terrain (m, >= 0).
     double final_above = 0.5;
     /// Depth below the final TIN down to which a point is ground (m, >= 0).
-    double final_below = 1.0;
+    double final_below = 5.0;
     /// Allowance per unit of the final TIN's gradient (m, >= 0).
     double final_slope = 1.0;
 };
