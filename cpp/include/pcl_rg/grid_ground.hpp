@@ -26,11 +26,11 @@ struct GridGroundParams {
     /// |z_p - z_q| <= slope * d_xy(p, q) + height_tolerance.
     double slope = 0.3;
     /// t, height difference always allowed between linked points (>= 0, finite, m).
-    double height_tolerance = 0.0;
+    double height_tolerance = 0.3;
     /// Robust seed (>= 1): the seed is the lowest point of the block whose connected
     /// component holds at least this many points (1: the lowest point, the seed's rule).
     /// When no component is that large the lowest point's component is ground.
-    std::int64_t min_seed_component = 10;
+    std::int64_t min_seed_component = 30;
     /// Links also join points of different blocks (cells still 3 x 3); the seeds stay
     /// one per block and ground is the union of their components.
     bool grow_across_blocks = true;
@@ -38,15 +38,15 @@ struct GridGroundParams {
     /// higher than some point q of its 3 x 3 cells (any block) by more than
     /// filter_slope * d_xy + filter_tolerance; pass k > 1 tests only against the ground
     /// of pass k - 1. Dropped points are object and never link; the growth runs per pass.
-    std::int64_t filter_passes = 2;
+    std::int64_t filter_passes = 3;
     /// Slope of the pre-filter (>= 0, finite).
-    double filter_slope = 0.7;
+    double filter_slope = 1.0;
     /// Height tolerance of the pre-filter (>= 0, finite, m).
-    double filter_tolerance = 0.5;
+    double filter_tolerance = 0.3;
     /// Final pass (0: off): cell (m, >= 0) of a TIN of the lowest ground point per cell;
     /// every point is then ground when -final_below <= z - z_TIN <= final_above +
     /// final_slope * |grad z_TIN| (final_pass.hpp; TerraScan, Zhao et al. 2016).
-    double final_cell = 3.0;
+    double final_cell = 0.0;
     /// Height above the final TIN up to which a point is ground on flat terrain (m, >= 0).
     double final_above = 0.5;
     /// Depth below the final TIN down to which a point is ground (m, >= 0).
