@@ -52,34 +52,49 @@ SEARCH_GRID: dict[str, list] = {
     "outlier_depth": [0.0, 2.0, 3.0, 4.0, 5.0, 6.0],
 }
 
+# Stage 2 of the search: the final pass (final_pass.cpp), tuned on the densification
+# that stage 1 chose, from a middle start.
+FINAL_GRID: dict[str, list] = {
+    "final_cell": [0.0, 1.0, 2.0, 3.0, 4.0],
+    "final_above": [0.2, 0.3, 0.5, 0.8],
+    "final_below": [0.5, 1.0, 2.0, 5.0],
+    "final_slope": [0.0, 0.5, 1.0, 2.0],
+}
+FINAL_START = {"final_cell": 2.0, "final_above": 0.5, "final_below": 1.0, "final_slope": 1.0}
+
 # The improvements and the value that switches each off (the plain definition).
-IMPROVEMENTS = {"near_vertex_distance": 0.0, "seed_cell": 0.0, "outlier_depth": 0.0}
+IMPROVEMENTS = {
+    "near_vertex_distance": 0.0,
+    "seed_cell": 0.0,
+    "outlier_depth": 0.0,
+    "final_cell": 0.0,
+}
+
+# (sample, params) -> errors: the descent meets the same set many times.
+_ERRORS: dict = {}
 
 
 def errors(samples, params: pcl_rg.TinGroundParams) -> list:
-    return [ground_errors(t, pcl_rg.tin_ground(p, params=params)) for p, t in samples.values()]
+    out = []
+    for name, (points, truth) in samples.items():
+        if (name, params) not in _ERRORS:
+            ground = pcl_rg.tin_ground(points, params=params)
+            _ERRORS[name, params] = ground_errors(truth, ground)
+        out.append(_ERRORS[name, params])
+    return out
 
 
 def mean_total(samples, params: pcl_rg.TinGroundParams) -> float:
     return float(np.mean([e.total for e in errors(samples, params)]))
 
 
-def search(samples) -> tuple[pcl_rg.TinGroundParams, list[str]]:
-    """Coordinate descent over SEARCH_GRID: (best params, log lines)."""
-    best = dataclasses.replace(
-        pcl_rg.TinGroundParams.lidar360(),
-        iteration_angle=30.0,
-        reduce_angle_edge=0.01,
-        stop_edge=0.01,
-        near_vertex_distance=1.0,
-        seed_cell=2.0,
-        outlier_depth=4.0,
-    )
+def descend(samples, best, grid: dict, lines: list[str]):
+    """Coordinate descent over `grid` from `best`: (best params, its mean total error)."""
     best_error = mean_total(samples, best)
-    lines = [f"start {best}: mean total {100 * best_error:.2f} %"]
+    lines.append(f"start {best}: mean total {100 * best_error:.2f} %")
     for sweep in range(1, 4):
         changed = False
-        for name, values in SEARCH_GRID.items():
+        for name, values in grid.items():
             for value in values:
                 trial = dataclasses.replace(best, **{name: value})
                 error = mean_total(samples, trial)
@@ -89,6 +104,33 @@ def search(samples) -> tuple[pcl_rg.TinGroundParams, list[str]]:
                     print(lines[-1], file=sys.stderr, flush=True)
         if not changed:
             break
+    return best, best_error
+
+
+def search(samples) -> tuple[pcl_rg.TinGroundParams, list[str]]:
+    """Two coordinate descents: (best params, log lines).
+
+    Stage 1 is the original search over SEARCH_GRID (final pass off), from LiDAR360's
+    defaults with the improvements on at middle values; stage 2 tunes the final pass
+    over FINAL_GRID on stage 1's pick (final_cell = 0 among its values, so the pass
+    stays off unless it lowers the error on `samples`).
+    """
+    start = dataclasses.replace(
+        pcl_rg.TinGroundParams.lidar360(),
+        iteration_angle=30.0,
+        reduce_angle_edge=0.01,
+        stop_edge=0.01,
+        near_vertex_distance=1.0,
+        seed_cell=2.0,
+        outlier_depth=4.0,
+    )
+    lines: list[str] = []
+    densified, _ = descend(samples, start, SEARCH_GRID, lines)
+    best, best_error = descend(
+        samples, dataclasses.replace(densified, **FINAL_START), FINAL_GRID, lines
+    )
+    if mean_total(samples, densified) <= best_error:
+        best, best_error = densified, mean_total(samples, densified)
     lines.append(f"chosen: {best}: mean total {100 * best_error:.2f} %")
     return best, lines
 
@@ -135,7 +177,7 @@ def report(samples, command: str, compare: bool = False) -> str:
     ]
     ablation.append(
         [
-            "all three",
+            "all four",
             f"{100 * mean_total(samples, dataclasses.replace(tuned, **IMPROVEMENTS)):.2f}",
         ]
     )
@@ -153,6 +195,9 @@ def report(samples, command: str, compare: bool = False) -> str:
         + "\n\nAblation: mean total error % of tuned_isprs() with one improvement switched "
         "off (back to the plain definition of algorithms.md section 4):\n\n"
         + markdown_table(["switched off", "mean total %"], ablation)
+        + "\n\nLeft one sample out, the final pass lowers the error too: the section "
+        "\"Ground filters on ISPRS: cross-validated presets\" (this search, final pass in "
+        "stage 2) against its previous run (final pass off, 4.55 %)."
         + (comparison(samples) if compare else "")
         + "\n\nPer sample, the other methods (grid_ground, PCL's PMF, CSF) are scored in the "
         "same way by `python benchmarks/studies/ground_isprs.py`, which lists both tin_ground sets "

@@ -47,6 +47,8 @@
 //     window (Zhao et al.'s morphological seeds): dense on open terrain, none on roofs.
 //   * outlier_depth: before the opening, cells far below the 9th lowest of their 5 x 5
 //     window are dropped, repeatedly, so clusters of low outliers give no seeds.
+//   * final_cell: a final pass (final_pass.cpp, shared with grid_ground) classifies every
+//     point again by its height above a TIN of the lowest ground point of each cell.
 //
 // Grids and tiles: the grids that decide which points are seeds are anchored on the
 // world lattice of the seed cells (seed_cell when > 0, else max_building_size): the
@@ -89,6 +91,7 @@
 
 #include "pcl_rg/check.hpp"
 #include "pcl_rg/delaunay.hpp"
+#include "pcl_rg/final_pass.hpp"
 #include "pcl_rg/interrupt.hpp"
 #include "pcl_rg/timer.hpp"
 #include "pcl_rg/tin_seeds.hpp"
@@ -233,6 +236,10 @@ void validate(const TinGroundParams& params) {
     check::real("seed_cell", params.seed_cell, check::non_negative());
     check::real("seed_tolerance", params.seed_tolerance, check::non_negative());
     check::real("outlier_depth", params.outlier_depth, check::non_negative());
+    check::real("final_cell", params.final_cell, check::non_negative());
+    check::real("final_above", params.final_above, check::non_negative());
+    check::real("final_below", params.final_below, check::non_negative());
+    check::real("final_slope", params.final_slope, check::non_negative());
 }
 
 TinGroundStats tin_ground(PointsView points, const TinGroundParams& params, bool* ground) {
@@ -506,6 +513,13 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& params, bool
     }
     for (std::size_t s = 0; s < n; ++s) ground[order[s]] = is_ground[s];
     stats.tin_vertices = static_cast<std::int64_t>(tin.vertex_count());
+    if (params.final_cell > 0.0) {
+        clock = std::chrono::steady_clock::now();
+        final_pass(points,
+                   {params.final_cell, params.final_above, params.final_below, params.final_slope},
+                   ground);
+        stats.classification_seconds += seconds_since(clock);
+    }
     return stats;
 }
 

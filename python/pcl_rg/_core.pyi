@@ -32,6 +32,10 @@ class GridGroundParams:
     filter_passes: int
     filter_slope: float
     filter_tolerance: float
+    final_cell: float
+    final_above: float
+    final_below: float
+    final_slope: float
     def __init__(self) -> None: ...
 
 def grid_ground(
@@ -49,6 +53,10 @@ class TinGroundParams:
     seed_cell: float
     seed_tolerance: float
     outlier_depth: float
+    final_cell: float
+    final_above: float
+    final_below: float
+    final_slope: float
     def __init__(self) -> None: ...
 
 def tin_ground(

@@ -274,6 +274,10 @@ def tin_ground(
     seed_cell: float | None = None,
     seed_tolerance: float | None = None,
     outlier_depth: float | None = None,
+    final_cell: float | None = None,
+    final_above: float | None = None,
+    final_below: float | None = None,
+    final_slope: float | None = None,
     params: TinGroundParams | None = None,
 ) -> np.ndarray:
     """Reference progressive TIN densification: same signature and result as the core.
@@ -357,4 +361,8 @@ def tin_ground(
         vx = np.r_[vx, gx[chosen[new]]]
         vy = np.r_[vy, gy[chosen[new]]]
         vz = np.r_[vz, pz[chosen[new]]]
+    if p.final_cell > 0:
+        from ._final_pass import final_pass  # here: it imports this module's TIN
+
+        ground = final_pass(xyz, ground, p.final_cell, p.final_above, p.final_below, p.final_slope)
     return ground
