@@ -3,6 +3,7 @@ is its own; timings are medians of repeats, compared side by side in one run."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import multiprocessing as mp
 import platform
@@ -129,6 +130,32 @@ def publish_report(
     if notes:
         text += "\n" + "\n".join(notes) + "\n"
     publish(text, section, write)
+
+
+def coordinate_descent(
+    score: Callable[[Any], float], start: Any, grid: dict[str, list], lines: list[str]
+) -> tuple[Any, float]:
+    """Lower `score` one field at a time over `grid`'s values, from `start`.
+
+    Sweeps until one changes nothing (three at most); each improvement is logged to
+    `lines` and stderr. Returns (best params, its score). The params are frozen
+    dataclasses; fields not in `grid` keep `start`'s values.
+    """
+    best, best_error = start, score(start)
+    lines.append(f"start {start}: mean total {100 * best_error:.2f} %")
+    for sweep in range(1, 4):
+        changed = False
+        for name, values in grid.items():
+            for value in values:
+                trial = dataclasses.replace(best, **{name: value})
+                error = score(trial)
+                if error < best_error - 1e-12:
+                    best, best_error, changed = trial, error, True
+                    lines.append(f"  sweep {sweep}: {name} = {value}: {100 * error:.2f} %")
+                    print(lines[-1], file=sys.stderr, flush=True)
+        if not changed:
+            break
+    return best, best_error
 
 
 def error_cells(

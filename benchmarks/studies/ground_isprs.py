@@ -36,7 +36,15 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/_common.py
-from _common import RESULTS, SHARED_DATA, error_cells, machine, markdown_table, publish  # noqa: E402
+from _common import (  # noqa: E402
+    RESULTS,
+    SHARED_DATA,
+    coordinate_descent,
+    error_cells,
+    machine,
+    markdown_table,
+    publish,
+)
 
 import pcl_rg
 import pcl_rg.pcl
@@ -169,27 +177,9 @@ SEARCH_PICK = dataclasses.replace(
 )
 
 
-def descend(samples, start: pcl_rg.GridGroundParams, lines: list[str]):
-    """Coordinate descent over SEARCH_GRID from `start`: (best params, its error)."""
-    best, best_error = start, mean_total(samples, start)
-    lines.append(f"start {start}: mean total {100 * best_error:.2f} %")
-    for sweep in range(1, 4):
-        changed = False
-        for name, values in SEARCH_GRID.items():
-            for value in values:
-                trial = dataclasses.replace(best, **{name: value})
-                error = mean_total(samples, trial)
-                if error < best_error - 1e-12:
-                    best, best_error, changed = trial, error, True
-                    lines.append(f"  sweep {sweep}: {name} = {value}: {100 * error:.2f} %")
-        if not changed:
-            break
-    return best, best_error
-
-
 def choose(samples, lines: list[str]) -> tuple[pcl_rg.GridGroundParams, float]:
     """The search's pick on `samples`: (params, mean total error)."""
-    return descend(samples, START, lines)
+    return coordinate_descent(lambda p: mean_total(samples, p), START, SEARCH_GRID, lines)
 
 
 def search(samples) -> str:

@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/_common.py
-from _common import error_cells, machine, markdown_table, publish  # noqa: E402
+from _common import coordinate_descent, error_cells, machine, markdown_table, publish  # noqa: E402
 from ground_isprs import METHODS, load_samples  # noqa: E402  (same folder)
 
 import pcl_rg
@@ -88,25 +88,6 @@ def mean_total(samples, params: pcl_rg.TinGroundParams) -> float:
     return float(np.mean([e.total for e in errors(samples, params)]))
 
 
-def descend(samples, best, grid: dict, lines: list[str]):
-    """Coordinate descent over `grid` from `best`: (best params, its mean total error)."""
-    best_error = mean_total(samples, best)
-    lines.append(f"start {best}: mean total {100 * best_error:.2f} %")
-    for sweep in range(1, 4):
-        changed = False
-        for name, values in grid.items():
-            for value in values:
-                trial = dataclasses.replace(best, **{name: value})
-                error = mean_total(samples, trial)
-                if error < best_error - 1e-12:
-                    best, best_error, changed = trial, error, True
-                    lines.append(f"  sweep {sweep}: {name} = {value}: {100 * error:.2f} %")
-                    print(lines[-1], file=sys.stderr, flush=True)
-        if not changed:
-            break
-    return best, best_error
-
-
 def search(samples) -> tuple[pcl_rg.TinGroundParams, list[str]]:
     """Two coordinate descents: (best params, log lines).
 
@@ -125,9 +106,12 @@ def search(samples) -> tuple[pcl_rg.TinGroundParams, list[str]]:
         outlier_depth=4.0,
     )
     lines: list[str] = []
-    densified, _ = descend(samples, start, SEARCH_GRID, lines)
-    best, best_error = descend(
-        samples, dataclasses.replace(densified, **FINAL_START), FINAL_GRID, lines
+    def score(params: pcl_rg.TinGroundParams) -> float:
+        return mean_total(samples, params)
+
+    densified, _ = coordinate_descent(score, start, SEARCH_GRID, lines)
+    best, best_error = coordinate_descent(
+        score, dataclasses.replace(densified, **FINAL_START), FINAL_GRID, lines
     )
     if mean_total(samples, densified) <= best_error:
         best, best_error = densified, mean_total(samples, densified)

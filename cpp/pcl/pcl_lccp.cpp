@@ -85,9 +85,7 @@ LccpTimings pcl_lccp(PointsView points, const LccpParams& params, std::int32_t* 
     LccpTimings timings;
     const std::size_t n = points.size;
     if (n == 0) return timings;
-    if (n > static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max()))
-        throw std::invalid_argument("points: at most 2^31 - 1 points are supported, got " +
-                                    std::to_string(n));
+    check::indexable_by_int32(n);
     check_reach(points, params);
     const auto cloud = to_pcl_cloud(points, params.viewpoint);
     poll_interrupt();  // PCL's classes cannot be interrupted: polls between their stages

@@ -61,9 +61,7 @@ void merge_convex(PointsView points, std::size_t k, const std::uint32_t* neighbo
     validate(params);
     const std::size_t n = points.size;
     if (n == 0) return;
-    if (n > static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max()))
-        throw std::invalid_argument("points: at most 2^31 - 1 points are supported, got " +
-                                    std::to_string(n));
+    check::indexable_by_int32(n);
     std::int64_t n_patches = 0;
     for (std::size_t i = 0; i < n; ++i) {
         const std::int32_t a = patches[i];
@@ -199,9 +197,7 @@ ConvexSegmentationTimings convex_segmentation(PointsView points,
     validate(params);
     const std::size_t n = points.size;
     if (n == 0) return ConvexSegmentationTimings{};
-    if (n > static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max()))
-        throw std::invalid_argument("points: at most 2^31 - 1 points are supported, got " +
-                                    std::to_string(n));
+    check::indexable_by_int32(n);
     const auto start = std::chrono::steady_clock::now();
     double leaf = 0.0;
     if (params.noise_leaves > 0.0) {

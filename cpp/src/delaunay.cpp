@@ -73,6 +73,18 @@ GridFrame make_grid_frame(double lower_x, double lower_y, double upper_x, double
     return frame;
 }
 
+void snap_to_grid(PointsView points, const std::array<double, 3>& origin, const GridFrame& frame,
+                  std::vector<std::int32_t>& gx, std::vector<std::int32_t>& gy) {
+    const auto n = static_cast<std::ptrdiff_t>(points.size);
+    gx.resize(points.size);
+    gy.resize(points.size);
+#pragma omp parallel for schedule(static)
+    for (std::ptrdiff_t i = 0; i < n; ++i) {
+        gx[i] = frame.grid_x(points.coord(i, 0) - origin[0]);
+        gy[i] = frame.grid_y(points.coord(i, 1) - origin[1]);
+    }
+}
+
 namespace {
 
 // Orientation of (a, b, p + (eps, eps^2)): the exact orientation when non-zero, else

@@ -61,12 +61,8 @@ void final_pass(PointsView points, const FinalPassParams& params, bool* ground) 
         throw std::invalid_argument(
             "final_cell is too small for the extent of points: more than 2^40 cells per axis");
     const GridFrame frame = make_grid_frame(0.0, 0.0, ex, ey);
-    std::vector<std::int32_t> gx(n), gy(n);
-#pragma omp parallel for schedule(static)
-    for (std::ptrdiff_t i = 0; i < static_cast<std::ptrdiff_t>(n); ++i) {
-        gx[i] = frame.grid_x(points.coord(i, 0) - origin[0]);
-        gy[i] = frame.grid_y(points.coord(i, 1) - origin[1]);
-    }
+    std::vector<std::int32_t> gx, gy;
+    snap_to_grid(points, origin, frame, gx, gy);
     auto z_of = [&](std::size_t i) { return points.coord(i, 2) - origin[2]; };
 
     // --- 2. the lowest ground point of each cell ------------------------------------

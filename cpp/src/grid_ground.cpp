@@ -334,9 +334,7 @@ void grid_ground(PointsView points, const GridGroundParams& params, bool* ground
     validate(params);
     const std::size_t n = points.size;
     if (n == 0) return;
-    if (n > static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max()))
-        throw std::invalid_argument("points: at most 2^31 - 1 points are supported, got " +
-                                    std::to_string(n));
+    check::indexable_by_int32(n);
     // Blocks and cells anchored at the world lattice of blocks: the block corner at or
     // below the minimum corner, so l >= 0 and every index is >= 0.
     std::array<double, 3> origin = local_origin(points);

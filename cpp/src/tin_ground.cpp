@@ -164,12 +164,8 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& params, bool
         throw std::invalid_argument("points: the XY extent is too large (not finite in float64)");
     const GridFrame frame = make_grid_frame(0.0, 0.0, ex, ey);
 
-    std::vector<std::int32_t> gx(n), gy(n);
-#pragma omp parallel for schedule(static)
-    for (std::ptrdiff_t i = 0; i < static_cast<std::ptrdiff_t>(n); ++i) {
-        gx[i] = frame.grid_x(points.coord(i, 0) - origin[0]);
-        gy[i] = frame.grid_y(points.coord(i, 1) - origin[1]);
-    }
+    std::vector<std::int32_t> gx, gy;
+    snap_to_grid(points, origin, frame, gx, gy);
 
     // A TIN needs three points not on one line (exact test on the grid).
     {
