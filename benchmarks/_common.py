@@ -158,6 +158,41 @@ def coordinate_descent(
     return best, best_error
 
 
+#: The seven mOSD learn scenes in ../shared/data/mosd.
+MOSD_SCENES = ("learn0", "learn5", "learn17", "learn20", "learn25", "learn33", "learn40")
+
+
+def mosd_at(leaf: float) -> list[tuple[str, Any, Any, Any]]:
+    """Per mOSD scene: (name, truth per valid pixel, points to segment, voxel_of_point).
+
+    `leaf` 0 is the raw frame (voxel_of_point None); otherwise the VoxelGrid centroids.
+    """
+    import numpy as np
+
+    import pcl_rg
+    from pcl_rg.datasets import load_mosd
+
+    scenes = []
+    for name in MOSD_SCENES:
+        scene = load_mosd(SHARED_DATA / "mosd" / f"{name}.pcd")
+        if leaf > 0:
+            grid = pcl_rg.voxel_grid(scene.points, leaf_size=leaf)
+            points = np.ascontiguousarray(grid.centroids)
+            scenes.append((name, scene.labels, points, grid.voxel_of_point))
+        else:
+            scenes.append((name, scene.labels, scene.points, None))
+    return scenes
+
+
+def carry(labels: Any, voxel_of_point: Any) -> Any:
+    """Labels of the segmented points carried to every pixel (-1 where none)."""
+    import numpy as np
+
+    if voxel_of_point is None:
+        return labels
+    return np.where(voxel_of_point >= 0, labels[np.maximum(voxel_of_point, 0)], -1)
+
+
 def error_cells(
     type_i: float, type_ii: float, total: float, kappa: float, seconds: float, digits: int = 2
 ) -> list[str]:

@@ -34,14 +34,20 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/_common.py
-from _common import SHARED_DATA, machine, markdown_table, write_section  # noqa: E402
+from _common import (  # noqa: E402
+    MOSD_SCENES,
+    carry,
+    machine,
+    markdown_table,
+    mosd_at,
+    write_section,
+)
 
 import pcl_rg
 from pcl_rg import ConvexSegmentationParams, RegionGrowingParams
-from pcl_rg.datasets import load_mosd
 from pcl_rg.evaluation import segmentation_scores
 
-SCENES = ("learn0", "learn5", "learn17", "learn20", "learn25", "learn33", "learn40")
+SCENES = MOSD_SCENES
 LEAVES = (0.0, 0.003, 0.005, 0.008)  # m; 0: the raw frame
 SECTION = "## Segmentation at every scale on mOSD (convex_segmentation, PCL, LCCP)"
 GRID = {
@@ -72,25 +78,6 @@ def scale_name(leaf: float) -> str:
     return "raw" if leaf == 0 else f"{leaf * 1000:g} mm"
 
 
-def load(leaf: float):
-    """Per scene: (truth per valid pixel, segmented points, voxel_of_point or None)."""
-    out = []
-    for name in SCENES:
-        scene = load_mosd(SHARED_DATA / "mosd" / f"{name}.pcd")
-        if leaf > 0:
-            grid = pcl_rg.voxel_grid(scene.points, leaf_size=leaf)
-            out.append((scene.labels, np.ascontiguousarray(grid.centroids), grid.voxel_of_point))
-        else:
-            out.append((scene.labels, scene.points, None))
-    return out
-
-
-def carry(labels: np.ndarray, voxel_of_point: np.ndarray | None) -> np.ndarray:
-    if voxel_of_point is None:
-        return labels
-    return np.where(voxel_of_point >= 0, labels[np.maximum(voxel_of_point, 0)], -1)
-
-
 def timed(function, points, **kwargs):
     start = time.perf_counter()
     labels = function(points, **kwargs)
@@ -104,7 +91,7 @@ def run_all():
     mine = RegionGrowingParams()
     settings = [dict(zip(GRID, values)) for values in itertools.product(*GRID.values())]
     for leaf in LEAVES:
-        for truth, points, vop in load(leaf):
+        for _, truth, points, vop in mosd_at(leaf):
             runs = [("convex", i, pcl_rg.convex_segmentation, s) for i, s in enumerate(settings)]
             runs += [("region_growing", 0, pcl_rg.region_growing, {})]
             runs += [("PCL RegionGrowing", 0, pcl_rg.pcl.region_growing,
