@@ -15,7 +15,7 @@ import math
 import numpy as np
 
 from ._lattice import lattice_floor
-from .tin_ground import grid_quantum, locate, triangulate
+from .tin_ground import grid_quantum, locate, triangulate, with_corners
 
 __all__ = ["final_pass"]
 
@@ -71,15 +71,7 @@ def final_pass(
     vertex = np.sort(vertex[first])
 
     # Corners of the box at the height of their nearest vertex (ties: index).
-    corner_x = np.array([0, width, width, 0], dtype=np.int64)
-    corner_y = np.array([0, 0, height, height], dtype=np.int64)
-    corner_z = np.empty(4)
-    for c in range(4):
-        d2 = (gx[vertex] - corner_x[c]) ** 2 + (gy[vertex] - corner_y[c]) ** 2
-        corner_z[c] = z[vertex[np.lexsort((vertex, d2))[0]]]
-    vx = np.r_[corner_x, gx[vertex]]
-    vy = np.r_[corner_y, gy[vertex]]
-    vz = np.r_[corner_z, z[vertex]]
+    vx, vy, vz = with_corners(gx, gy, z, vertex, vertex, width, height)
 
     tri, neighbors, vertex_to_simplex = triangulate(vx, vy, q)
     t = tri[locate(tri, neighbors, vertex_to_simplex, vx, vy, gx, gy)]
