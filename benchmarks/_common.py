@@ -12,7 +12,7 @@ import resource
 import statistics
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -117,7 +117,7 @@ def publish_report(
     about: str,
     header: list[str],
     rows: list[list[str]],
-    notes: list[str] = (),  # type: ignore[assignment]
+    notes: Sequence[str] = (),
     *,
     write: bool,
 ) -> None:

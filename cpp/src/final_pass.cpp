@@ -38,10 +38,18 @@
 #include <stdexcept>
 #include <vector>
 
+#include "pcl_rg/check.hpp"
 #include "pcl_rg/delaunay.hpp"
 #include "pcl_rg/interrupt.hpp"
 
 namespace pcl_rg {
+
+void validate(const FinalPassParams& params) {
+    check::real("final_cell", params.cell, check::non_negative());
+    check::real("final_above", params.above, check::non_negative());
+    check::real("final_below", params.below, check::non_negative());
+    check::real("final_slope", params.slope, check::non_negative());
+}
 
 void final_pass(PointsView points, const FinalPassParams& params, bool* ground) {
     const std::size_t n = points.size;

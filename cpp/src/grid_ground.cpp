@@ -68,10 +68,7 @@ void validate(const GridGroundParams& params) {
     check::integer("filter_passes", params.filter_passes, check::at_least(0));
     check::real("filter_slope", params.filter_slope, check::non_negative());
     check::real("filter_tolerance", params.filter_tolerance, check::non_negative());
-    check::real("final_cell", params.final_cell, check::non_negative());
-    check::real("final_above", params.final_above, check::non_negative());
-    check::real("final_below", params.final_below, check::non_negative());
-    check::real("final_slope", params.final_slope, check::non_negative());
+    validate(final_pass_params(params));
 }
 
 namespace {
@@ -370,10 +367,7 @@ void grid_ground(PointsView points, const GridGroundParams& params, bool* ground
     const auto count = static_cast<std::ptrdiff_t>(n);
 #pragma omp parallel for schedule(guided) if (parallel)
     for (std::ptrdiff_t s = 0; s < count; ++s) ground[grid.id[s]] = result[s] != 0;
-    if (params.final_cell > 0.0)
-        final_pass(points,
-                   {params.final_cell, params.final_above, params.final_below, params.final_slope},
-                   ground);
+    if (params.final_cell > 0.0) final_pass(points, final_pass_params(params), ground);
 }
 
 }  // namespace pcl_rg

@@ -131,10 +131,7 @@ void validate(const TinGroundParams& params) {
     check::real("seed_cell", params.seed_cell, check::non_negative());
     check::real("seed_tolerance", params.seed_tolerance, check::non_negative());
     check::real("outlier_depth", params.outlier_depth, check::non_negative());
-    check::real("final_cell", params.final_cell, check::non_negative());
-    check::real("final_above", params.final_above, check::non_negative());
-    check::real("final_below", params.final_below, check::non_negative());
-    check::real("final_slope", params.final_slope, check::non_negative());
+    validate(final_pass_params(params));
 }
 
 TinGroundStats tin_ground(PointsView points, const TinGroundParams& params, bool* ground) {
@@ -406,9 +403,7 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& params, bool
     stats.tin_vertices = static_cast<std::int64_t>(tin.vertex_count());
     if (params.final_cell > 0.0) {
         clock = std::chrono::steady_clock::now();
-        final_pass(points,
-                   {params.final_cell, params.final_above, params.final_below, params.final_slope},
-                   ground);
+        final_pass(points, final_pass_params(params), ground);
         stats.classification_seconds += seconds_since(clock);
     }
     return stats;

@@ -10,6 +10,7 @@ import numpy.typing as npt
 
 from . import _core
 from ._docstrings import fill_docstring
+from ._final_pass import final_pass_param
 from ._params import check_fields, format_value, param, preset, resolve_arguments, to_core
 from ._validation import as_points
 
@@ -68,33 +69,10 @@ class GridGroundParams:
     filter_tolerance: float = param(
         0.3, minimum=0.0, unit="m", help="height tolerance of the pre-filter"
     )
-    final_cell: float = param(
-        0.0,
-        minimum=0.0,
-        unit="m",
-        help="final pass (0: off): every point is classified again by its height above a "
-        "TIN of the lowest ground point of each final_cell cell (TerraScan's distance to "
-        "the ground TIN)",
-    )
-    final_above: float = param(
-        0.5,
-        minimum=0.0,
-        unit="m",
-        help="final pass: height above the TIN up to which a point is ground on flat terrain",
-    )
-    final_below: float = param(
-        1.0,
-        minimum=0.0,
-        unit="m",
-        help="final pass: depth below the TIN down to which a point is ground",
-    )
-    final_slope: float = param(
-        1.0,
-        minimum=0.0,
-        unit="m",
-        help="final pass: allowance per unit of the TIN's gradient, added to final_above "
-        "(slope-adaptive threshold after Zhao et al. 2016)",
-    )
+    final_cell: float = final_pass_param("final_cell", 0.0)
+    final_above: float = final_pass_param("final_above", 0.5)
+    final_below: float = final_pass_param("final_below", 1.0)
+    final_slope: float = final_pass_param("final_slope", 1.0)
 
     def __post_init__(self) -> None:
         check_fields(self)

@@ -11,6 +11,7 @@ import numpy.typing as npt
 from . import _core
 from ._diagnostics import record
 from ._docstrings import fill_docstring
+from ._final_pass import final_pass_param
 from ._params import (
     check_fields,
     deprecated_preset,
@@ -108,33 +109,10 @@ class TinGroundParams:
         help="improvement (0: off; with seed_cell): a cell more than this below the 9th "
         "lowest of its 5 x 5 cells gives no seed (low outliers)",
     )
-    final_cell: float = param(
-        3.0,
-        minimum=0.0,
-        unit="m",
-        help="improvement (0: off): final pass, every point is classified again by its "
-        "height above a TIN of the lowest ground point of each final_cell cell "
-        "(TerraScan's distance to the ground TIN)",
-    )
-    final_above: float = param(
-        0.5,
-        minimum=0.0,
-        unit="m",
-        help="final pass: height above the TIN up to which a point is ground on flat terrain",
-    )
-    final_below: float = param(
-        5.0,
-        minimum=0.0,
-        unit="m",
-        help="final pass: depth below the TIN down to which a point is ground",
-    )
-    final_slope: float = param(
-        1.0,
-        minimum=0.0,
-        unit="m",
-        help="final pass: allowance per unit of the TIN's gradient, added to final_above "
-        "(slope-adaptive threshold after Zhao et al. 2016)",
-    )
+    final_cell: float = final_pass_param("final_cell", 3.0)
+    final_above: float = final_pass_param("final_above", 0.5)
+    final_below: float = final_pass_param("final_below", 5.0)
+    final_slope: float = final_pass_param("final_slope", 1.0)
 
     def __post_init__(self) -> None:
         check_fields(self)

@@ -20,12 +20,23 @@ struct FinalPassParams {
     double slope = 1.0;
 };
 
+/// The final pass's settings of a filter's params (fields final_cell, final_above,
+/// final_below, final_slope).
+template <class FilterParams>
+FinalPassParams final_pass_params(const FilterParams& params) {
+    return {params.final_cell, params.final_above, params.final_below, params.final_slope};
+}
+
+/// Throws std::invalid_argument when a setting is out of range, naming it as the filters
+/// do (final_cell, final_above, ...). Every setting is a finite real >= 0.
+void validate(const FinalPassParams& params);
+
 /// Replaces `ground` (N entries, read as the filter's ground) by the final pass's
 /// classification: the TIN's vertices are the lowest ground point of each cell (ties:
 /// smallest index; of vertices on one snapped XY, the lowest, then smallest index);
 /// a point p is ground when -below <= z_p - z_TIN(p) <= above + slope * |grad z_TIN(p)|,
 /// in the triangle holding p + (eps, eps^2). No ground in: no ground out. The parameters
-/// are checked by the caller (under its own field names). Deterministic for any number of
+/// are checked by the caller (validate above). Deterministic for any number of
 /// threads; see final_pass.cpp for the exact formulas.
 void final_pass(PointsView points, const FinalPassParams& params, bool* ground);
 
