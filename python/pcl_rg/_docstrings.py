@@ -10,7 +10,7 @@ once instead of in each docstring.
 from __future__ import annotations
 
 import re
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import TypeVar
 
 __all__ = ["ENTRIES", "fill_docstring"]
@@ -32,14 +32,14 @@ Function = TypeVar("Function", bound=Callable)
 _PLACEHOLDER = re.compile(r"^(?P<indent>[ \t]*)%\((?P<name>\w+)\)s[ \t]*$", re.M)
 
 
-def fill_docstring(function: Function) -> Function:
-    """Replace each ``%(name)s`` line of ``function.__doc__`` by ``ENTRIES[name]``."""
+def fill_docstring(function: Function, entries: Mapping[str, str] = ENTRIES) -> Function:
+    """Replace each ``%(name)s`` line of ``function.__doc__`` by ``entries[name]``."""
 
     params_type = str(function.__annotations__.get("params", "")).removesuffix(" | None")
 
     def entry(match: re.Match[str]) -> str:
         indent = match.group("indent")
-        text = ENTRIES[match.group("name")].replace("{params_type}", params_type)
+        text = entries[match.group("name")].replace("{params_type}", params_type)
         return "\n".join(indent + line for line in text.splitlines())
 
     if function.__doc__:

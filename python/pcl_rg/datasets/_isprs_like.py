@@ -10,6 +10,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .._params import check_number
+from . import _objects as objects
 from ._objects import BUILDING, GROUND, NOISE, VEGETATION
 from ._steep_terrain import (
     _ROAD_TOP_HALF,
@@ -19,7 +20,7 @@ from ._steep_terrain import (
     road_level,
     steep_z,
 )
-from ._synthetic import _check_noise_fraction, _check_offset
+from ._terrain import fill_dataset_docstring
 
 __all__ = ["BRIDGE_DECK", "LOW_VEGETATION", "IsprsLikeScene", "isprs_like_scene"]
 
@@ -296,6 +297,7 @@ def _ground_points(rng, t: SteepTerrain, size: float, density: float, b, trees, 
     return x, y, steep_z(t, x, y) + rng.normal(0.0, _GROUND_ROUGHNESS, x.size), GROUND
 
 
+@fill_dataset_docstring
 def isprs_like_scene(
     *,
     seed: int = 0,
@@ -308,8 +310,7 @@ def isprs_like_scene(
 
     Parameters
     ----------
-    seed : int, default 0
-        Seed of every random draw; the same arguments give identical arrays.
+    %(scene_seed)s
     size : float, default 300.0
         Side of the square area in metres (>= 250, so that the large building fits
         between the road, the channel and the steep band); the scene covers
@@ -320,8 +321,7 @@ def isprs_like_scene(
     noise_fraction : float, default 0.001
         Fraction of the points that are outliers, in [0, 0.5): half 1-20 m below
         the terrain, half 20-100 m above it.
-    offset : tuple of 3 float, optional
-        Added to every point, e.g. ``(500000.0, 5000000.0, 0.0)``.
+    %(scene_offset)s
 
     Returns
     -------
@@ -389,8 +389,8 @@ def isprs_like_scene(
     seed = check_number("seed", seed, int, minimum=0)
     size = check_number("size", size, float, minimum=_MIN_SIZE)
     density = check_number("density", density, float, above=0.0)
-    noise_fraction = _check_noise_fraction(noise_fraction)
-    origin = _check_offset(offset)
+    noise_fraction = objects.check_noise_fraction(noise_fraction)
+    origin = objects.check_offset(offset)
 
     terrain = make_steep_terrain(seed, size)
 

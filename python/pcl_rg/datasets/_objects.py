@@ -13,6 +13,7 @@ from collections.abc import Callable
 import numpy as np
 from numpy.typing import NDArray
 
+from .._params import check_number
 from ._terrain import Terrain, ramp_coordinate, terrain_z
 
 __all__ = ["BUILDING", "GROUND", "NOISE", "VEGETATION", "Block"]
@@ -28,7 +29,7 @@ NOISE: int = 7  # "low point (noise)"
 _GROUND_ROUGHNESS = 0.03  # std of the Gaussian roughness added to the terrain
 _ROOF_ROUGHNESS = 0.02  # std of the roof-point heights around the flat roof
 _RAMP_CLEARANCE = 3.0  # buildings keep this far from the ramp band
-_LARGE_SIDES = ((25.0, 30.0), (20.5, 30.0))  # sides of the first, large building
+LARGE_SIDES = ((25.0, 30.0), (20.5, 30.0))  # sides of the first, large building
 _SMALL_SIDE = (8.0, 18.0)  # sides of the other buildings
 _BUILDING_HEIGHT = (4.0, 15.0)
 _BUILDING_MARGIN = 2.0  # from the area border
@@ -47,11 +48,11 @@ _HIGH_NOISE_HEIGHT = (20.0, 100.0)  # above the terrain
 Block = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], int]
 
 
-def _scene_sides(rng: np.random.Generator, placed: int) -> tuple[float, float]:
+def scene_sides(rng: np.random.Generator, placed: int) -> tuple[float, float]:
     """Footprint sides of synthetic_scene: the first building large, the others small."""
     if placed == 0:
-        w = rng.uniform(*_LARGE_SIDES[0])
-        h = rng.uniform(*_LARGE_SIDES[1])
+        w = rng.uniform(*LARGE_SIDES[0])
+        h = rng.uniform(*LARGE_SIDES[1])
         if rng.random() < 0.5:
             w, h = h, w
         return w, h
@@ -59,12 +60,12 @@ def _scene_sides(rng: np.random.Generator, placed: int) -> tuple[float, float]:
     return w, h
 
 
-def _place_buildings(
+def place_buildings(
     rng: np.random.Generator,
     n: int,
     area: tuple[float, float],
     terrain: Terrain,
-    sides: Callable[[np.random.Generator, int], tuple[float, float]] = _scene_sides,
+    sides: Callable[[np.random.Generator, int], tuple[float, float]] = scene_sides,
 ) -> NDArray[np.float64]:
     """Seeded rejection sampling of non-overlapping boxes off the ramp.
 
@@ -116,7 +117,7 @@ def _place_buildings(
     return np.column_stack([boxes, base, height])
 
 
-def _box_distance(
+def box_distance(
     x: NDArray[np.float64], y: NDArray[np.float64], box: NDArray[np.float64]
 ) -> NDArray[np.float64]:
     dx = np.maximum(np.maximum(box[0] - x, x - box[2]), 0.0)
@@ -124,7 +125,7 @@ def _box_distance(
     return np.hypot(dx, dy)
 
 
-def _place_trees(
+def place_trees(
     rng: np.random.Generator,
     n: int,
     area: tuple[float, float],
@@ -152,18 +153,18 @@ def _place_trees(
         for box in buildings:
             lo, hi = np.searchsorted(x_sorted, (box[0] - _CLEAR_REACH, box[2] + _CLEAR_REACH))
             near = by_x[lo:hi]
-            ok[near] &= _box_distance(x[near], y[near], box) > r[near] + _TREE_CLEARANCE
+            ok[near] &= box_distance(x[near], y[near], box) > r[near] + _TREE_CLEARANCE
         cand = np.column_stack([x, y, r, top])[ok][:need]
         out = np.concatenate([out, cand])
     return out
 
 
-def _crown_semi_axes(rng: np.random.Generator, trees: NDArray[np.float64]) -> NDArray[np.float64]:
+def crown_semi_axes(rng: np.random.Generator, trees: NDArray[np.float64]) -> NDArray[np.float64]:
     """Vertical semi-axis of each crown's half-ellipsoid."""
     return np.minimum(rng.uniform(0.8, 1.3, len(trees)) * trees[:, 2], 0.45 * trees[:, 3])
 
 
-def _canopy_raster(trees: NDArray[np.float64], size: float) -> tuple[NDArray[np.bool_], float]:
+def canopy_raster(trees: NDArray[np.float64], size: float) -> tuple[NDArray[np.bool_], float]:
     """Boolean raster, True where a cell centre lies under some crown."""
     res = max(0.5, size / 4096.0)
     nx = max(1, math.ceil(size / res))
@@ -181,7 +182,7 @@ def _canopy_raster(trees: NDArray[np.float64], size: float) -> tuple[NDArray[np.
 # returns of each kind, in the local coordinates of the area
 
 
-def _ground_points(
+def ground_points(
     rng: np.random.Generator,
     terrain: Terrain,
     density: float,
@@ -197,7 +198,7 @@ def _ground_points(
     gx = rng.uniform(x0, x0 + size, n_cand)
     gy = rng.uniform(y0, y0 + size, n_cand)
     thin = rng.random(n_cand) >= _UNDER_CANOPY_KEEP
-    canopy, res = _canopy_raster(trees - np.array([x0, y0, 0.0, 0.0]), size)
+    canopy, res = canopy_raster(trees - np.array([x0, y0, 0.0, 0.0]), size)
     last = canopy.shape[0] - 1
     ix = np.minimum(((gx - x0) / res).astype(np.intp), last)
     iy = np.minimum(((gy - y0) / res).astype(np.intp), last)
@@ -227,7 +228,7 @@ def _ground_points(
     return gx, gy, gz, GROUND
 
 
-def _building_points(
+def building_points(
     rng: np.random.Generator,
     terrain: Terrain,
     buildings: NDArray[np.float64],
@@ -270,7 +271,7 @@ def _building_points(
     return [(rx, ry, rz, BUILDING), (wx, wy, wz, BUILDING)]
 
 
-def _tree_points(
+def tree_points(
     rng: np.random.Generator,
     terrain: Terrain,
     trees: NDArray[np.float64],
@@ -310,7 +311,7 @@ def _tree_points(
     return [(cx, cy, cz, VEGETATION), (ux, uy, uz, VEGETATION)]
 
 
-def _noise_points(
+def noise_points(
     rng: np.random.Generator,
     terrain: Terrain,
     n_signal: int,
@@ -335,7 +336,7 @@ def _noise_points(
     return [(nx_, ny_, terrain_z(terrain, nx_, ny_) + dz, NOISE)]
 
 
-def _assemble(
+def assemble(
     blocks: list[Block], order: NDArray[np.intp]
 ) -> tuple[NDArray[np.float64], NDArray[np.uint8]]:
     """Scatter the blocks straight into the positions `order` (no (N, 3) copy)."""
@@ -352,7 +353,7 @@ def _assemble(
     return points, labels
 
 
-def _object_rows(
+def object_rows(
     buildings: NDArray[np.float64], trees: NDArray[np.float64], origin: NDArray[np.float64]
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Footprints ``[xmin, ymin, xmax, ymax, height]`` and trees ``[x, y, radius,
@@ -368,3 +369,26 @@ def _object_rows(
 
 # --------------------------------------------------------------------------
 # the scene
+
+
+def check_offset(offset: object, name: str = "offset") -> NDArray[np.float64]:
+    """A scene's offset (or origin) as 3 finite float64 values; None gives zeros."""
+    if offset is None:
+        return np.zeros(3)
+    try:
+        arr = np.asarray(offset, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a sequence of 3 finite numbers, got {offset!r}") from None
+    if arr.shape != (3,):
+        raise ValueError(f"{name} must have length 3, got shape {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name} must be finite, got {arr.tolist()}")
+    return arr.copy()
+
+
+def check_noise_fraction(value: object) -> float:
+    """A scene's outlier fraction, a real number in [0, 0.5)."""
+    value = check_number("noise_fraction", value, float)
+    if not 0.0 <= value < 0.5:
+        raise ValueError(f"noise_fraction must be in [0, 0.5), got {value}")
+    return value

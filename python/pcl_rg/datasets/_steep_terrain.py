@@ -9,7 +9,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ._terrain import check_terrain_query
+from ._terrain import check_terrain_query, fill_dataset_docstring
 
 __all__ = ["SteepTerrain", "isprs_like_terrain", "make_steep_terrain", "steep_z"]
 
@@ -138,6 +138,7 @@ def steep_z(t: SteepTerrain, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
     return z
 
 
+@fill_dataset_docstring
 def isprs_like_terrain(
     x: ArrayLike, y: ArrayLike, *, seed: int = 0, size: float = 300.0
 ) -> NDArray[np.float64]:
@@ -145,29 +146,18 @@ def isprs_like_terrain(
 
     Parameters
     ----------
-    x, y : array_like of float
-        Horizontal coordinates in metres, relative to the scene's ``origin``
-        (subtract ``scene.origin[:2]`` first when an offset was used).
-        Broadcast against each other.
-    seed : int, default 0
-        The scene's seed.
+    %(terrain_query)s
     size : float, default 300.0
         The scene's side length in metres.
 
     Returns
     -------
-    ndarray of float64
-        Terrain height in metres (without the roughness of the ground points and
-        without the ``origin`` z offset), of the broadcast shape of x, y. Under
-        the bridge this is the channel and its banks, not the deck.
+    %(terrain_height)s
+        Under the bridge this is the channel and its banks, not the deck.
 
     Raises
     ------
-    ValueError
-        If ``seed`` is negative, ``size`` is not finite and > 0, or x, y
-        contain non-finite values.
-    TypeError
-        If ``seed`` is not an integer or ``size`` not a real number.
+    %(terrain_raises)s
 
     Notes
     -----

@@ -10,23 +10,8 @@ from numpy.typing import NDArray
 
 from .._params import check_number
 from ..io import write_points
-from ._objects import (
-    BUILDING,
-    GROUND,
-    NOISE,
-    VEGETATION,
-    Block,
-    _assemble,
-    _building_points,
-    _crown_semi_axes,
-    _ground_points,
-    _noise_points,
-    _object_rows,
-    _place_buildings,
-    _place_trees,
-    _tree_points,
-)
-from ._synthetic import _check_noise_fraction, _check_offset
+from . import _objects as objects
+from ._objects import BUILDING, GROUND, NOISE, VEGETATION, Block
 from ._terrain import Terrain, make_terrain
 
 __all__ = ["SyntheticSurvey", "synthetic_survey"]
@@ -129,7 +114,7 @@ def _layout(
     rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(_LAYOUT_STREAM,)))
     km2 = area[0] * area[1] / 1e6
     n_buildings = int(round(buildings_per_km2 * km2))
-    buildings = _place_buildings(rng, n_buildings, area, terrain, _survey_sides)
+    buildings = objects.place_buildings(rng, n_buildings, area, terrain, _survey_sides)
     if len(buildings) < n_buildings:
         raise ValueError(
             f"{n_buildings} non-overlapping buildings (buildings_per_km2={buildings_per_km2:g}, "
@@ -137,14 +122,14 @@ def _layout(
             "survey beside its sloped band; use more or larger tiles or fewer buildings_per_km2"
         )
     n_trees = int(round(trees_per_km2 * km2))
-    trees = _place_trees(rng, n_trees, area, buildings)
+    trees = objects.place_trees(rng, n_trees, area, buildings)
     if len(trees) < n_trees:
         raise ValueError(
             f"could not place {n_trees} trees (trees_per_km2={trees_per_km2:g}) clear of the "
             f"buildings in the {area[0]:g} x {area[1]:g} m survey; use more or larger tiles "
             "or fewer trees_per_km2/buildings_per_km2"
         )
-    semi_z = _crown_semi_axes(rng, trees)
+    semi_z = objects.crown_semi_axes(rng, trees)
     edges_x = np.round((origin[0] + tile_size * np.arange(cols + 1)) * _MM)
     edges_y = np.round((origin[1] + tile_size * np.arange(rows + 1)) * _MM)
     return _Layout(
@@ -205,13 +190,13 @@ def _tile(
     roofs[:, [0, 2]] = np.clip(roofs[:, [0, 2]], x0, x1)
     roofs[:, [1, 3]] = np.clip(roofs[:, [1, 3]], y0, y1)
     terrain, density = layout.terrain, layout.density
-    blocks = [_ground_points(rng, terrain, density, (x0, y0), size, buildings, trees)]
-    blocks += _building_points(rng, terrain, buildings, roofs, density)
-    blocks += _tree_points(rng, terrain, trees, semi_z, density)
+    blocks = [objects.ground_points(rng, terrain, density, (x0, y0), size, buildings, trees)]
+    blocks += objects.building_points(rng, terrain, buildings, roofs, density)
+    blocks += objects.tree_points(rng, terrain, trees, semi_z, density)
     for i in range(len(blocks)):  # one block at a time: the ground is most of the tile
         blocks[i] = _in_tile(blocks[i], layout, row, col)
     n_signal = sum(blk[0].size for blk in blocks)
-    noise = _noise_points(rng, terrain, n_signal, layout.noise_fraction, (x0, y0), size)
+    noise = objects.noise_points(rng, terrain, n_signal, layout.noise_fraction, (x0, y0), size)
     blocks += [_in_tile(blk, layout, row, col) for blk in noise]
 
     # Stored strip by strip across the tile, like the lines of a scan (and
@@ -224,7 +209,7 @@ def _tile(
     order = np.empty(strip.size, dtype=np.intp)
     order[np.argsort(strip, kind="stable")] = np.arange(strip.size)
     del strip
-    points, labels = _assemble(blocks, order)
+    points, labels = objects.assemble(blocks, order)
     del blocks, order
     points /= _MM
 
@@ -372,8 +357,8 @@ def synthetic_survey(
         "buildings_per_km2", buildings_per_km2, float, minimum=0.0, maximum=_MAX_BUILDINGS_PER_KM2
     )
     trees_per_km2 = check_number("trees_per_km2", trees_per_km2, float, minimum=0.0)
-    noise_fraction = _check_noise_fraction(noise_fraction)
-    offset = _check_offset(origin, "origin")
+    noise_fraction = objects.check_noise_fraction(noise_fraction)
+    offset = objects.check_offset(origin, "origin")
     if not isinstance(format, str):
         raise TypeError(f"format must be a str, got {type(format).__name__}")
     if format not in _FORMATS:
@@ -410,7 +395,7 @@ def synthetic_survey(
         )
         / _MM
     )
-    buildings, trees = _object_rows(layout.buildings, layout.trees, offset)
+    buildings, trees = objects.object_rows(layout.buildings, layout.trees, offset)
     return SyntheticSurvey(
         paths,
         bounds,

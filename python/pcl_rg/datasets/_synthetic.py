@@ -8,19 +8,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .._params import check_number
-from ._objects import (
-    _LARGE_SIDES,
-    _assemble,
-    _building_points,
-    _crown_semi_axes,
-    _ground_points,
-    _noise_points,
-    _object_rows,
-    _place_buildings,
-    _place_trees,
-    _tree_points,
-)
-from ._terrain import make_terrain
+from . import _objects as objects
+from ._terrain import fill_dataset_docstring, make_terrain
 
 __all__ = ["SyntheticScene", "synthetic_scene"]
 
@@ -58,31 +47,13 @@ class SyntheticScene(NamedTuple):
 # argument checks
 
 
-def _check_offset(offset: object, name: str = "offset") -> NDArray[np.float64]:
-    if offset is None:
-        return np.zeros(3)
-    try:
-        arr = np.asarray(offset, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a sequence of 3 finite numbers, got {offset!r}") from None
-    if arr.shape != (3,):
-        raise ValueError(f"{name} must have length 3, got shape {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name} must be finite, got {arr.tolist()}")
-    return arr.copy()
-
-
-def _check_noise_fraction(value: object) -> float:
-    value = check_number("noise_fraction", value, float)
-    if not 0.0 <= value < 0.5:
-        raise ValueError(f"noise_fraction must be in [0, 0.5), got {value}")
-    return value
 
 
 # --------------------------------------------------------------------------
 # objects
 
 
+@fill_dataset_docstring
 def synthetic_scene(
     *,
     seed: int = 0,
@@ -97,8 +68,7 @@ def synthetic_scene(
 
     Parameters
     ----------
-    seed : int, default 0
-        Seed of every random draw; the same arguments give identical arrays.
+    %(scene_seed)s
     size : float, default 200.0
         Side of the square area in metres; the scene covers
         ``[0, size] x [0, size]`` before ``offset``.
@@ -113,10 +83,7 @@ def synthetic_scene(
     noise_fraction : float, default 0.002
         Fraction of the returned points that are outliers, in [0, 0.5): half
         1-20 m below the terrain (multipath), half 20-100 m above it (birds).
-    offset : tuple of 3 float, optional
-        Added to every point, e.g. ``(500000.0, 5000000.0, 0.0)`` for
-        UTM-sized coordinates. The geometry relative to it does not depend on
-        it.
+    %(scene_offset)s
 
     Returns
     -------
@@ -193,39 +160,39 @@ def synthetic_scene(
     density = check_number("density", density, float, above=0.0)
     n_buildings = check_number("n_buildings", n_buildings, int, minimum=0)
     n_trees = check_number("n_trees", n_trees, int, minimum=0)
-    noise_fraction = _check_noise_fraction(noise_fraction)
-    origin = _check_offset(offset)
+    noise_fraction = objects.check_noise_fraction(noise_fraction)
+    origin = objects.check_offset(offset)
 
     terrain = make_terrain(seed, size)
     # Everything else comes from the scene stream (spawn key 1), drawn in a
     # fixed order; the offset is only added at the end.
     rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(1,)))
-    buildings = _place_buildings(rng, n_buildings, (size, size), terrain)
+    buildings = objects.place_buildings(rng, n_buildings, (size, size), terrain)
     if len(buildings) < n_buildings:
         raise ValueError(
             f"n_buildings={n_buildings} non-overlapping buildings (the first "
-            f"{_LARGE_SIDES[0][0]:g}-{_LARGE_SIDES[0][1]:g} m long) do not fit in a {size:g} m "
-            "square beside its sloped band; use a larger size or fewer n_buildings"
+            f"{objects.LARGE_SIDES[0][0]:g}-{objects.LARGE_SIDES[0][1]:g} m long) do not fit "
+            f"in a {size:g} m square beside its sloped band; use a larger size or fewer n_buildings"
         )
-    trees = _place_trees(rng, n_trees, (size, size), buildings)
+    trees = objects.place_trees(rng, n_trees, (size, size), buildings)
     if len(trees) < n_trees:
         raise ValueError(
             f"could not place n_trees={n_trees} trees clear of the buildings in a {size:g} m "
             "square; use a larger size or fewer n_buildings/n_trees"
         )
 
-    blocks = [_ground_points(rng, terrain, density, (0.0, 0.0), size, buildings, trees)]
-    blocks += _building_points(rng, terrain, buildings, buildings[:, :4], density)
+    blocks = [objects.ground_points(rng, terrain, density, (0.0, 0.0), size, buildings, trees)]
+    blocks += objects.building_points(rng, terrain, buildings, buildings[:, :4], density)
     if n_trees:
-        semi_z = _crown_semi_axes(rng, trees)
-        blocks += _tree_points(rng, terrain, trees, semi_z, density)
+        semi_z = objects.crown_semi_axes(rng, trees)
+        blocks += objects.tree_points(rng, terrain, trees, semi_z, density)
     n_signal = sum(blk[0].size for blk in blocks)
-    blocks += _noise_points(rng, terrain, n_signal, noise_fraction, (0.0, 0.0), size)
+    blocks += objects.noise_points(rng, terrain, n_signal, noise_fraction, (0.0, 0.0), size)
     n_total = sum(blk[0].size for blk in blocks)
-    points, labels = _assemble(blocks, rng.permutation(n_total))
+    points, labels = objects.assemble(blocks, rng.permutation(n_total))
     del blocks
 
     if offset is not None:
         points += origin
-    footprints, tree_rows = _object_rows(buildings, trees, origin)
+    footprints, tree_rows = objects.object_rows(buildings, trees, origin)
     return SyntheticScene(points, labels, origin, footprints, tree_rows)

@@ -8,6 +8,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .._docstrings import Function, fill_docstring
 from .._params import check_number
 
 __all__ = ["Terrain", "make_terrain", "ramp_coordinate", "terrain_height", "terrain_z"]
@@ -98,6 +99,41 @@ def terrain_z(t: Terrain, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
     return z.reshape(shape)
 
 
+DATASET_ENTRIES = {
+    "terrain_query": """\
+x, y : array_like of float
+    Horizontal coordinates in metres, relative to the scene's ``origin``
+    (subtract ``scene.origin[:2]`` first when an offset was used).
+    Broadcast against each other.
+seed : int, default 0
+    The scene's seed.""",
+    "terrain_height": """\
+ndarray of float64
+    Terrain height in metres (without the roughness of the ground points
+    and without the ``origin`` z offset), of the broadcast shape of x, y.""",
+    "scene_seed": """\
+seed : int, default 0
+    Seed of every random draw; the same arguments give identical arrays.""",
+    "scene_offset": """\
+offset : tuple of 3 float, optional
+    Added to every point, e.g. ``(500000.0, 5000000.0, 0.0)`` for
+    UTM-sized coordinates. The geometry relative to it does not depend on
+    it.""",
+    "terrain_raises": """\
+ValueError
+    If ``seed`` is negative, ``size`` is not finite and > 0, or x, y
+    contain non-finite values.
+TypeError
+    If ``seed`` is not an integer or ``size`` not a real number.""",
+}
+"""Docstring entries of the scene and terrain functions (see :mod:`pcl_rg._docstrings`)."""
+
+
+def fill_dataset_docstring(function: Function) -> Function:
+    """:func:`pcl_rg._docstrings.fill_docstring` with :data:`DATASET_ENTRIES`."""
+    return fill_docstring(function, DATASET_ENTRIES)
+
+
 def check_terrain_query(
     x: ArrayLike, y: ArrayLike, seed: object, size: object
 ) -> tuple[int, float, np.ndarray, np.ndarray]:
@@ -115,6 +151,7 @@ def check_terrain_query(
     return seed, size, xa, ya
 
 
+@fill_dataset_docstring
 def terrain_height(
     x: ArrayLike, y: ArrayLike, *, seed: int = 0, size: float = 200.0
 ) -> NDArray[np.float64]:
@@ -122,28 +159,17 @@ def terrain_height(
 
     Parameters
     ----------
-    x, y : array_like of float
-        Horizontal coordinates in metres, relative to the scene's ``origin``
-        (subtract ``scene.origin[:2]`` first when an offset was used).
-        Broadcast against each other.
-    seed : int, default 0
-        The scene's seed.
+    %(terrain_query)s
     size : float, default 200.0
         The scene's side length in metres.
 
     Returns
     -------
-    ndarray of float64
-        Terrain height in metres (without the roughness of the ground points
-        and without the ``origin`` z offset), of the broadcast shape of x, y.
+    %(terrain_height)s
 
     Raises
     ------
-    ValueError
-        If ``seed`` is negative, ``size`` is not finite and > 0, or x, y
-        contain non-finite values.
-    TypeError
-        If ``seed`` is not an integer or ``size`` not a real number.
+    %(terrain_raises)s
 
     Notes
     -----
