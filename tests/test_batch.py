@@ -7,6 +7,7 @@ Most tests share one local Dask cluster (two one-thread worker processes) throug
 
 from __future__ import annotations
 
+import inspect
 import json
 import os
 import signal
@@ -89,6 +90,22 @@ def quadrants(folder, sample, fmt="las"):
 
 
 # ---------------------------------------------------------------- seamless results
+
+
+@pytest.mark.parametrize("operation", [batch.ground, batch.denoise, batch.downsample])
+def test_operations_declare_the_engine_keywords_as_the_engine_does(operation):
+    # The three public operations spell the engine's keywords out for their users;
+    # the engine (_run) is the one declaration they must match.
+    engine = inspect.signature(batch._run).parameters
+    public = inspect.signature(operation).parameters
+    for name in batch._ENGINE_OPTIONS:
+        assert name in public, name
+        assert public[name].kind is inspect.Parameter.KEYWORD_ONLY, name
+        assert public[name].annotation == engine[name].annotation, name
+        assert public[name].default == inspect.signature(batch.ground).parameters[name].default
+    assert [n for n in public if n in engine and n not in ("params", "method")] == [
+        n for n in engine if n in public and n not in ("params", "method")
+    ]
 
 
 @pytest.mark.parametrize(("method", "target"), [("grid", 0.999), ("tin", 0.995)])

@@ -33,11 +33,10 @@ void bind_convex_segmentation(py::module_& m) {
     m.def(
         "convex_segmentation",
         [](const PointsArray& points, const ConvexSegmentationParams& params) {
-            const PointsView view = points_view(points);
-            py::array_t<std::int32_t> labels(static_cast<py::ssize_t>(view.size));
-            std::int32_t* out = labels.mutable_data();
-            ConvexSegmentationTimings timings;
-            without_gil([&] { timings = convex_segmentation(view, params, out); });
+            auto [labels, timings] =
+                per_point<std::int32_t>(points, [&](const PointsView& view, std::int32_t* out) {
+                    return convex_segmentation(view, params, out);
+                });
             return py::make_tuple(labels, timings.normals_seconds, timings.growth_seconds,
                                   timings.merge_seconds, timings.leaf);
         },

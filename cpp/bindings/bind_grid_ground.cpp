@@ -37,12 +37,9 @@ void bind_grid_ground(py::module_& m) {
     m.def(
         "grid_ground",
         [](const PointsArray& points, const GridGroundParams& params) {
-            const PointsView view = points_view(points);
             validate(params);  // before allocating, so bad parameters cost nothing
-            py::array_t<bool> ground(static_cast<py::ssize_t>(view.size));
-            bool* out = ground.mutable_data();
-            without_gil([&] { grid_ground(view, params, out); });
-            return ground;
+            return per_point<bool>(
+                points, [&](const PointsView& view, bool* out) { grid_ground(view, params, out); });
         },
         py::arg("points").noconvert(), py::arg("params"),
         "Core grid region-growing ground filter: bool ground mask. Use pcl_rg.grid_ground.");

@@ -15,11 +15,9 @@ void bind_statistical_outlier_removal(py::module_& m) {
     m.def(
         "statistical_outlier_removal",
         [](const PointsArray& points, const StatisticalOutlierRemovalParams& params) {
-            const PointsView view = points_view(points);
-            py::array_t<bool> inlier(static_cast<py::ssize_t>(view.size));
-            bool* out = inlier.mutable_data();
-            StatisticalOutlierRemovalResult result;
-            without_gil([&] { result = statistical_outlier_removal(view, params, out); });
+            auto [inlier, result] = per_point<bool>(points, [&](const PointsView& view, bool* out) {
+                return statistical_outlier_removal(view, params, out);
+            });
             const auto n = static_cast<py::ssize_t>(result.mean_distance.size());
             return py::make_tuple(inlier, to_numpy(std::move(result.mean_distance), {n}),
                                   result.threshold,

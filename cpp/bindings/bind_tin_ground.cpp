@@ -27,11 +27,9 @@ void bind_tin_ground(py::module_& m) {
     m.def(
         "tin_ground",
         [](const PointsArray& points, const TinGroundParams& params) {
-            const PointsView view = points_view(points);
-            py::array_t<bool> ground(static_cast<py::ssize_t>(view.size));
-            bool* out = ground.mutable_data();
-            TinGroundStats stats;
-            without_gil([&] { stats = tin_ground(view, params, out); });
+            auto [ground, stats] = per_point<bool>(points, [&](const PointsView& view, bool* out) {
+                return tin_ground(view, params, out);
+            });
             py::dict info;
             info["seeds"] = stats.seeds;
             info["iterations"] = stats.iterations;

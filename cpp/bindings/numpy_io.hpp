@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -50,16 +51,31 @@ py::array_t<T> to_numpy(std::vector<T>&& values, std::vector<py::ssize_t> shape)
 
 namespace pcl_rg::bindings {
 
+/// Runs `run(view, out)` without the GIL, `out` being a new NumPy array of one T per point
+/// that `run` fills. Returns that array, or (that array, what `run` returned) when `run`
+/// returns something (statistics, stage times).
+template <class T, class Run>
+auto per_point(const PointsArray& points, Run run) {
+    const PointsView view = points_view(points);
+    py::array_t<T> values(static_cast<py::ssize_t>(view.size));
+    T* out = values.mutable_data();
+    using Result = decltype(run(view, out));
+    if constexpr (std::is_void_v<Result>) {
+        without_gil([&] { run(view, out); });
+        return values;
+    } else {
+        Result result;
+        without_gil([&] { result = run(view, out); });
+        return std::make_pair(values, std::move(result));
+    }
+}
+
 /// Runs a voxel grid (ours or PCL's) without the GIL and returns (centroids, counts,
 /// voxel_of_point). `run(view, voxel_of_point)` returns a struct with `centroids`
 /// (kept * 3 doubles) and `counts` (kept int64).
 template <class Run>
 py::tuple voxel_grid_to_numpy(const PointsArray& points, Run run) {
-    const PointsView view = points_view(points);
-    py::array_t<std::int64_t> voxel_of_point(static_cast<py::ssize_t>(view.size));
-    std::int64_t* out = voxel_of_point.mutable_data();
-    decltype(run(view, out)) result;
-    without_gil([&] { result = run(view, out); });
+    auto [voxel_of_point, result] = per_point<std::int64_t>(points, run);
     const auto kept = static_cast<py::ssize_t>(result.counts.size());
     return py::make_tuple(to_numpy(std::move(result.centroids), {kept, 3}),
                           to_numpy(std::move(result.counts), {kept}), voxel_of_point);

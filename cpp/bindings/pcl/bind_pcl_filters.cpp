@@ -20,11 +20,9 @@ void bind_pcl_filters(py::module_& m) {
     m.def(
         "statistical_outlier_removal",
         [](const PointsArray& points, const StatisticalOutlierRemovalParams& params) {
-            const PointsView view = points_view(points);
-            py::array_t<bool> inlier(static_cast<py::ssize_t>(view.size));
-            bool* out = inlier.mutable_data();
-            without_gil([&] { pcl_statistical_outlier_removal(view, params, out); });
-            return inlier;
+            return per_point<bool>(points, [&](const PointsView& view, bool* out) {
+                pcl_statistical_outlier_removal(view, params, out);
+            });
         },
         py::arg("points").noconvert(), py::arg("params"),
         "pcl::StatisticalOutlierRemoval: inlier mask. Use "

@@ -24,12 +24,11 @@ void bind_pcl_lccp(py::module_& m) {
     m.def(
         "lccp",
         [](const PointsArray& points, const LccpParams& params) {
-            const PointsView view = points_view(points);
             validate(params);  // before allocating, so bad parameters cost nothing
-            py::array_t<std::int32_t> labels(static_cast<py::ssize_t>(view.size));
-            std::int32_t* out = labels.mutable_data();
-            LccpTimings timings;
-            without_gil([&] { timings = pcl_lccp(view, params, out); });
+            auto [labels, timings] =
+                per_point<std::int32_t>(points, [&](const PointsView& view, std::int32_t* out) {
+                    return pcl_lccp(view, params, out);
+                });
             return py::make_tuple(labels, timings.supervoxel_seconds, timings.segmentation_seconds);
         },
         py::arg("points").noconvert(), py::arg("params"),

@@ -22,12 +22,10 @@ void bind_pcl_pmf(py::module_& m) {
     m.def(
         "progressive_morphological_filter",
         [](const PointsArray& points, const Params& params) {
-            const PointsView view = points_view(points);
             validate(params);  // before allocating, so bad parameters cost nothing
-            py::array_t<bool> ground(static_cast<py::ssize_t>(view.size));
-            bool* out = ground.mutable_data();
-            without_gil([&] { pcl_progressive_morphological_filter(view, params, out); });
-            return ground;
+            return per_point<bool>(points, [&](const PointsView& view, bool* out) {
+                pcl_progressive_morphological_filter(view, params, out);
+            });
         },
         py::arg("points").noconvert(), py::arg("params"),
         "pcl::(Approximate)ProgressiveMorphologicalFilter: ground mask. Use "

@@ -36,11 +36,10 @@ void bind_pcl_region_growing(py::module_& m) {
     m.def(
         "region_growing",
         [](const PointsArray& points, const RegionGrowingPclParams& params) {
-            const PointsView view = points_view(points);
-            py::array_t<std::int32_t> labels(static_cast<py::ssize_t>(view.size));
-            std::int32_t* out = labels.mutable_data();
-            RegionGrowingTimings timings;
-            without_gil([&] { timings = pcl_region_growing(view, params, out); });
+            auto [labels, timings] =
+                per_point<std::int32_t>(points, [&](const PointsView& view, std::int32_t* out) {
+                    return pcl_region_growing(view, params, out);
+                });
             return py::make_tuple(labels, timings.normals_seconds, timings.growth_seconds);
         },
         py::arg("points").noconvert(), py::arg("params"),
