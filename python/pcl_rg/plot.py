@@ -12,6 +12,7 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 import numpy.typing as npt
 
+from ._docstrings import Function, fill_docstring
 from ._params import check_number
 from ._validation import as_points
 
@@ -102,6 +103,20 @@ def segment_colours(labels: npt.ArrayLike) -> np.ndarray:
     return colours
 
 
+_PLOT_ENTRIES = {
+    "max_points": """\
+max_points : int
+    At most this many points are drawn (an even, seeded subsample).""",
+    "labels_type_error": """\
+TypeError
+    Non-integer `classes` or `segments`.""",
+}
+
+
+def _fill_plot_docstring(function: Function) -> Function:
+    return fill_docstring(function, _PLOT_ENTRIES)
+
+
 def _labels(name: str, values: npt.ArrayLike | None, n: int) -> np.ndarray | None:
     if values is None:
         return None
@@ -111,6 +126,14 @@ def _labels(name: str, values: npt.ArrayLike | None, n: int) -> np.ndarray | Non
     if len(array) != n:
         raise ValueError(f"{name} must have one entry per point ({n}), got {len(array)}")
     return array
+
+
+def _colouring(
+    n: int, max_points: object, classes: npt.ArrayLike | None, segments: npt.ArrayLike | None
+) -> tuple[int, np.ndarray | None, np.ndarray | None]:
+    """A figure's `max_points`, `classes` and `segments` for n points, checked."""
+    max_points = check_number("max_points", max_points, int, minimum=1)
+    return max_points, _labels("classes", classes, n), _labels("segments", segments, n)
 
 
 def _subsample(n: int, max_points: int) -> np.ndarray | None:
@@ -168,6 +191,7 @@ def _draw(ax, fig, u, v, z, classes, segments, names, size):
         fig.colorbar(sc, ax=ax, label="z (m)", shrink=0.8)
 
 
+@_fill_plot_docstring
 def top_view(
     points: npt.ArrayLike,
     path: str | os.PathLike,
@@ -197,15 +221,13 @@ def top_view(
         Code -> (label, colour) overriding `CLASS_COLOURS`.
     title : str
         Figure title.
-    max_points : int
-        At most this many points are drawn (an even, seeded subsample).
+    %(max_points)s
 
     Raises
     ------
     ValueError
         Wrong shapes, non-finite points or ``max_points < 1``.
-    TypeError
-        Non-integer `classes` or `segments`.
+    %(labels_type_error)s
 
     Examples
     --------
@@ -219,9 +241,7 @@ def top_view(
     True
     """
     xyz = as_points(points)
-    max_points = check_number("max_points", max_points, int, minimum=1)
-    classes = _labels("classes", classes, len(xyz))
-    segments = _labels("segments", segments, len(xyz))
+    max_points, classes, segments = _colouring(len(xyz), max_points, classes, segments)
     plt = _pyplot()
     keep = _subsample(len(xyz), max_points)
     if keep is not None:
@@ -254,6 +274,7 @@ def top_view(
         plt.close(fig)
 
 
+@_fill_plot_docstring
 def profile(
     points: npt.ArrayLike,
     path: str | os.PathLike,
@@ -291,8 +312,7 @@ def profile(
         Ratio of the vertical to the horizontal scale (> 0).
     title : str
         Figure title; the default names A, B and the width.
-    max_points : int
-        At most this many points are drawn (an even, seeded subsample).
+    %(max_points)s
 
     Returns
     -------
@@ -303,8 +323,7 @@ def profile(
     ------
     ValueError
         Wrong shapes, non-finite values, ``start == end``, ``width <= 0``.
-    TypeError
-        Non-integer `classes` or `segments`.
+    %(labels_type_error)s
 
     Examples
     --------
@@ -331,9 +350,7 @@ def profile(
     vertical_exaggeration = check_number(
         "vertical_exaggeration", vertical_exaggeration, float, above=0.0
     )
-    max_points = check_number("max_points", max_points, int, minimum=1)
-    classes = _labels("classes", classes, len(xyz))
-    segments = _labels("segments", segments, len(xyz))
+    max_points, classes, segments = _colouring(len(xyz), max_points, classes, segments)
     direction = (b - a) / length
     rel = xyz[:, :2] - a
     along = rel @ direction
