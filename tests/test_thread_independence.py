@@ -30,7 +30,7 @@ CONDITIONS = {
     "OMP_THREAD_LIMIT=1": ({"OMP_THREAD_LIMIT": "1"}, "plain"),
     "OMP_DYNAMIC=true": ({"OMP_DYNAMIC": "true", "OMP_NUM_THREADS": "8"}, "plain"),
     "inside an OpenMP parallel region": ({}, "parallel-region"),
-    "8 Python threads at once": ({}, "python-threads"),
+    "4 Python threads at once": ({}, "python-threads"),
 }
 
 

@@ -7,7 +7,7 @@ OpenMP settings and compares the digests with the plain run's. Modes:
 - ``parallel-region``: each call made from inside an OpenMP parallel region of two
   threads (libgomp's ``GOMP_parallel`` through ctypes), where nested regions get one
   thread although ``omp_get_max_threads()`` still says more;
-- ``python-threads``: 8 Python threads call every algorithm at once; every thread's
+- ``python-threads``: 4 Python threads (twice the cores CI has) call every algorithm at once; every thread's
   digest must agree, or the digest printed is ``"threads disagree"``.
 
 The clouds are sized to reach every parallel path: more than 64 Ki points for the
@@ -117,7 +117,7 @@ def _in_parallel_region(job: Callable[[], str]) -> str:
     return str(outcome["digest"])
 
 
-def _from_python_threads(job: Callable[[], str], count: int = 8) -> str:
+def _from_python_threads(job: Callable[[], str], count: int = 4) -> str:
     results = run_in_threads(job, count)
     return results[0] if len(set(results)) == 1 and results[0] else "threads disagree"
 
