@@ -3,9 +3,12 @@ is its own; timings are medians of repeats, compared side by side in one run."""
 
 from __future__ import annotations
 
+import argparse
 import dataclasses
 import json
+import math
 import multiprocessing as mp
+import os
 import platform
 import re
 import resource
@@ -64,11 +67,55 @@ def measure(setup: Callable[[], Any], run: Callable[[Any], Any], repeats: int) -
 
 
 def machine() -> str:
-    import os
-
     return (
         f"{platform.machine()}, {os.cpu_count()} cores, Python {sys.version.split()[0]}, "
         f"{platform.platform(terse=True)}"
+    )
+
+
+def speed_arguments(doc: str, points: int) -> argparse.ArgumentParser:
+    """The options every speed run takes: --points, --repeats and --write."""
+    parser = argparse.ArgumentParser(description=doc.splitlines()[0])
+    parser.add_argument("--points", type=int, default=points)
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--write", action="store_true", help="update benchmarks/RESULTS.md")
+    return parser
+
+
+def command_of(script: str, parser: argparse.ArgumentParser, args: argparse.Namespace) -> str:
+    """The command that repeats this run: `script` and each option not at its default
+    (--write is left to publish_report)."""
+    words = [f"python {script}"]
+    for action in parser._actions:
+        value = getattr(args, action.dest, None)
+        if not action.option_strings or action.dest in ("help", "write"):
+            continue
+        if value == action.default:
+            continue
+        flag = action.option_strings[0]
+        words.append(flag if value is True else f"{flag} {value}")
+    return " ".join(words)
+
+
+def run_conditions(load_before: float) -> str:
+    """OpenMP threads and the 1-minute load average before and now, for a report."""
+    threads = os.environ.get("OMP_NUM_THREADS", "all cores")
+    return (
+        f"OpenMP threads: {threads}; 1-minute load average {load_before:.1f} before, "
+        f"{os.getloadavg()[0]:.1f} after"
+    )
+
+
+def airborne_scene(points: int, density: float = 4.0) -> tuple[Any, str]:
+    """The speed runs' synthetic_scene(seed=0) of about `points` points at `density`
+    per m^2, and its description."""
+    from pcl_rg.datasets import synthetic_scene
+
+    size = math.sqrt(points / density)
+    scene = synthetic_scene(seed=0, size=size, density=density)
+    return scene, (
+        f"synthetic_scene(seed=0, size={size:.1f}, density={density:g}): "
+        f"{len(scene.points):,} points"
     )
 
 

@@ -15,7 +15,6 @@ of the repeats and include the input gate. Targets (issue 3): >= 2M points/s on
 
 from __future__ import annotations
 
-import argparse
 import math
 import os
 import sys
@@ -24,7 +23,13 @@ from functools import partial
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/_common.py
-from _common import measure, publish_report  # noqa: E402
+from _common import (  # noqa: E402
+    command_of,
+    measure,
+    publish_report,
+    run_conditions,
+    speed_arguments,
+)
 
 import pcl_rg
 from pcl_rg import reference
@@ -52,11 +57,8 @@ def scene(n: int):
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--points", type=int, default=10_000_000)
+    parser = speed_arguments(__doc__, points=10_000_000)
     parser.add_argument("--reference-points", type=int, default=200_000)
-    parser.add_argument("--repeats", type=int, default=3)
-    parser.add_argument("--write", action="store_true", help="update benchmarks/RESULTS.md")
     args = parser.parse_args(argv)
     repeats = max(args.repeats, 3)
 
@@ -106,16 +108,15 @@ def main(argv: list[str] | None = None) -> int:
         / medians[args.reference_points, "grid_ground (defaults, cell 1 m)"]
     )
     about = (
-        f"Shared with other jobs (1-minute load average "
-        f"{load_before:.1f} before, {os.getloadavg()[0]:.1f} after: on 2 cores, wall times "
-        "include waiting for a core). "
+        f"{run_conditions(load_before)} (on 2 cores, wall times include waiting for a "
+        "core). "
         f"Synthetic scenes at {DENSITY:g} points/m^2, UTM offset; median of {repeats} runs, "
         "each case in its own process; times include the input gate."
     )
     header = ["points", "method", "times s", "median s", "M points/s", "peak MiB"]
     speedup_note = f"Core vs reference on {args.reference_points:,} points: {speedup:.0f}x faster."
     notes.insert(0, speedup_note + "\n")
-    command = "python benchmarks/speed/grid_ground.py"
+    command = command_of("benchmarks/speed/grid_ground.py", parser, args)
     publish_report(SECTION, command, about, header, rows, notes, write=args.write)
     return 0
 

@@ -16,8 +16,6 @@ and grid_ground >= 4x faster than APMF. --write puts the table in RESULTS.md.
 
 from __future__ import annotations
 
-import argparse
-import math
 import os
 import statistics
 import sys
@@ -27,11 +25,17 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/_common.py
-from _common import machine, markdown_table, publish  # noqa: E402
+from _common import (  # noqa: E402
+    airborne_scene,
+    command_of,
+    publish_report,
+    run_conditions,
+    speed_arguments,
+)
 
 import pcl_rg
 import pcl_rg.pcl
-from pcl_rg.datasets import GROUND, synthetic_scene
+from pcl_rg.datasets import GROUND
 from pcl_rg.evaluation import ground_errors
 
 SECTION = "## tin_ground and grid_ground vs PCL's APMF (synthetic scene)"
@@ -55,14 +59,10 @@ def run_once(run, points: np.ndarray) -> tuple[float, np.ndarray, dict | None, f
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--points", type=int, default=10_000_000)
-    parser.add_argument("--repeats", type=int, default=3)
-    parser.add_argument("--write", action="store_true", help="update RESULTS.md")
+    parser = speed_arguments(__doc__, points=10_000_000)
     args = parser.parse_args(argv)
 
-    size = math.sqrt(args.points / DENSITY)
-    scene = synthetic_scene(seed=0, size=size, density=DENSITY)
+    scene, scene_text = airborne_scene(args.points, DENSITY)
     points = scene.points
     truth = scene.labels == GROUND
     load_before = os.getloadavg()[0]
@@ -71,7 +71,7 @@ def main(argv: list[str] | None = None) -> int:
         for name, run in METHODS.items():
             runs[name].append(run_once(run, points))
             print(f"round {round_ + 1} {name}: {runs[name][-1][0]:.2f} s", file=sys.stderr)
-    load_after = os.getloadavg()[0]
+    conditions = run_conditions(load_before)
 
     apmf = statistics.median(r[0] for r in runs[APMF])
     apmf_cpu = statistics.median(r[3] for r in runs[APMF])
@@ -102,39 +102,17 @@ def main(argv: list[str] | None = None) -> int:
                 f"vertices, {stats['iterations']} iterations, "
                 f"{stats['tests'] / len(points):.1f} tests per point."
             )
-    command = (
-        "python benchmarks/speed/ground_vs_apmf.py"
-        + (f" --points {args.points}" if args.points != 10_000_000 else "")
-        + (f" --repeats {args.repeats}" if args.repeats != 3 else "")
-        + (" --write" if args.write else "")
-    )
-    threads = os.environ.get("OMP_NUM_THREADS", "all cores")
-    text = (
-        f"{SECTION}\n\n"
-        f"`{command}` on {machine()} (OpenMP threads: {threads}; 1-minute load average "
-        f"{load_before:.1f} before, {load_after:.1f} after). "
-        f"synthetic_scene(seed=0, size={size:.1f}, density={DENSITY:g}): "
-        f"{len(points):,} points. The three run interleaved in one process, "
+    about = (
+        f"{conditions}. {scene_text}. The three run interleaved in one process, "
         f"{args.repeats} rounds; time is the median wall time of the whole call, "
         "x APMF its ratio to APMF's median (> 1: faster); CPU s: median CPU time of all "
         "threads (less sensitive to the other jobs on the machine than wall time). "
-        "Targets (issue 14): tin_ground >= 1.5x, grid_ground >= 4x (wall time).\n\n"
-        + markdown_table(
-            [
-                "method",
-                "times s",
-                "median s",
-                "x APMF",
-                "CPU s",
-                "x APMF (CPU)",
-                "Type I %",
-                "Type II %",
-            ],
-            rows,
-        )
-        + f"\n\n{split}\n"
+        "Targets (issue 14): tin_ground >= 1.5x, grid_ground >= 4x (wall time)."
     )
-    publish(text, SECTION, args.write)
+    header = ["method", "times s", "median s", "x APMF", "CPU s", "x APMF (CPU)"]
+    header += ["Type I %", "Type II %"]
+    command = command_of("benchmarks/speed/ground_vs_apmf.py", parser, args)
+    publish_report(SECTION, command, about, header, rows, [split], write=args.write)
     return 0
 
 

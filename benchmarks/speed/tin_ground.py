@@ -15,8 +15,6 @@ labels. --write puts the table in benchmarks/RESULTS.md.
 
 from __future__ import annotations
 
-import argparse
-import math
 import os
 import resource
 import statistics
@@ -27,10 +25,16 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/_common.py
-from _common import machine, markdown_table, publish  # noqa: E402
+from _common import (  # noqa: E402
+    airborne_scene,
+    command_of,
+    publish_report,
+    run_conditions,
+    speed_arguments,
+)
 
 import pcl_rg
-from pcl_rg.datasets import GROUND, synthetic_scene
+from pcl_rg.datasets import GROUND
 from pcl_rg.evaluation import ground_errors
 
 SECTION = "## tin_ground speed (synthetic scene)"
@@ -46,23 +50,20 @@ def run_once(points: np.ndarray, params: pcl_rg.TinGroundParams) -> tuple[float,
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--points", type=int, default=10_000_000)
-    parser.add_argument("--repeats", type=int, default=3)
-    parser.add_argument("--write", action="store_true", help="update RESULTS.md")
+    parser = speed_arguments(__doc__, points=10_000_000)
     args = parser.parse_args(argv)
 
-    size = math.sqrt(args.points / DENSITY)
     start = time.perf_counter()
-    scene = synthetic_scene(seed=0, size=size, density=DENSITY)
+    scene, scene_text = airborne_scene(args.points, DENSITY)
     print(f"scene: {len(scene.points):,} points in {time.perf_counter() - start:.1f} s")
+    load_before = os.getloadavg()[0]
     truth = scene.labels == GROUND
     base_rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
 
     rows = []
     for label, params in [
         ("LiDAR360 defaults", pcl_rg.TinGroundParams.lidar360()),
-        ("tuned_isprs()", pcl_rg.TinGroundParams.isprs()),
+        ("isprs() (the defaults)", pcl_rg.TinGroundParams.isprs()),
     ]:
         runs = [run_once(scene.points, params) for _ in range(args.repeats)]
         seconds = statistics.median(r[0] for r in runs)
@@ -101,24 +102,16 @@ def main(argv: list[str] | None = None) -> int:
         "Type I %",
         "Type II %",
     ]
-    command = (
-        "python benchmarks/speed/tin_ground.py"
-        + (f" --points {args.points}" if args.points != 10_000_000 else "")
-        + (" --write" if args.write else "")
+    about = (
+        f"{run_conditions(load_before)}. {scene_text}. Median of {args.repeats} runs of the "
+        "whole call; the split comes from the core's clocks (prepare: local frame, snapping, "
+        "Morton sort, seeds; triangulation: Delaunay insertions, serial; classification: "
+        "point location and acceptance tests, in parallel). Tests per point: acceptance "
+        "tests evaluated, after skipping points whose triangle did not change. Peak memory "
+        f"added by the runs: {peak:.0f} MiB."
     )
-    threads = os.environ.get("OMP_NUM_THREADS", "all cores")
-    text = (
-        f"{SECTION}\n\n"
-        f"`{command}` on {machine()} (OpenMP threads: {threads}). "
-        f"synthetic_scene(seed=0, size={size:.1f}, density={DENSITY:g}): "
-        f"{len(scene.points):,} points. Median of {args.repeats} runs of the whole call; "
-        "the split comes from the core's clocks (prepare: local frame, snapping, Morton "
-        "sort, seeds; triangulation: Delaunay insertions, serial; classification: point "
-        "location and acceptance tests, in parallel). Tests per point: acceptance tests "
-        "evaluated, after skipping points whose triangle did not change. Peak memory "
-        f"added by the runs: {peak:.0f} MiB.\n\n" + markdown_table(header, rows) + "\n\n"
-    )
-    publish(text, SECTION, args.write)
+    command = command_of("benchmarks/speed/tin_ground.py", parser, args)
+    publish_report(SECTION, command, about, header, rows, write=args.write)
     return 0
 
 
