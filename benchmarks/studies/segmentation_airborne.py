@@ -335,7 +335,8 @@ def report(scenes, settings, scores, seconds, grids, quick: bool, write: bool) -
         "Mean IoU: best-match IoU per building (roof and walls), pooled over the scenes; "
         "`over`: buildings split over two or more clusters each holding 10 % of it; `under`: "
         "clusters holding 10 % of two buildings (both summed over the scenes); time: the "
-        "calls, summed over the scenes; grid leaf: the voxel grid convex_segmentation chose "
+        "calls, one run each, summed over the scenes (the machine was shared); grid leaf: "
+        "the voxel grid convex_segmentation chose "
         "(noise_leaves x the measured noise), range over the scenes. The sensor (viewpoint "
         f"of convex_segmentation and LCCP) is {ABOVE:g} m above the scene's centre."
     )

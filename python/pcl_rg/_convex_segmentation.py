@@ -118,8 +118,8 @@ def convex_segmentation(
         A raw Kinect frame (1.5 mm spacing, 0.5 mm noise) is segmented on a
         5 mm grid; data already that coarse is segmented as it is. Airborne
         points with the ground removed are mostly vegetation, whose roughness
-        counts as noise here: the grid comes out 1-4 m and merges buildings,
-        so pass 0 there (benchmarks/studies/segmentation_airborne.py).
+        counts as noise here: the grid comes out up to 4.5 m and merges
+        buildings, so pass 0 there (benchmarks/studies/segmentation_airborne.py).
     viewpoint : sequence of 3 float, optional
         Sensor position, caller's coordinates (default the origin: a Kinect or
         terrestrial frame; for airborne data give a point high above the area).
