@@ -116,7 +116,10 @@ def convex_segmentation(
         exceeds the point spacing, the steps below run on a voxel grid of that
         leaf and every point takes its voxel's label (default 10; 0: never).
         A raw Kinect frame (1.5 mm spacing, 0.5 mm noise) is segmented on a
-        5 mm grid; data already that coarse is segmented as it is.
+        5 mm grid; data already that coarse is segmented as it is. Airborne
+        points with the ground removed are mostly vegetation, whose roughness
+        counts as noise here: the grid comes out up to 4.5 m and merges
+        buildings, so pass 0 there (benchmarks/studies/segmentation_airborne.py).
     viewpoint : sequence of 3 float, optional
         Sensor position, caller's coordinates (default the origin: a Kinect or
         terrestrial frame; for airborne data give a point high above the area).
@@ -168,7 +171,11 @@ def convex_segmentation(
 
     The defaults were chosen on the seven mOSD learn scenes (Kinect, raw frames
     and 3 to 8 mm voxel grids) by leave-one-scene-out cross-validation
-    (``benchmarks/studies/segmentation_mosd.py``, RESULTS.md).
+    (``benchmarks/studies/segmentation_mosd.py``, RESULTS.md). On synthetic
+    airborne scenes (``benchmarks/studies/segmentation_airborne.py``) they
+    need the viewpoint given; with the ground removed the grid fails (see
+    `noise_leaves`), and on whole tiles at 2 points per m^2 the sparse walls
+    of most buildings join the ground's segment.
 
     References
     ----------

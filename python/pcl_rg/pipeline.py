@@ -131,7 +131,10 @@ def auto_leaf_size(points: npt.ArrayLike) -> float | None:
     resolve in dense scans: a raw Kinect frame 1 m away has about 1.5 mm
     spacing and 0.5 mm noise, and segments best on a grid of about 5 mm
     (benchmarks/RESULTS.md). Sparser data, whose noise is small against its
-    spacing (3 to 8 mm grids of the same frames, airborne tiles), gets no grid.
+    spacing (3 to 8 mm grids of the same frames, sparse airborne tiles), gets
+    no grid. Airborne points without their ground are mostly vegetation, whose
+    roughness counts as noise: their grid comes out metres wide (RESULTS.md,
+    segmentation of airborne scenes).
 
     Examples
     --------

@@ -20,8 +20,12 @@ at any point density.
 The real benchmark data sets load from here too: :func:`load_isprs` (an ISPRS
 filter-test sample and its ground truth) and :func:`load_mosd` (an mOSD scene
 with its segment labels and pixel indices).
+
+:func:`building_ids` gives the truth instance (building) of every building point of
+both synthetic scenes, for scoring segmentations.
 """
 
+from ._instances import building_ids
 from ._isprs import IsprsSample, load_isprs
 from ._isprs_like import BRIDGE_DECK, LOW_VEGETATION, IsprsLikeScene, isprs_like_scene
 from ._mosd import MosdScene, load_mosd
@@ -43,6 +47,7 @@ __all__ = [
     "MosdScene",
     "SyntheticScene",
     "SyntheticSurvey",
+    "building_ids",
     "isprs_like_scene",
     "isprs_like_terrain",
     "load_isprs",
