@@ -7,8 +7,9 @@ OpenMP settings and compares the digests with the plain run's. Modes:
 - ``parallel-region``: each call made from inside an OpenMP parallel region of two
   threads (libgomp's ``GOMP_parallel`` through ctypes), where nested regions get one
   thread although ``omp_get_max_threads()`` still says more;
-- ``python-threads``: 4 Python threads (twice the cores CI has) call every algorithm at once; every thread's
-  digest must agree, or the digest printed is ``"threads disagree"``.
+- ``python-threads``: 4 Python threads (twice the cores CI has) call every algorithm
+  at once; every thread's digest must agree, or the digest printed is
+  ``"threads disagree"``.
 
 The clouds are sized to reach every parallel path: more than 64 Ki points for the
 radix sort's chunks, and more than 500 000 for grid_ground's parallel loops.
