@@ -12,27 +12,39 @@ LAS/LAZ (or PLY, PCD) tiles with the class in each file, its buildings and
 trees straddling the tile borders: test data for processing a survey tile by
 tile, one tile in memory at a time.
 
+:func:`isprs_like_scene` is a harder scene for the ground filters, with the class
+ratios of the ISPRS filter-test samples (30-60 % object points), steep terrain
+with break lines, a bridge, dense low vegetation and buildings up to 100 m long,
+at any point density.
+
 The real benchmark data sets load from here too: :func:`load_isprs` (an ISPRS
 filter-test sample and its ground truth) and :func:`load_mosd` (an mOSD scene
 with its segment labels and pixel indices).
 """
 
 from ._isprs import IsprsSample, load_isprs
+from ._isprs_like import BRIDGE_DECK, LOW_VEGETATION, IsprsLikeScene, isprs_like_scene
 from ._mosd import MosdScene, load_mosd
 from ._objects import BUILDING, GROUND, NOISE, VEGETATION
+from ._steep_terrain import isprs_like_terrain
 from ._survey import SyntheticSurvey, synthetic_survey
 from ._synthetic import SyntheticScene, synthetic_scene
 from ._terrain import terrain_height
 
 __all__ = [
+    "BRIDGE_DECK",
     "BUILDING",
     "GROUND",
+    "LOW_VEGETATION",
     "NOISE",
     "VEGETATION",
+    "IsprsLikeScene",
     "IsprsSample",
     "MosdScene",
     "SyntheticScene",
     "SyntheticSurvey",
+    "isprs_like_scene",
+    "isprs_like_terrain",
     "load_isprs",
     "load_mosd",
     "synthetic_scene",
