@@ -114,21 +114,26 @@ def score(samples, methods) -> list[list[str]]:
 
 
 
-def mean_total(samples, params: pcl_rg.GridGroundParams) -> float:
-    return float(
-        np.mean(
-            [
-                ground_errors(t, pcl_rg.grid_ground(p, params=params)).total
-                for p, t in samples.values()
-            ]
-        )
-    )
+def predict(points, setting) -> np.ndarray:
+    """grid_ground with a (params, multiples) setting: cell_size, when unset, from the
+    setting's multiple of the spacing of `points` (GridGroundParams.at_spacing)."""
+    if isinstance(setting, pcl_rg.GridGroundParams):
+        return pcl_rg.grid_ground(points, params=setting)
+    params, multiples = setting
+    spacing = pcl_rg.point_spacing(points)
+    return pcl_rg.grid_ground(points, params=params.at_spacing(spacing, multiples))
 
 
-# Values tried by --search, per field.
+def mean_total(samples, setting) -> float:
+    totals = [ground_errors(t, predict(p, setting)).total for p, t in samples.values()]
+    return float(np.mean(totals))
+
+
+# Values tried by --search, per field; cell_size in multiples of each sample's point
+# spacing (the defaults leave it unset: GridGroundParams.SPACING_MULTIPLES).
+SPACING_GRID = {"cell_size": [1.0, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0]}
 SEARCH_GRID = {
     "block_size": [15.0, 20.0, 30.0, 40.0, 60.0, 80.0],
-    "cell_size": [1.0, 1.5, 2.0, 3.0, 4.0, 5.0],
     "slope": [0.2, 0.3, 0.5, 0.8, 1.2, 2.0],
     "height_tolerance": [0.0, 0.1, 0.3, 0.5],
     "min_seed_component": [1, 3, 10, 30, 100],
@@ -139,34 +144,35 @@ SEARCH_GRID = {
 }
 
 
-def descend(samples, start: pcl_rg.GridGroundParams, lines: list[str]):
-    """Coordinate descent over SEARCH_GRID from `start`: (best params, its error)."""
+def descend(samples, start, lines: list[str]):
+    """Coordinate descent over SEARCH_GRID and SPACING_GRID from the (params, multiples)
+    `start`: (best setting, its error)."""
     best, best_error = start, mean_total(samples, start)
     lines.append(f"start {start}: mean total {100 * best_error:.2f} %")
     for sweep in range(1, 5):
         changed = False
-        for name, values in SEARCH_GRID.items():
-            for value in values:
-                try:
-                    trial = dataclasses.replace(best, **{name: value})
-                except ValueError:  # e.g. a cell larger than the block
-                    continue
-                error = mean_total(samples, trial)
-                if error < best_error - 1e-12:
-                    best, best_error, changed = trial, error, True
-                    lines.append(f"  sweep {sweep}: {name} = {value}: {100 * error:.2f} %")
+        trials = [(name, value, False) for name, values in SEARCH_GRID.items() for value in values]
+        trials += [(name, value, True) for name, values in SPACING_GRID.items() for value in values]
+        for name, value, relative in trials:
+            if relative:
+                trial = (best[0], {**best[1], name: value})
+            else:
+                trial = (dataclasses.replace(best[0], **{name: value}), best[1])
+            error = mean_total(samples, trial)
+            if error < best_error - 1e-12:
+                best, best_error, changed = trial, error, True
+                unit = " spacings" if relative else ""
+                lines.append(f"  sweep {sweep}: {name} = {value}{unit}: {100 * error:.2f} %")
         if not changed:
             break
     return best, best_error
 
 
-def choose(samples, lines: list[str]) -> tuple[pcl_rg.GridGroundParams, float]:
-    """The search's pick on `samples`: (params, mean total error)."""
+def choose(samples, lines: list[str]) -> tuple[tuple, float]:
+    """The search's pick on `samples`: ((params, multiples), mean total error)."""
     # Two starts: the plain definition, and the definition with every option on at a
     # middle value; the descent is local, so the better end point wins.
-    plain = pcl_rg.GridGroundParams.definition(
-        block_size=30.0, cell_size=3.0, slope=0.8, height_tolerance=0.0
-    )
+    plain = pcl_rg.GridGroundParams.definition(block_size=30.0, slope=0.8, height_tolerance=0.0)
     options_on = dataclasses.replace(
         plain,
         min_seed_component=10,
@@ -175,9 +181,8 @@ def choose(samples, lines: list[str]) -> tuple[pcl_rg.GridGroundParams, float]:
         filter_slope=0.7,
         filter_tolerance=0.5,
     )
-    return min(
-        (descend(samples, start, lines) for start in (plain, options_on)), key=lambda r: r[1]
-    )
+    starts = [(start, {"cell_size": 3.0}) for start in (plain, options_on)]
+    return min((descend(samples, start, lines) for start in starts), key=lambda r: r[1])
 
 
 def search(samples) -> str:
@@ -191,10 +196,13 @@ def search(samples) -> str:
         ("grow_across_blocks", False),
         ("filter_passes", 0),
     ]:
-        error = mean_total(samples, dataclasses.replace(best, **{name: plain}))
+        error = mean_total(samples, (dataclasses.replace(best[0], **{name: plain}), best[1]))
         lines.append(f"  {name} = {plain}: {100 * error:.2f} %")
-    everything_off = dataclasses.replace(
-        best, min_seed_component=1, grow_across_blocks=False, filter_passes=0
+    everything_off = (
+        dataclasses.replace(
+            best[0], min_seed_component=1, grow_across_blocks=False, filter_passes=0
+        ),
+        best[1],
     )
     lines.append(f"  all three: {100 * mean_total(samples, everything_off):.2f} %")
     defaults = pcl_rg.GridGroundParams()

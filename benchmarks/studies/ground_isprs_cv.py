@@ -8,7 +8,9 @@ fitted figure. This study repeats each filter's own search (the coordinate desce
 of tin_isprs_params.py and ground_isprs.py --search, unchanged) seven times, each
 time on six samples, and scores the set it picks on the seventh, the one it never
 saw. The mean of those seven held-out errors is the figure that predicts unseen
-data; the table puts it beside the fitted one, per sample.
+data; the table puts it beside the fitted one, per sample. The lengths that scale
+with the point spacing are searched, and picked, as multiples of each sample's
+spacing (the presets leave them unset: SPACING_MULTIPLES).
 """
 
 from __future__ import annotations
@@ -32,37 +34,56 @@ from pcl_rg.evaluation import ground_errors  # noqa: E402
 SECTION = "## Ground filters on ISPRS: cross-validated presets"
 
 
-def tin_search(samples) -> pcl_rg.TinGroundParams:
+def tin_search(samples):
     best, _ = tin_isprs_params.search(samples)
     return best
 
 
-def grid_search(samples) -> pcl_rg.GridGroundParams:
+def grid_search(samples):
     best, _ = ground_isprs.choose(samples, [])
     return best
 
 
+# Each filter: the function, its preset, the search (a (params, spacing multiples)
+# setting from the training samples) and how a setting runs on points.
 FILTERS = {
-    "tin": (pcl_rg.tin_ground, pcl_rg.TinGroundParams.isprs(), tin_search),
-    "grid": (pcl_rg.grid_ground, pcl_rg.GridGroundParams.isprs(), grid_search),
+    "tin": (
+        pcl_rg.tin_ground,
+        pcl_rg.TinGroundParams.isprs(),
+        tin_search,
+        tin_isprs_params.predict,
+    ),
+    "grid": (
+        pcl_rg.grid_ground,
+        pcl_rg.GridGroundParams.isprs(),
+        grid_search,
+        ground_isprs.predict,
+    ),
 }
 
 
-def changed_fields(params, preset) -> str:
-    """The fields where a fold's pick differs from the preset, as name=value."""
+def changed_fields(setting, preset) -> str:
+    """Where a fold's pick differs from the preset: name=value, multiples as "x spacing"."""
+    params, multiples = setting
     names = [f for f in params.__dataclass_fields__ if getattr(params, f) != getattr(preset, f)]
-    return ", ".join(f"{n}={getattr(params, n)}" for n in names) or "= preset"
+    changed = [f"{n}={getattr(params, n)}" for n in names]
+    changed += [
+        f"{n}={m:g} x spacing"
+        for n, m in multiples.items()
+        if getattr(params, n) is None and m != preset.SPACING_MULTIPLES[n]
+    ]
+    return ", ".join(changed) or "= preset"
 
 
 def cross_validate(name: str, samples) -> tuple[list[list[str]], list[float], list[float]]:
-    function, preset, search = FILTERS[name]
+    function, preset, search, predict = FILTERS[name]
     rows, fitted_totals, held_out_totals = [], [], []
     for held_out, (points, truth) in samples.items():
         start = time.perf_counter()
         training = {s: v for s, v in samples.items() if s != held_out}
         chosen = search(training)
         fitted = ground_errors(truth, function(points, params=preset))
-        unseen = ground_errors(truth, function(points, params=chosen))
+        unseen = ground_errors(truth, predict(points, chosen))
         fitted_totals.append(fitted.total)
         held_out_totals.append(unseen.total)
         rows.append(

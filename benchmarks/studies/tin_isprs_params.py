@@ -9,10 +9,13 @@ Usage:
 The search is a cheap coordinate descent over a fixed grid of values (SEARCH_GRID),
 from LiDAR360's defaults with the improvements switched on at middle values, judged
 by the mean total error over the seven samples: one set for all samples, never per
-sample. It takes a few minutes on two cores. The set it found is
-pcl_rg.TinGroundParams.isprs(); the report scores it beside LiDAR360's
-defaults (per sample and mean Type I / II / total error, kappa, time) and an
-ablation that switches each improvement off again.
+sample. The three lengths that scale with the point spacing (stop_edge,
+near_vertex_distance, seed_cell) are searched as multiples of each sample's spacing
+(SPACING_GRID, pcl_rg.point_spacing); the defaults leave them unset and take the
+chosen multiples, TinGroundParams.SPACING_MULTIPLES. It takes a few minutes on two
+cores. The set it found is pcl_rg.TinGroundParams.isprs(); the report scores it
+beside LiDAR360's defaults (per sample and mean Type I / II / total error, kappa,
+time) and an ablation that switches each improvement off again.
 
 No evaluation code lives here: ground truth comes from pcl_rg.datasets.load_isprs and
 the scores from pcl_rg.evaluation.ground_errors.
@@ -37,56 +40,79 @@ from pcl_rg.evaluation import ground_errors
 
 SECTION = "## Ground filters on ISPRS (tin_ground)"
 
-# Values tried per field. reduce_angle_edge / stop_edge of 0.01 m switch those two
-# LiDAR360 options off in practice (no ISPRS triangle is that small).
+# Values tried per field. reduce_angle_edge of 0.01 m (and a stop_edge of 0.01 spacings)
+# switch those two LiDAR360 options off in practice (no ISPRS triangle is that small).
 SEARCH_GRID: dict[str, list] = {
     "max_building_size": [20.0, 30.0, 40.0, 50.0, 60.0],
     "iteration_angle": [15.0, 20.0, 25.0, 30.0, 35.0, 40.0],
     "iteration_distance": [0.6, 0.8, 1.0, 1.2, 1.4, 1.7, 2.0],
     "reduce_angle_edge": [0.01, 1.0, 2.0, 5.0],
-    "stop_edge": [0.01, 0.5, 1.0, 2.0],
     "max_terrain_angle": [70.0, 80.0, 85.0, 88.0],
-    "near_vertex_distance": [0.0, 0.5, 1.0, 1.5, 2.0],
-    "seed_cell": [0.0, 1.0, 1.5, 2.0, 3.0, 4.0],
     "seed_tolerance": [0.3, 0.5, 1.0, 1.5, 2.0],
     "outlier_depth": [0.0, 2.0, 3.0, 4.0, 5.0, 6.0],
+}
+# Multiples of each sample's point spacing tried for the lengths the defaults leave
+# unset (0 switches near_vertex_distance and seed_cell off).
+SPACING_GRID: dict[str, list] = {
+    "stop_edge": [0.01, 0.25, 0.5, 0.75, 1.0, 1.5, 2.0],
+    "near_vertex_distance": [0.0, 0.25, 0.5, 0.75, 1.0, 1.5, 2.0],
+    "seed_cell": [0.0, 1.0, 1.5, 2.0, 2.5, 3.0, 4.0],
 }
 
 # The improvements and the value that switches each off (the plain definition).
 IMPROVEMENTS = {"near_vertex_distance": 0.0, "seed_cell": 0.0, "outlier_depth": 0.0}
 
 
-def errors(samples, params: pcl_rg.TinGroundParams) -> list:
-    return [ground_errors(t, pcl_rg.tin_ground(p, params=params)) for p, t in samples.values()]
+# A candidate: the parameters (spacing lengths unset) and the multiples they take.
+Setting = tuple[pcl_rg.TinGroundParams, dict[str, float]]
 
 
-def mean_total(samples, params: pcl_rg.TinGroundParams) -> float:
-    return float(np.mean([e.total for e in errors(samples, params)]))
+def predict(points, setting: Setting):
+    """tin_ground with the setting's multiples of the spacing of `points`."""
+    params, multiples = setting
+    spacing = pcl_rg.point_spacing(points)
+    return pcl_rg.tin_ground(points, params=params.at_spacing(spacing, multiples))
 
 
-def search(samples) -> tuple[pcl_rg.TinGroundParams, list[str]]:
-    """Coordinate descent over SEARCH_GRID: (best params, log lines)."""
-    best = dataclasses.replace(
+def errors(samples, setting) -> list:
+    if isinstance(setting, pcl_rg.TinGroundParams):
+        setting = (setting, dict(setting.SPACING_MULTIPLES))
+    return [ground_errors(t, predict(p, setting)) for p, t in samples.values()]
+
+
+def mean_total(samples, setting) -> float:
+    return float(np.mean([e.total for e in errors(samples, setting)]))
+
+
+def search(samples) -> tuple[Setting, list[str]]:
+    """Coordinate descent over SEARCH_GRID and SPACING_GRID: (best setting, log lines)."""
+    params = dataclasses.replace(
         pcl_rg.TinGroundParams.lidar360(),
         iteration_angle=30.0,
         reduce_angle_edge=0.01,
-        stop_edge=0.01,
-        near_vertex_distance=1.0,
-        seed_cell=2.0,
+        stop_edge=None,
+        near_vertex_distance=None,
+        seed_cell=None,
         outlier_depth=4.0,
     )
+    best: Setting = (params, {"stop_edge": 0.01, "near_vertex_distance": 1.0, "seed_cell": 2.0})
     best_error = mean_total(samples, best)
     lines = [f"start {best}: mean total {100 * best_error:.2f} %"]
     for sweep in range(1, 4):
         changed = False
-        for name, values in SEARCH_GRID.items():
-            for value in values:
-                trial = dataclasses.replace(best, **{name: value})
-                error = mean_total(samples, trial)
-                if error < best_error - 1e-12:
-                    best, best_error, changed = trial, error, True
-                    lines.append(f"  sweep {sweep}: {name} = {value}: {100 * error:.2f} %")
-                    print(lines[-1], file=sys.stderr, flush=True)
+        trials = [(name, value, False) for name, values in SEARCH_GRID.items() for value in values]
+        trials += [(name, value, True) for name, values in SPACING_GRID.items() for value in values]
+        for name, value, relative in trials:
+            if relative:
+                trial = (best[0], {**best[1], name: value})
+            else:
+                trial = (dataclasses.replace(best[0], **{name: value}), best[1])
+            error = mean_total(samples, trial)
+            if error < best_error - 1e-12:
+                best, best_error, changed = trial, error, True
+                unit = " spacings" if relative else ""
+                lines.append(f"  sweep {sweep}: {name} = {value}{unit}: {100 * error:.2f} %")
+                print(lines[-1], file=sys.stderr, flush=True)
         if not changed:
             break
     lines.append(f"chosen: {best}: mean total {100 * best_error:.2f} %")
@@ -173,7 +199,8 @@ def main(argv: list[str] | None = None) -> int:
     if not args.report:
         best, lines = search(samples)
         print("\n".join(lines))
-        if best != pcl_rg.TinGroundParams.isprs():
+        preset = pcl_rg.TinGroundParams.isprs()
+        if best != (preset, dict(preset.SPACING_MULTIPLES)):
             print("note: the search ended elsewhere than TinGroundParams.isprs()")
     command = (
         "python benchmarks/studies/tin_isprs_params.py"

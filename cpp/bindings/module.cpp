@@ -16,4 +16,5 @@ PYBIND11_MODULE(_core, m) {
     pcl_rg::bindings::bind_region_growing(m);
     pcl_rg::bindings::bind_tin_ground(m);
     pcl_rg::bindings::bind_delaunay(m);
+    pcl_rg::bindings::bind_point_spacing(m);
 }

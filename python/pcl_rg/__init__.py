@@ -21,6 +21,7 @@ __version__ = "0.1.0"
 _NAMES = {
     "GridGroundParams": "_grid_ground",
     "grid_ground": "_grid_ground",
+    "point_spacing": "_point_spacing",
     "NormalsParams": "_normals",
     "NormalsResult": "_normals",
     "normals": "_normals",
@@ -71,6 +72,7 @@ if TYPE_CHECKING:  # what type checkers and IDEs see; nothing runs here
     from ._diagnostics import Diagnostics, collect_diagnostics
     from ._grid_ground import GridGroundParams, grid_ground
     from ._normals import NormalsParams, NormalsResult, normals
+    from ._point_spacing import point_spacing
     from ._region_growing import RegionGrowingParams, region_growing
     from ._statistical_outlier_removal import (
         StatisticalOutlierRemovalParams,

@@ -24,7 +24,7 @@ def lzf_compress(data: bytes) -> bytes: ...
 
 class GridGroundParams:
     block_size: tuple[float, float]
-    cell_size: tuple[float, float]
+    cell_size: tuple[float, float] | None
     slope: float
     height_tolerance: float
     min_seed_component: int
@@ -36,7 +36,7 @@ class GridGroundParams:
 
 def grid_ground(
     points: npt.NDArray[np.float64], params: GridGroundParams
-) -> npt.NDArray[np.bool_]: ...
+) -> tuple[npt.NDArray[np.bool_], dict[str, float | tuple[float, float]]]: ...
 
 class TinGroundParams:
     max_building_size: float
@@ -44,9 +44,9 @@ class TinGroundParams:
     iteration_angle: float
     iteration_distance: float
     reduce_angle_edge: float
-    stop_edge: float
-    near_vertex_distance: float
-    seed_cell: float
+    stop_edge: float | None
+    near_vertex_distance: float | None
+    seed_cell: float | None
     seed_tolerance: float
     outlier_depth: float
     def __init__(self) -> None: ...
@@ -66,6 +66,7 @@ class DelaunayTin:
     def to_grid(self, xy: npt.NDArray[np.float64]) -> npt.NDArray[np.int32]: ...
 
 def delaunay_triangulate(xy: npt.NDArray[np.float64]) -> npt.NDArray[np.int64]: ...
+def point_spacing(points: npt.NDArray[np.float64]) -> float: ...
 
 # --- normals, region growing (region_growing.hpp) -----------------------------------
 

@@ -2,15 +2,28 @@
 
 from __future__ import annotations
 
+import dataclasses
+import math
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any
+from types import MappingProxyType
+from typing import Any, ClassVar
 
 import numpy as np
 import numpy.typing as npt
 
 from . import _core
+from ._diagnostics import record
 from ._docstrings import fill_docstring
-from ._params import check_fields, format_value, param, preset, resolve_arguments, to_core
+from ._params import (
+    check_fields,
+    check_number,
+    format_value,
+    param,
+    preset,
+    resolve_arguments,
+    to_core,
+)
 from ._validation import as_points
 
 __all__ = ["GridGroundParams", "grid_ground"]
@@ -24,7 +37,19 @@ class GridGroundParams:
     error over the seven ISPRS samples (``benchmarks/studies/ground_isprs.py --search``),
     not tuned per sample. :meth:`definition` gives the plain rule of the seed
     (algorithms.md section 3), with the three options off.
+
+    ``cell_size`` is None ("unset") by default: each call then takes, per axis,
+    ``block_size / k`` with k the smallest whole number that makes the cell at
+    most ``SPACING_MULTIPLES["cell_size"]`` times the spacing of its points
+    (:func:`pcl_rg.point_spacing`, 1 m where that is undefined): cells follow the
+    density and still line up with the blocks. The spacing and the cell size a
+    call used are in :func:`pcl_rg.collect_diagnostics`; :meth:`at_spacing` fixes
+    them ahead.
     """
+
+    SPACING_MULTIPLES: ClassVar[Mapping[str, float]] = MappingProxyType({"cell_size": 2.0})
+    """The largest cell an unset cell_size takes, in point spacings (C++:
+    kGridCellPerSpacing)."""
 
     block_size: tuple[float, float] = param(
         (30.0, 30.0),
@@ -34,19 +59,21 @@ class GridGroundParams:
         help="block edge length, one value or x,y: one seed per block; should exceed the "
         "largest building",
     )
-    cell_size: tuple[float, float] = param(
-        (3.0, 3.0),
+    cell_size: tuple[float, float] | None = param(
+        None,
         axes=2,
+        optional=True,
         above=0.0,
         unit="m",
         help="cell edge length, one value or x,y (<= block_size): points link within the "
-        "3 x 3 cells around them",
+        "3 x 3 cells around them; unset: block_size / k, the largest such cell of at most "
+        "2 x the point spacing",
     )
     slope: float = param(
         0.3, minimum=0.0, help="tangent of the steepest terrain: link when |dz| <= slope * d + tol"
     )
     height_tolerance: float = param(
-        0.3, minimum=0.0, unit="m", help="height difference always allowed between linked points"
+        0.0, minimum=0.0, unit="m", help="height difference always allowed between linked points"
     )
     min_seed_component: int = param(
         30,
@@ -58,7 +85,7 @@ class GridGroundParams:
         True, help="links also join points of neighbouring blocks (one seed per block)"
     )
     filter_passes: int = param(
-        3,
+        2,
         minimum=0,
         help="slope pre-filter passes (0: off): drop points higher than a neighbour by more "
         "than filter_slope * d + filter_tolerance; later passes test only against the "
@@ -71,12 +98,49 @@ class GridGroundParams:
 
     def __post_init__(self) -> None:
         check_fields(self)
-        for axis, block, cell in zip("xy", self.block_size, self.cell_size):
+        for axis, block, cell in zip("xy", self.block_size, self.cell_size or self.block_size):
             if cell > block:
                 raise ValueError(
                     f"cell_size must be <= block_size ({format_value(block)}) on {axis}, "
                     f"got {format_value(cell)}"
                 )
+
+    def at_spacing(
+        self, spacing: float, multiples: Mapping[str, float] | None = None
+    ) -> GridGroundParams:
+        """These parameters with ``cell_size``, if unset, set for a point spacing.
+
+        Parameters
+        ----------
+        spacing : float
+            Metres (> 0), e.g. ``pcl_rg.point_spacing(points)``.
+        multiples : mapping of str to float, optional
+            Another multiple than :attr:`SPACING_MULTIPLES` (for parameter
+            studies).
+
+        Returns
+        -------
+        GridGroundParams
+            A copy whose ``cell_size``, if it was None, is per axis
+            ``block_size / k``, k the smallest whole number with
+            ``block_size / k <= SPACING_MULTIPLES["cell_size"] * spacing``; a call
+            with it gives what a call with these parameters gives on points of
+            that spacing.
+
+        Examples
+        --------
+        >>> from pcl_rg import GridGroundParams
+        >>> GridGroundParams().at_spacing(1.0).cell_size  # 30 m blocks, 15 cells
+        (2.0, 2.0)
+        >>> GridGroundParams().at_spacing(0.25).cell_size  # 60 cells per block
+        (0.5, 0.5)
+        """
+        spacing = check_number("spacing", spacing, float, above=0.0)
+        if self.cell_size is not None:
+            return self
+        largest = {**self.SPACING_MULTIPLES, **(multiples or {})}["cell_size"] * spacing
+        cell = tuple(block / max(1.0, math.ceil(block / largest)) for block in self.block_size)
+        return dataclasses.replace(self, cell_size=cell)
 
     @preset
     def isprs(cls, **overrides: Any) -> GridGroundParams:
@@ -142,12 +206,15 @@ def grid_ground(
         building. Default 30 m.
     cell_size : float or sequence of 2 floats, optional
         Cell edge length (bx, by) in metres, at most `block_size`. A point
-        links to points of its own and the 8 neighbouring cells. Default 3 m.
+        links to points of its own and the 8 neighbouring cells. Default: unset,
+        per axis ``block_size / k`` with k the smallest whole number that makes
+        it at most 2 point spacings (:func:`pcl_rg.point_spacing`): 2 m on the
+        urban ISPRS samples' 1 m spacing, 0.5 m at 0.25 m.
     slope : float, optional
         S, tangent of the steepest terrain slope (>= 0). Default 0.3.
     height_tolerance : float, optional
         t, height difference in metres always allowed between linked points
-        (>= 0). Default 0.3 m (0 in the seed's pure slope rule).
+        (>= 0). Default 0, the seed's pure slope rule.
     min_seed_component : int, optional
         Robust seed against low outliers (>= 1): the seed of a block is its
         lowest point whose connected component holds at least this many
@@ -158,7 +225,7 @@ def grid_ground(
         (False in the definition).
     filter_passes : int, optional
         Passes of a slope pre-filter (>= 0; 0 = off, as in the definition).
-        Default 3.
+        Default 2.
     filter_slope : float, optional
         The pre-filter drops a point lying higher than a point of its 3 x 3
         cells by more than ``filter_slope * d + filter_tolerance``. Default 1.
@@ -188,14 +255,16 @@ def grid_ground(
     multiples of block_size in world coordinates so that tiles of a survey
     share one lattice: a tile cut at block boundaries has the blocks it has in
     the merged cloud. Cells start at the same corner, so they line up across
-    tiles too whenever block_size is a whole multiple of cell_size (as for
-    the defaults, 30 and 3). Let ``l = p - o`` be the points in float64 local
-    coordinates, with ``o_x, o_y`` the block corner at or below the input's
-    minimum corner, ``floor(min / block_size) * block_size`` per axis (one
-    block lower where rounding puts that above the minimum), and ``o_z`` the
-    minimum z. A translation by whole blocks leaves the blocks, the cells and,
-    up to float64 rounding, the result unchanged; any other may move block and
-    cell boundaries through the points.
+    tiles too whenever block_size is a whole multiple of cell_size (as an
+    unset cell_size always is, though tiles of different spacings may get
+    different cells: fix them with :meth:`GridGroundParams.at_spacing`). Let
+    ``l = p - o`` be the points in float64 local coordinates, with ``o_x, o_y``
+    the block corner at or below the input's minimum corner,
+    ``floor(min / block_size) * block_size`` per axis (one block lower where
+    rounding puts that above the minimum), and ``o_z`` the minimum z. A
+    translation by whole blocks leaves the blocks, the cells and, up to float64
+    rounding, the result unchanged; any other may move block and cell
+    boundaries through the points.
 
     1. Block of a point: ``floor(l_xy / block_size)``; cell:
        ``floor(l_xy / cell_size)``, both per axis in float64. Two points are
@@ -222,6 +291,9 @@ def grid_ground(
       ``l_z(p) - l_z(q) > filter_slope * d + filter_tolerance``. In pass 1
       every point counts as q; in each further pass only the ground of the
       previous pass does, and the growth is repeated.
+
+    ``collect_diagnostics()`` reports the spacing an unset cell size took
+    (``point_spacing``, NaN when cell_size was given) and the ``cell_size`` used.
 
     Links are symmetric, so the result does not depend on the visiting
     order; the C++ core (a counting sort into a flat CSR cell grid, a
@@ -256,4 +328,6 @@ def grid_ground(
     """
     p = resolve_arguments(GridGroundParams, locals())
     xyz = as_points(points)
-    return _core.grid_ground(xyz, p.to_core())
+    ground, stats = _core.grid_ground(xyz, p.to_core())
+    record("grid_ground", points=len(xyz), ground=int(ground.sum()), **stats)
+    return ground

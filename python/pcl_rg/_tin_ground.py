@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import dataclasses
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any
+from types import MappingProxyType
+from typing import Any, ClassVar
 
 import numpy as np
 import numpy.typing as npt
@@ -13,6 +16,7 @@ from ._diagnostics import record
 from ._docstrings import fill_docstring
 from ._params import (
     check_fields,
+    check_number,
     deprecated_preset,
     param,
     preset,
@@ -33,7 +37,22 @@ class TinGroundParams:
     samples, which gives a complete ground class at 1-20 pts/m^2;
     :meth:`lidar360` is LiDAR360's own set (the seed's definition), which keeps
     only a sparse key-point set as ground on such data (see the README).
+
+    The three lengths that depend on the point spacing, ``stop_edge``,
+    ``near_vertex_distance`` and ``seed_cell``, are None ("unset") by default:
+    each call then takes ``SPACING_MULTIPLES[name]`` times the spacing of its
+    points (:func:`pcl_rg.point_spacing`, 1 m where that is undefined), so one set
+    serves 1 and 20 points per m^2 alike. A number fixes the length; 0 still
+    switches ``near_vertex_distance`` and ``seed_cell`` off. The spacing and the
+    lengths a call used are in :func:`pcl_rg.collect_diagnostics`;
+    :meth:`at_spacing` fixes them ahead (for example once for all tiles of a
+    survey).
     """
+
+    SPACING_MULTIPLES: ClassVar[Mapping[str, float]] = MappingProxyType(
+        {"stop_edge": 1.5, "near_vertex_distance": 1.0, "seed_cell": 2.0}
+    )
+    """Multiples of the point spacing the unset lengths take (C++: kTin*PerSpacing)."""
 
     max_building_size: float = param(
         40.0,
@@ -51,7 +70,7 @@ class TinGroundParams:
         "triangle's vertices (LiDAR360 Max Terrain Angle)",
     )
     iteration_angle: float = param(
-        30.0,
+        25.0,
         above=0.0,
         maximum=90.0,
         unit="deg",
@@ -59,7 +78,7 @@ class TinGroundParams:
         "a point (LiDAR360 Iteration Angle)",
     )
     iteration_distance: float = param(
-        1.4,
+        2.0,
         above=0.0,
         unit="m",
         help="largest distance from a point to its triangle's plane (LiDAR360 Iteration Distance)",
@@ -72,28 +91,35 @@ class TinGroundParams:
         "iteration_angle * L / reduce_angle_edge (LiDAR360 Reduce Iteration Angle When Edge "
         "Length <)",
     )
-    stop_edge: float = param(
-        1.0,
+    stop_edge: float | None = param(
+        None,
+        kind=float,
+        optional=True,
         above=0.0,
         unit="m",
         help="triangles whose longest edge is shorter accept ground points without inserting "
-        "them (LiDAR360 Stop Triangulation When Edge Length <)",
+        "them (LiDAR360 Stop Triangulation When Edge Length <); unset: 1.5 x the point spacing",
     )
-    near_vertex_distance: float = param(
-        1.0,
+    near_vertex_distance: float | None = param(
+        None,
+        kind=float,
+        optional=True,
         minimum=0.0,
         unit="m",
         help="improvement (0: off): in the angle test a point's distance to a vertex counts "
         "as at least this much, so points (nearly) above a vertex are judged by their "
-        "distance to the plane (helps on coarse or repeated XY)",
+        "distance to the plane (helps on coarse or repeated XY); unset: 1 x the point spacing",
     )
-    seed_cell: float = param(
-        2.0,
+    seed_cell: float | None = param(
+        None,
+        kind=float,
+        optional=True,
         minimum=0.0,
         unit="m",
         help="improvement (0: off): seeds are the lowest points of seed_cell cells lying "
         "within seed_tolerance of the grey opening of those heights by a max_building_size "
-        "window (dense seeds, none on roofs; after Zhao et al. 2016)",
+        "window (dense seeds, none on roofs; after Zhao et al. 2016); unset: 2 x the point "
+        "spacing",
     )
     seed_tolerance: float = param(
         0.5,
@@ -112,6 +138,42 @@ class TinGroundParams:
     def __post_init__(self) -> None:
         check_fields(self)
 
+    def at_spacing(
+        self, spacing: float, multiples: Mapping[str, float] | None = None
+    ) -> TinGroundParams:
+        """These parameters with every unset length set for a point spacing.
+
+        Parameters
+        ----------
+        spacing : float
+            Metres (> 0), e.g. ``pcl_rg.point_spacing(points)``.
+        multiples : mapping of str to float, optional
+            Other multiples than :attr:`SPACING_MULTIPLES` (for parameter
+            studies); missing names take those.
+
+        Returns
+        -------
+        TinGroundParams
+            A copy in which each length that was None is
+            ``SPACING_MULTIPLES[name] * spacing``; a call with it gives what a call
+            with these parameters gives on points of that spacing.
+
+        Examples
+        --------
+        >>> from pcl_rg import TinGroundParams
+        >>> fixed = TinGroundParams().at_spacing(0.5)
+        >>> fixed.stop_edge, fixed.near_vertex_distance, fixed.seed_cell
+        (0.75, 0.5, 1.0)
+        """
+        spacing = check_number("spacing", spacing, float, above=0.0)
+        multiples = {**self.SPACING_MULTIPLES, **(multiples or {})}
+        unset = {
+            name: multiples[name] * spacing
+            for name in self.SPACING_MULTIPLES
+            if getattr(self, name) is None
+        }
+        return dataclasses.replace(self, **unset) if unset else self
+
     @preset
     def isprs(cls, **overrides: Any) -> TinGroundParams:
         """The defaults: one set chosen on the seven ISPRS samples (mean total error).
@@ -119,8 +181,10 @@ class TinGroundParams:
         Chosen by ``benchmarks/studies/tin_isprs_params.py``; the scores are in
         ``benchmarks/RESULTS.md``. Against :meth:`lidar360` it switches the angle
         reduction off (no ISPRS triangle has a longest edge under 1 cm), stops
-        densifying below 1 m edges instead of 2 m, and switches the three
-        improvements on. `overrides` replace single fields.
+        densifying below edges of 1.5 point spacings instead of 2 m, takes a 25
+        degree iteration angle and a 2 m iteration distance, and switches the three
+        improvements on, their lengths in multiples of the point spacing
+        (:attr:`SPACING_MULTIPLES`). `overrides` replace single fields.
 
         Examples
         --------
@@ -192,31 +256,32 @@ def tin_ground(
         Degrees in (0, 90) (default 88): a point is not accepted while any
         triangle it would form with its triangle's vertices is steeper.
     iteration_angle : float, optional
-        Degrees in (0, 90] (default 30; LiDAR360 8): largest angle between the triangle's
+        Degrees in (0, 90] (default 25; LiDAR360 8): largest angle between the triangle's
         plane and the lines from its vertices to an accepted point.
     iteration_distance : float, optional
-        Metres (default 1.4): largest distance from an accepted point to its
+        Metres (default 2; LiDAR360 1.4): largest distance from an accepted point to its
         triangle's plane.
     reduce_angle_edge : float, optional
         Metres (default 0.01; LiDAR360 5): in a triangle whose longest XY edge L is shorter, the
         angle limit is ``iteration_angle * L / reduce_angle_edge``.
     stop_edge : float, optional
-        Metres (default 1; LiDAR360 2): a triangle whose longest XY edge is shorter accepts
-        ground points but does not get them inserted, which bounds the TIN's
-        density.
+        Metres (default: unset, 1.5 x the point spacing; LiDAR360 2): a triangle whose
+        longest XY edge is shorter accepts ground points but does not get them
+        inserted, which bounds the TIN's density.
     near_vertex_distance : float, optional
-        Metres (default 1; 0 is Axelsson's test, LiDAR360's). An improvement for data with
-        coarse or repeated XY: in the angle test the distance from the point to a
-        vertex counts as at least this much, so a point (nearly) above a vertex is
-        accepted when ``d <= sin(limit) * near_vertex_distance`` instead of being
-        judged by an angle close to 90 degrees minus the slope.
+        Metres (default: unset, 1 x the point spacing; 0 is Axelsson's test,
+        LiDAR360's). An improvement for data with coarse or repeated XY: in the
+        angle test the distance from the point to a vertex counts as at least
+        this much, so a point (nearly) above a vertex is accepted when
+        ``d <= sin(limit) * near_vertex_distance`` instead of being judged by an
+        angle close to 90 degrees minus the slope.
     seed_cell : float, optional
-        Metres (default 2; 0: one seed per ``max_building_size`` cell, LiDAR360). An
-        improvement after Zhao et al. 2016: the lowest point of every
-        ``seed_cell`` cell is a seed when it lies at most ``seed_tolerance`` above
-        the grey opening of those lowest heights by a square window of
-        ``max_building_size``, which gives dense seeds on open terrain and none
-        on roofs.
+        Metres (default: unset, 2 x the point spacing; 0: one seed per
+        ``max_building_size`` cell, LiDAR360). An improvement after Zhao et al.
+        2016: the lowest point of every ``seed_cell`` cell is a seed when it lies
+        at most ``seed_tolerance`` above the grey opening of those lowest heights
+        by a square window of ``max_building_size``, which gives dense seeds on
+        open terrain and none on roofs.
     seed_tolerance : float, optional
         Metres (default 0.5): see ``seed_cell``.
     outlier_depth : float, optional
@@ -268,7 +333,13 @@ def tin_ground(
     The defaults are the :meth:`TinGroundParams.isprs` preset, the one set
     chosen on the seven ISPRS samples, with the three improvements
     (``near_vertex_distance``, ``seed_cell``, ``outlier_depth``) on; its scores
-    are in ``benchmarks/RESULTS.md``. :meth:`TinGroundParams.lidar360` is
+    are in ``benchmarks/RESULTS.md``. The lengths ``stop_edge``,
+    ``near_vertex_distance`` and ``seed_cell`` are unset there: each call takes
+    them as multiples of the mean spacing of its points
+    (:func:`pcl_rg.point_spacing`; 1 m where that is undefined), so the preset
+    works at 1 and at 20 points per m^2 alike. ``collect_diagnostics()`` reports
+    the spacing (``point_spacing``, NaN when every length was given) and the
+    three lengths used. :meth:`TinGroundParams.lidar360` is
     LiDAR360's own set: with an 8 degree angle, reduced below 5 m edges, few
     objects but much ground is missed on 1-3 m spaced data.
 

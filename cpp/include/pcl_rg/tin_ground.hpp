@@ -3,14 +3,25 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 
 #include "pcl_rg/points.hpp"
 
 namespace pcl_rg {
 
+/// Multiples of the point spacing (point_spacing.hpp: spacing_or_one_metre) that the
+/// lengths left unset take; chosen with the other defaults on the seven ISPRS samples
+/// (benchmarks/studies/tin_isprs_params.py, cross-validated by ground_isprs_cv.py).
+/// Python mirror: TinGroundParams.SPACING_MULTIPLES.
+inline constexpr double kTinStopEdgePerSpacing = 1.5;
+inline constexpr double kTinNearVertexPerSpacing = 1.0;
+inline constexpr double kTinSeedCellPerSpacing = 2.0;
+
 /// The defaults are Python's TinGroundParams.isprs() preset (chosen on the ISPRS
 /// samples); TinGroundParams.lidar360() is LiDAR360's own set: 20, 88, 8, 1.4, 5, 2 and
-/// the improvements off.
+/// the improvements off. The three lengths that depend on the point spacing are unset
+/// (std::nullopt) by default: each call then takes a fixed multiple of the spacing of
+/// its points (the k*PerSpacing constants above).
 struct TinGroundParams {
     /// Seed-grid cell (m, > 0): the lowest point of each cell is a seed. LiDAR360 "Max
     /// Building Size"; must exceed the largest building, or its flat roof becomes ground.
@@ -22,28 +33,31 @@ struct TinGroundParams {
     double max_terrain_angle = 88.0;
     /// Largest angle between the triangle's plane and the lines from its vertices to a
     /// point (deg, (0, 90]). LiDAR360 "Iteration Angle".
-    double iteration_angle = 30.0;
+    double iteration_angle = 25.0;
     /// Largest distance from a point to the triangle's plane (m, > 0). LiDAR360
     /// "Iteration Distance".
-    double iteration_distance = 1.4;
+    double iteration_distance = 2.0;
     /// In triangles whose longest XY edge L is shorter (m, > 0), the angle limit is
     /// iteration_angle * L / reduce_angle_edge. LiDAR360 "Reduce Iteration Angle When
     /// Edge Length <".
     double reduce_angle_edge = 0.01;
     /// Triangles whose longest XY edge is shorter (m, > 0) accept ground points without
-    /// inserting them. LiDAR360 "Stop Triangulation When Edge Length <".
-    double stop_edge = 1.0;
+    /// inserting them. LiDAR360 "Stop Triangulation When Edge Length <". Unset:
+    /// kTinStopEdgePerSpacing x the point spacing.
+    std::optional<double> stop_edge;
     /// Improvement (0: off): in the angle test the 3-D distance from a point
     /// to a vertex counts as at least this much (m, >= 0), so a point (nearly) above a
     /// vertex is judged by its distance to the plane, d <= sin(limit) * this, instead
     /// of an angle near 90 deg minus the slope. Helps on data with coarse or repeated XY.
-    double near_vertex_distance = 1.0;
+    /// Unset: kTinNearVertexPerSpacing x the point spacing.
+    std::optional<double> near_vertex_distance;
     /// Improvement (0: off): seeds from a morphological opening instead of
     /// one per max_building_size cell. The lowest point of every seed_cell cell (m, >= 0)
     /// is a seed when it lies at most seed_tolerance above the grey opening of the
     /// cells' lowest heights by a square window of max_building_size, in the manner of
     /// Zhao et al. 2016's morphological seeds: dense seeds on open terrain, none on roofs.
-    double seed_cell = 2.0;
+    /// Unset: kTinSeedCellPerSpacing x the point spacing.
+    std::optional<double> seed_cell;
     /// Height above the opened surface up to which a seed_cell cell's lowest point is a
     /// seed (m, >= 0); used only when seed_cell > 0.
     double seed_tolerance = 0.5;
@@ -65,7 +79,14 @@ struct TinGroundStats {
     double prepare_seconds = 0.0;         ///< snapping, spatial sort, seeds
     double triangulation_seconds = 0.0;   ///< Delaunay insertions
     double classification_seconds = 0.0;  ///< point location and acceptance tests
+    double point_spacing = 0.0;  ///< spacing the unset lengths took (m; NaN: all were given)
+    double stop_edge = 0.0;             ///< the lengths used (m): given, or from the spacing
+    double near_vertex_distance = 0.0;  ///< (see stop_edge)
+    double seed_cell = 0.0;             ///< (see stop_edge)
 };
+
+/// `params` with every unset length set to its multiple of `spacing` (m, > 0).
+TinGroundParams with_spacing(const TinGroundParams& params, double spacing);
 
 /// Fills `ground[i]` for every point (true: ground). Empty input is fine; 1 or 2
 /// points, or points all collinear in XY, throw std::invalid_argument.

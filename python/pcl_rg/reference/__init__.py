@@ -15,6 +15,7 @@ except ImportError as error:  # pragma: no cover - depends on the environment
 from ._lattice import lattice_floor
 from .grid_ground import grid_ground
 from .normals import normals
+from .point_spacing import point_spacing
 from .region_growing import region_growing
 from .statistical_outlier_removal import statistical_outlier_removal
 from .tin_ground import tin_ground
@@ -24,6 +25,7 @@ __all__ = [
     "grid_ground",
     "lattice_floor",
     "normals",
+    "point_spacing",
     "region_growing",
     "statistical_outlier_removal",
     "tin_ground",
