@@ -335,9 +335,9 @@ GridGroundParams with_spacing(const GridGroundParams& params, double spacing) {
         // Whole cells per block, so that cells line up with the blocks and across tiles.
         std::array<double, 2> cell_size{};
         for (int a = 0; a < 2; ++a)
-            cell_size[a] = params.block_size[a] /
-                           std::max(1.0, std::ceil(params.block_size[a] /
-                                                   (kGridCellPerSpacing * spacing)));
+            cell_size[a] =
+                params.block_size[a] /
+                std::max(1.0, std::ceil(params.block_size[a] / (kGridCellPerSpacing * spacing)));
         resolved.cell_size = cell_size;
     }
     return resolved;
@@ -349,8 +349,8 @@ void grid_ground(PointsView points, const GridGroundParams& given, bool* ground,
     const std::size_t n = points.size;
     if (n == 0) return;
     // An unset cell size from the spacing of these points (measured only then).
-    const double spacing = given.cell_size ? std::numeric_limits<double>::quiet_NaN()
-                                           : spacing_or_one_metre(points);
+    const double spacing =
+        given.cell_size ? std::numeric_limits<double>::quiet_NaN() : spacing_or_one_metre(points);
     const GridGroundParams params = with_spacing(given, spacing);
     if (stats) *stats = GridGroundStats{spacing, *params.cell_size};
     if (n > static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max()))

@@ -13,9 +13,10 @@ namespace pcl_rg {
 /// (benchmarks/studies/ground_isprs.py --search). The definition of algorithms.md section 3 is
 /// min_seed_component = 1, grow_across_blocks = false, filter_passes = 0, and its pure
 /// slope rule height_tolerance = 0.
-/// The multiple of the point spacing an unset cell_size is at most (see cell_size); chosen with the other defaults on the seven ISPRS samples
-/// (benchmarks/studies/ground_isprs.py --search, cross-validated by ground_isprs_cv.py).
-/// Python mirror: GridGroundParams.SPACING_MULTIPLES.
+/// The multiple of the point spacing an unset cell_size is at most (see cell_size);
+/// chosen with the other defaults on the seven ISPRS samples (benchmarks/studies/
+/// ground_isprs.py --search, cross-validated by ground_isprs_cv.py). Python mirror:
+/// GridGroundParams.SPACING_MULTIPLES.
 inline constexpr double kGridCellPerSpacing = 2.0;
 
 struct GridGroundParams {
@@ -61,7 +62,7 @@ GridGroundParams with_spacing(const GridGroundParams& params, double spacing);
 
 /// What a run used, for diagnostics.
 struct GridGroundStats {
-    double point_spacing = 0.0;          ///< spacing cell_size took (m; NaN: it was given)
+    double point_spacing = 0.0;         ///< spacing cell_size took (m; NaN: it was given)
     std::array<double, 2> cell_size{};  ///< the cell size used (m)
 };
 

@@ -79,7 +79,7 @@ struct TinGroundStats {
     double prepare_seconds = 0.0;         ///< snapping, spatial sort, seeds
     double triangulation_seconds = 0.0;   ///< Delaunay insertions
     double classification_seconds = 0.0;  ///< point location and acceptance tests
-    double point_spacing = 0.0;  ///< spacing the unset lengths took (m; NaN: all were given)
+    double point_spacing = 0.0;         ///< spacing the unset lengths took (m; NaN: all were given)
     double stop_edge = 0.0;             ///< the lengths used (m): given, or from the spacing
     double near_vertex_distance = 0.0;  ///< (see stop_edge)
     double seed_cell = 0.0;             ///< (see stop_edge)
