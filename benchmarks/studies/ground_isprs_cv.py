@@ -16,8 +16,10 @@ spacing (the presets leave them unset: SPACING_MULTIPLES).
 from __future__ import annotations
 
 import argparse
+import multiprocessing
 import sys
 import time
+from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -112,6 +114,9 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--write", action="store_true", help="update RESULTS.md")
     parser.add_argument("--filters", nargs="+", choices=list(FILTERS), default=list(FILTERS))
+    parser.add_argument(
+        "--jobs", type=int, default=1, help="filters cross-validated at once (processes)"
+    )
     args = parser.parse_args(argv)
     samples = ground_isprs.load_samples()
     header = [
@@ -126,8 +131,14 @@ def main(argv: list[str] | None = None) -> int:
         "fold's pick (fields unlike the preset)",
     ]
     rows, summary = [], []
-    for name in args.filters:
-        fold_rows, fitted, unseen = cross_validate(name, samples)
+    if args.jobs > 1:  # the filters side by side, each in its own process
+        context = multiprocessing.get_context("fork")
+        with ProcessPoolExecutor(args.jobs, mp_context=context) as pool:
+            futures = [pool.submit(cross_validate, name, samples) for name in args.filters]
+            results = [future.result() for future in futures]
+    else:
+        results = [cross_validate(name, samples) for name in args.filters]
+    for name, (fold_rows, fitted, unseen) in zip(args.filters, results):
         rows += fold_rows
         kappas_fit = np.mean([float(r[3]) for r in fold_rows])
         kappas_cv = np.mean([float(r[7]) for r in fold_rows])
@@ -150,6 +161,7 @@ def main(argv: list[str] | None = None) -> int:
             f"{100 * np.mean(unseen):.2f} % ({growth:+.0f} %)."
         )
     command = "python benchmarks/studies/ground_isprs_cv.py" + (" --write" if args.write else "")
+    command += f" --jobs {args.jobs}" if args.jobs > 1 else ""
     text = (
         f"{SECTION}\n\n`{command}` on {machine()}. Fitted: the preset, chosen on all seven "
         "samples, scored on each. CV: the same search run on the other six samples, its "
