@@ -252,7 +252,10 @@ def ablation(samples) -> str:
         ("grow_across_blocks = False", dataclasses.replace(defaults, grow_across_blocks=False)),
         ("filter_passes = 0", dataclasses.replace(defaults, filter_passes=0)),
         ("filter_passes = 1", dataclasses.replace(defaults, filter_passes=1)),
-        ("height_tolerance = 0", dataclasses.replace(defaults, height_tolerance=0.0)),
+        (
+            "height_tolerance = 0.3 (the former default)",
+            dataclasses.replace(defaults, height_tolerance=0.3),
+        ),
         ("the definition (all options off, t = 0)", pcl_rg.GridGroundParams.definition()),
     ]
     rows = [[name, f"{100 * mean_total(samples, p):.2f}"] for name, p in variants]

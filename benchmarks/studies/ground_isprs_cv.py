@@ -77,37 +77,36 @@ def changed_fields(setting, preset) -> str:
     return ", ".join(changed) or "= preset"
 
 
-def cross_validate(name: str, samples) -> tuple[list[list[str]], list[float], list[float]]:
+def cross_validate_fold(name: str, held_out: str, samples) -> tuple[list[str], float, float]:
+    """One fold: the search on the samples but `held_out`, its pick scored on that one.
+
+    Returns the table row, the preset's (fitted) and the pick's (held-out) total error.
+    """
     function, preset, search, predict = FILTERS[name]
-    rows, fitted_totals, held_out_totals = [], [], []
-    for held_out, (points, truth) in samples.items():
-        start = time.perf_counter()
-        training = {s: v for s, v in samples.items() if s != held_out}
-        chosen = search(training)
-        fitted = ground_errors(truth, function(points, params=preset))
-        unseen = ground_errors(truth, predict(points, chosen))
-        fitted_totals.append(fitted.total)
-        held_out_totals.append(unseen.total)
-        rows.append(
-            [
-                name,
-                held_out,
-                f"{100 * fitted.total:.2f}",
-                f"{fitted.kappa:.3f}",
-                f"{100 * unseen.type_i:.2f}",
-                f"{100 * unseen.type_ii:.2f}",
-                f"{100 * unseen.total:.2f}",
-                f"{unseen.kappa:.3f}",
-                changed_fields(chosen, preset),
-            ]
-        )
-        print(
-            f"  {name} without {held_out}: held out {100 * unseen.total:.2f} % "
-            f"(fitted {100 * fitted.total:.2f} %), {time.perf_counter() - start:.0f} s",
-            file=sys.stderr,
-            flush=True,
-        )
-    return rows, fitted_totals, held_out_totals
+    points, truth = samples[held_out]
+    start = time.perf_counter()
+    training = {s: v for s, v in samples.items() if s != held_out}
+    chosen = search(training)
+    fitted = ground_errors(truth, function(points, params=preset))
+    unseen = ground_errors(truth, predict(points, chosen))
+    row = [
+        name,
+        held_out,
+        f"{100 * fitted.total:.2f}",
+        f"{fitted.kappa:.3f}",
+        f"{100 * unseen.type_i:.2f}",
+        f"{100 * unseen.type_ii:.2f}",
+        f"{100 * unseen.total:.2f}",
+        f"{unseen.kappa:.3f}",
+        changed_fields(chosen, preset),
+    ]
+    print(
+        f"  {name} without {held_out}: held out {100 * unseen.total:.2f} % "
+        f"(fitted {100 * fitted.total:.2f} %), {time.perf_counter() - start:.0f} s",
+        file=sys.stderr,
+        flush=True,
+    )
+    return row, fitted.total, unseen.total
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -115,7 +114,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--write", action="store_true", help="update RESULTS.md")
     parser.add_argument("--filters", nargs="+", choices=list(FILTERS), default=list(FILTERS))
     parser.add_argument(
-        "--jobs", type=int, default=1, help="filters cross-validated at once (processes)"
+        "--jobs", type=int, default=1, help="folds cross-validated at once (processes)"
     )
     args = parser.parse_args(argv)
     samples = ground_isprs.load_samples()
@@ -131,14 +130,19 @@ def main(argv: list[str] | None = None) -> int:
         "fold's pick (fields unlike the preset)",
     ]
     rows, summary = [], []
-    if args.jobs > 1:  # the filters side by side, each in its own process
+    tasks = [(name, held_out) for name in args.filters for held_out in samples]
+    if args.jobs > 1:  # folds side by side, each in its own process
         context = multiprocessing.get_context("fork")
         with ProcessPoolExecutor(args.jobs, mp_context=context) as pool:
-            futures = [pool.submit(cross_validate, name, samples) for name in args.filters]
-            results = [future.result() for future in futures]
+            futures = [pool.submit(cross_validate_fold, *task, samples) for task in tasks]
+            folds = [future.result() for future in futures]
     else:
-        results = [cross_validate(name, samples) for name in args.filters]
-    for name, (fold_rows, fitted, unseen) in zip(args.filters, results):
+        folds = [cross_validate_fold(*task, samples) for task in tasks]
+    for name in args.filters:
+        own = [fold for task, fold in zip(tasks, folds) if task[0] == name]
+        fold_rows = [row for row, _, _ in own]
+        fitted = [total for _, total, _ in own]
+        unseen = [total for _, _, total in own]
         rows += fold_rows
         kappas_fit = np.mean([float(r[3]) for r in fold_rows])
         kappas_cv = np.mean([float(r[7]) for r in fold_rows])
