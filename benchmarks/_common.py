@@ -3,6 +3,7 @@ is its own; timings are medians of repeats, compared side by side in one run."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import multiprocessing as mp
 import platform
@@ -11,25 +12,43 @@ import resource
 import statistics
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
 
-def _child(setup: Callable[[], Any], run: Callable[[Any], Any], repeats: int, queue) -> None:
+def _report(work: Callable[[], dict], queue) -> None:
     try:
-        data = setup()
-        base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-        times = []
-        for _ in range(repeats):
-            start = time.perf_counter()
-            output = run(data)
-            times.append(time.perf_counter() - start)
-            del output
-        peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-        queue.put({"times": times, "peak_mib": (peak - base) / 1024.0})
+        queue.put(work())
     except Exception as error:  # reported in the table, never hidden
         queue.put({"error": f"{type(error).__name__}: {error}"})
+
+
+def in_child(work: Callable[[], dict]) -> dict:
+    """`work()` in a forked child process: its result, or ``{"error": ...}``.
+
+    A fresh child per case keeps each case's peak memory its own.
+    """
+    ctx = mp.get_context("fork")
+    queue = ctx.Queue()
+    process = ctx.Process(target=_report, args=(work, queue))
+    process.start()
+    result = queue.get()
+    process.join()
+    return result
+
+
+def _timed_runs(setup: Callable[[], Any], run: Callable[[Any], Any], repeats: int) -> dict:
+    data = setup()
+    base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        output = run(data)
+        times.append(time.perf_counter() - start)
+        del output
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return {"times": times, "peak_mib": (peak - base) / 1024.0}
 
 
 def measure(setup: Callable[[], Any], run: Callable[[Any], Any], repeats: int) -> dict:
@@ -38,12 +57,7 @@ def measure(setup: Callable[[], Any], run: Callable[[Any], Any], repeats: int) -
     Peak memory is the growth of the child's maximum RSS during the runs (MiB),
     beyond what the input data already occupied.
     """
-    ctx = mp.get_context("fork")
-    queue = ctx.Queue()
-    process = ctx.Process(target=_child, args=(setup, run, repeats, queue))
-    process.start()
-    result = queue.get()
-    process.join()
+    result = in_child(lambda: _timed_runs(setup, run, repeats))
     if "times" in result:
         result["median"] = statistics.median(result["times"])
     return result
@@ -95,6 +109,99 @@ def publish(text: str, section: str, write: bool) -> None:
     print(text)
     if write:
         write_section(text, section)
+
+
+def publish_report(
+    section: str,
+    command: str,
+    about: str,
+    header: list[str],
+    rows: list[list[str]],
+    notes: Sequence[str] = (),
+    *,
+    write: bool,
+) -> None:
+    """The usual section: command and machine, what was run, the table, then notes.
+
+    `command` is the script's path and options; " --write" is added when writing.
+    """
+    command += " --write" if write else ""
+    text = f"{section}\n\n`{command}` on {machine()}. {about}\n\n{markdown_table(header, rows)}\n"
+    if notes:
+        text += "\n" + "\n".join(notes) + "\n"
+    publish(text, section, write)
+
+
+def coordinate_descent(
+    score: Callable[[Any], float],
+    start: Any,
+    grid: dict[str, list],
+    lines: list[str],
+    replace: Callable[[Any, str, Any], Any] | None = None,
+) -> tuple[Any, float]:
+    """Lower `score` one field at a time over `grid`'s values, from `start`.
+
+    Sweeps until one changes nothing (three at most); each improvement is logged to
+    `lines` and stderr. Returns (best params, its score). The params are frozen
+    dataclasses; fields not in `grid` keep `start`'s values. `replace(params, name,
+    value)` makes a trial (default: dataclasses.replace; _scaled.Scaled.replace for
+    lengths searched as multiples of the point spacing).
+    """
+    if replace is None:
+
+        def replace(params: Any, name: str, value: Any) -> Any:
+            return dataclasses.replace(params, **{name: value})
+
+    best, best_error = start, score(start)
+    lines.append(f"start {start}: mean total {100 * best_error:.2f} %")
+    for sweep in range(1, 4):
+        changed = False
+        for name, values in grid.items():
+            for value in values:
+                trial = replace(best, name, value)
+                error = score(trial)
+                if error < best_error - 1e-12:
+                    best, best_error, changed = trial, error, True
+                    lines.append(f"  sweep {sweep}: {name} = {value}: {100 * error:.2f} %")
+                    print(lines[-1], file=sys.stderr, flush=True)
+        if not changed:
+            break
+    return best, best_error
+
+
+#: The seven mOSD learn scenes in ../shared/data/mosd.
+MOSD_SCENES = ("learn0", "learn5", "learn17", "learn20", "learn25", "learn33", "learn40")
+
+
+def mosd_at(leaf: float) -> list[tuple[str, Any, Any, Any]]:
+    """Per mOSD scene: (name, truth per valid pixel, points to segment, voxel_of_point).
+
+    `leaf` 0 is the raw frame (voxel_of_point None); otherwise the VoxelGrid centroids.
+    """
+    import numpy as np
+
+    import pcl_rg
+    from pcl_rg.datasets import load_mosd
+
+    scenes = []
+    for name in MOSD_SCENES:
+        scene = load_mosd(SHARED_DATA / "mosd" / f"{name}.pcd")
+        if leaf > 0:
+            grid = pcl_rg.voxel_grid(scene.points, leaf_size=leaf)
+            points = np.ascontiguousarray(grid.centroids)
+            scenes.append((name, scene.labels, points, grid.voxel_of_point))
+        else:
+            scenes.append((name, scene.labels, scene.points, None))
+    return scenes
+
+
+def carry(labels: Any, voxel_of_point: Any) -> Any:
+    """Labels of the segmented points carried to every pixel (-1 where none)."""
+    import numpy as np
+
+    if voxel_of_point is None:
+        return labels
+    return np.where(voxel_of_point >= 0, labels[np.maximum(voxel_of_point, 0)], -1)
 
 
 def error_cells(

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import subprocess
 import sys
 import threading
 from pathlib import Path
@@ -10,6 +11,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 from hypothesis import settings
+from hypothesis import strategies as st
+from hypothesis.extra import numpy as hnp
+
+import pcl_rg.io._atomic
 
 # Hypothesis profiles. "ci" (the default, `make test`) derandomizes: every run draws
 # the same examples, so a red CI is reproducible and a green one is not luck.
@@ -57,6 +62,79 @@ def clustered_cloud(n: int, seed: int) -> np.ndarray:
     blob = centres[rng.integers(0, 8, n)] + rng.normal(0, 0.5, (n, 3))
     outliers = rng.uniform(-20, 40, (max(n // 50, 1), 3))
     return np.vstack([blob, outliers])
+
+
+def point_arrays(
+    points: tuple[int, int], ties: list[float], span: float
+) -> st.SearchStrategy[np.ndarray]:
+    """Float64 (N, 3) arrays, N in `points`, of values in [-span, span] or from `ties`.
+
+    The values of `ties` recur, so that draws hold duplicates, shared coordinates and
+    exact ties, which random floats almost never give.
+    """
+    return hnp.arrays(
+        np.float64,
+        st.tuples(st.integers(*points), st.just(3)),
+        elements=st.one_of(st.sampled_from(ties), st.floats(-span, span, allow_nan=False)),
+    )
+
+
+def run_command(*argv: object, timeout: float = 120, **options) -> subprocess.CompletedProcess:
+    """Run `argv` (paths allowed) to the end; its exit status, stdout and stderr as text.
+
+    `timeout` catches a hang; `options` go to :func:`subprocess.run` (cwd, env).
+    """
+    command = [os.fspath(a) if isinstance(a, os.PathLike) else str(a) for a in argv]
+    return subprocess.run(
+        command, capture_output=True, text=True, timeout=timeout, check=False, **options
+    )
+
+
+def run_pcl_rg(*argv: object, timeout: float = 120, **options) -> subprocess.CompletedProcess:
+    """``python -m pcl_rg *argv`` in a fresh interpreter (see :func:`run_command`)."""
+    return run_command(sys.executable, "-m", "pcl_rg", *argv, timeout=timeout, **options)
+
+
+class FailingStream:
+    """A file object that accepts `budget` bytes, then fails like a full disk."""
+
+    def __init__(self, real, budget: int, error: BaseException) -> None:
+        self.real, self.budget, self.error = real, budget, error
+
+    def write(self, data) -> int:
+        size = memoryview(data).nbytes
+        if size > self.budget:
+            self.real.write(memoryview(data).tobytes()[: self.budget])
+            self.real.flush()
+            raise self.error
+        self.budget -= size
+        return self.real.write(data)
+
+    def __getattr__(self, name):
+        return getattr(self.real, name)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.real.close()
+        return False
+
+
+def fail_writes(monkeypatch, budget: int, error: BaseException) -> list[str]:
+    """Make pcl_rg.io's temporary-file writes fail; return the temp names seen."""
+    seen = []
+    real_open = open
+
+    def fake_open(file, mode="r", *args, **kwargs):
+        stream = real_open(file, mode, *args, **kwargs)
+        if isinstance(file, int) and "w" in mode:
+            seen.append(os.readlink(f"/proc/self/fd/{file}"))
+            return FailingStream(stream, budget, error)
+        return stream
+
+    monkeypatch.setattr(pcl_rg.io._atomic, "open", fake_open, raising=False)
+    return seen
 
 
 def run_in_threads(call, threads: int = 4) -> list:

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import CLI_WITH_SIGINT, ISPRS_SAMPLES, shared_data
+from conftest import CLI_WITH_SIGINT, ISPRS_SAMPLES, run_pcl_rg, shared_data
 
 import pcl_rg
 from pcl_rg import batch
@@ -217,24 +217,8 @@ def test_a_corrupt_tile_fails_alone_and_its_neighbours_say_so(tmp_path, schedule
         if tile.input != bad:
             assert tile.status == "done" and os.path.basename(bad) in tile.no_buffer_from
     assert not os.path.exists(report.failed[0].output)
-    result = subprocess.run(
-        [
-            PYTHON,
-            "-m",
-            "pcl_rg",
-            "batch",
-            "ground",
-            *source.paths,
-            "--out",
-            str(tmp_path / "c"),
-            "--scheduler",
-            scheduler,
-            "--json",
-        ],
-        capture_output=True,
-        text=True,
-        timeout=300,
-    )
+    options = ["--out", tmp_path / "c", "--scheduler", scheduler, "--json"]
+    result = run_pcl_rg("batch", "ground", *source.paths, *options, timeout=300)
     assert result.returncode == 2, result.stderr
     assert os.path.basename(bad) in result.stderr
     assert json.loads(result.stdout)["failed"] == [bad]
@@ -268,27 +252,9 @@ def test_same_file_names_from_two_folders_are_refused(tmp_path, survey):
 
 def test_the_embedded_local_cluster_and_the_command_line(tmp_path):
     source = synthetic_survey(tmp_path / "in", tiles=(2, 2), tile_size=50.0, seed=3)
-    result = subprocess.run(
-        [
-            PYTHON,
-            "-m",
-            "pcl_rg",
-            "batch",
-            "ground",
-            str(tmp_path / "in"),
-            "--out",
-            str(tmp_path / "out"),
-            "--workers",
-            "2",
-            "--method",
-            "tin",
-            "--preset",
-            "isprs",
-            "--json",
-        ],
-        capture_output=True,
-        text=True,
-        timeout=300,
+    options = ["--workers", "2", "--method", "tin", "--preset", "isprs", "--json"]
+    result = run_pcl_rg(
+        "batch", "ground", tmp_path / "in", "--out", tmp_path / "out", *options, timeout=300
     )
     assert result.returncode == 0, result.stderr
     summary = json.loads(result.stdout)

@@ -8,7 +8,7 @@ import errno
 import inspect
 import json
 import os
-import subprocess
+import re
 import sys
 import typing
 from pathlib import Path
@@ -16,13 +16,12 @@ from pathlib import Path
 import laspy
 import numpy as np
 import pytest
-from conftest import shared_data
+from conftest import fail_writes, run_command, run_pcl_rg, shared_data
 
 import pcl_rg
 import pcl_rg._grid_ground
 import pcl_rg.cli as cli
 import pcl_rg.cli._run as cli_run
-import pcl_rg.io._atomic as pio
 from pcl_rg import datasets
 from pcl_rg.datasets import load_isprs
 from pcl_rg.evaluation import ground_errors
@@ -44,8 +43,14 @@ def run_json(capsys, *argv: object) -> dict:
     return json.loads(out)
 
 
+# The lines of a stage that ran past the spinner's delay (a loaded machine): not errors.
+SPINNER_LINE = re.compile(
+    r"pcl-rg: .*( \.\.\.|: (done in|failed after|interrupted after) [\d.]+ s)"
+)
+
+
 def assert_one_error_line(err: str, *fragments: str) -> None:
-    lines = err.splitlines()
+    lines = [line for line in err.splitlines() if not SPINNER_LINE.fullmatch(line)]
     assert len(lines) == 1, err
     assert lines[0].startswith("pcl-rg: error: "), err
     assert "Traceback" not in err
@@ -102,7 +107,11 @@ def params_classes(command: str) -> list[type]:
         "ground": [pcl_rg.GridGroundParams, pcl_rg.TinGroundParams],
         "denoise": [pcl_rg.StatisticalOutlierRemovalParams],
         "downsample": [pcl_rg.VoxelGridParams],
-        "segment": [pcl_rg.RegionGrowingParams, pcl_rg.pcl.RegionGrowingPclParams],
+        "segment": [
+            pcl_rg.RegionGrowingParams,
+            pcl_rg.ConvexSegmentationParams,
+            pcl_rg.pcl.RegionGrowingPclParams,
+        ],
     }[command]
 
 
@@ -169,18 +178,8 @@ def test_defaults_are_the_dataclass_defaults(capsys, tmp_path, scene_las):
 
 def test_ground_classifies_and_keeps_every_dimension(capsys, tmp_path, scene_las):
     out = tmp_path / "ground.laz"
-    result = run_json(
-        capsys,
-        "ground",
-        scene_las,
-        out,
-        "--slope",
-        "0.5",
-        "--cell-size",
-        "1",
-        "--min-seed-component",
-        "10",
-    )
+    flags = ["--slope", "0.5", "--cell-size", "1", "--min-seed-component", "10"]
+    result = run_json(capsys, "ground", scene_las, out, *flags)
     source = read_points(scene_las)
     noise = source.classification == 7
     expected_ground = pcl_rg.grid_ground(
@@ -198,19 +197,7 @@ def test_ground_classifies_and_keeps_every_dimension(capsys, tmp_path, scene_las
             np.testing.assert_array_equal(after[name], before[name], err_msg=name)
     assert written.header.point_format.id == 3 and str(written.header.version) == "1.2"
     # --drop writes exactly the ground points.
-    run_json(
-        capsys,
-        "ground",
-        scene_las,
-        tmp_path / "only.las",
-        "--slope",
-        "0.5",
-        "--cell-size",
-        "1",
-        "--min-seed-component",
-        "10",
-        "--drop",
-    )
+    run_json(capsys, "ground", scene_las, tmp_path / "only.las", *flags, "--drop")
     kept = np.flatnonzero(expected == 2)
     assert raw(tmp_path / "only.las").tobytes() == after[kept].tobytes()
 
@@ -323,14 +310,7 @@ print(code, *sorted(m for m in sys.modules if m.split(".")[0] in heavy or m in h
 @pytest.mark.parametrize("argv", [["info", "FILE"], ["--help"], ["info", "FILE", "--json"]])
 def test_help_and_info_import_no_algorithm(tmp_path, scene_las, argv):
     argv = [os.fspath(scene_las) if a == "FILE" else a for a in argv]
-    done = subprocess.run(
-        [sys.executable, "-c", LIGHT_SCRIPT, *argv],
-        capture_output=True,
-        text=True,
-        timeout=120,
-        check=False,
-        cwd=tmp_path,
-    )
+    done = run_command(sys.executable, "-c", LIGHT_SCRIPT, *argv, cwd=tmp_path)
     assert done.returncode == 0, done.stderr
     assert done.stdout.splitlines()[-1] == "0", done.stdout
 
@@ -532,11 +512,20 @@ def test_pipeline(capsys, tmp_path, scene_las):
         "min_points_per_voxel": 1,
     }
     # Without SOR and voxel grid: region growing on every point; classes untouched.
-    run_json(capsys, "pipeline", scene_las, tmp_path / "q.laz", "--no-sor", "--region-k", "12")
-    expected = seed004(source.points, sor=None, region=pcl_rg.RegionGrowingParams(k=12))
+    run_json(capsys, "pipeline", scene_las, tmp_path / "q.laz", "--no-sor", "--no-auto-voxel",
+             "--region-k", "12")
+    expected = seed004(source.points, sor=None, region=pcl_rg.RegionGrowingParams(k=12),
+                       auto_voxel=False)
     written = read_points(tmp_path / "q.laz")
     np.testing.assert_array_equal(written.fields["segment_id"], expected.labels)
     np.testing.assert_array_equal(written.classification, source.classification)
+    # Without a leaf size the grid's leaf comes from the data, and the report says which.
+    result = run_json(capsys, "pipeline", scene_las, tmp_path / "r.laz", "--no-sor")
+    expected = seed004(source.points, sor=None)
+    np.testing.assert_array_equal(
+        read_points(tmp_path / "r.laz").fields["segment_id"], expected.labels
+    )
+    assert result["stages"][0]["name"].startswith("voxel grid (auto leaf ")
     code, _, err = run(
         capsys, "pipeline", scene_las, tmp_path / "x.laz", "--no-sor", "--sor-std-mul", "2"
     )
@@ -781,43 +770,11 @@ def test_never_overwrites_the_input(capsys, tmp_path, scene_las):
     assert_one_error_line(err, "unknown extension")
 
 
-def fail_writes(monkeypatch, error: BaseException) -> None:
-    """Make the temporary file of pcl_rg.io fail after 1000 bytes."""
-    real_open = open
-
-    class Failing:
-        def __init__(self, stream):
-            self.stream, self.budget = stream, 1000
-
-        def write(self, data):
-            size = memoryview(data).nbytes
-            if size > self.budget:
-                self.stream.write(memoryview(data).tobytes()[: self.budget])
-                raise error
-            self.budget -= size
-            return self.stream.write(data)
-
-        def __getattr__(self, name):
-            return getattr(self.stream, name)
-
-        def __enter__(self):
-            return self
-
-        def __exit__(self, *exc):
-            self.stream.close()
-
-    def fake_open(file, mode="r", *args, **kwargs):
-        stream = real_open(file, mode, *args, **kwargs)
-        return Failing(stream) if isinstance(file, int) and "w" in mode else stream
-
-    monkeypatch.setattr(pio, "open", fake_open, raising=False)
-
-
 @pytest.mark.parametrize("ext", ["las", "laz", "pcd", "ply", "xyz"])
 def test_disk_full_leaves_no_partial_file(capsys, tmp_path, scene_las, monkeypatch, ext):
     target = tmp_path / f"out.{ext}"
     target.write_bytes(b"an older result")
-    fail_writes(monkeypatch, OSError(errno.ENOSPC, os.strerror(errno.ENOSPC)))
+    fail_writes(monkeypatch, 1000, OSError(errno.ENOSPC, os.strerror(errno.ENOSPC)))
     code, out, err = run(capsys, "ground", scene_las, target)
     assert code == 1
     assert_one_error_line(err, "cannot write", "No space left on device")
@@ -826,7 +783,7 @@ def test_disk_full_leaves_no_partial_file(capsys, tmp_path, scene_las, monkeypat
 
 
 def test_interrupt_leaves_no_partial_file(capsys, tmp_path, scene_las, monkeypatch):
-    fail_writes(monkeypatch, KeyboardInterrupt())
+    fail_writes(monkeypatch, 1000, KeyboardInterrupt())
     code, _, err = run(capsys, "denoise", scene_las, tmp_path / "out.laz")
     assert code == 130
     assert_one_error_line(err, "interrupted")
@@ -845,22 +802,10 @@ def test_interrupt_leaves_no_partial_file(capsys, tmp_path, scene_las, monkeypat
 
 
 def test_python_dash_m(tmp_path, scene_las):
-    done = subprocess.run(
-        [sys.executable, "-m", "pcl_rg", "info", os.fspath(scene_las), "--json"],
-        capture_output=True,
-        text=True,
-        timeout=120,
-        check=False,
-    )
+    done = run_pcl_rg("info", scene_las, "--json")
     assert done.returncode == 0, done.stderr
     assert json.loads(done.stdout)["points"] == len(read_points(scene_las))
-    done = subprocess.run(
-        [sys.executable, "-m", "pcl_rg", "info", os.fspath(tmp_path / "none.las")],
-        capture_output=True,
-        text=True,
-        timeout=120,
-        check=False,
-    )
+    done = run_pcl_rg("info", tmp_path / "none.las")
     assert done.returncode == 2
     assert_one_error_line(done.stderr, "does not exist")
 
@@ -868,34 +813,11 @@ def test_python_dash_m(tmp_path, scene_las):
 def test_console_script(tmp_path, scene_las):
     script = Path(sys.executable).parent / "pcl-rg"
     assert script.exists(), f"the console script is not installed next to {sys.executable}"
-    done = subprocess.run(
-        [
-            os.fspath(script),
-            "ground",
-            os.fspath(scene_las),
-            os.fspath(tmp_path / "g.laz"),
-            "--drop",
-        ],
-        capture_output=True,
-        text=True,
-        timeout=120,
-        check=False,
-    )
+    done = run_command(script, "ground", scene_las, tmp_path / "g.laz", "--drop")
     assert done.returncode == 0, done.stderr
     assert "ground" in done.stdout and "wrote" in done.stdout
     assert (read_points(tmp_path / "g.laz").classification == 2).all()
     (tmp_path / "bad.ply").write_bytes(b"ply\nformat ascii 1.0\n")
-    done = subprocess.run(
-        [
-            os.fspath(script),
-            "denoise",
-            os.fspath(tmp_path / "bad.ply"),
-            os.fspath(tmp_path / "x.ply"),
-        ],
-        capture_output=True,
-        text=True,
-        timeout=120,
-        check=False,
-    )
+    done = run_command(script, "denoise", tmp_path / "bad.ply", tmp_path / "x.ply")
     assert done.returncode == 2
     assert_one_error_line(done.stderr, "invalid PLY file")

@@ -18,6 +18,7 @@ STAGES = [
     "downsample: voxel grid",
     "ground: grid",
     "ground: tin",
+    "segment: convex (voxels)",
     "segment: curvature (voxels)",
     "segment: pcl (voxels)",
     "pipeline: seed 004",
@@ -58,7 +59,7 @@ def test_table_matches_the_files(demo):
     survey = rows["batch: ground, 4 tiles"]
     assert float(survey["result"].split(" %")[0]) >= 99.9
     assert len(list((folder / "survey_ground").glob("*.laz"))) == 4
-    for name in ("segments_curvature", "segments_pcl", "pipeline"):
+    for name in ("segments_convex", "segments_curvature", "segments_pcl", "pipeline"):
         segments = read_points(folder / f"{name}.laz").fields["segment_id"]
         assert segments.dtype == np.int32 and len(segments) == len(truth)
         assert (segments >= 0).any()
@@ -79,6 +80,7 @@ def test_figures(demo):
         "ground_tin.png",
         "ground_grid_profile.png",
         "segments_curvature.png",
+        "segments_convex.png",
     } <= names
     for path in report.files:
         assert path.parent == folder and path.stat().st_size > 0

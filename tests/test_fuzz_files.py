@@ -18,14 +18,13 @@ from __future__ import annotations
 import faulthandler
 import os
 import subprocess
-import sys
 import time
 import tracemalloc
 from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import shared_data
+from conftest import run_pcl_rg, shared_data
 from fuzz_files import Mutant, mutants, templates
 
 from pcl_rg.io import PointFile, read_points, write_points
@@ -95,14 +94,8 @@ def test_mutated_files_in_process(template_files: list[Path], tmp_path: Path) ->
 
 
 def _run_cli(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [sys.executable, "-m", "pcl_rg", *args],
-        capture_output=True,
-        text=True,
-        timeout=30,  # a hang, not a slow start: each case takes about a second
-        cwd=cwd,
-        env={**os.environ, "PCL_RG_TRACEBACK": ""},
-    )
+    # timeout: a hang, not a slow start (each case takes about a second)
+    return run_pcl_rg(*args, timeout=30, cwd=cwd, env={**os.environ, "PCL_RG_TRACEBACK": ""})
 
 
 def _assert_clean_cli(done: subprocess.CompletedProcess[str], path: Path) -> None:

@@ -556,8 +556,16 @@ def isprs():
 @pytest.mark.parametrize("sample", ISPRS_SAMPLES)
 def test_isprs_core_equals_reference(isprs, sample):
     points, _ = isprs[sample]
-    for params in (GridGroundParams(), DEFINITION):
+    for params in (GridGroundParams(final_cell=0.0), DEFINITION):
         assert_core_equals_reference(points, params)
+    # The final pass triangulates the cells' lowest points; on this gridded XY (y in
+    # 0.5 m steps) four of them may be co-circular, and qhull and the core's TIN may then
+    # choose other diagonals, which moves the surface under a few points
+    # (tests/test_final_pass.py). Bound: 1 point in 1000.
+    final = GridGroundParams(final_cell=3.0)
+    core = pcl_rg.grid_ground(points, params=final)
+    expected = reference.grid_ground(points, params=final)
+    assert np.count_nonzero(core != expected) <= len(points) // 1000
 
 
 def test_isprs_errors_with_the_defaults(isprs):

@@ -11,10 +11,9 @@ import struct
 import laspy
 import numpy as np
 import pytest
-from conftest import shared_data
+from conftest import fail_writes, shared_data
 
 import pcl_rg.io as pio
-import pcl_rg.io._atomic as atomic_io
 from pcl_rg import datasets
 from pcl_rg.io import PointFile, read_pcd, read_points, write_pcd, write_points
 
@@ -592,48 +591,6 @@ def test_empty_clouds_round_trip(tmp_path):
 
 
 # ---------------------------------------------------------------- atomic writes
-
-
-class _FailingStream:
-    """A file object that accepts `budget` bytes, then fails like a full disk."""
-
-    def __init__(self, real, budget: int, error: BaseException) -> None:
-        self.real, self.budget, self.error = real, budget, error
-
-    def write(self, data) -> int:
-        size = memoryview(data).nbytes
-        if size > self.budget:
-            self.real.write(memoryview(data).tobytes()[: self.budget])
-            self.real.flush()
-            raise self.error
-        self.budget -= size
-        return self.real.write(data)
-
-    def __getattr__(self, name):
-        return getattr(self.real, name)
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        self.real.close()
-        return False
-
-
-def fail_writes(monkeypatch, budget: int, error: BaseException) -> list[str]:
-    """Make pcl_rg.io's temporary-file writes fail; return the temp names seen."""
-    seen = []
-    real_open = open
-
-    def fake_open(file, mode="r", *args, **kwargs):
-        stream = real_open(file, mode, *args, **kwargs)
-        if isinstance(file, int) and "w" in mode:
-            seen.append(os.readlink(f"/proc/self/fd/{file}"))
-            return _FailingStream(stream, budget, error)
-        return stream
-
-    monkeypatch.setattr(atomic_io, "open", fake_open, raising=False)
-    return seen
 
 
 @pytest.mark.parametrize("ext", ["las", "laz", "ply", "pcd", "xyz"])

@@ -6,7 +6,7 @@ import dataclasses
 
 import numpy as np
 import pytest
-from conftest import MOSD_SCENES, examples, run_in_threads, shared_data
+from conftest import MOSD_SCENES, examples, point_arrays, run_in_threads, shared_data
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
@@ -348,12 +348,7 @@ def test_bad_points() -> None:
 # ------------------------------------------------------------------------ fuzzing
 
 
-coordinates = st.sampled_from([0.0, 1.0, -1.0, 0.5, 1e-9, 1e6, 2.5, 3.0])
-clouds = hnp.arrays(
-    np.float64,
-    st.tuples(st.integers(0, 25), st.just(3)),
-    elements=st.one_of(coordinates, st.floats(-10, 10, allow_nan=False)),
-)
+clouds = point_arrays((0, 25), [0.0, 1.0, -1.0, 0.5, 1e-9, 1e6, 2.5, 3.0], 10)
 
 
 @settings(max_examples=examples(150), deadline=None, suppress_health_check=[HealthCheck.too_slow])

@@ -80,11 +80,13 @@ CORE_CALLS = {
     ],
     _core.NormalsParams: [_core.normals],
     _core.RegionGrowingParams: [_core.region_growing],
+    _core.ConvexSegmentationParams: [_core.convex_segmentation],
     _core.GridGroundParams: [_core.grid_ground],
     _core.TinGroundParams: [_core.tin_ground],
     _pcl.NormalEstimationParams: [_pcl.normal_estimation],
     _pcl.RegionGrowingPclParams: [_pcl.region_growing],
     _pcl.ProgressiveMorphologicalFilterParams: [_pcl.progressive_morphological_filter],
+    _pcl.LccpParams: [_pcl.lccp],
 }
 REQUIRED = {"VoxelGridParams": {"leaf_size": 1.0}}
 
@@ -163,6 +165,7 @@ def test_every_bounded_parameter_is_covered() -> None:
         (pcl_rg.GridGroundParams, "block_size", "cell_size", (4.0, 5.0)),
         (pcl_rg.RegionGrowingParams, "min_cluster_size", "max_cluster_size", (50, 10)),
         (pcl_rg.pcl.RegionGrowingPclParams, "min_cluster_size", "max_cluster_size", (50, 10)),
+        (pcl_rg.pcl.LccpParams, "voxel_resolution", "seed_resolution", (0.05, 0.01)),
     ],
 )
 def test_relations_between_parameters_are_worded_alike(cls, first, second, values) -> None:

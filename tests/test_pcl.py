@@ -12,10 +12,9 @@ import dataclasses
 
 import numpy as np
 import pytest
-from conftest import MOSD_SCENES, examples, run_in_threads, shared_data
+from conftest import MOSD_SCENES, examples, point_arrays, run_in_threads, shared_data
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from hypothesis.extra import numpy as hnp
 from test_region_growing import assert_numbered_by_smallest_index, box_scene, matched_agreement
 
 import pcl_rg
@@ -234,11 +233,7 @@ def test_bad_points_and_empty_input() -> None:
 
 @settings(max_examples=examples(100), deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(
-    points=hnp.arrays(
-        np.float64,
-        st.tuples(st.integers(0, 30), st.just(3)),
-        elements=st.one_of(st.sampled_from([0.0, 1.0, -2.0, 1e-6, 1e4]), st.floats(-5, 5)),
-    ),
+    points=point_arrays((0, 30), [0.0, 1.0, -2.0, 1e-6, 1e4], 5),
     k=st.integers(1, 32),
     angle=st.floats(-10, 200),
     threshold=st.floats(-1, 1),

@@ -11,7 +11,7 @@ import pcl_rg
 from pcl_rg import RegionGrowingParams, StatisticalOutlierRemovalParams, VoxelGridParams
 from pcl_rg.datasets import load_mosd
 from pcl_rg.evaluation import segmentation_scores
-from pcl_rg.pipeline import seed004
+from pcl_rg.pipeline import auto_leaf_size, seed004
 
 REGION = RegionGrowingParams(
     k=12, smoothness_deg=12.0, curvature_threshold=4.0, min_cluster_size=30
@@ -76,7 +76,7 @@ def test_outliers_get_minus_one_and_report_counts() -> None:
 
 def test_stages_can_be_skipped() -> None:
     pts = box_scene(32)
-    result = seed004(pts, sor=None, voxel=None, region=REGION)
+    result = seed004(pts, sor=None, voxel=None, region=REGION, auto_voxel=False)
     np.testing.assert_array_equal(result.labels, pcl_rg.region_growing(pts, params=REGION))
     assert result.inlier.all() and [s.name for s in result.report.stages] == [
         "normals", "region growing",
@@ -98,6 +98,23 @@ def test_real_scene_through_the_pipeline() -> None:
     # sigma); almost every point it keeps lands in a kept region.
     assert (result.labels[~result.inlier] == -1).all()
     assert (result.labels[result.inlier] == -1).mean() < 0.05
+
+
+def test_leaf_size_from_the_data_on_a_raw_kinect_frame() -> None:
+    # A raw frame (1.5 mm spacing, 0.5 mm depth noise): the grid chosen from the data is
+    # the one region growing is tuned for (3 to 8 mm), and the report names it.
+    scene = load_mosd(shared_data("mosd", f"{MOSD_SCENES[0]}.pcd"))
+    leaf = auto_leaf_size(scene.points)
+    assert 0.003 <= leaf <= 0.008, leaf
+    result = seed004(scene.points, sor=None)
+    assert result.report.stages[0].name == f"voxel grid (auto leaf {leaf:.3g})"
+    # The failure: defaults on the raw frame left most points unassigned.
+    assert (result.labels == -1).mean() < 0.1
+    scores = segmentation_scores(scene.labels, result.labels)
+    assert scores.mean_iou > 0.7, scores.mean_iou
+    # Scale-free: the same cloud in millimetres gets a leaf 1000 times larger (up to
+    # float32 neighbour ties in the k-d tree, which pick other neighbours here and there).
+    assert auto_leaf_size(scene.points * 1000.0) == pytest.approx(1000.0 * leaf, rel=1e-3)
 
 
 def test_errors_and_empty_input() -> None:

@@ -7,10 +7,9 @@ import math
 
 import numpy as np
 import pytest
-from conftest import MOSD_SCENES, examples, run_in_threads, shared_data
+from conftest import MOSD_SCENES, examples, point_arrays, run_in_threads, shared_data
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from hypothesis.extra import numpy as hnp
 from scipy.optimize import linear_sum_assignment
 
 import pcl_rg
@@ -382,11 +381,7 @@ def test_bad_points_and_empty_input() -> None:
 
 @settings(max_examples=examples(150), deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(
-    points=hnp.arrays(
-        np.float64,
-        st.tuples(st.integers(0, 30), st.just(3)),
-        elements=st.one_of(st.sampled_from([0.0, 1.0, -2.0, 1e-7, 1e5]), st.floats(-5, 5)),
-    ),
+    points=point_arrays((0, 30), [0.0, 1.0, -2.0, 1e-7, 1e5], 5),
     k=st.integers(1, 32),
     angle=st.floats(-10, 200),
     threshold=st.floats(-1, 1e3),

@@ -23,6 +23,7 @@ ALGORITHMS = [
     ("statistical_outlier_removal", pcl_rg.StatisticalOutlierRemovalParams, "denoise"),
     ("normals", pcl_rg.NormalsParams, None),
     ("region_growing", pcl_rg.RegionGrowingParams, "segment"),
+    ("convex_segmentation", pcl_rg.ConvexSegmentationParams, "segment"),
     ("grid_ground", pcl_rg.GridGroundParams, "ground"),
     ("tin_ground", pcl_rg.TinGroundParams, "ground"),
 ]

@@ -9,13 +9,13 @@ from conftest import (
     ISPRS_SAMPLES,
     clustered_cloud,
     examples,
+    point_arrays,
     run_in_threads,
     shared_data,
     uniform_cloud,
 )
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from hypothesis.extra import numpy as hnp
 
 import pcl_rg
 from pcl_rg import _core, reference
@@ -181,11 +181,7 @@ def test_bad_points():
 
 @settings(max_examples=examples(120), deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(
-    points=hnp.arrays(
-        np.float64,
-        st.tuples(st.integers(2, 80), st.just(3)),
-        elements=st.one_of(st.floats(-100, 100), st.sampled_from([0.0, 1.0, 2.0])),
-    ),
+    points=point_arrays((2, 80), [0.0, 1.0, 2.0], 100),
     mean_k=st.integers(1, 10),
     std_mul=st.floats(0, 5),
 )

@@ -4,7 +4,14 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import clustered_cloud, examples, run_in_threads, shared_data, uniform_cloud
+from conftest import (
+    clustered_cloud,
+    examples,
+    point_arrays,
+    run_in_threads,
+    shared_data,
+    uniform_cloud,
+)
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
@@ -247,13 +254,7 @@ def test_core_rejects_unconverted_arrays():
 # --- fuzzing and threads ---------------------------------------------------------
 @settings(max_examples=examples(80), deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(
-    points=hnp.arrays(
-        np.float64,
-        st.tuples(st.integers(0, 60), st.just(3)),
-        elements=st.one_of(
-            st.floats(-1e3, 1e3, allow_nan=False), st.sampled_from([0.0, 0.5, -0.5, 1.0])
-        ),
-    ),
+    points=point_arrays((0, 60), [0.0, 0.5, -0.5, 1.0], 1e3),
     leaf=st.one_of(
         st.floats(1e-3, 1e3),
         st.tuples(st.floats(1e-3, 50), st.floats(1e-3, 50), st.floats(1e-3, 50)),

@@ -20,10 +20,10 @@ import ctypes
 import hashlib
 import json
 import sys
-import threading
 from collections.abc import Callable
 
 import numpy as np
+from conftest import run_in_threads  # this script runs from tests/
 
 import pcl_rg
 from pcl_rg import datasets
@@ -75,10 +75,15 @@ def _jobs(c: dict[str, np.ndarray]) -> dict[str, Callable[[], str]]:
         ),
         "normals": normals,
         "region_growing": lambda: _digest(pcl_rg.region_growing(surf)),
+        "convex_segmentation": lambda: _digest(pcl_rg.convex_segmentation(surf)),
+        "point_scale": lambda: _digest(np.asarray(pcl_rg.point_scale(surf))),
         "pcl.region_growing": lambda: _digest(pcl_rg.pcl.region_growing(surf)),
         "pcl.normals": lambda: _digest(*pcl_rg.pcl.normals(surf, k=12)),
         "pcl.voxel_grid": pcl_voxel,
         "pcl.statistical_outlier_removal": pcl_sor,
+        "pcl.lccp": lambda: _digest(
+            pcl_rg.pcl.lccp(surf, voxel_resolution=0.6, seed_resolution=2.4, viewpoint=surf.min(0))
+        ),
         "pcl.progressive_morphological_filter": lambda: _digest(
             pcl_rg.pcl.progressive_morphological_filter(air[:20_000])
         ),
@@ -114,18 +119,7 @@ def _in_parallel_region(job: Callable[[], str]) -> str:
 
 
 def _from_python_threads(job: Callable[[], str], count: int = 8) -> str:
-    results: list[str | None] = [None] * count
-    barrier = threading.Barrier(count)
-
-    def run(slot: int) -> None:
-        barrier.wait()
-        results[slot] = job()
-
-    threads = [threading.Thread(target=run, args=(i,)) for i in range(count)]
-    for t in threads:
-        t.start()
-    for t in threads:
-        t.join()
+    results = run_in_threads(job, count)
     return results[0] if len(set(results)) == 1 and results[0] else "threads disagree"
 
 

@@ -9,6 +9,6 @@ cd "$(dirname "$0")/.."
 if [ ! -x "$root/venv/bin/python" ]; then
     python3 -m venv "$root/venv"
     "$root/venv/bin/pip" install -q "scikit-build-core>=0.10" "pybind11>=2.13" "cmake>=3.18" ninja \
-        numpy scipy tqdm pytest hypothesis "laspy[lazrs]" matplotlib
+        numpy scipy tqdm pytest hypothesis "laspy[lazrs]" matplotlib "dask[distributed]" ruff
 fi
 "$root/venv/bin/pip" install -q --no-deps --no-build-isolation -Cbuild-dir="$root/build" .

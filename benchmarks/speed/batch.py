@@ -25,7 +25,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/_common.py
-from _common import machine, markdown_table, publish  # noqa: E402
+from _common import publish_report  # noqa: E402
 
 from pcl_rg.datasets import synthetic_survey  # noqa: E402
 from pcl_rg.io import read_extent  # noqa: E402
@@ -169,17 +169,17 @@ def main(argv: list[str] | None = None) -> int:
     command = (
         f"python benchmarks/speed/batch.py --tiles {args.tiles[0]} {args.tiles[1]} "
         f"--tile-size {args.tile_size:g} --density {args.density:g} --method {args.method} "
-        f"--repeats {args.repeats}" + (" --write" if args.write else "")
+        f"--repeats {args.repeats}"
     )
-    text = (
-        f"{SECTION}\n\n`{command}` on {machine()}. Synthetic LAZ survey, {len(paths)} tiles; "
+    about = (
+        f"Synthetic LAZ survey, {len(paths)} tiles; "
         f"method {args.method}, default buffer ({summary.get('buffer', 0):g} m). Both runs are "
         "whole command lines, timed end to end with LAZ decoding and encoding; the loop "
         "runs one `pcl-rg ground` per tile (OpenMP on every core, or on one), the batch "
         "one-thread Dask workers, each tile with its buffer. Speed-up is against the "
-        f"first loop. Median of {args.repeats}.\n\n" + markdown_table(header, rows) + "\n"
+        f"first loop. Median of {args.repeats}."
     )
-    publish(text, SECTION, args.write)
+    publish_report(SECTION, command, about, header, rows, write=args.write)
     return 0
 
 

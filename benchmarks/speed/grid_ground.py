@@ -20,10 +20,11 @@ import math
 import os
 import sys
 import time
+from functools import partial
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/_common.py
-from _common import machine, markdown_table, measure, publish  # noqa: E402
+from _common import measure, publish_report  # noqa: E402
 
 import pcl_rg
 from pcl_rg import reference
@@ -59,31 +60,17 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     repeats = max(args.repeats, 3)
 
+    defaults, plain = "grid_ground (defaults, cell 1 m)", "grid_ground (definition, cell 1 m)"
     cases = [
-        (
-            args.points,
-            "grid_ground (defaults, cell 1 m)",
-            lambda p: pcl_rg.grid_ground(p, params=PARAMS),
-        ),
-        (
-            args.points,
-            "grid_ground (definition, cell 1 m)",
-            lambda p: pcl_rg.grid_ground(p, params=PLAIN),
-        ),
-        (
-            args.reference_points,
-            "grid_ground (defaults, cell 1 m)",
-            lambda p: pcl_rg.grid_ground(p, params=PARAMS),
-        ),
-        (
-            args.reference_points,
-            "reference (defaults, cell 1 m)",
-            lambda p: reference.grid_ground(p, params=PARAMS),
-        ),
+        (args.points, defaults, pcl_rg.grid_ground, PARAMS),
+        (args.points, plain, pcl_rg.grid_ground, PLAIN),
+        (args.reference_points, defaults, pcl_rg.grid_ground, PARAMS),
+        (args.reference_points, "reference (defaults, cell 1 m)", reference.grid_ground, PARAMS),
     ]
     load_before = os.getloadavg()[0]
     rows, medians, counts, notes = [], {}, {}, []
-    for n, name, run in cases:
+    for n, name, function, params in cases:
+        run = partial(function, params=params)
         result = measure(lambda n=n: scene(n), run, repeats)
         if "median" not in result:
             print(f"{name}: {result['error']}", file=sys.stderr)
@@ -118,22 +105,18 @@ def main(argv: list[str] | None = None) -> int:
         medians[args.reference_points, "reference (defaults, cell 1 m)"]
         / medians[args.reference_points, "grid_ground (defaults, cell 1 m)"]
     )
-    command = "python benchmarks/speed/grid_ground.py" + (" --write" if args.write else "")
-    text = (
-        f"{SECTION}\n\n"
-        f"`{command}` on {machine()}, shared with other jobs (1-minute load average\n"
-        f"{load_before:.1f} before, {os.getloadavg()[0]:.1f} after: on 2 cores, wall times\n"
-        "include waiting for a core).\n"
-        f"Synthetic scenes at {DENSITY:g} points/m^2, UTM offset; median of {repeats} runs,\n"
-        "each case in its own process; times include the input gate.\n\n"
-        + markdown_table(
-            ["points", "method", "times s", "median s", "M points/s", "peak MiB"], rows
-        )
-        + f"\n\nCore vs reference on {args.reference_points:,} points: {speedup:.0f}x faster.\n\n"
-        + "\n".join(notes)
-        + "\n"
+    about = (
+        f"Shared with other jobs (1-minute load average "
+        f"{load_before:.1f} before, {os.getloadavg()[0]:.1f} after: on 2 cores, wall times "
+        "include waiting for a core). "
+        f"Synthetic scenes at {DENSITY:g} points/m^2, UTM offset; median of {repeats} runs, "
+        "each case in its own process; times include the input gate."
     )
-    publish(text, SECTION, args.write)
+    header = ["points", "method", "times s", "median s", "M points/s", "peak MiB"]
+    speedup_note = f"Core vs reference on {args.reference_points:,} points: {speedup:.0f}x faster."
+    notes.insert(0, speedup_note + "\n")
+    command = "python benchmarks/speed/grid_ground.py"
+    publish_report(SECTION, command, about, header, rows, notes, write=args.write)
     return 0
 
 

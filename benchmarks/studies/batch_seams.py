@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/_common.py
-from _common import SHARED_DATA, machine, markdown_table, publish  # noqa: E402
+from _common import SHARED_DATA, publish_report  # noqa: E402
 
 import pcl_rg  # noqa: E402
 from pcl_rg import batch  # noqa: E402
@@ -120,18 +120,14 @@ def main(argv: list[str] | None = None) -> int:
     header = ["cloud", "method", "points", "seam points %", "default buffer m"] + [
         f"buffer {b:g} m" for b in args.buffers
     ]
-    command = "python benchmarks/studies/batch_seams.py" + (" --write" if args.write else "")
-    text = (
-        f"{SECTION}\n\n`{command}` on {machine()}. Labels of `pcl_rg.batch.ground` (2 local "
+    about = (
+        "Labels of `pcl_rg.batch.ground` (2 local "
         "workers) against one call on the merged cloud, per buffer size: "
         '"all / seam" is the % of labels that differ over all points and over the points '
-        f"within {SEAM:g} m of a tile border. Grids are anchored in world coordinates.\n\n"
-        + markdown_table(header, rows)
-        + "\n\n"
-        + "\n".join(exact)
-        + "\n"
+        f"within {SEAM:g} m of a tile border. Grids are anchored in world coordinates."
     )
-    publish(text, SECTION, args.write)
+    command = "python benchmarks/studies/batch_seams.py"
+    publish_report(SECTION, command, about, header, rows, exact, write=args.write)
     return 0
 
 

@@ -1,16 +1,19 @@
 """Leave-one-sample-out cross-validation of the ISPRS presets of both ground filters.
 
 Usage: python benchmarks/studies/ground_isprs_cv.py [--write] [--filters tin grid]
+       [--rules fixed spacing resolution] [--jobs N]
 
-The presets (TinGroundParams.isprs(), GridGroundParams.isprs()) were chosen by a
-search over all seven samples of ../shared/data/isprs, so their error there is a
-fitted figure. This study repeats each filter's own search (the coordinate descent
-of tin_isprs_params.py and ground_isprs.py --search, unchanged) seven times, each
-time on six samples, and scores the set it picks on the seventh, the one it never
-saw. The mean of those seven held-out errors is the figure that predicts unseen
-data; the table puts it beside the fitted one, per sample. The lengths that scale
-with the point spacing are searched, and picked, as multiples of each sample's
-spacing (the presets leave them unset: SPACING_MULTIPLES).
+Each filter's search (tin_isprs_params.py, ground_isprs.py --search) picks one set
+on all seven samples of ../shared/data/isprs, so its error there is a fitted
+figure. This study repeats the search (the same coordinate descent, unchanged)
+seven times, each time on six samples, and scores the set it picks on the seventh,
+the one it never saw. The mean of those seven held-out errors is the figure that
+predicts unseen data; the table puts it beside the fitted one, per sample.
+
+The lengths that can follow the point spacing are searched, and picked, in metres or
+as multiples of each sample's spacing, as each study's RULES say (--rules: one
+summary row per filter and rule; the per-sample table is of each filter's own rule,
+the one its preset follows).
 """
 
 from __future__ import annotations
@@ -36,77 +39,66 @@ from pcl_rg.evaluation import ground_errors  # noqa: E402
 SECTION = "## Ground filters on ISPRS: cross-validated presets"
 
 
-def tin_search(samples):
-    best, _ = tin_isprs_params.search(samples)
+def tin_search(samples, rule):
+    best, _ = tin_isprs_params.search(samples, rule)
     return best
 
 
-def grid_search(samples):
-    best, _ = ground_isprs.choose(samples, [])
+def grid_search(samples, rule):
+    best, _ = ground_isprs.choose(samples, [], rule)
     return best
 
 
-# Each filter: the function, its preset, the search (a (params, spacing multiples)
-# setting from the training samples) and how a setting runs on points.
+# Each filter: the function, the search (a _scaled.Scaled setting from the training
+# samples, for a rule) and the study that holds its RULES and own RULE.
 FILTERS = {
-    "tin": (
-        pcl_rg.tin_ground,
-        pcl_rg.TinGroundParams.isprs(),
-        tin_search,
-        tin_isprs_params.predict,
-    ),
-    "grid": (
-        pcl_rg.grid_ground,
-        pcl_rg.GridGroundParams.isprs(),
-        grid_search,
-        ground_isprs.predict,
-    ),
+    "tin": (pcl_rg.tin_ground, tin_search, tin_isprs_params),
+    "grid": (pcl_rg.grid_ground, grid_search, ground_isprs),
 }
 
 
-def changed_fields(setting, preset) -> str:
-    """Where a fold's pick differs from the preset: name=value, multiples as "x spacing"."""
-    params, multiples = setting
-    names = [f for f in params.__dataclass_fields__ if getattr(params, f) != getattr(preset, f)]
-    changed = [f"{n}={getattr(params, n)}" for n in names]
-    changed += [
-        f"{n}={m:g} x spacing"
-        for n, m in multiples.items()
-        if getattr(params, n) is None and m != preset.SPACING_MULTIPLES[n]
-    ]
-    return ", ".join(changed) or "= preset"
+def cross_validate(name: str, rule: str, samples) -> tuple[list[list[str]], list, list]:
+    """Every fold of one filter and rule: (table rows, fitted errors, held-out errors).
 
-
-def cross_validate_fold(name: str, held_out: str, samples) -> tuple[list[str], float, float]:
-    """One fold: the search on the samples but `held_out`, its pick scored on that one.
-
-    Returns the table row, the preset's (fitted) and the pick's (held-out) total error.
+    Fitted: the search's pick on all seven samples, scored on each.
     """
-    function, preset, search, predict = FILTERS[name]
-    points, truth = samples[held_out]
+    function, search, _ = FILTERS[name]
     start = time.perf_counter()
-    training = {s: v for s, v in samples.items() if s != held_out}
-    chosen = search(training)
-    fitted = ground_errors(truth, function(points, params=preset))
-    unseen = ground_errors(truth, predict(points, chosen))
-    row = [
-        name,
-        held_out,
-        f"{100 * fitted.total:.2f}",
-        f"{fitted.kappa:.3f}",
-        f"{100 * unseen.type_i:.2f}",
-        f"{100 * unseen.type_ii:.2f}",
-        f"{100 * unseen.total:.2f}",
-        f"{unseen.kappa:.3f}",
-        changed_fields(chosen, preset),
-    ]
-    print(
-        f"  {name} without {held_out}: held out {100 * unseen.total:.2f} % "
-        f"(fitted {100 * fitted.total:.2f} %), {time.perf_counter() - start:.0f} s",
-        file=sys.stderr,
-        flush=True,
-    )
-    return row, fitted.total, unseen.total
+    fitted_pick = search(samples, rule)
+    print(f"  {name} ({rule}) on all seven: {fitted_pick.describe()}", file=sys.stderr)
+    rows, fitted, unseen = [], [], []
+    for held_out, (points, truth) in samples.items():
+        training = {s: v for s, v in samples.items() if s != held_out}
+        chosen = search(training, rule)
+        fit = ground_errors(truth, fitted_pick.run(function, points))
+        out = ground_errors(truth, chosen.run(function, points))
+        fitted.append(fit)
+        unseen.append(out)
+        rows.append(
+            [
+                name,
+                held_out,
+                f"{100 * fit.total:.2f}",
+                f"{fit.kappa:.3f}",
+                f"{100 * out.type_i:.2f}",
+                f"{100 * out.type_ii:.2f}",
+                f"{100 * out.total:.2f}",
+                f"{out.kappa:.3f}",
+                chosen.describe(fitted_pick).replace("= preset", "= the fitted pick"),
+            ]
+        )
+        print(
+            f"  {name} ({rule}) without {held_out}: held out {100 * out.total:.2f} % "
+            f"(fitted {100 * fit.total:.2f} %), {time.perf_counter() - start:.0f} s",
+            file=sys.stderr,
+            flush=True,
+        )
+    rows.insert(0, [name, "(all seven)", "", "", "", "", "", "", fitted_pick.describe()])
+    return rows, fitted, unseen
+
+
+def _mean(errors, field: str) -> float:
+    return float(np.mean([getattr(e, field) for e in errors]))
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -114,10 +106,23 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--write", action="store_true", help="update RESULTS.md")
     parser.add_argument("--filters", nargs="+", choices=list(FILTERS), default=list(FILTERS))
     parser.add_argument(
-        "--jobs", type=int, default=1, help="folds cross-validated at once (processes)"
+        "--rules", nargs="+", default=None, help="rules of the studies' RULES (default: own)"
     )
+    parser.add_argument("--jobs", type=int, default=1, help="(filter, rule)s run at once")
     args = parser.parse_args(argv)
     samples = ground_isprs.load_samples()
+    tasks = []
+    for name in args.filters:
+        study = FILTERS[name][2]
+        rules = [r for r in (args.rules or [study.RULE]) if r in study.RULES]
+        tasks += [(name, rule) for rule in rules]
+    if args.jobs > 1:  # side by side, each in its own process (own score cache)
+        context = multiprocessing.get_context("fork")
+        with ProcessPoolExecutor(args.jobs, mp_context=context) as pool:
+            futures = [pool.submit(cross_validate, *task, samples) for task in tasks]
+            results = [future.result() for future in futures]
+    else:
+        results = [cross_validate(*task, samples) for task in tasks]
     header = [
         "filter",
         "held-out sample",
@@ -127,53 +132,47 @@ def main(argv: list[str] | None = None) -> int:
         "CV Type II %",
         "CV total %",
         "CV kappa",
-        "fold's pick (fields unlike the preset)",
+        "fold's pick (fields unlike the fitted pick)",
     ]
     rows, summary = [], []
-    tasks = [(name, held_out) for name in args.filters for held_out in samples]
-    if args.jobs > 1:  # folds side by side, each in its own process
-        context = multiprocessing.get_context("fork")
-        with ProcessPoolExecutor(args.jobs, mp_context=context) as pool:
-            futures = [pool.submit(cross_validate_fold, *task, samples) for task in tasks]
-            folds = [future.result() for future in futures]
-    else:
-        folds = [cross_validate_fold(*task, samples) for task in tasks]
-    for name in args.filters:
-        own = [fold for task, fold in zip(tasks, folds) if task[0] == name]
-        fold_rows = [row for row, _, _ in own]
-        fitted = [total for _, total, _ in own]
-        unseen = [total for _, _, total in own]
+    for (name, rule), (fold_rows, fitted, unseen) in zip(tasks, results):
+        line = [
+            name,
+            rule + (" (the preset's)" if rule == FILTERS[name][2].RULE else ""),
+            f"{100 * _mean(fitted, 'total'):.2f}",
+            f"{_mean(fitted, 'kappa'):.3f}",
+            f"{100 * _mean(unseen, 'total'):.2f}",
+            f"{_mean(unseen, 'kappa'):.3f}",
+        ]
+        summary.append(line)
+        if rule != FILTERS[name][2].RULE:
+            continue
         rows += fold_rows
-        kappas_fit = np.mean([float(r[3]) for r in fold_rows])
-        kappas_cv = np.mean([float(r[7]) for r in fold_rows])
         rows.append(
-            [
-                f"**{name}**",
-                "**mean**",
-                f"**{100 * np.mean(fitted):.2f}**",
-                f"{kappas_fit:.3f}",
-                "",
-                "",
-                f"**{100 * np.mean(unseen):.2f}**",
-                f"{kappas_cv:.3f}",
-                "",
-            ]
-        )
-        growth = 100 * (np.mean(unseen) / np.mean(fitted) - 1)
-        summary.append(
-            f"- {name}: fitted {100 * np.mean(fitted):.2f} %, cross-validated "
-            f"{100 * np.mean(unseen):.2f} % ({growth:+.0f} %)."
+            [f"**{name}**", "**mean**", f"**{line[2]}**", line[3], "", "", f"**{line[4]}**",
+             line[5], ""]
         )
     command = "python benchmarks/studies/ground_isprs_cv.py" + (" --write" if args.write else "")
+    command += f" --filters {' '.join(args.filters)}" if args.filters != list(FILTERS) else ""
+    command += f" --rules {' '.join(args.rules)}" if args.rules else ""
     command += f" --jobs {args.jobs}" if args.jobs > 1 else ""
     text = (
-        f"{SECTION}\n\n`{command}` on {machine()}. Fitted: the preset, chosen on all seven "
+        f"{SECTION}\n\n`{command}` on {machine()}. Fitted: the search's pick on all seven "
         "samples, scored on each. CV: the same search run on the other six samples, its "
         "pick scored on the held-out one (leave one sample out). Mean total error and mean "
-        "kappa over the seven samples.\n\n"
-        + markdown_table(header, rows)
-        + "\n\n"
-        + "\n".join(summary)
+        "kappa over the seven samples. Rules for the lengths that can follow the point "
+        "spacing (the studies' RULES): fixed, every length in metres (on ISPRS also the "
+        "capped rule, min(fitted length, multiple x spacing), whose cap binds only below "
+        "ISPRS spacing); spacing, every such length a multiple of the spacing; "
+        "resolution, only the lengths that set the resolution (tin: stop_edge, "
+        "near_vertex_distance; grid: cell_size), the seed and final-pass cells in metres."
+        "\n\n"
+        + markdown_table(
+            ["filter", "rule", "fitted total %", "fitted kappa", "CV total %", "CV kappa"],
+            summary,
+        )
+        + "\n\nPer held-out sample, each filter's own rule:\n\n"
+        + (markdown_table(header, rows) if rows else "(not run)")
         + "\n"
     )
     publish(text, SECTION, args.write)

@@ -38,17 +38,24 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/_common.py
-from _common import SHARED_DATA, machine, markdown_table, write_section  # noqa: E402
+from _common import (  # noqa: E402
+    MOSD_SCENES,
+    SHARED_DATA,
+    carry,
+    machine,
+    markdown_table,
+    mosd_at,
+    write_section,
+)
 
 import pcl_rg
 from pcl_rg import RegionGrowingParams
-from pcl_rg.datasets import load_mosd
 from pcl_rg.evaluation import segmentation_scores
 from pcl_rg.io import read_pcd
 from pcl_rg.pcl import RegionGrowingPclParams
 
 DATA = SHARED_DATA
-SCENES = ("learn0", "learn5", "learn17", "learn20", "learn25", "learn33", "learn40")
+SCENES = MOSD_SCENES
 LEAVES = (0.003, 0.004, 0.005, 0.006, 0.007, 0.008)  # voxel sizes, m: the pooled protocol
 TABLE_LEAF = 0.005  # m: the voxel size of the scene-by-scene table and the tutorial cloud
 SECTION = "## Region growing on mOSD"
@@ -75,25 +82,6 @@ NOTES = [
     "- Time: pcl_rg reuses the normal pass's neighbour lists for the growth, while "
     "pcl::RegionGrowing searches them again; this is where most of the difference lies.",
 ]
-
-
-def load(leaf: float):
-    """Per scene: (name, truth per valid pixel, segmented points, voxel_of_point or None)."""
-    scenes = []
-    for name in SCENES:
-        scene = load_mosd(DATA / "mosd" / f"{name}.pcd")
-        if leaf > 0:
-            grid = pcl_rg.voxel_grid(scene.points, leaf_size=leaf)
-            scenes.append((name, scene.labels, grid.centroids, grid.voxel_of_point))
-        else:
-            scenes.append((name, scene.labels, scene.points, None))
-    return scenes
-
-
-def carry(labels: np.ndarray, voxel_of_point: np.ndarray | None) -> np.ndarray:
-    if voxel_of_point is None:
-        return labels
-    return np.where(voxel_of_point >= 0, labels[np.maximum(voxel_of_point, 0)], -1)
 
 
 def ours(points: np.ndarray, p: RegionGrowingParams):
@@ -131,7 +119,7 @@ def default_methods():
 def run_scenes(leaf: float, methods) -> dict[str, list[tuple]]:
     """Per method, per scene: (name, points, SegmentationScores, normals_s, growth_s)."""
     runs: dict[str, list[tuple]] = {method: [] for method, _, _ in methods}
-    for name, truth, points, vop in load(leaf):
+    for name, truth, points, vop in mosd_at(leaf):
         for method, run, params in methods:
             labels, normals_s, growth_s = run(points, params)
             s = segmentation_scores(truth, carry(labels, vop))
@@ -325,7 +313,7 @@ def grid() -> list[str]:
     }
     scores: dict[tuple, list] = {}
     for leaf in LEAVES:
-        scenes = load(leaf)
+        scenes = mosd_at(leaf)
         for k in ks:
             # The public function for every setting: it recomputes the normals each
             # time, which makes the search slower but runs exactly what users run.

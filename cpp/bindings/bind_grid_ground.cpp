@@ -35,7 +35,11 @@ void bind_grid_ground(py::module_& m) {
         .def_readwrite("grow_across_blocks", &GridGroundParams::grow_across_blocks)
         .def_readwrite("filter_passes", &GridGroundParams::filter_passes)
         .def_readwrite("filter_slope", &GridGroundParams::filter_slope)
-        .def_readwrite("filter_tolerance", &GridGroundParams::filter_tolerance);
+        .def_readwrite("filter_tolerance", &GridGroundParams::filter_tolerance)
+        .def_readwrite("final_cell", &GridGroundParams::final_cell)
+        .def_readwrite("final_above", &GridGroundParams::final_above)
+        .def_readwrite("final_below", &GridGroundParams::final_below)
+        .def_readwrite("final_slope", &GridGroundParams::final_slope);
 
     m.def(
         "grid_ground",

@@ -20,7 +20,11 @@ void bind_tin_ground(py::module_& m) {
         .def_readwrite("near_vertex_distance", &TinGroundParams::near_vertex_distance)
         .def_readwrite("seed_cell", &TinGroundParams::seed_cell)
         .def_readwrite("seed_tolerance", &TinGroundParams::seed_tolerance)
-        .def_readwrite("outlier_depth", &TinGroundParams::outlier_depth);
+        .def_readwrite("outlier_depth", &TinGroundParams::outlier_depth)
+        .def_readwrite("final_cell", &TinGroundParams::final_cell)
+        .def_readwrite("final_above", &TinGroundParams::final_above)
+        .def_readwrite("final_below", &TinGroundParams::final_below)
+        .def_readwrite("final_slope", &TinGroundParams::final_slope);
 
     m.def(
         "tin_ground",

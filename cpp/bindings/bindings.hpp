@@ -11,6 +11,7 @@ void bind_lzf_codec(pybind11::module_& m);
 void bind_grid_ground(pybind11::module_& m);
 void bind_normals(pybind11::module_& m);
 void bind_region_growing(pybind11::module_& m);
+void bind_convex_segmentation(pybind11::module_& m);
 void bind_tin_ground(pybind11::module_& m);
 void bind_delaunay(pybind11::module_& m);
 void bind_point_spacing(pybind11::module_& m);

@@ -60,9 +60,7 @@ using Normals = pcl::PointCloud<pcl::Normal>;
 
 void check_size(std::size_t n, int k) {
     check::fewer_than_points("k", k, n);
-    if (n > static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max()))
-        throw std::invalid_argument("points: at most 2^31 - 1 points are supported, got " +
-                                    std::to_string(n));
+    check::indexable_by_int32(n);
 }
 
 Normals::Ptr estimate(const Cloud::Ptr& cloud, const pcl::search::Search<pcl::PointXYZ>::Ptr& tree,

@@ -3,6 +3,8 @@
 
 #include <charconv>
 #include <cmath>
+#include <cstdint>
+#include <limits>
 #include <stdexcept>
 
 namespace pcl_rg::check {
@@ -60,6 +62,12 @@ void fewer_than_points(const char* name, std::int64_t count, std::size_t n) {
     if (count < 0 || static_cast<std::uint64_t>(count) >= n)
         throw std::invalid_argument(std::string(name) + " must be < the number of points (" +
                                     std::to_string(n) + "), got " + std::to_string(count));
+}
+
+void indexable_by_int32(std::size_t n) {
+    if (n > static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max()))
+        throw std::invalid_argument("points: at most 2^31 - 1 points are supported, got " +
+                                    std::to_string(n));
 }
 
 }  // namespace pcl_rg::check

@@ -73,6 +73,18 @@ GridFrame make_grid_frame(double lower_x, double lower_y, double upper_x, double
     return frame;
 }
 
+void snap_to_grid(PointsView points, const std::array<double, 3>& origin, const GridFrame& frame,
+                  std::vector<std::int32_t>& gx, std::vector<std::int32_t>& gy) {
+    const auto n = static_cast<std::ptrdiff_t>(points.size);
+    gx.resize(points.size);
+    gy.resize(points.size);
+#pragma omp parallel for schedule(static)
+    for (std::ptrdiff_t i = 0; i < n; ++i) {
+        gx[i] = frame.grid_x(points.coord(i, 0) - origin[0]);
+        gy[i] = frame.grid_y(points.coord(i, 1) - origin[1]);
+    }
+}
+
 namespace {
 
 // Orientation of (a, b, p + (eps, eps^2)): the exact orientation when non-zero, else
@@ -123,6 +135,14 @@ Delaunay::Delaunay(std::int32_t width, std::int32_t height) {
     tri_ = {{{0, 1, 2}, {-1, 1, -1}}, {{0, 2, 3}, {-1, -1, 0}}};
     vt_ = {0, 0, 0, 1};
     ts_ = {stamp_, stamp_};
+}
+
+void Delaunay::reserve(std::size_t vertices) {
+    // A triangulation of V vertices whose hull is the 4 box corners has 2V - 6 triangles.
+    xy_.reserve(vertices);
+    vt_.reserve(vertices);
+    tri_.reserve(2 * vertices);
+    ts_.reserve(2 * vertices);
 }
 
 void Delaunay::write(std::int32_t t, std::int32_t a, std::int32_t b, std::int32_t c,

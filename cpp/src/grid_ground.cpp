@@ -46,6 +46,7 @@
 #include <vector>
 
 #include "pcl_rg/check.hpp"
+#include "pcl_rg/final_pass.hpp"
 #include "pcl_rg/grid_cells.hpp"
 #include "pcl_rg/interrupt.hpp"
 #include "pcl_rg/point_spacing.hpp"
@@ -71,6 +72,7 @@ void validate(const GridGroundParams& params) {
     check::integer("filter_passes", params.filter_passes, check::at_least(0));
     check::real("filter_slope", params.filter_slope, check::non_negative());
     check::real("filter_tolerance", params.filter_tolerance, check::non_negative());
+    validate(final_pass_params(params));
 }
 
 namespace {
@@ -353,9 +355,7 @@ void grid_ground(PointsView points, const GridGroundParams& given, bool* ground,
         given.cell_size ? std::numeric_limits<double>::quiet_NaN() : spacing_or_one_metre(points);
     const GridGroundParams params = with_spacing(given, spacing);
     if (stats) *stats = GridGroundStats{spacing, *params.cell_size};
-    if (n > static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max()))
-        throw std::invalid_argument("points: at most 2^31 - 1 points are supported, got " +
-                                    std::to_string(n));
+    check::indexable_by_int32(n);
     // Blocks and cells anchored at the world lattice of blocks: the block corner at or
     // below the minimum corner, so l >= 0 and every index is >= 0.
     std::array<double, 3> origin = local_origin(points);
@@ -391,6 +391,7 @@ void grid_ground(PointsView points, const GridGroundParams& given, bool* ground,
     const auto count = static_cast<std::ptrdiff_t>(n);
 #pragma omp parallel for schedule(guided) if (parallel)
     for (std::ptrdiff_t s = 0; s < count; ++s) ground[grid.id[s]] = result[s] != 0;
+    if (params.final_cell > 0.0) final_pass(points, final_pass_params(params), ground);
 }
 
 }  // namespace pcl_rg

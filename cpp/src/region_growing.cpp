@@ -61,9 +61,7 @@ void grow_regions(std::size_t n, std::size_t k, const std::uint32_t* neighbours,
                   std::int32_t* labels) {
     validate(params);
     if (n == 0) return;
-    if (n > static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max()))
-        throw std::invalid_argument("points: at most 2^31 - 1 points are supported, got " +
-                                    std::to_string(n));
+    check::indexable_by_int32(n);
     for (std::size_t i = 0; i < n * k; ++i)
         if (neighbours[i] >= n)
             throw std::invalid_argument("neighbours: index " + std::to_string(neighbours[i]) +

@@ -47,6 +47,8 @@
 //     window (Zhao et al.'s morphological seeds): dense on open terrain, none on roofs.
 //   * outlier_depth: before the opening, cells far below the 9th lowest of their 5 x 5
 //     window are dropped, repeatedly, so clusters of low outliers give no seeds.
+//   * final_cell: a final pass (final_pass.cpp, shared with grid_ground) classifies every
+//     point again by its height above a TIN of the lowest ground point of each cell.
 //
 // Grids and tiles: the grids that decide which points are seeds are anchored on the
 // world lattice of the seed cells (seed_cell when > 0, else max_building_size): the
@@ -67,9 +69,14 @@
 // of the triangle slot it was last tested in, and only the points of slots an
 // insertion rewrote (Delaunay::touched) and the accepted-but-not-chosen ones are
 // tested again: a failed test against a triangle that is still there would fail
-// again. Location walks from the point's previous slot; tests run in parallel and
-// write only their own point's entries; insertions are serial in Morton order, so the
-// result does not depend on the number of threads.
+// again. The points to test are gathered through a bitmap, so each iteration tests
+// them in Morton order (neighbouring points and triangles one after another). Location
+// walks from the point's previous slot; tests run in parallel, write only their own
+// point's entries and, by atomic operations whose outcome does not depend on their
+// order, push a rejected point onto its slot's list and pick each triangle's chosen
+// point (a minimum under a total order); insertions are serial in Morton order, so the
+// result does not depend on the number of threads. The TIN's arrays are reserved for
+// every point up front (no copying as they grow).
 #include "pcl_rg/tin_ground.hpp"
 
 #include <algorithm>
@@ -84,121 +91,31 @@
 
 #include "pcl_rg/check.hpp"
 #include "pcl_rg/delaunay.hpp"
+#include "pcl_rg/final_pass.hpp"
 #include "pcl_rg/interrupt.hpp"
 #include "pcl_rg/point_spacing.hpp"
 #include "pcl_rg/timer.hpp"
 #include "pcl_rg/tin_seeds.hpp"
+#include "tin_acceptance.hpp"
 
 namespace pcl_rg {
 
 namespace {
 
-constexpr double kDegToRad = 3.141592653589793 / 180.0;
+using namespace tin_acceptance;  // Limits, Verdict, evaluate, kDegToRad
 
-// Everything one acceptance test needs, fixed for a run.
-struct Limits {
-    double quantum;
-    double iteration_distance;
-    double iteration_angle;
-    double reduce_angle_edge;
-    double stop_edge;
-    double near_vertex_distance;
-    double sin_angle;    // sin(iteration_angle)
-    double cos_terrain;  // cos(max_terrain_angle)
-};
-
-struct Verdict {
-    bool accepted = false;
-    bool stop = false;  // longest edge < stop_edge
-    double d = 0.0;
-};
-
-// A triangle with its vertices counter-clockwise from the lexicographically smallest
-// (x, y), so that the floating-point results do not depend on how it is stored.
-struct Facet {
-    std::array<std::int32_t, 3> v;
-    double x[3], y[3], z[3];  // metres, local frame
-    double longest;           // longest XY edge (m)
-};
-
-Facet facet(const Delaunay& tin, const std::vector<double>& vz, double quantum, std::int32_t t) {
-    Facet f;
-    f.v = {tin.triangle_vertex(t, 0), tin.triangle_vertex(t, 1), tin.triangle_vertex(t, 2)};
-    int first = 0;
-    for (int k = 1; k < 3; ++k) {
-        const std::int32_t a = f.v[k], b = f.v[first];
-        if (tin.vertex_x(a) < tin.vertex_x(b) ||
-            (tin.vertex_x(a) == tin.vertex_x(b) && tin.vertex_y(a) < tin.vertex_y(b)))
-            first = k;
-    }
-    std::rotate(f.v.begin(), f.v.begin() + first, f.v.end());
-    for (int k = 0; k < 3; ++k) {
-        f.x[k] = static_cast<double>(tin.vertex_x(f.v[k]) - 1) * quantum;
-        f.y[k] = static_cast<double>(tin.vertex_y(f.v[k]) - 1) * quantum;
-        f.z[k] = vz[f.v[k]];
-    }
-    double longest2 = 0.0;
-    for (int k = 0; k < 3; ++k) {
-        const int j = (k + 1) % 3;
-        const double dx = f.x[j] - f.x[k], dy = f.y[j] - f.y[k];
-        longest2 = std::max(longest2, dx * dx + dy * dy);
-    }
-    f.longest = std::sqrt(longest2);
-    return f;
+// Sets bit s of a bitmap; atomic, as neighbouring points may be marked by two threads.
+void mark(std::vector<std::uint64_t>& bits, std::uint32_t s) {
+    __atomic_fetch_or(&bits[s >> 6], std::uint64_t{1} << (s & 63), __ATOMIC_RELAXED);
 }
 
-// Distance d from p to the facet's plane and Axelsson's test: d <= iteration_distance
-// and asin(d / |p - v_i|) <= the (reduced) iteration angle for every vertex.
-bool plane_test(const Facet& f, const Limits& lim, double px, double py, double pz, double* d_out) {
-    const double ux = f.x[1] - f.x[0], uy = f.y[1] - f.y[0], uz = f.z[1] - f.z[0];
-    const double wx = f.x[2] - f.x[0], wy = f.y[2] - f.y[0], wz = f.z[2] - f.z[0];
-    const double nx = uy * wz - uz * wy;
-    const double ny = uz * wx - ux * wz;
-    const double nz = ux * wy - uy * wx;
-    const double num = nx * (px - f.x[0]) + ny * (py - f.y[0]) + nz * (pz - f.z[0]);
-    const double d = std::fabs(num) / std::sqrt(nx * nx + ny * ny + nz * nz);
-    *d_out = d;
-    if (!(d <= lim.iteration_distance)) return false;
-    double sin_limit = lim.sin_angle;
-    if (f.longest < lim.reduce_angle_edge)
-        sin_limit = std::sin(lim.iteration_angle * f.longest / lim.reduce_angle_edge * kDegToRad);
-    for (int k = 0; k < 3; ++k) {
-        const double dx = px - f.x[k], dy = py - f.y[k], dz = pz - f.z[k];
-        const double r = std::max(std::sqrt(dx * dx + dy * dy + dz * dz), lim.near_vertex_distance);
-        if (!(d <= sin_limit * r)) return false;
+// Appends the set bits' positions to `out`, in increasing order, and clears them.
+void take_marked(std::vector<std::uint64_t>& bits, std::vector<std::uint32_t>& out) {
+    for (std::size_t w = 0; w < bits.size(); ++w) {
+        for (std::uint64_t word = bits[w]; word != 0; word &= word - 1)
+            out.push_back(static_cast<std::uint32_t>(w * 64 + __builtin_ctzll(word)));
+        bits[w] = 0;
     }
-    return true;
-}
-
-// No triangle (p, v_k, v_j) of non-zero XY area steeper than max_terrain_angle.
-bool terrain_test(const Delaunay& tin, const Facet& f, const Limits& lim, std::int32_t pgx,
-                  std::int32_t pgy, double px, double py, double pz) {
-    for (int k = 0; k < 3; ++k) {
-        const int j = (k + 1) % 3;
-        if (orient2d(tin.vertex_x(f.v[k]), tin.vertex_y(f.v[k]), tin.vertex_x(f.v[j]),
-                     tin.vertex_y(f.v[j]), pgx, pgy) == 0)
-            continue;  // p on this edge: no triangle would be formed with it
-        const double ax = f.x[k] - px, ay = f.y[k] - py, az = f.z[k] - pz;
-        const double bx = f.x[j] - px, by = f.y[j] - py, bz = f.z[j] - pz;
-        const double mx = ay * bz - az * by;
-        const double my = az * bx - ax * bz;
-        const double mz = ax * by - ay * bx;
-        if (std::fabs(mz) < lim.cos_terrain * std::sqrt(mx * mx + my * my + mz * mz)) return false;
-    }
-    return true;
-}
-
-// The acceptance test of point p (grid xy, local z) located in triangle t.
-Verdict evaluate(const Delaunay& tin, const std::vector<double>& vz, const Limits& lim,
-                 std::int32_t pgx, std::int32_t pgy, double pz, std::int32_t t) {
-    const Facet f = facet(tin, vz, lim.quantum, t);
-    const double px = static_cast<double>(pgx - 1) * lim.quantum;
-    const double py = static_cast<double>(pgy - 1) * lim.quantum;
-    Verdict out;
-    out.stop = f.longest < lim.stop_edge;
-    const bool pass = plane_test(f, lim, px, py, pz, &out.d);
-    out.accepted = pass && terrain_test(tin, f, lim, pgx, pgy, px, py, pz);
-    return out;
 }
 
 }  // namespace
@@ -216,6 +133,7 @@ void validate(const TinGroundParams& params) {
     if (params.seed_cell) check::real("seed_cell", *params.seed_cell, check::non_negative());
     check::real("seed_tolerance", params.seed_tolerance, check::non_negative());
     check::real("outlier_depth", params.outlier_depth, check::non_negative());
+    validate(final_pass_params(params));
 }
 
 TinGroundParams with_spacing(const TinGroundParams& params, double spacing) {
@@ -262,12 +180,8 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
         throw std::invalid_argument("points: the XY extent is too large (not finite in float64)");
     const GridFrame frame = make_grid_frame(0.0, 0.0, ex, ey);
 
-    std::vector<std::int32_t> gx(n), gy(n);
-#pragma omp parallel for schedule(static)
-    for (std::ptrdiff_t i = 0; i < static_cast<std::ptrdiff_t>(n); ++i) {
-        gx[i] = frame.grid_x(points.coord(i, 0) - origin[0]);
-        gy[i] = frame.grid_y(points.coord(i, 1) - origin[1]);
-    }
+    std::vector<std::int32_t> gx, gy;
+    snap_to_grid(points, origin, frame, gx, gy);
 
     // A TIN needs three points not on one line (exact test on the grid).
     {
@@ -346,7 +260,9 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
 
     // --- 3. initial TIN: virtual corners, then the seeds ------------------------------
     Delaunay tin(frame.width, frame.height);
+    tin.reserve(n + 4);  // every point may become a vertex: the arrays never move
     std::vector<double> vz(corner_z.begin(), corner_z.end());
+    vz.reserve(n + 4);
     {
         std::int32_t last = 0;
         for (std::size_t s = 0; s < n; ++s) {
@@ -371,33 +287,27 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
                      std::sin(params.iteration_angle * kDegToRad),
                      std::cos(params.max_terrain_angle * kDegToRad)};
     // Per sorted position: ground flag, the triangle slot the point was last located in,
-    // its verdict there, and its place in the doubly linked list of the unclassified
+    // its verdict there, and its place in the singly linked list of the unclassified
     // points of that slot. A point is tested again only when its slot was rewritten
     // (its triangle is gone) or it was accepted but not chosen: a failed test against
-    // a triangle that is still there would fail again.
+    // a triangle that is still there would fail again. The points to test are gathered
+    // through a bitmap, so they stay in sorted (Morton) order: consecutive tests read
+    // neighbouring points and triangles, and the chosen points come out sorted.
     std::vector<std::uint8_t> is_ground(n, 0), accepted(n, 0), stop(n, 0);
-    std::vector<std::int32_t> tri(n, -1), next(n, -1), prev(n, -1), queued(n, -1);
+    std::vector<std::int32_t> tri(n, -1), next(n, -1);
     std::vector<double> dist(n, 0.0);
+    std::vector<std::uint64_t> retest((n + 63) / 64, 0);       // bit s: test point s again
+    std::vector<std::uint64_t> chosen_bits((n + 63) / 64, 0);  // bit s: insert point s
     std::vector<std::int32_t> head;     // per triangle slot: first unclassified point
     std::vector<std::int32_t> best_of;  // per triangle slot: chosen point
-    std::vector<std::uint32_t> work, chosen, pending;
+    std::vector<std::uint32_t> work, chosen;
     for (std::size_t s = 0; s < n; ++s) {
         is_ground[s] = ground[order[s]];
         if (!is_ground[s]) work.push_back(static_cast<std::uint32_t>(s));
     }
-    auto link = [&](std::uint32_t s) {
-        const std::int32_t t = tri[s];
-        prev[s] = -1;
-        next[s] = head[t];
-        if (head[t] >= 0) prev[head[t]] = static_cast<std::int32_t>(s);
-        head[t] = static_cast<std::int32_t>(s);
-    };
-    auto unlink = [&](std::uint32_t s) {
-        if (prev[s] >= 0)
-            next[prev[s]] = next[s];
-        else
-            head[tri[s]] = next[s];
-        if (next[s] >= 0) prev[next[s]] = prev[s];
+    // Point a before point b as the choice of a triangle: smallest d, then smallest index.
+    auto better = [&](std::int32_t a, std::int32_t b) {
+        return dist[a] < dist[b] || (dist[a] == dist[b] && order[a] < order[b]);
     };
 
     for (std::int32_t iteration = 0;; ++iteration) {
@@ -406,7 +316,18 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
         std::exception_ptr failure;
         const auto m = static_cast<std::ptrdiff_t>(work.size());
         constexpr std::ptrdiff_t kChunk = 1024;  // tests per chunk, shared dynamically
-#pragma omp parallel if (m > 4096) firstprivate(interruption)
+        // Small iterations (most of them, late on) run serially: on a shared machine a
+        // parallel region can wait a whole time slice for a descheduled thread.
+        constexpr std::ptrdiff_t kParallelTests = 65536;
+        // Each test also does what needs no other point's verdict: a rejected point is
+        // pushed onto its slot's list (atomically; the lists are only ever read as sets,
+        // so their order does not matter), and an accepted one in a densifiable triangle
+        // competes for the triangle's choice, smallest d then smallest index, by a
+        // compare-and-swap that retries while it is still better: the minimum under a
+        // total order does not depend on the order of the updates.
+        best_of.resize(tin.triangle_count(), -1);
+        head.resize(tin.triangle_count(), -1);
+#pragma omp parallel if (m > kParallelTests) firstprivate(interruption)
         {
             std::int32_t last = 0;
 #pragma omp for schedule(dynamic, 1)
@@ -424,6 +345,18 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
                         accepted[s] = verdict.accepted;
                         stop[s] = verdict.stop;
                         dist[s] = verdict.d;
+                        const auto self = static_cast<std::int32_t>(s);
+                        if (!verdict.accepted) {
+                            next[s] = __atomic_exchange_n(&head[t], self, __ATOMIC_RELAXED);
+                        } else if (!verdict.stop) {
+                            // Release: whoever loads this id also sees dist[s].
+                            std::int32_t best = __atomic_load_n(&best_of[t], __ATOMIC_ACQUIRE);
+                            while ((best < 0 || better(self, best)) &&
+                                   !__atomic_compare_exchange_n(&best_of[t], &best, self, false,
+                                                                __ATOMIC_ACQ_REL,
+                                                                __ATOMIC_ACQUIRE)) {
+                            }
+                        }
                     } catch (...) {
 #pragma omp critical(pcl_rg_tin_ground_failure)
                         if (!failure) failure = std::current_exception();
@@ -435,36 +368,25 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
         interruption.check();
         stats.tests += m;
 
-        // One chosen point per densifiable triangle: smallest d, then smallest index.
-        best_of.resize(tin.triangle_count(), -1);
+        // Stop-edge acceptances and chosen points become ground; accepted points not
+        // chosen are tested again on the denser TIN. The chosen points are gathered
+        // through a bitmap, in sorted order.
         std::int64_t added = 0;
-        for (const std::uint32_t s : work) {
+#pragma omp parallel for schedule(static) reduction(+ : added) if (m > 4 * kParallelTests)
+        for (std::ptrdiff_t k = 0; k < m; ++k) {
+            const std::uint32_t s = work[k];
             if (!accepted[s]) continue;
-            if (stop[s]) {
+            if (stop[s] || best_of[tri[s]] == static_cast<std::int32_t>(s)) {
                 is_ground[s] = 1;
                 ++added;
-                continue;
+                if (!stop[s]) mark(chosen_bits, s);
+            } else {
+                mark(retest, s);
             }
-            std::int32_t& b = best_of[tri[s]];
-            if (b < 0 || dist[s] < dist[b] || (dist[s] == dist[b] && order[s] < order[b]))
-                b = static_cast<std::int32_t>(s);
         }
         chosen.clear();
-        pending.clear();
-        for (const std::uint32_t s : work) {
-            if (!accepted[s] || stop[s]) continue;
-            if (best_of[tri[s]] == static_cast<std::int32_t>(s)) {
-                chosen.push_back(s);
-                is_ground[s] = 1;
-                ++added;
-            } else {
-                pending.push_back(s);  // accepted, not chosen: try again on the denser TIN
-            }
-        }
+        take_marked(chosen_bits, chosen);
         for (const std::uint32_t s : chosen) best_of[tri[s]] = -1;
-        head.resize(tin.triangle_count(), -1);
-        for (const std::uint32_t s : work)
-            if (!is_ground[s]) link(s);
         stats.classification_seconds += seconds_since(clock);
         stats.iterations = iteration + 1;
         if (added == 0) break;
@@ -472,7 +394,6 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
         // Insert the chosen points in Morton order, each walking from its own triangle.
         clock = std::chrono::steady_clock::now();
         tin.set_stamp(iteration + 1);
-        std::sort(chosen.begin(), chosen.end());
         for (const std::uint32_t s : chosen) {
             interruption.check();
             bool inserted = false;
@@ -481,27 +402,29 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
         }
         stats.triangulation_seconds += seconds_since(clock);
 
-        // Next work: the points of rewritten slots, and the pending ones.
+        // Next work, in sorted order: the points of rewritten slots, and the marked ones.
         clock = std::chrono::steady_clock::now();
-        work.clear();
         head.resize(tin.triangle_count(), -1);
-        for (const std::int32_t t : tin.touched()) {
-            for (std::int32_t s = head[t]; s >= 0; s = next[s]) {
-                work.push_back(static_cast<std::uint32_t>(s));
-                queued[s] = iteration;
-            }
+        const std::vector<std::int32_t>& touched = tin.touched();
+        const auto rewritten = static_cast<std::ptrdiff_t>(touched.size());
+#pragma omp parallel for schedule(static) if (rewritten > kParallelTests)
+        for (std::ptrdiff_t k = 0; k < rewritten; ++k) {
+            const std::int32_t t = touched[k];
+            for (std::int32_t s = head[t]; s >= 0; s = next[s])
+                mark(retest, static_cast<std::uint32_t>(s));
             head[t] = -1;
         }
-        for (const std::uint32_t s : pending)
-            if (queued[s] != iteration) {
-                unlink(s);
-                work.push_back(s);
-                queued[s] = iteration;
-            }
+        work.clear();
+        take_marked(retest, work);
         stats.classification_seconds += seconds_since(clock);
     }
     for (std::size_t s = 0; s < n; ++s) ground[order[s]] = is_ground[s];
     stats.tin_vertices = static_cast<std::int64_t>(tin.vertex_count());
+    if (params.final_cell > 0.0) {
+        clock = std::chrono::steady_clock::now();
+        final_pass(points, final_pass_params(params), ground);
+        stats.classification_seconds += seconds_since(clock);
+    }
     return stats;
 }
 

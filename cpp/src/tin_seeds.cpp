@@ -30,17 +30,36 @@ bool lower(PointsView points, std::size_t a, std::size_t b) {
 }
 
 // Lowest point (ties: smallest index) of every cell of a dense ncx x ncy grid of square
-// cells anchored at the origin, row-major by x then y; -1 for an empty cell.
+// cells anchored at the origin, row-major by x then y; -1 for an empty cell. When the
+// grid is small next to the cloud, each thread scans a share of the points into its own
+// grid and the grids are merged: the lowest under a total order does not depend on how
+// the points were shared out.
 std::vector<std::int64_t> lowest_in_cells(PointsView points, const std::array<double, 3>& origin,
                                           double cell, std::int64_t ncx, std::int64_t ncy) {
-    std::vector<std::int64_t> lowest(static_cast<std::size_t>(ncx * ncy), -1);
+    const auto cells = static_cast<std::size_t>(ncx * ncy);
+    std::vector<std::int64_t> lowest(cells, -1);
+    auto keep_lower = [&](std::int64_t& b, std::int64_t i) {
+        if (b < 0 || lower(points, static_cast<std::size_t>(i), static_cast<std::size_t>(b))) b = i;
+    };
+    const auto n = static_cast<std::int64_t>(points.size);
     const Interruption interruption;
-    for (std::size_t i = 0; i < points.size; ++i) {
-        if (i % 4096 == 0) interruption.check();
-        std::int64_t& b = lowest[static_cast<std::size_t>(cell_key(points, origin, cell, ncy, i))];
-        if (b < 0 || lower(points, i, static_cast<std::size_t>(b)))
-            b = static_cast<std::int64_t>(i);
+#pragma omp parallel if (cells <= points.size / 8 && n > 65536) firstprivate(interruption)
+    {
+        std::vector<std::int64_t> mine(cells, -1);
+        bool stop = false;
+#pragma omp for schedule(static) nowait
+        for (std::int64_t i = 0; i < n; ++i) {
+            if (i % 4096 == 0) stop = interruption.requested();
+            if (stop) continue;
+            keep_lower(mine[static_cast<std::size_t>(
+                           cell_key(points, origin, cell, ncy, static_cast<std::size_t>(i)))],
+                       i);
+        }
+#pragma omp critical(pcl_rg_lowest_in_cells)
+        for (std::size_t k = 0; k < cells; ++k)
+            if (mine[k] >= 0) keep_lower(lowest[k], mine[k]);
     }
+    interruption.check();
     return lowest;
 }
 
@@ -108,33 +127,70 @@ std::vector<double> square_filter(const std::vector<double>& a, std::int64_t ncx
     return out;
 }
 
-// The rank-th smallest (0-based) of the (2r+1)^2 values of each cell's square window,
-// cells outside the raster and empty ones (+inf) included as +inf.
-std::vector<double> rank_filter(const std::vector<double>& a, std::int64_t ncx, std::int64_t ncy,
-                                std::int64_t r, std::size_t rank) {
+// Whether cell (x, y) of height h (finite) lies more than `depth` below the 9th lowest
+// of the 25 cells of its 5 x 5 window, cells outside the raster and empty ones (+inf)
+// included as +inf: h < v9 - depth. As v - depth is non-decreasing in v, that holds
+// exactly when v9 is finite (at least 9 finite cells) and at most 8 cells have
+// v - depth <= h: a count, in the same floating-point arithmetic, instead of a selection.
+bool low_outlier(const std::vector<double>& a, std::int64_t ncx, std::int64_t ncy, std::int64_t x,
+                 std::int64_t y, double depth) {
     const double none = std::numeric_limits<double>::infinity();
-    std::vector<double> out(a.size(), none);
-    const Interruption interruption;
-#pragma omp parallel firstprivate(interruption)
-    {
-        std::vector<double> window;
-#pragma omp for schedule(static)
-        for (std::int64_t x = 0; x < ncx; ++x) {
-            if (interruption.requested()) continue;
-            for (std::int64_t y = 0; y < ncy; ++y) {
-                window.clear();
-                for (std::int64_t i = x - r; i <= x + r; ++i)
-                    for (std::int64_t j = y - r; j <= y + r; ++j)
-                        window.push_back(i < 0 || j < 0 || i >= ncx || j >= ncy ? none
-                                                                                : a[i * ncy + j]);
-                std::nth_element(window.begin(), window.begin() + static_cast<std::ptrdiff_t>(rank),
-                                 window.end());
-                out[x * ncy + y] = window[rank];
-            }
+    const double h = a[x * ncy + y];
+    int finite = 0, low = 0;
+    for (std::int64_t i = std::max<std::int64_t>(0, x - 2); i <= std::min(ncx - 1, x + 2); ++i)
+        for (std::int64_t j = std::max<std::int64_t>(0, y - 2); j <= std::min(ncy - 1, y + 2);
+             ++j) {
+            const double v = a[i * ncy + j];
+            if (v == none) continue;
+            ++finite;
+            low += v - depth <= h;
         }
+    return finite >= 9 && low <= 8;
+}
+
+// Drops (sets to +inf) the low outliers of `height` (low_outlier), repeatedly until none
+// is found, each round judged on the heights the round began with, so that clusters of
+// outliers are peeled from the rim in. After the first round only the cells whose window
+// holds a cell dropped in the previous round can change their verdict.
+void drop_low_outliers(std::vector<double>& height, std::int64_t ncx, std::int64_t ncy,
+                       double depth) {
+    const double none = std::numeric_limits<double>::infinity();
+    std::vector<std::uint8_t> candidate(height.size(), 0);
+    std::vector<std::int64_t> cells, dropped;
+    const Interruption interruption;
+    std::vector<std::uint8_t> out(height.size(), 0);
+#pragma omp parallel for schedule(static) firstprivate(interruption)
+    for (std::int64_t x = 0; x < ncx; ++x) {
+        if (interruption.requested()) continue;
+        for (std::int64_t y = 0; y < ncy; ++y)
+            out[x * ncy + y] =
+                height[x * ncy + y] != none && low_outlier(height, ncx, ncy, x, y, depth);
     }
     interruption.check();
-    return out;
+    for (std::size_t k = 0; k < out.size(); ++k)
+        if (out[k]) dropped.push_back(static_cast<std::int64_t>(k));
+    while (!dropped.empty()) {
+        interruption.check();
+        for (const std::int64_t k : dropped) height[k] = none;
+        // The cells within 2 of a dropped one, each once.
+        cells.clear();
+        for (const std::int64_t k : dropped) {
+            const std::int64_t x = k / ncy, y = k % ncy;
+            for (std::int64_t i = std::max<std::int64_t>(0, x - 2); i <= std::min(ncx - 1, x + 2);
+                 ++i)
+                for (std::int64_t j = std::max<std::int64_t>(0, y - 2);
+                     j <= std::min(ncy - 1, y + 2); ++j)
+                    if (height[i * ncy + j] != none && !candidate[i * ncy + j]) {
+                        candidate[i * ncy + j] = 1;
+                        cells.push_back(i * ncy + j);
+                    }
+        }
+        dropped.clear();
+        for (const std::int64_t k : cells) {
+            candidate[k] = 0;
+            if (low_outlier(height, ncx, ncy, k / ncy, k % ncy, depth)) dropped.push_back(k);
+        }
+    }
 }
 
 // Zhao-style seeds (TinGroundParams::seed_cell): lowest points of seed_cell cells close
@@ -161,16 +217,7 @@ std::vector<std::uint32_t> morphological_seeds(PointsView points,
         // Low outliers: a cell more than outlier_depth below the 9th lowest of the 25
         // cells of its 5 x 5 window (empty ones counting as +inf) loses its seed; repeat
         // until none is found, so that clusters of outliers are peeled from the rim in.
-        for (bool changed = true; changed;) {
-            const std::vector<double> ninth = rank_filter(height, ncx, ncy, 2, 8);
-            changed = false;
-            for (std::size_t k = 0; k < height.size(); ++k)
-                if (height[k] != none && ninth[k] != none &&
-                    height[k] < ninth[k] - params.outlier_depth) {
-                    height[k] = none;
-                    changed = true;
-                }
-        }
+        drop_low_outliers(height, ncx, ncy, params.outlier_depth);
     }
     const auto r = static_cast<std::int64_t>(std::floor(params.max_building_size / (2.0 * cell)));
     const std::vector<double> opened =

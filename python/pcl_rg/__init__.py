@@ -19,12 +19,16 @@ __version__ = "0.1.0"
 
 # Public name -> the private module that defines it.
 _NAMES = {
+    "ConvexSegmentationParams": "_convex_segmentation",
+    "convex_segmentation": "_convex_segmentation",
     "GridGroundParams": "_grid_ground",
     "grid_ground": "_grid_ground",
     "point_spacing": "_point_spacing",
     "NormalsParams": "_normals",
     "NormalsResult": "_normals",
     "normals": "_normals",
+    "PointScale": "_point_scale",
+    "point_scale": "_point_scale",
     "RegionGrowingParams": "_region_growing",
     "region_growing": "_region_growing",
     "StatisticalOutlierRemovalParams": "_statistical_outlier_removal",
@@ -69,9 +73,11 @@ def __dir__() -> list[str]:
 
 if TYPE_CHECKING:  # what type checkers and IDEs see; nothing runs here
     from . import datasets, demo, evaluation, io, pcl, pipeline, plot, reference
+    from ._convex_segmentation import ConvexSegmentationParams, convex_segmentation
     from ._diagnostics import Diagnostics, collect_diagnostics
     from ._grid_ground import GridGroundParams, grid_ground
     from ._normals import NormalsParams, NormalsResult, normals
+    from ._point_scale import PointScale, point_scale
     from ._point_spacing import point_spacing
     from ._region_growing import RegionGrowingParams, region_growing
     from ._statistical_outlier_removal import (

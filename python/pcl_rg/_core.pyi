@@ -32,6 +32,10 @@ class GridGroundParams:
     filter_passes: int
     filter_slope: float
     filter_tolerance: float
+    final_cell: float
+    final_above: float
+    final_below: float
+    final_slope: float
     def __init__(self) -> None: ...
 
 def grid_ground(
@@ -49,6 +53,10 @@ class TinGroundParams:
     seed_cell: float | None
     seed_tolerance: float
     outlier_depth: float
+    final_cell: float
+    final_above: float
+    final_below: float
+    final_slope: float
     def __init__(self) -> None: ...
 
 def tin_ground(
@@ -112,6 +120,27 @@ class RegionGrowingParams:
 def region_growing(
     points: npt.NDArray[np.float64], params: RegionGrowingParams
 ) -> tuple[npt.NDArray[np.int32], float, float]: ...
+class ConvexSegmentationParams:
+    noise_leaves: float
+    k: int
+    smoothness_deg: float
+    curvature_threshold: float
+    concavity_tolerance_deg: float
+    min_cluster_size: int
+    viewpoint: list[float]
+    def __init__(self) -> None: ...
+
+def convex_segmentation(
+    points: npt.NDArray[np.float64], params: ConvexSegmentationParams
+) -> tuple[npt.NDArray[np.int32], float, float, float, float]: ...
+def point_scale(points: npt.NDArray[np.float64]) -> tuple[float, float]: ...
+def merge_convex(
+    points: npt.NDArray[np.float64],
+    neighbours: npt.NDArray[np.uint32],
+    normals: npt.NDArray[np.float64],
+    patches: npt.NDArray[np.int32],
+    params: ConvexSegmentationParams,
+) -> npt.NDArray[np.int32]: ...
 def grow_regions(
     neighbours: npt.NDArray[np.uint32],
     normals: npt.NDArray[np.float64],

@@ -27,6 +27,24 @@ def progressive_morphological_filter(
     points: npt.NDArray[np.float64], params: ProgressiveMorphologicalFilterParams
 ) -> npt.NDArray[np.bool_]: ...
 
+class LccpParams:
+    voxel_resolution: float
+    seed_resolution: float
+    spatial_importance: float
+    normal_importance: float
+    refinement_iterations: int
+    concavity_tolerance_deg: float
+    smoothness_threshold: float
+    k_factor: int
+    sanity_check: bool
+    min_segment_size: int
+    viewpoint: list[float]
+    def __init__(self) -> None: ...
+
+def lccp(
+    points: npt.NDArray[np.float64], params: LccpParams
+) -> tuple[npt.NDArray[np.int32], float, float]: ...
+
 class NormalEstimationParams:
     k: int
     def __init__(self) -> None: ...

@@ -14,6 +14,7 @@ import numpy.typing as npt
 from . import _core
 from ._diagnostics import record
 from ._docstrings import fill_docstring
+from ._final_pass import final_pass_param
 from ._params import (
     check_fields,
     check_number,
@@ -32,7 +33,7 @@ __all__ = ["TinGroundParams", "tin_ground"]
 class TinGroundParams:
     """Parameters of :func:`tin_ground` (mirrors ``pcl_rg::TinGroundParams``).
 
-    The six settings of LiDAR360's "Classify Ground Points" and three
+    The six settings of LiDAR360's "Classify Ground Points" and four
     improvements. The defaults are the :meth:`isprs` preset, chosen on the ISPRS
     samples, which gives a complete ground class at 1-20 pts/m^2;
     :meth:`lidar360` is LiDAR360's own set (the seed's definition), which keeps
@@ -134,6 +135,10 @@ class TinGroundParams:
         help="improvement (0: off; with seed_cell): a cell more than this below the 9th "
         "lowest of its 5 x 5 cells gives no seed (low outliers)",
     )
+    final_cell: float = final_pass_param("final_cell", 3.0)
+    final_above: float = final_pass_param("final_above", 0.5)
+    final_below: float = final_pass_param("final_below", 5.0)
+    final_slope: float = final_pass_param("final_slope", 1.0)
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -182,9 +187,12 @@ class TinGroundParams:
         ``benchmarks/RESULTS.md``. Against :meth:`lidar360` it switches the angle
         reduction off (no ISPRS triangle has a longest edge under 1 cm), stops
         densifying below edges of 1.5 point spacings instead of 2 m, takes a 25
-        degree iteration angle and a 2 m iteration distance, and switches the three
+        degree iteration angle and a 2 m iteration distance, and switches the four
         improvements on, their lengths in multiples of the point spacing
-        (:attr:`SPACING_MULTIPLES`). `overrides` replace single fields.
+        (:attr:`SPACING_MULTIPLES`). The search has two stages: the
+        densification's fields, then the final pass's on the densification
+        chosen (``benchmarks/studies/ground_isprs_cv.py``). `overrides` replace
+        single fields.
 
         Examples
         --------
@@ -219,6 +227,10 @@ class TinGroundParams:
             "seed_cell": 0.0,
             "seed_tolerance": 0.5,
             "outlier_depth": 0.0,
+            "final_cell": 0.0,
+            "final_above": 0.5,
+            "final_below": 5.0,
+            "final_slope": 1.0,
         }
         return cls(**{**values, **overrides})
 
@@ -242,6 +254,10 @@ def tin_ground(
     seed_cell: float | None = None,
     seed_tolerance: float | None = None,
     outlier_depth: float | None = None,
+    final_cell: float | None = None,
+    final_above: float | None = None,
+    final_below: float | None = None,
+    final_slope: float | None = None,
     params: TinGroundParams | None = None,
 ) -> np.ndarray:
     """Classify ground points by progressive TIN densification.
@@ -289,6 +305,22 @@ def tin_ground(
         point lies more than this below the 9th lowest of the 25 cells of its
         5 x 5 window gives no seed; repeated until none is found, so clusters
         of low outliers (multipath) are peeled from the rim in.
+    final_cell : float, optional
+        Metres (default 3; 0: off). An improvement after TerraScan's practice of
+        classifying the points close to the final ground TIN: a TIN is built
+        from the lowest ground point of each ``final_cell`` cell (anchored on
+        the world lattice of that size), and every point is ground when
+        ``-final_below <= z - z_TIN <= final_above + final_slope * g``, with
+        ``g = |grad z_TIN|`` of the triangle under it (the slope-adaptive
+        threshold of Zhao et al. 2016). With a cell near the point spacing it
+        adds the points just above the TIN that the densification left out
+        below the stop edge.
+    final_above : float, optional
+        Metres (default 0.5): see ``final_cell``.
+    final_below : float, optional
+        Metres (default 5): see ``final_cell``.
+    final_slope : float, optional
+        Metres per unit gradient (default 1): see ``final_cell``.
     params : TinGroundParams, optional
         All parameters at once (defaults: the ``isprs`` preset); keywords given
         explicitly override it.
@@ -329,11 +361,14 @@ def tin_ground(
        is ground and is inserted, as in Axelsson (one point per facet per
        iteration), and the others are tested again on the denser TIN.
     4. Iterations stop when one adds no ground point.
+    5. With ``final_cell > 0``, the final pass (shared with
+       :func:`grid_ground`) classifies every point again by its height above
+       the TIN of the lowest ground point of each ``final_cell`` cell.
 
     The defaults are the :meth:`TinGroundParams.isprs` preset, the one set
-    chosen on the seven ISPRS samples, with the three improvements
-    (``near_vertex_distance``, ``seed_cell``, ``outlier_depth``) on; its scores
-    are in ``benchmarks/RESULTS.md``. The lengths ``stop_edge``,
+    chosen on the seven ISPRS samples, with the four improvements
+    (``near_vertex_distance``, ``seed_cell``, ``outlier_depth``, ``final_cell``)
+    on; its scores are in ``benchmarks/RESULTS.md``. The lengths ``stop_edge``,
     ``near_vertex_distance`` and ``seed_cell`` are unset there: each call takes
     them as multiples of the mean spacing of its points
     (:func:`pcl_rg.point_spacing`; 1 m where that is undefined), so the preset
@@ -367,7 +402,8 @@ def tin_ground(
     ----------
     Seed 002 (LiDAR360, "Classify Ground Points"); Axelsson, Int. Arch.
     Photogramm. Remote Sens. XXXIII-B4, 2000; Zhao et al., ISPRS J.
-    Photogramm. Remote Sens. 117, 2016.
+    Photogramm. Remote Sens. 117, 2016; Terrasolid, TerraScan User Guide
+    ("By distance to ground TIN", the final pass).
 
     Examples
     --------

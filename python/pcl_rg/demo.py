@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from . import datasets
+from ._convex_segmentation import convex_segmentation
 from ._grid_ground import grid_ground
 from ._region_growing import RegionGrowingParams, region_growing
 from ._statistical_outlier_removal import (
@@ -294,12 +295,16 @@ def run_demo(
     voxel_of_point = np.full(n, -1, dtype=np.int64)
     voxel_of_point[kept_index] = grid.voxel_of_point
     segmentations = {}
+    # convex_segmentation at its scale-free defaults (nothing rescaled for 1 m voxels),
+    # the sensor high above the area; region growing needs its threshold rescaled.
+    above = (*grid.centroids[:, :2].mean(axis=0), grid.centroids[:, 2].max() + 1000.0)
     for method, function, options in (
-        ("curvature", region_growing, {"curvature_threshold": CURVEDNESS}),
-        ("pcl", region_growing_pcl, {}),
+        ("convex", convex_segmentation, {"viewpoint": above}),
+        ("curvature", region_growing, {**SEGMENT, "curvature_threshold": CURVEDNESS}),
+        ("pcl", region_growing_pcl, SEGMENT),
     ):
-        with _timer(stage, f"segment_{method}", f"region growing ({method})") as t:
-            voxel_labels = np.asarray(function(grid.centroids, **SEGMENT, **options))
+        with _timer(stage, f"segment_{method}", f"segmentation ({method})") as t:
+            voxel_labels = np.asarray(function(grid.centroids, **options))
         point_labels = np.where(voxel_of_point >= 0, voxel_labels[voxel_of_point], -1)
         segmentations[method] = point_labels
         n_regions = len(np.unique(voxel_labels[voxel_labels >= 0]))
@@ -478,6 +483,6 @@ def _figures(
             points,
             path,
             segments=segments,
-            title=f"region growing '{method}': {len(np.unique(segments[segments >= 0]))} regions",
+            title=f"segmentation '{method}': {len(np.unique(segments[segments >= 0]))} regions",
         )
         report.files.append(path)

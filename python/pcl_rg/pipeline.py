@@ -11,6 +11,7 @@ import numpy.typing as npt
 
 from ._diagnostics import collect_diagnostics
 from ._docstrings import fill_docstring
+from ._point_scale import point_scale
 from ._region_growing import RegionGrowingParams, region_growing
 from ._statistical_outlier_removal import (
     StatisticalOutlierRemovalParams,
@@ -19,7 +20,15 @@ from ._statistical_outlier_removal import (
 from ._validation import MAX_POINTS_UINT32, as_points
 from ._voxel_grid import VoxelGridParams, voxel_grid
 
-__all__ = ["PipelineReport", "Seed004Result", "StageReport", "seed004"]
+__all__ = ["PipelineReport", "Seed004Result", "StageReport", "auto_leaf_size", "seed004"]
+
+#: Leaf size in units of the measured noise (see :func:`auto_leaf_size`); the default
+#: ``noise_leaves`` of :class:`pcl_rg.ConvexSegmentationParams`.
+NOISE_LEAVES = 10.0
+#: Neighbours (itself included) of the spacing and noise measurements.
+_MEASURE_K = 16
+#: At most this many points, evenly spread over the input order, are measured.
+_MEASURED_POINTS = 20_000
 
 
 @dataclass(frozen=True, slots=True)
@@ -100,6 +109,46 @@ def _number_by_first_index(labels: np.ndarray) -> np.ndarray:
     return out
 
 
+def auto_leaf_size(points: npt.ArrayLike) -> float | None:
+    """The voxel leaf size :func:`seed004` uses when given none: from the data's noise.
+
+    Parameters
+    ----------
+    points : array_like
+        (N, 3) points.
+
+    Returns
+    -------
+    float or None
+        ``NOISE_LEAVES * noise`` (10 times the noise of
+        :func:`pcl_rg.point_scale`) when that is larger than the point
+        spacing; None otherwise (no grid) and for 16 points or fewer. The same
+        rule as :func:`pcl_rg.convex_segmentation`'s ``noise_leaves``.
+
+    Notes
+    -----
+    Depth noise, not point spacing, limits what normals and curvatures can
+    resolve in dense scans: a raw Kinect frame 1 m away has about 1.5 mm
+    spacing and 0.5 mm noise, and segments best on a grid of about 5 mm
+    (benchmarks/RESULTS.md). Sparser data, whose noise is small against its
+    spacing (3 to 8 mm grids of the same frames, airborne tiles), gets no grid.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from pcl_rg.pipeline import auto_leaf_size
+    >>> rng = np.random.default_rng(0)
+    >>> dense = np.column_stack([rng.uniform(0, 1, (200000, 2)), rng.normal(0, 1e-3, 200000)])
+    >>> round(auto_leaf_size(dense), 3)  # 10 x the measured noise, above the 1.5 mm spacing
+    0.008
+    >>> print(auto_leaf_size(dense[:1000]))  # 15 mm spacing: already coarser
+    None
+    """
+    scale = point_scale(points)
+    leaf = NOISE_LEAVES * scale.noise
+    return leaf if leaf > scale.spacing else None
+
+
 _DEFAULT_SOR = StatisticalOutlierRemovalParams()
 _DEFAULT_REGION = RegionGrowingParams()
 
@@ -112,6 +161,7 @@ def seed004(
     voxel: VoxelGridParams | None = None,
     region: RegionGrowingParams = _DEFAULT_REGION,
     time_original: bool = False,
+    auto_voxel: bool = True,
 ) -> Seed004Result:
     """Run the seed 004 pipeline and carry the labels back to every input point.
 
@@ -122,13 +172,17 @@ def seed004(
         Denoising stage (default: PCL's tutorial values, mean_k 50, std_mul 1);
         None skips it.
     voxel : VoxelGridParams or None, optional
-        Simplification stage; None (the default) skips it, as the leaf size
-        depends on the data (e.g. 5 mm for Kinect scenes).
+        Simplification stage. None (the default): a leaf size chosen from the
+        data by :func:`auto_leaf_size` (the report's stage name says which),
+        or no grid when `auto_voxel` is False.
     region : RegionGrowingParams, optional
         Normals, curvatures and curvature-seeded region growing.
     time_original : bool, default False
         Also time normals + growth on the cloud before SOR and VoxelGrid, to
         fill the paper's Table 1 (original against simplified).
+    auto_voxel : bool, default True
+        With ``voxel=None``, choose the leaf size from the data (True) or skip
+        the voxel grid (False).
 
     Returns
     -------
@@ -210,12 +264,18 @@ def seed004(
     kept = xyz[kept_index]
 
     # 2.2 simplification
+    auto = ""
+    if voxel is None and auto_voxel:
+        leaf = auto_leaf_size(kept)
+        if leaf is not None:
+            voxel = VoxelGridParams(leaf_size=leaf)
+            auto = f" (auto leaf {leaf:.3g})"
     if voxel is not None:
         start = time.perf_counter()
         grid = voxel_grid(kept, params=voxel)
         seconds = time.perf_counter() - start
         segmented, row_of_kept = grid.centroids, grid.voxel_of_point
-        stages.append(StageReport("voxel grid", len(kept), len(segmented), seconds))
+        stages.append(StageReport("voxel grid" + auto, len(kept), len(segmented), seconds))
     else:
         segmented, row_of_kept = kept, np.arange(len(kept), dtype=np.intp)
 

@@ -12,5 +12,6 @@ PYBIND11_MODULE(_pcl, m) {
     pybind11::module_::import("pcl_rg._core");
     pcl_rg::bindings::bind_pcl_filters(m);
     pcl_rg::bindings::bind_pcl_pmf(m);
+    pcl_rg::bindings::bind_pcl_lccp(m);
     pcl_rg::bindings::bind_pcl_region_growing(m);
 }

@@ -2,9 +2,12 @@
 // progressive TIN densification ground filter (tin_ground.hpp), usable on its own.
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <vector>
+
+#include "pcl_rg/points.hpp"
 
 namespace pcl_rg {
 
@@ -30,6 +33,11 @@ struct GridFrame {
 /// smallest power of two >= max(extent) / 2^29 and >= 2^-40 m. Throws
 /// std::invalid_argument when the bounds are not finite or not ordered.
 GridFrame make_grid_frame(double lower_x, double lower_y, double upper_x, double upper_y);
+
+/// Each point's XY on `frame`'s grid, after subtracting `origin` (in parallel): gx, gy
+/// are resized to the number of points.
+void snap_to_grid(PointsView points, const std::array<double, 3>& origin, const GridFrame& frame,
+                  std::vector<std::int32_t>& gx, std::vector<std::int32_t>& gy);
 
 /// Twice the signed area of (a, b, c): > 0 counter-clockwise, 0 collinear. Exact for
 /// coordinates in [0, kMaxGridCoordinate] (see delaunay.cpp for the bounds).
@@ -84,6 +92,10 @@ class Delaunay {
     /// its vertex id. A point equal to an existing vertex is not inserted: that
     /// vertex's id is returned and *inserted is set to false.
     std::int32_t insert(std::int32_t x, std::int32_t y, std::int32_t start, bool* inserted);
+
+    /// Makes room for `vertices` vertices in all (the box corners included) and their
+    /// triangles, so that the arrays are not copied while the triangulation grows.
+    void reserve(std::size_t vertices);
 
     std::size_t vertex_count() const { return xy_.size(); }
     std::size_t triangle_count() const { return tri_.size(); }

@@ -52,6 +52,16 @@ struct GridGroundParams {
     double filter_slope = 1.0;
     /// Height tolerance of the pre-filter (>= 0, finite, m).
     double filter_tolerance = 0.3;
+    /// Final pass (0: off): cell (m, >= 0) of a TIN of the lowest ground point per cell;
+    /// every point is then ground when -final_below <= z - z_TIN <= final_above +
+    /// final_slope * |grad z_TIN| (final_pass.hpp; TerraScan, Zhao et al. 2016).
+    double final_cell = 0.0;
+    /// Height above the final TIN up to which a point is ground on flat terrain (m, >= 0).
+    double final_above = 0.5;
+    /// Depth below the final TIN down to which a point is ground (m, >= 0).
+    double final_below = 1.0;
+    /// Allowance per unit of the final TIN's gradient (m, >= 0).
+    double final_slope = 1.0;
 };
 
 /// Throws std::invalid_argument naming the parameter when a value is out of range.

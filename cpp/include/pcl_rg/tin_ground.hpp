@@ -65,6 +65,17 @@ struct TinGroundParams {
     /// this (m, >= 0) below the 9th lowest of the 25 cells of its 5 x 5 window gives no
     /// seed (low outliers, peeled repeatedly); used only when seed_cell > 0.
     double outlier_depth = 5.0;
+    /// Final pass (0: off): cell (m, >= 0) of a TIN of the lowest ground point per cell;
+    /// every point is then ground when -final_below <= z - z_TIN <= final_above +
+    /// final_slope * |grad z_TIN| (final_pass.hpp; TerraScan, Zhao et al. 2016), so ground
+    /// is complete below the stop edge.
+    double final_cell = 3.0;
+    /// Height above the final TIN up to which a point is ground on flat terrain (m, >= 0).
+    double final_above = 0.5;
+    /// Depth below the final TIN down to which a point is ground (m, >= 0).
+    double final_below = 5.0;
+    /// Allowance per unit of the final TIN's gradient (m, >= 0).
+    double final_slope = 1.0;
 };
 
 /// Throws std::invalid_argument naming the parameter when a value is out of range.

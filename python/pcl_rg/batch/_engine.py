@@ -91,6 +91,10 @@ class BatchReport:
         return result
 
 
+#: The box given to a tile without a finite point (it has no point to give or take).
+NOWHERE = Box(0.0, 0.0, 0.0, 0.0)
+
+
 @contextlib.contextmanager
 def _client(workers: int | None, scheduler: str | None) -> Iterator[Any]:
     """A Dask client: of `scheduler`, or of a local cluster of one-thread processes."""
@@ -252,6 +256,9 @@ def _run_on(
         else neighbours(boxes, job.buffer)
     )
     unreadable = [os.path.basename(paths[i]) for i, e in enumerate(extents) if not e["ok"]]
+    tiles = [
+        _tasks.Tile(i, paths[i], outputs[i], boxes[i] or NOWHERE) for i in range(len(paths))
+    ]
 
     # What each output is computed from, taken once before any work (an input edited
     # during the run must not be recorded as the one its output came from).
@@ -292,7 +299,7 @@ def _run_on(
         needed = list(readable)
     else:
         needed = sorted(set(todo) | {j for i in todo for j in near[i]})
-    cached = {i: client.submit(_tasks.cache_tile, job, i, paths[i], pure=False) for i in needed}
+    cached = {i: client.submit(_tasks.cache_tile, job, tiles[i], pure=False) for i in needed}
     futures += cached.values()
     known: dict[int, bool] = {}
 
@@ -304,25 +311,14 @@ def _run_on(
     bar = _Progress(len(todo), progress, f"{job.operation} ({len(todo)} tiles)")
     try:
         if job.operation == "denoise":
-            stage = _denoise(client, job, paths, outputs, boxes, near, todo, cached, futures)
+            stage = _denoise(client, job, tiles, boxes, near, todo, cached, futures)
         else:
             stage = {}
             task = _tasks.ground_tile if job.operation == "ground" else _tasks.downsample_tile
             for i in todo:
                 ready = [cached[i]] + [cached[j] for j in near[i]]
-                stage[
-                    client.submit(
-                        task,
-                        job,
-                        i,
-                        paths[i],
-                        outputs[i],
-                        boxes[i] or Box(0, 0, 0, 0),
-                        [(j, paths[j]) for j in near[i]],
-                        ready,
-                        pure=False,
-                    )
-                ] = i
+                context = [tiles[j] for j in near[i]]
+                stage[client.submit(task, job, tiles[i], context, ready, pure=False)] = i
             futures += stage.keys()
         for future in as_completed(list(stage)):
             i = stage[future]
@@ -366,8 +362,7 @@ def _outcome(future: Any) -> dict[str, Any]:
 def _denoise(
     client: Any,
     job: _tasks.Job,
-    paths: list[str],
-    outputs: list[str],
+    tiles: list[_tasks.Tile],
     boxes: list[Box | None],
     near: list[list[int]],
     todo: list[int],
@@ -376,22 +371,14 @@ def _denoise(
 ) -> dict[Any, int]:
     """Distances per tile, one global threshold, then the writes (stages 2 and 3)."""
     stage1 = {i: _outcome(f) for i, f in cached.items()}
-    nowhere = Box(0.0, 0.0, 0.0, 0.0)  # the box of a tile without a finite point
-    survey = survey_box([boxes[i] for i in cached if stage1[i]["ok"]]) or nowhere
+    survey = survey_box([boxes[i] for i in cached if stage1[i]["ok"]]) or NOWHERE
     distances = {}
     for i in cached:
         if not stage1[i]["ok"]:
             continue
-        others = [(j, paths[j], boxes[j]) for j in near[i] if stage1.get(j, {}).get("ok")]
+        others = [tiles[j] for j in near[i] if stage1.get(j, {}).get("ok")]
         distances[i] = client.submit(
-            _tasks.denoise_distances,
-            job,
-            i,
-            paths[i],
-            boxes[i] or nowhere,
-            survey,
-            others,
-            pure=False,
+            _tasks.denoise_distances, job, tiles[i], survey, others, pure=False
         )
     futures += distances.values()
     sums = {i: _outcome(f) for i, f in distances.items()}
@@ -401,7 +388,7 @@ def _denoise(
     for i in todo:
         if i in sums and sums[i]["ok"]:
             future = client.submit(
-                _tasks.denoise_write, job, i, paths[i], outputs[i], threshold, sums[i], pure=False
+                _tasks.denoise_write, job, tiles[i], threshold, sums[i], pure=False
             )
         else:
             failure = sums.get(i) or stage1[i]

@@ -18,7 +18,7 @@ import pickle
 import resource
 import time
 from collections.abc import Callable
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -43,6 +43,7 @@ __all__ = [
     "ground_tile",
     "passed_on",
     "tile_extent",
+    "Tile",
 ]
 
 GROUND_METHODS: dict[str, Callable[..., np.ndarray]] = {"grid": grid_ground, "tin": tin_ground}
@@ -57,6 +58,15 @@ class Job:
     buffer: float  # m
     scratch: str  # folder of the stage-1 arrays
     method: str = "grid"  # ground only
+
+
+class Tile(NamedTuple):
+    """One input of the run, as every task that reads or writes it names it."""
+
+    index: int  # position among the inputs: the name of its scratch folder
+    path: str  # the input file
+    output: str  # its output file
+    box: Box  # its points' xy box (an empty box at 0 when it has no finite point)
 
 
 def _failure(error: BaseException) -> dict[str, Any]:
@@ -91,8 +101,8 @@ def tile_extent(path: str) -> dict[str, Any]:
 # ---------------------------------------------------------------- stage 1
 
 
-def _folder(job: Job, index: int) -> str:
-    return os.path.join(job.scratch, str(index))
+def _folder(job: Job, tile: Tile) -> str:
+    return os.path.join(job.scratch, str(tile.index))
 
 
 # Side of the grid of cells over which stage 1 indexes a tile's context points: a
@@ -107,7 +117,7 @@ def _context_rows(job: Job, cloud: PointFile) -> np.ndarray:
     return np.flatnonzero(_valid(cloud))
 
 
-def cache_tile(job: Job, index: int, path: str) -> dict[str, Any]:
+def cache_tile(job: Job, tile: Tile) -> dict[str, Any]:
     """Stage 1: decode the tile and store points, fields and layout for stage 2.
 
     Also an index of the context rows by cell of a 32 x 32 grid over the tile's
@@ -116,8 +126,8 @@ def cache_tile(job: Job, index: int, path: str) -> dict[str, Any]:
     """
 
     def work() -> dict[str, Any]:
-        cloud = read_points(path)
-        folder = _folder(job, index)
+        cloud = read_points(tile.path)
+        folder = _folder(job, tile)
         os.makedirs(folder, exist_ok=True)
         np.save(os.path.join(folder, "points.npy"), cloud.points)
         names = list(cloud.fields)
@@ -141,8 +151,8 @@ def cache_tile(job: Job, index: int, path: str) -> dict[str, Any]:
     return _guarded(work)
 
 
-def _load(job: Job, index: int, path: str, mmap: bool = False) -> PointFile:
-    folder = _folder(job, index)
+def _load(job: Job, tile: Tile, mmap: bool = False) -> PointFile:
+    folder = _folder(job, tile)
     with open(os.path.join(folder, "layout.pkl"), "rb") as stream:
         fmt, header, names, _, _ = pickle.load(stream)
     mode = "r" if mmap else None
@@ -151,7 +161,7 @@ def _load(job: Job, index: int, path: str, mmap: bool = False) -> PointFile:
         name: np.load(os.path.join(folder, f"field{k}.npy"), mmap_mode=mode)
         for k, name in enumerate(names)
     }
-    return PointFile(points, fields, fmt, header, path)
+    return PointFile(points, fields, fmt, header, tile.path)
 
 
 # ---------------------------------------------------------------- context
@@ -163,10 +173,7 @@ def _inside(points: np.ndarray, box: Box) -> np.ndarray:
 
 
 def _context(
-    job: Job,
-    neighbours: list[tuple[int, str]],
-    box: Box,
-    fields: bool = False,
+    job: Job, neighbours: list[Tile], box: Box, fields: bool = False
 ) -> list[tuple[int, np.ndarray, PointFile]]:
     """(tile, rows, rows' points and fields) of each neighbour's context rows in `box`.
 
@@ -174,8 +181,8 @@ def _context(
     the memory-mapped arrays, so a task holds its own tile and its buffer rows.
     """
     parts = []
-    for index, path in neighbours:
-        folder = _folder(job, index)
+    for tile in neighbours:
+        folder = _folder(job, tile)
         with open(os.path.join(folder, "layout.pkl"), "rb") as stream:
             _, _, _, low, size = pickle.load(stream)
         first = np.floor((np.array([box.xmin, box.ymin]) - low) / size).astype(np.int64)
@@ -193,7 +200,7 @@ def _context(
             for r in range(first[1], last[1] + 1)
         ]
         candidates = np.sort(np.concatenate(pieces)) if pieces else np.empty(0, np.int64)
-        cloud = _load(job, index, path, mmap=True)
+        cloud = _load(job, tile, mmap=True)
         xyz = np.asarray(cloud.points[candidates])
         inside = _inside(xyz, box)
         chosen = candidates[inside]
@@ -202,7 +209,7 @@ def _context(
             {n: np.asarray(v[chosen]) for n, v in cloud.fields.items()} if fields else {},
             cloud.format,
         )
-        parts.append((index, chosen, subset))
+        parts.append((tile.index, chosen, subset))
         del cloud, cell_rows
     return parts
 
@@ -216,42 +223,50 @@ def _valid(cloud: PointFile) -> np.ndarray:
     return valid_points(cloud.points)
 
 
+def _with_buffer(
+    neighbours: list[Tile],
+    ready: list[dict[str, Any]],
+    work: Callable[[list[Tile]], dict[str, Any]],
+) -> dict[str, Any]:
+    """`work` on the neighbours whose stage 1 succeeded, guarded.
+
+    `ready` holds the stage-1 results of the tile and then of each neighbour: Dask
+    starts a stage-2 task once they exist, and a neighbour that failed gives no buffer.
+    """
+    if not ready[0]["ok"]:
+        return ready[0]
+    usable = [n for n, result in zip(neighbours, ready[1:], strict=True) if result["ok"]]
+    return _guarded(lambda: work(usable))
+
+
 # ---------------------------------------------------------------- ground
 
 
 def ground_tile(
-    job: Job,
-    index: int,
-    path: str,
-    output: str,
-    box: Box,
-    neighbours: list[tuple[int, str]],
-    ready: list[dict[str, Any]],
+    job: Job, tile: Tile, neighbours: list[Tile], ready: list[dict[str, Any]]
 ) -> dict[str, Any]:
     """Stage 2 of ``ground``: filter the tile with its buffer, write the tile's points.
 
-    `ready` holds the stage-1 results of the tile and then of each neighbour: Dask
-    starts this task once they exist, and a neighbour that failed gives no buffer.
+    `ready`: the stage-1 results of the tile and its neighbours (see :func:`_with_buffer`).
     """
-    if not ready[0]["ok"]:
-        return ready[0]
-    neighbours = [n for n, result in zip(neighbours, ready[1:], strict=True) if result["ok"]]
 
-    def work() -> dict[str, Any]:
-        own = _load(job, index, path)
+    def work(neighbours: list[Tile]) -> dict[str, Any]:
+        own = _load(job, tile)
         work_rows = _ground_work(own)
-        parts = _context(job, neighbours, grow(box, job.buffer))
+        parts = _context(job, neighbours, grow(tile.box, job.buffer))
         xyz = np.concatenate([own.points[work_rows]] + [p.points for _, _, p in parts])
         ground = GROUND_METHODS[job.method](xyz, params=job.params)[: int(work_rows.sum())]
         classes = ground_classes(own, work_rows, ground)
-        write_points(output, own.points, dict(own.fields, classification=classes), template=own)
+        write_points(
+            tile.output, own.points, dict(own.fields, classification=classes), template=own
+        )
         return {
             "points": len(own),
             "buffer_points": len(xyz) - int(work_rows.sum()),
             "ground": int(ground.sum()),
         }
 
-    return _guarded(work)
+    return _with_buffer(neighbours, ready, work)
 
 
 # ---------------------------------------------------------------- denoise
@@ -275,14 +290,7 @@ def _room(points: np.ndarray, box: Box, survey: Box) -> np.ndarray:
     return room
 
 
-def denoise_distances(
-    job: Job,
-    index: int,
-    path: str,
-    box: Box,
-    survey: Box,
-    others: list[tuple[int, str, Box]],
-) -> dict[str, Any]:
+def denoise_distances(job: Job, tile: Tile, survey: Box, others: list[Tile]) -> dict[str, Any]:
     """Stage 2 of ``denoise``: each own point's mean neighbour distance, exact.
 
     The k nearest neighbours of a point are exact when the farthest of them is closer
@@ -291,13 +299,13 @@ def denoise_distances(
     """
 
     def work() -> dict[str, Any]:
-        own = _load(job, index, path)
+        own = _load(job, tile)
         valid = _valid(own)
         mine = np.ascontiguousarray(own.points[valid])
         margin = job.buffer
         while True:
-            reach = grow(box, margin)
-            near = [(j, p) for j, p, other in others if meets(reach, other)]
+            reach = grow(tile.box, margin)
+            near = [other for other in others if meets(reach, other.box)]
             parts = _context(job, near, reach)
             xyz = np.concatenate([mine] + [p.points for _, _, p in parts])
             whole = covers(reach, survey)
@@ -318,7 +326,7 @@ def denoise_distances(
             if not short.any() or whole:
                 break
             margin = max(2.0 * margin, float(farthest[short].max()) * 1.01 + margin)
-        np.save(os.path.join(_folder(job, index), "distance.npy"), distance)
+        np.save(os.path.join(_folder(job, tile), "distance.npy"), distance)
         d64 = distance.astype(np.float64)
         squares = (distance * distance).astype(np.float64)  # float products, as PCL sums them
         return {
@@ -333,7 +341,7 @@ def denoise_distances(
 
 
 def denoise_write(
-    job: Job, index: int, path: str, output: str, threshold: float, measured: dict[str, Any]
+    job: Job, tile: Tile, threshold: float, measured: dict[str, Any]
 ) -> dict[str, Any]:
     """Stage 3 of ``denoise``: the global threshold applied, class 7 for outliers.
 
@@ -341,13 +349,15 @@ def denoise_write(
     """
 
     def work() -> dict[str, Any]:
-        own = _load(job, index, path)
+        own = _load(job, tile)
         valid = _valid(own)
-        distance = np.load(os.path.join(_folder(job, index), "distance.npy"))
+        distance = np.load(os.path.join(_folder(job, tile), "distance.npy"))
         outlier = np.zeros(len(own), bool)
         outlier[valid] = distance > threshold
         classes = noise_classes(own, valid, outlier)
-        write_points(output, own.points, dict(own.fields, classification=classes), template=own)
+        write_points(
+            tile.output, own.points, dict(own.fields, classification=classes), template=own
+        )
         return {
             "points": len(own),
             "noise": int(outlier.sum()),
@@ -382,13 +392,7 @@ def _field(cloud: PointFile, name: str, like: np.ndarray) -> np.ndarray:
 
 
 def downsample_tile(
-    job: Job,
-    index: int,
-    path: str,
-    output: str,
-    box: Box,
-    neighbours: list[tuple[int, str]],
-    ready: list[dict[str, Any]],
+    job: Job, tile: Tile, neighbours: list[Tile], ready: list[dict[str, Any]]
 ) -> dict[str, Any]:
     """Stage 2 of ``downsample``: the voxels this tile owns, from it and its buffer.
 
@@ -398,15 +402,12 @@ def downsample_tile(
     counts and first-point attributes are those of the merged run. `ready` as in
     :func:`ground_tile`.
     """
-    if not ready[0]["ok"]:
-        return ready[0]
-    neighbours = [n for n, result in zip(neighbours, ready[1:], strict=True) if result["ok"]]
 
-    def work() -> dict[str, Any]:
-        own = _load(job, index, path)
+    def work(neighbours: list[Tile]) -> dict[str, Any]:
+        own = _load(job, tile)
         rows = np.flatnonzero(_valid(own))
-        parts = _context(job, neighbours, grow(box, job.buffer), fields=True)
-        parts.append((index, rows, own.take(rows)))
+        parts = _context(job, neighbours, grow(tile.box, job.buffer), fields=True)
+        parts.append((tile.index, rows, own.take(rows)))
         parts.sort(key=lambda part: part[0])
         xyz = np.concatenate([p.points for _, _, p in parts])
         tile_of = np.concatenate([np.full(len(r), t) for t, r, _ in parts])
@@ -419,10 +420,12 @@ def downsample_tile(
         voxel = grid.voxel_of_point[member]
         owner = np.full(len(grid.counts), np.iinfo(np.int64).max)
         np.minimum.at(owner, voxel, tile_of[member])
-        mine = owner == index
+        mine = owner == tile.index
         attributes = voxel_attributes(fields, member, voxel, grid.counts)
         centroids = grid.centroids[mine]
-        write_points(output, centroids, {n: v[mine] for n, v in attributes.items()}, template=own)
+        write_points(
+            tile.output, centroids, {n: v[mine] for n, v in attributes.items()}, template=own
+        )
         return {"points": len(own), "voxels": int(mine.sum())}
 
-    return _guarded(work)
+    return _with_buffer(neighbours, ready, work)

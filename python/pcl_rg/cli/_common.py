@@ -41,7 +41,6 @@ __all__ = [
     "add_output_options",
     "add_plot_options",
     "check_extension",
-    "check_neighbours",
     "check_paths",
     "check_plots",
     "class_array",
@@ -58,8 +57,8 @@ __all__ = [
     "segments_summary",
     "valid_points",
     "write",
+    "write_output",
 ]
-
 
 
 # ----------------------------------------------------------------- options
@@ -178,26 +177,52 @@ def write(
     run.result["points_out"] = int(len(points))
 
 
-def read_input(args: argparse.Namespace, run: Run) -> tuple[PointFile, np.ndarray]:
-    """INPUT after the checks of INPUT, OUTPUT and figures; and its finite rows."""
+def write_output(
+    run: Run,
+    args: argparse.Namespace,
+    cloud: PointFile,
+    fields: dict[str, np.ndarray],
+    keep: np.ndarray,
+) -> int:
+    """Write INPUT's points with `fields` to OUTPUT, only the `keep` ones with --drop.
+
+    Returns the number of points written.
+    """
+    out = cloud.points
+    if args.drop:
+        out = out[keep]
+        fields = {name: values[keep] for name, values in fields.items()}
+    write(run, args.output, out, fields, cloud)
+    return len(out)
+
+
+def read_input(
+    args: argparse.Namespace, run: Run, neighbours: tuple[str, int] | None = None
+) -> tuple[PointFile, np.ndarray]:
+    """INPUT after the checks of INPUT, OUTPUT and figures; and its finite rows.
+
+    `neighbours`, a (flag name, count) pair, is checked against the finite rows:
+    the count must leave a point out.
+    """
     check_paths(args.input, args.output, [args.plot, args.profile])
     cloud = read(run, args.input)
-    return cloud, valid_points(cloud.points)
+    valid = valid_points(cloud.points)
+    if neighbours is not None:
+        _check_neighbours(*neighbours, int(valid.sum()))
+    return cloud, valid
 
 
 def say_written(run: Run, args: argparse.Namespace, n: int, what: str) -> None:
     run.say(f"wrote {os.path.abspath(args.output)} ({n:,} points{what})")
 
 
-def check_neighbours(name: str, value: int, n_valid: int) -> None:
+def _check_neighbours(name: str, value: int, n_valid: int) -> None:
     """A neighbour count must leave a point out: < the number of valid points."""
     if n_valid and value >= n_valid:
         raise CliError(
             f"argument --{name.replace('_', '-')}: {name} must be < the number of points "
             f"({n_valid}), got {value}"
         )
-
-
 
 
 # ---------------------------------------------------------------- classes
@@ -235,12 +260,7 @@ def finish_segments(
     fields = dict(cloud.fields, segment_id=segment)
     if classes is not None:
         fields["classification"] = classes
-    out = cloud.points
-    if args.drop:
-        keep = segment >= 0
-        out = out[keep]
-        fields = {k: v[keep] for k, v in fields.items()}
-    write(run, args.output, out, fields, cloud)
+    n_written = write_output(run, args, cloud, fields, segment >= 0)
     summary = segments_summary(segment)
     run.result.update(
         input=os.path.abspath(args.input), points_in=len(cloud), dropped=bool(args.drop), **summary
@@ -252,7 +272,7 @@ def finish_segments(
     say_written(
         run,
         args,
-        len(out),
+        n_written,
         ", segment_id -1 = none" + (", segmented points only" if args.drop else ""),
     )
     plots(

@@ -9,7 +9,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .._params import check_number
+from ._terrain import check_terrain_query
 
 __all__ = ["SteepTerrain", "isprs_like_terrain", "make_steep_terrain", "steep_z"]
 
@@ -189,14 +189,5 @@ def isprs_like_terrain(
     >>> z.shape, z.dtype
     ((2,), dtype('float64'))
     """
-    seed = check_number("seed", seed, int, minimum=0)
-    size = check_number("size", size, float, above=0.0)
-    xa = np.asarray(x, dtype=np.float64)
-    ya = np.asarray(y, dtype=np.float64)
-    for name, arr in (("x", xa), ("y", ya)):
-        if not np.all(np.isfinite(arr)):
-            raise ValueError(
-                f"{name} must be finite, got {np.count_nonzero(~np.isfinite(arr))} "
-                "non-finite values"
-            )
+    seed, size, xa, ya = check_terrain_query(x, y, seed, size)
     return steep_z(make_steep_terrain(seed, size), xa, ya)

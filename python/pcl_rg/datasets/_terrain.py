@@ -98,6 +98,23 @@ def terrain_z(t: Terrain, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
     return z.reshape(shape)
 
 
+def check_terrain_query(
+    x: ArrayLike, y: ArrayLike, seed: object, size: object
+) -> tuple[int, float, np.ndarray, np.ndarray]:
+    """The arguments of a terrain-height query, checked: seed, size, x and y as float64."""
+    seed = check_number("seed", seed, int, minimum=0)
+    size = check_number("size", size, float, above=0.0)
+    xa = np.asarray(x, dtype=np.float64)
+    ya = np.asarray(y, dtype=np.float64)
+    for name, arr in (("x", xa), ("y", ya)):
+        if not np.all(np.isfinite(arr)):
+            raise ValueError(
+                f"{name} must be finite, got {np.count_nonzero(~np.isfinite(arr))} "
+                "non-finite values"
+            )
+    return seed, size, xa, ya
+
+
 def terrain_height(
     x: ArrayLike, y: ArrayLike, *, seed: int = 0, size: float = 200.0
 ) -> NDArray[np.float64]:
@@ -144,14 +161,5 @@ def terrain_height(
     >>> z.shape, z.dtype
     ((2,), dtype('float64'))
     """
-    seed = check_number("seed", seed, int, minimum=0)
-    size = check_number("size", size, float, above=0.0)
-    xa = np.asarray(x, dtype=np.float64)
-    ya = np.asarray(y, dtype=np.float64)
-    for name, arr in (("x", xa), ("y", ya)):
-        if not np.all(np.isfinite(arr)):
-            raise ValueError(
-                f"{name} must be finite, got {np.count_nonzero(~np.isfinite(arr))} "
-                "non-finite values"
-            )
+    seed, size, xa, ya = check_terrain_query(x, y, seed, size)
     return terrain_z(make_terrain(seed, size), xa, ya)

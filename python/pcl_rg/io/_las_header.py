@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 import os
 import struct
+from collections.abc import Iterator
 from typing import BinaryIO, NamedTuple
 
 # Smallest public header block of each minor version 0-4.
@@ -61,6 +62,31 @@ def _bad(path: str, problem: str) -> ValueError:
 def _read_at(stream: BinaryIO, offset: int, size: int) -> bytes:
     stream.seek(offset)
     return stream.read(size)
+
+
+def _records(
+    stream: BinaryIO, path: str, kind: str, start: int, count: int, limit: int, limit_name: str
+) -> Iterator[tuple[int, bytes, int]]:
+    """(offset, header, payload length) of `count` (E)VLRs from `start`, checked to end by `limit`.
+
+    A VLR's header is 54 bytes with a 2-byte length, an EVLR's 60 with an 8-byte
+    length; both hold the length at byte 20.
+    """
+    header_size, length_format = (_VLR_HEADER, "<H") if kind == "VLR" else (_EVLR_HEADER, "<Q")
+    position = start
+    for index in range(count):
+        header = _read_at(stream, position, header_size)
+        if len(header) < header_size:
+            raise _bad(path, f"{kind} {index} at offset {position} is truncated")
+        (length,) = struct.unpack_from(length_format, header, 20)
+        if length > limit - position - header_size:
+            raise _bad(
+                path,
+                f"{kind} {index} ({length} bytes from offset {position}) runs past "
+                f"{limit_name} at {limit}",
+            )
+        yield position, header, length
+        position += header_size + length
 
 
 def check_las_header(path: str, stream: BinaryIO) -> LasFacts:
@@ -117,24 +143,14 @@ def check_las_header(path: str, stream: BinaryIO) -> LasFacts:
             f"hold at most {vlr_room // _VLR_HEADER}",
         )
     laszip_vlr = None
-    position = header_size
-    for index in range(vlr_count):
-        vlr = _read_at(stream, position, _VLR_HEADER)
-        if len(vlr) < _VLR_HEADER:
-            raise _bad(path, f"VLR {index} at offset {position} is truncated")
-        (length,) = struct.unpack_from("<H", vlr, 20)
-        end = position + _VLR_HEADER + length
-        if end > data_offset:
-            raise _bad(
-                path,
-                f"VLR {index} ({length} bytes from offset {position}) runs past the start "
-                f"of the point data at {data_offset}",
-            )
+    vlrs = _records(
+        stream, path, "VLR", header_size, vlr_count, data_offset, "the start of the point data"
+    )
+    for position, vlr, length in vlrs:
         user_id = vlr[2:18].rstrip(b"\0")
         (record_id,) = struct.unpack_from("<H", vlr, 18)
         if user_id == _LASZIP_USER_ID and record_id == _LASZIP_RECORD_ID:
             laszip_vlr = _read_at(stream, position + _VLR_HEADER, length)
-        position = end
 
     if evlr_count:
         if not data_offset <= evlr_start <= file_size - evlr_count * _EVLR_HEADER:
@@ -143,19 +159,11 @@ def check_las_header(path: str, stream: BinaryIO) -> LasFacts:
                 f"{evlr_count} EVLRs from offset {evlr_start} do not fit between the point "
                 f"data at {data_offset} and the end of the file at {file_size}",
             )
-        position = evlr_start
-        for index in range(evlr_count):
-            evlr = _read_at(stream, position, _EVLR_HEADER)
-            if len(evlr) < _EVLR_HEADER:
-                raise _bad(path, f"EVLR {index} at offset {position} is truncated")
-            (length,) = struct.unpack_from("<Q", evlr, 20)
-            if length > file_size - position - _EVLR_HEADER:
-                raise _bad(
-                    path,
-                    f"EVLR {index} ({length} bytes from offset {position}) runs past the "
-                    f"end of the file at {file_size}",
-                )
-            position += _EVLR_HEADER + length
+        # Walked only to check that every record lies inside the file.
+        for _ in _records(
+            stream, path, "EVLR", evlr_start, evlr_count, file_size, "the end of the file"
+        ):
+            pass
 
     point_end = evlr_start if evlr_count else file_size
     payload = point_end - data_offset

@@ -2,7 +2,8 @@
 
 Each function runs one PCL 1.13 class as PCL ships it (``pcl::VoxelGrid``,
 ``pcl::StatisticalOutlierRemoval``, ``pcl::NormalEstimation`` with
-``pcl::RegionGrowing``, ``pcl::ProgressiveMorphologicalFilter`` and
+``pcl::RegionGrowing``, ``pcl::SupervoxelClustering`` with
+``pcl::LCCPSegmentation``, ``pcl::ProgressiveMorphologicalFilter`` and
 ``pcl::ApproximateProgressiveMorphologicalFilter``) behind the signature and the
 result type of the matching :mod:`pcl_rg` function, so the two can be swapped in
 a comparison. Only the crossing is ours: input is checked as everywhere in
@@ -17,6 +18,7 @@ and cannot be interrupted inside a class: Ctrl-C takes effect between stages.
 from .._statistical_outlier_removal import StatisticalOutlierRemovalParams
 from .._voxel_grid import VoxelGridParams, VoxelGridResult
 from ._filters import statistical_outlier_removal, voxel_grid
+from ._lccp import LccpParams, lccp
 from ._pmf import ProgressiveMorphologicalFilterParams, progressive_morphological_filter
 from ._region_growing import (
     NormalEstimationParams,
@@ -27,6 +29,7 @@ from ._region_growing import (
 )
 
 __all__ = [
+    "LccpParams",
     "NormalEstimationParams",
     "NormalEstimationResult",
     "ProgressiveMorphologicalFilterParams",
@@ -34,6 +37,7 @@ __all__ = [
     "StatisticalOutlierRemovalParams",
     "VoxelGridParams",
     "VoxelGridResult",
+    "lccp",
     "normals",
     "progressive_morphological_filter",
     "region_growing",

@@ -13,8 +13,10 @@ except ImportError as error:  # pragma: no cover - depends on the environment
     ) from error
 
 from ._lattice import lattice_floor
+from .convex_segmentation import convex_segmentation
 from .grid_ground import grid_ground
 from .normals import normals
+from .point_scale import point_scale
 from .point_spacing import point_spacing
 from .region_growing import region_growing
 from .statistical_outlier_removal import statistical_outlier_removal
@@ -22,9 +24,11 @@ from .tin_ground import tin_ground
 from .voxel_grid import voxel_grid
 
 __all__ = [
+    "convex_segmentation",
     "grid_ground",
     "lattice_floor",
     "normals",
+    "point_scale",
     "point_spacing",
     "region_growing",
     "statistical_outlier_removal",

@@ -13,6 +13,7 @@ from scipy.spatial import cKDTree
 from .._grid_ground import GridGroundParams
 from .._params import resolve_arguments
 from .._validation import as_points
+from ._final_pass import final_pass
 from ._lattice import lattice_floor
 from .point_spacing import spacing_or_one_metre
 
@@ -140,6 +141,10 @@ def grid_ground(
     filter_passes: int | None = None,
     filter_slope: float | None = None,
     filter_tolerance: float | None = None,
+    final_cell: float | None = None,
+    final_above: float | None = None,
+    final_below: float | None = None,
+    final_slope: float | None = None,
     params: GridGroundParams | None = None,
 ) -> np.ndarray:
     """Reference grid ground filter: same signature and result as :func:`pcl_rg.grid_ground`.
@@ -147,7 +152,8 @@ def grid_ground(
     Builds the whole neighbour graph (candidate pairs from a k-d tree,
     filtered by cell), applies the pre-filter and the link rule to it, labels
     the connected components with SciPy and takes per block the component of
-    the seed.
+    the seed. With ``final_cell > 0`` the final pass of
+    :func:`pcl_rg.reference._final_pass.final_pass` follows.
 
     Examples
     --------
@@ -172,4 +178,6 @@ def grid_ground(
         if p.filter_passes > 0:
             candidate = _slope_filter(nb, p, against=ground)
         ground = _grow(nb, p, candidate)
+    if p.final_cell > 0:
+        ground = final_pass(xyz, ground, p.final_cell, p.final_above, p.final_below, p.final_slope)
     return ground

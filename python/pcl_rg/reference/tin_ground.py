@@ -118,6 +118,33 @@ def locate(
     raise RuntimeError("point location did not terminate")  # pragma: no cover
 
 
+def with_corners(
+    gx: np.ndarray,
+    gy: np.ndarray,
+    z: np.ndarray,
+    nearest: np.ndarray,
+    inserted: np.ndarray,
+    width: int,
+    height: int,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Vertices (grid x, grid y, z) of a TIN over the box: its four corners, then `inserted`.
+
+    Each corner takes the height of the point of `nearest` closest to it (exact squared
+    grid distance, ties: smallest index), so every point of the box lies inside the TIN.
+    """
+    corner_x = np.array([0, width, width, 0], dtype=np.int64)
+    corner_y = np.array([0, 0, height, height], dtype=np.int64)
+    corner_z = np.empty(4)
+    for c in range(4):
+        d2 = (gx[nearest] - corner_x[c]) ** 2 + (gy[nearest] - corner_y[c]) ** 2
+        corner_z[c] = z[nearest[np.lexsort((nearest, d2))[0]]]
+    return (
+        np.r_[corner_x, gx[inserted]],
+        np.r_[corner_y, gy[inserted]],
+        np.r_[corner_z, z[inserted]],
+    )
+
+
 def _lowest_in_cells(xyz: np.ndarray, local: np.ndarray, cell: float, ncy: int) -> tuple:
     """(cell key per point, lowest point (ties: index) of each occupied cell, its key)."""
     key = np.floor(local[:, 0] / cell).astype(np.int64) * ncy + np.floor(local[:, 1] / cell).astype(
@@ -282,6 +309,10 @@ def tin_ground(
     seed_cell: float | None = None,
     seed_tolerance: float | None = None,
     outlier_depth: float | None = None,
+    final_cell: float | None = None,
+    final_above: float | None = None,
+    final_below: float | None = None,
+    final_slope: float | None = None,
     params: TinGroundParams | None = None,
 ) -> np.ndarray:
     """Reference progressive TIN densification: same signature and result as the core.
@@ -334,15 +365,7 @@ def tin_ground(
     vertex_seeds = by_xy[first]
 
     # Virtual corners at the height of the nearest seed (exact distance, ties: index).
-    corner_x = np.array([0, width, width, 0], dtype=np.int64)
-    corner_y = np.array([0, 0, height, height], dtype=np.int64)
-    corner_z = np.empty(4)
-    for c in range(4):
-        d2 = (gx[seed] - corner_x[c]) ** 2 + (gy[seed] - corner_y[c]) ** 2
-        corner_z[c] = pz[seed[np.lexsort((seed, d2))[0]]]
-    vx = np.r_[corner_x, gx[vertex_seeds]]
-    vy = np.r_[corner_y, gy[vertex_seeds]]
-    vz = np.r_[corner_z, pz[vertex_seeds]]
+    vx, vy, vz = with_corners(gx, gy, pz, seed, vertex_seeds, width, height)
 
     # 3. Densify until an iteration adds no ground point.
     while True:
@@ -366,4 +389,8 @@ def tin_ground(
         vx = np.r_[vx, gx[chosen[new]]]
         vy = np.r_[vy, gy[chosen[new]]]
         vz = np.r_[vz, pz[chosen[new]]]
+    if p.final_cell > 0:
+        from ._final_pass import final_pass  # here: it imports this module's TIN
+
+        ground = final_pass(xyz, ground, p.final_cell, p.final_above, p.final_below, p.final_slope)
     return ground

@@ -71,27 +71,17 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "failed (the others are still written)."
     )
     sub = parser.add_subparsers(dest="operation", required=True, metavar="OPERATION")
-    ground = sub.add_parser("ground", help=OPERATIONS["ground"], description=OPERATIONS["ground"])
-    _common_arguments(ground)
-    add_method_flags(ground, "ground filter parameters", "ground filter", methods())
-    denoise = sub.add_parser(
-        "denoise", help=OPERATIONS["denoise"], description=OPERATIONS["denoise"]
-    )
-    _common_arguments(denoise)
-    denoise.set_defaults(
-        flags=add_param_flags(
-            denoise, "outlier removal parameters", {"sor": pcl_rg.StatisticalOutlierRemovalParams}
-        )
-    )
-    downsample = sub.add_parser(
-        "downsample", help=OPERATIONS["downsample"], description=OPERATIONS["downsample"]
-    )
-    _common_arguments(downsample)
-    downsample.set_defaults(
-        flags=add_param_flags(
-            downsample, "voxel grid parameters", {"voxel": pcl_rg.VoxelGridParams}
-        )
-    )
+    operations = {
+        name: sub.add_parser(name, help=text, description=text) for name, text in OPERATIONS.items()
+    }
+    for operation in operations.values():
+        _common_arguments(operation)
+    add_method_flags(operations["ground"], "ground filter parameters", "ground filter", methods())
+    for name, title, flag_group in (
+        ("denoise", "outlier removal parameters", {"sor": pcl_rg.StatisticalOutlierRemovalParams}),
+        ("downsample", "voxel grid parameters", {"voxel": pcl_rg.VoxelGridParams}),
+    ):
+        operations[name].set_defaults(flags=add_param_flags(operations[name], title, flag_group))
     parser.set_defaults(run=execute)
 
 

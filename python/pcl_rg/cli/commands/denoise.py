@@ -12,13 +12,12 @@ import pcl_rg
 from .._common import (
     add_io_arguments,
     add_output_options,
-    check_neighbours,
     noise_classes,
     percent,
     plots,
     read_input,
     say_written,
-    write,
+    write_output,
 )
 from .._flags import add_param_flags, params_dict, params_from_args
 from .._run import Run
@@ -43,22 +42,16 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 def execute(args: argparse.Namespace, run: Run) -> None:
     params = params_from_args(args, args.flags, "sor", pcl_rg.StatisticalOutlierRemovalParams)
-    cloud, valid = read_input(args, run)
+    cloud, valid = read_input(args, run, ("mean_k", params.mean_k))
     points = cloud.points
     n_valid = int(valid.sum())
-    check_neighbours("mean_k", params.mean_k, n_valid)
     with run.stage("denoise", f"statistical outlier removal on {n_valid:,} points"):
         inlier = pcl_rg.statistical_outlier_removal(points[valid], params=params)
     keep = np.zeros(len(cloud), bool)
     keep[valid] = inlier
     outlier = valid & ~keep
     classes = noise_classes(cloud, valid, outlier)
-    fields = dict(cloud.fields, classification=classes)
-    out = points
-    if args.drop:
-        out = points[keep]
-        fields = {k: v[keep] for k, v in fields.items()}
-    write(run, args.output, out, fields, cloud)
+    n_written = write_output(run, args, cloud, dict(cloud.fields, classification=classes), keep)
     n_noise = int(outlier.sum())
     run.result.update(
         input=os.path.abspath(args.input),
@@ -71,7 +64,7 @@ def execute(args: argparse.Namespace, run: Run) -> None:
         dropped=bool(args.drop),
     )
     run.say(f"denoise (SOR): {n_valid:,} points, {n_noise:,} noise ({percent(n_noise, n_valid)})")
-    say_written(run, args, len(out), (", inliers only" if args.drop else ", class 7 noise"))
+    say_written(run, args, n_written, (", inliers only" if args.drop else ", class 7 noise"))
     plots(
         run,
         args,

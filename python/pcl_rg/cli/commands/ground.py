@@ -19,7 +19,7 @@ from .._common import (
     plots,
     read_input,
     say_written,
-    write,
+    write_output,
 )
 from .._flags import Method, add_method_flags, method_params, method_summaries, params_dict
 from .._run import Run
@@ -71,12 +71,7 @@ def execute(args: argparse.Namespace, run: Run) -> None:
     n_work = int(work.sum())
     kept = np.zeros(len(cloud), bool)
     kept[work] = ground
-    fields = dict(cloud.fields, classification=classes)
-    out = cloud.points
-    if args.drop:
-        out = points[kept]
-        fields = {k: v[kept] for k, v in fields.items()}
-    write(run, args.output, out, fields, cloud)
+    n_written = write_output(run, args, cloud, dict(cloud.fields, classification=classes), kept)
     run.result.update(
         input=os.path.abspath(args.input),
         method=method.name,
@@ -101,7 +96,7 @@ def execute(args: argparse.Namespace, run: Run) -> None:
         + (f"; {int((~valid).sum()):,} invalid (NaN) points skipped" if not valid.all() else "")
     )
     say_written(
-        run, args, len(out), (", ground only" if args.drop else ", class 2 ground, 1 other")
+        run, args, n_written, (", ground only" if args.drop else ", class 2 ground, 1 other")
     )
     plots(
         run,

@@ -29,14 +29,22 @@ __all__ = ["configure", "execute"]
 def configure(parser: argparse.ArgumentParser) -> None:
     parser.description = (
         "The seed 004 chain (pcl_rg.pipeline.seed004): statistical outlier "
-        "removal (--sor-*, on unless --no-sor), voxel grid (--voxel-*, only when "
-        "--voxel-leaf-size is given: the leaf depends on the data), normals, curvatures and "
+        "removal (--sor-*, on unless --no-sor), voxel grid (--voxel-*; without "
+        "--voxel-leaf-size the leaf is chosen from the data's spacing and noise and the "
+        "report says which, --no-auto-voxel skips the grid), normals, curvatures and "
         "region growing (--region-*). Every input point gets the segment_id of the point "
         "it was merged into (-1 for outliers and dropped regions); SOR outliers get class 7."
     )
     add_io_arguments(parser, "write only the points with a segment")
     options = keyword_params(pipeline.seed004, "PipelineOptions")
     flags = add_param_flags(parser, "pipeline parameters", {"pipeline": options})
+    parser.add_argument(
+        "--no-auto-voxel",
+        dest="auto_voxel",
+        action="store_false",
+        help="without --voxel-leaf-size, segment every point instead of a grid whose leaf "
+        "is chosen from the data",
+    )
     parser.set_defaults(flags=flags, pipeline_params=options, pipeline=pipeline.seed004)
     add_output_options(parser, execute)
 
@@ -47,7 +55,9 @@ def execute(args: argparse.Namespace, run: Run) -> None:
     points = cloud.points
     stages = "SOR, voxel grid, normals, region growing"
     with run.stage("pipeline", f"{stages} on {int(valid.sum()):,} points"):
-        result = args.pipeline(points[valid], **params_dict(options))
+        result = args.pipeline(
+            points[valid], **params_dict(options), auto_voxel=args.auto_voxel
+        )
     segment = np.full(len(cloud), -1, dtype=np.int32)
     segment[valid] = np.asarray(result.labels)
     classes = None

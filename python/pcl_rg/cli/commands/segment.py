@@ -11,7 +11,6 @@ import pcl_rg
 from .._common import (
     add_io_arguments,
     add_output_options,
-    check_neighbours,
     finish_segments,
     read_input,
 )
@@ -39,7 +38,14 @@ def methods() -> dict[str, Method]:
             pcl_rg.region_growing,
             pcl_rg.RegionGrowingParams,
             "curvature-seeded region growing (seed 004)",
-        )
+        ),
+        "convex": Method(
+            "convex",
+            pcl_rg.convex_segmentation,
+            pcl_rg.ConvexSegmentationParams,
+            "smooth patches merged across convex edges, scale-free defaults (objects, "
+            "not faces)",
+        ),
     }
     try:
         from ... import pcl
@@ -68,10 +74,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 def execute(args: argparse.Namespace, run: Run) -> None:
     method, params = method_params(args)
-    cloud, valid = read_input(args, run)
+    cloud, valid = read_input(args, run, ("k", params.k))
     points = cloud.points
     n_valid = int(valid.sum())
-    check_neighbours("k", params.k, n_valid)
     with run.stage("segment", f"region growing ({method.name}) on {n_valid:,} points"):
         labels = method.function(points[valid], params=params)
     segment = np.full(len(cloud), -1, dtype=np.int32)

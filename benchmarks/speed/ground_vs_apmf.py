@@ -1,0 +1,142 @@
+"""tin_ground and grid_ground against PCL's approximate progressive morphological filter.
+
+Usage:
+    python benchmarks/speed/ground_vs_apmf.py [--points 10000000] [--repeats 3] [--write]
+
+One synthetic scene (pcl_rg.datasets.synthetic_scene, seed 0, 4 points/m^2, sized
+for the requested number of points) is filtered by tin_ground (isprs preset, the
+defaults), grid_ground (defaults) and pcl::ApproximateProgressiveMorphologicalFilter
+(PCL's tutorial parameters, as benchmarks/studies/ground_isprs.py runs PMF). The
+three run interleaved in one process, `repeats` rounds, so that the load of the
+shared machine falls on all of them alike; the table gives each one's median wall
+time (input check included), its ratio to APMF's median, and tin_ground's split
+from the core's clocks in its median run. Targets (issue 14): tin_ground >= 1.5x
+and grid_ground >= 4x faster than APMF. --write puts the table in RESULTS.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import statistics
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/_common.py
+from _common import machine, markdown_table, publish  # noqa: E402
+
+import pcl_rg
+import pcl_rg.pcl
+from pcl_rg.datasets import GROUND, synthetic_scene
+from pcl_rg.evaluation import ground_errors
+
+SECTION = "## tin_ground and grid_ground vs PCL's APMF (synthetic scene)"
+DENSITY = 4.0
+APMF = "PCL ApproximateProgressiveMorphologicalFilter (tutorial)"
+METHODS = {
+    "tin_ground (isprs preset, the defaults)": lambda p: pcl_rg.tin_ground(p),
+    "grid_ground (defaults)": lambda p: pcl_rg.grid_ground(p),
+    APMF: lambda p: pcl_rg.pcl.progressive_morphological_filter(p, approximate=True),
+}
+
+
+def run_once(run, points: np.ndarray) -> tuple[float, np.ndarray, dict | None, float]:
+    """(wall seconds, ground mask, tin_ground's diagnostics, CPU seconds) of one call."""
+    start, cpu = time.perf_counter(), time.process_time()
+    with pcl_rg.collect_diagnostics() as diagnostics:
+        ground = run(points)
+    seconds, cpu = time.perf_counter() - start, time.process_time() - cpu
+    stats = diagnostics["tin_ground"] if "tin_ground" in diagnostics else None
+    return seconds, ground, stats, cpu
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--points", type=int, default=10_000_000)
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--write", action="store_true", help="update RESULTS.md")
+    args = parser.parse_args(argv)
+
+    size = math.sqrt(args.points / DENSITY)
+    scene = synthetic_scene(seed=0, size=size, density=DENSITY)
+    points = scene.points
+    truth = scene.labels == GROUND
+    load_before = os.getloadavg()[0]
+    runs: dict[str, list] = {name: [] for name in METHODS}
+    for round_ in range(args.repeats):
+        for name, run in METHODS.items():
+            runs[name].append(run_once(run, points))
+            print(f"round {round_ + 1} {name}: {runs[name][-1][0]:.2f} s", file=sys.stderr)
+    load_after = os.getloadavg()[0]
+
+    apmf = statistics.median(r[0] for r in runs[APMF])
+    apmf_cpu = statistics.median(r[3] for r in runs[APMF])
+    rows, split = [], ""
+    for name, results in runs.items():
+        seconds = statistics.median(r[0] for r in results)
+        _, ground, stats, _ = min(results, key=lambda r: abs(r[0] - seconds))
+        cpu = statistics.median(r[3] for r in results)
+        errors = ground_errors(truth, ground)
+        rows.append(
+            [
+                name,
+                ", ".join(f"{r[0]:.2f}" for r in results),
+                f"{seconds:.2f}",
+                f"{apmf / seconds:.2f}",
+                f"{cpu:.2f}",
+                f"{apmf_cpu / cpu:.2f}",
+                f"{100 * errors.type_i:.2f}",
+                f"{100 * errors.type_ii:.2f}",
+            ]
+        )
+        if stats is not None:
+            split = (
+                f"tin_ground's split in its median run (core clocks): prepare "
+                f"{stats['prepare_seconds']:.2f} s, triangulation "
+                f"{stats['triangulation_seconds']:.2f} s, classification "
+                f"{stats['classification_seconds']:.2f} s; {stats['tin_vertices']:,} TIN "
+                f"vertices, {stats['iterations']} iterations, "
+                f"{stats['tests'] / len(points):.1f} tests per point."
+            )
+    command = (
+        "python benchmarks/speed/ground_vs_apmf.py"
+        + (f" --points {args.points}" if args.points != 10_000_000 else "")
+        + (f" --repeats {args.repeats}" if args.repeats != 3 else "")
+        + (" --write" if args.write else "")
+    )
+    threads = os.environ.get("OMP_NUM_THREADS", "all cores")
+    text = (
+        f"{SECTION}\n\n"
+        f"`{command}` on {machine()} (OpenMP threads: {threads}; 1-minute load average "
+        f"{load_before:.1f} before, {load_after:.1f} after). "
+        f"synthetic_scene(seed=0, size={size:.1f}, density={DENSITY:g}): "
+        f"{len(points):,} points. The three run interleaved in one process, "
+        f"{args.repeats} rounds; time is the median wall time of the whole call, "
+        "x APMF its ratio to APMF's median (> 1: faster); CPU s: median CPU time of all "
+        "threads (less sensitive to the other jobs on the machine than wall time). "
+        "Targets (issue 14): tin_ground >= 1.5x, grid_ground >= 4x (wall time).\n\n"
+        + markdown_table(
+            [
+                "method",
+                "times s",
+                "median s",
+                "x APMF",
+                "CPU s",
+                "x APMF (CPU)",
+                "Type I %",
+                "Type II %",
+            ],
+            rows,
+        )
+        + f"\n\n{split}\n"
+    )
+    publish(text, SECTION, args.write)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,80 @@
+// Scale-free smooth-patch growth followed by a convexity merge on the region graph: the
+// idea of LCCP (Stein et al., CVPR 2014) on the regions of curvature-seeded growth.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+
+#include "pcl_rg/points.hpp"
+
+namespace pcl_rg {
+
+struct ConvexSegmentationParams {
+    /// Segment a voxel grid of leaf noise_leaves x noise (point_scale.hpp) when that
+    /// leaf is larger than the point spacing, and give every point its voxel's label
+    /// (finite, >= 0; 0: never). Dense, noisy scans (a raw Kinect frame) are then
+    /// segmented at the scale their noise allows, and sparser data as it is.
+    double noise_leaves = 10.0;
+    /// Neighbours per point, the point itself included (>= 6, < N), for the normals,
+    /// the curvatures, the growth and the region graph. Chosen on the mOSD learn scenes
+    /// by leave-one-scene-out cross-validation, see RESULTS.md.
+    int k = 15;
+    /// A neighbour joins a patch when the angle between the unoriented normals is <=
+    /// this, in degrees, in (0, 180).
+    double smoothness_deg = 12.0;
+    /// A joined point grows further when curvedness x r <= this (finite, >= 0, no
+    /// unit), r the distance to the point's k-th neighbour: curvature in units of the
+    /// neighbourhood radius, the same at every point spacing.
+    double curvature_threshold = 0.6;
+    /// Two adjacent patches merge when each one's centroid lies at most this far
+    /// above the other's mean plane, as an elevation angle in degrees, in [0, 90).
+    double concavity_tolerance_deg = 0.0;
+    /// Patches with fewer points take no part in the convexity test: each joins the
+    /// merged segment it shares most neighbour pairs with (>= 1); a segment that
+    /// ends smaller is dropped.
+    std::int64_t min_cluster_size = 20;
+    /// Sensor position (caller's coordinates, finite): normals are turned towards it.
+    std::array<double, 3> viewpoint{0.0, 0.0, 0.0};
+};
+
+/// Throws std::invalid_argument naming the parameter when a value is out of range.
+void validate(const ConvexSegmentationParams& params);
+
+/// Wall-clock seconds of the phases.
+struct ConvexSegmentationTimings {
+    double leaf = 0.0;             ///< leaf of the voxel grid used, 0 for none
+    double normals_seconds = 0.0;  ///< neighbours, normals and curvatures
+    double growth_seconds = 0.0;   ///< patch growth
+    double merge_seconds = 0.0;    ///< region graph, convexity test, merge
+};
+
+/// The merge step alone on given patches. `neighbours` (n x k, row-major), unit
+/// `normals` (3n, any orientation; NaN allowed), `patches` (n, ids in [0, n) or -1).
+/// 1. Normals are turned towards the viewpoint (flipped when n . (v - x) < 0).
+/// 2. Per patch: point count, centroid c, and m, the normalized sum of its finite
+///    oriented normals.
+/// 3. Patches a != b are adjacent when a point of one lists a point of the other; the
+///    weight of the pair is the number of such (point, listed point) entries.
+/// 4. An adjacent pair of patches with >= min_cluster_size points each is convex when
+///    (c_b - c_a) . m_a <= sin(tol) |c_b - c_a| and (c_a - c_b) . m_b <= sin(tol) |c_a -
+///    c_b|; segments are the connected components over convex pairs.
+/// 5. A smaller patch joins the segment of its heaviest adjacent large patch (ties: the
+///    smaller segment id); with none it gets -1. Segments below min_cluster_size points
+///    get -1; the others are numbered 0, 1, ... by their smallest point index.
+void merge_convex(PointsView points, std::size_t k, const std::uint32_t* neighbours,
+                  const double* normals, const std::int32_t* patches,
+                  const ConvexSegmentationParams& params, std::int32_t* labels);
+
+/// When noise_leaves x noise > spacing (point_scale()), the steps below run on the
+/// centroids of a voxel grid of that leaf (voxel_grid.hpp) and each point takes its
+/// voxel's label. Steps: normals and curvatures (normals.hpp), the measure curvedness
+/// x r per point, patch growth (grow_regions with that measure, the gate
+/// curvature_threshold and no size limit), then merge_convex(). Fills `labels` (N
+/// entries), numbered by smallest point index. Throws std::invalid_argument when k is
+/// not below the number of points segmented (non-empty input).
+ConvexSegmentationTimings convex_segmentation(PointsView points,
+                                              const ConvexSegmentationParams& params,
+                                              std::int32_t* labels);
+
+}  // namespace pcl_rg

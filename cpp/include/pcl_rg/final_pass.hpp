@@ -1,0 +1,43 @@
+// Final pass of a ground filter: classify every point by its height above a TIN of the
+// filter's ground (TerraScan's "classify by distance to ground TIN"), shared by the filters.
+#pragma once
+
+#include "pcl_rg/points.hpp"
+
+namespace pcl_rg {
+
+/// Settings of the final pass; the filters carry them as fields named final_<name>.
+struct FinalPassParams {
+    /// Surface cell (m, > 0): the lowest ground point of each cell is a TIN vertex. Cells
+    /// are anchored at multiples of their size in world coordinates.
+    double cell = 4.0;
+    /// Height above the TIN up to which a point is ground on flat terrain (m, >= 0).
+    double above = 0.5;
+    /// Depth below the TIN down to which a point is ground (m, >= 0).
+    double below = 1.0;
+    /// Allowance per unit of the TIN's gradient (m, >= 0): a point is ground up to
+    /// above + slope * |grad z| above the TIN (Zhao et al. 2016's slope-adaptive threshold).
+    double slope = 1.0;
+};
+
+/// The final pass's settings of a filter's params (fields final_cell, final_above,
+/// final_below, final_slope).
+template <class FilterParams>
+FinalPassParams final_pass_params(const FilterParams& params) {
+    return {params.final_cell, params.final_above, params.final_below, params.final_slope};
+}
+
+/// Throws std::invalid_argument when a setting is out of range, naming it as the filters
+/// do (final_cell, final_above, ...). Every setting is a finite real >= 0.
+void validate(const FinalPassParams& params);
+
+/// Replaces `ground` (N entries, read as the filter's ground) by the final pass's
+/// classification: the TIN's vertices are the lowest ground point of each cell (ties:
+/// smallest index; of vertices on one snapped XY, the lowest, then smallest index);
+/// a point p is ground when -below <= z_p - z_TIN(p) <= above + slope * |grad z_TIN(p)|,
+/// in the triangle holding p + (eps, eps^2). No ground in: no ground out. The parameters
+/// are checked by the caller (validate above). Deterministic for any number of
+/// threads; see final_pass.cpp for the exact formulas.
+void final_pass(PointsView points, const FinalPassParams& params, bool* ground);
+
+}  // namespace pcl_rg

@@ -1,0 +1,126 @@
+// The acceptance test of progressive TIN densification (tin_ground.cpp, step 3 of its
+// opening comment): a point against the triangle that holds it. Inline, in a header
+// private to tin_ground.cpp, as it runs once per point and iteration in the hot loop.
+#pragma once
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <vector>
+
+#include "pcl_rg/delaunay.hpp"
+
+namespace pcl_rg::tin_acceptance {
+
+inline constexpr double kDegToRad = 3.141592653589793 / 180.0;
+
+// Everything one acceptance test needs, fixed for a run.
+struct Limits {
+    double quantum;
+    double iteration_distance;
+    double iteration_angle;
+    double reduce_angle_edge;
+    double stop_edge;
+    double near_vertex_distance;
+    double sin_angle;    // sin(iteration_angle)
+    double cos_terrain;  // cos(max_terrain_angle)
+};
+
+struct Verdict {
+    bool accepted = false;
+    bool stop = false;  // longest edge < stop_edge
+    double d = 0.0;
+};
+
+// A triangle with its vertices counter-clockwise from the lexicographically smallest
+// (x, y), so that the floating-point results do not depend on how it is stored.
+struct Facet {
+    std::array<std::int32_t, 3> v;
+    double x[3], y[3], z[3];  // metres, local frame
+    double longest;           // longest XY edge (m)
+};
+
+inline Facet facet(const Delaunay& tin, const std::vector<double>& vz, double quantum,
+                   std::int32_t t) {
+    Facet f;
+    f.v = {tin.triangle_vertex(t, 0), tin.triangle_vertex(t, 1), tin.triangle_vertex(t, 2)};
+    int first = 0;
+    for (int k = 1; k < 3; ++k) {
+        const std::int32_t a = f.v[k], b = f.v[first];
+        if (tin.vertex_x(a) < tin.vertex_x(b) ||
+            (tin.vertex_x(a) == tin.vertex_x(b) && tin.vertex_y(a) < tin.vertex_y(b)))
+            first = k;
+    }
+    std::rotate(f.v.begin(), f.v.begin() + first, f.v.end());
+    for (int k = 0; k < 3; ++k) {
+        f.x[k] = static_cast<double>(tin.vertex_x(f.v[k]) - 1) * quantum;
+        f.y[k] = static_cast<double>(tin.vertex_y(f.v[k]) - 1) * quantum;
+        f.z[k] = vz[f.v[k]];
+    }
+    double longest2 = 0.0;
+    for (int k = 0; k < 3; ++k) {
+        const int j = (k + 1) % 3;
+        const double dx = f.x[j] - f.x[k], dy = f.y[j] - f.y[k];
+        longest2 = std::max(longest2, dx * dx + dy * dy);
+    }
+    f.longest = std::sqrt(longest2);
+    return f;
+}
+
+// Distance d from p to the facet's plane and Axelsson's test: d <= iteration_distance
+// and asin(d / |p - v_i|) <= the (reduced) iteration angle for every vertex.
+inline bool plane_test(const Facet& f, const Limits& lim, double px, double py, double pz,
+                       double* d_out) {
+    const double ux = f.x[1] - f.x[0], uy = f.y[1] - f.y[0], uz = f.z[1] - f.z[0];
+    const double wx = f.x[2] - f.x[0], wy = f.y[2] - f.y[0], wz = f.z[2] - f.z[0];
+    const double nx = uy * wz - uz * wy;
+    const double ny = uz * wx - ux * wz;
+    const double nz = ux * wy - uy * wx;
+    const double num = nx * (px - f.x[0]) + ny * (py - f.y[0]) + nz * (pz - f.z[0]);
+    const double d = std::fabs(num) / std::sqrt(nx * nx + ny * ny + nz * nz);
+    *d_out = d;
+    if (!(d <= lim.iteration_distance)) return false;
+    double sin_limit = lim.sin_angle;
+    if (f.longest < lim.reduce_angle_edge)
+        sin_limit = std::sin(lim.iteration_angle * f.longest / lim.reduce_angle_edge * kDegToRad);
+    for (int k = 0; k < 3; ++k) {
+        const double dx = px - f.x[k], dy = py - f.y[k], dz = pz - f.z[k];
+        const double r = std::max(std::sqrt(dx * dx + dy * dy + dz * dz), lim.near_vertex_distance);
+        if (!(d <= sin_limit * r)) return false;
+    }
+    return true;
+}
+
+// No triangle (p, v_k, v_j) of non-zero XY area steeper than max_terrain_angle.
+inline bool terrain_test(const Delaunay& tin, const Facet& f, const Limits& lim, std::int32_t pgx,
+                         std::int32_t pgy, double px, double py, double pz) {
+    for (int k = 0; k < 3; ++k) {
+        const int j = (k + 1) % 3;
+        if (orient2d(tin.vertex_x(f.v[k]), tin.vertex_y(f.v[k]), tin.vertex_x(f.v[j]),
+                     tin.vertex_y(f.v[j]), pgx, pgy) == 0)
+            continue;  // p on this edge: no triangle would be formed with it
+        const double ax = f.x[k] - px, ay = f.y[k] - py, az = f.z[k] - pz;
+        const double bx = f.x[j] - px, by = f.y[j] - py, bz = f.z[j] - pz;
+        const double mx = ay * bz - az * by;
+        const double my = az * bx - ax * bz;
+        const double mz = ax * by - ay * bx;
+        if (std::fabs(mz) < lim.cos_terrain * std::sqrt(mx * mx + my * my + mz * mz)) return false;
+    }
+    return true;
+}
+
+// The acceptance test of point p (grid xy, local z) located in triangle t.
+inline Verdict evaluate(const Delaunay& tin, const std::vector<double>& vz, const Limits& lim,
+                        std::int32_t pgx, std::int32_t pgy, double pz, std::int32_t t) {
+    const Facet f = facet(tin, vz, lim.quantum, t);
+    const double px = static_cast<double>(pgx - 1) * lim.quantum;
+    const double py = static_cast<double>(pgy - 1) * lim.quantum;
+    Verdict out;
+    out.stop = f.longest < lim.stop_edge;
+    const bool pass = plane_test(f, lim, px, py, pz, &out.d);
+    out.accepted = pass && terrain_test(tin, f, lim, pgx, pgy, px, py, pz);
+    return out;
+}
+
+}  // namespace pcl_rg::tin_acceptance

@@ -1,0 +1,31 @@
+"""The final pass's four settings, declared once for both ground filters.
+
+The pass itself is C++ (``cpp/src/final_pass.cpp``, NumPy reference
+``reference/_final_pass.py``); :class:`GridGroundParams` and
+:class:`TinGroundParams` carry its settings as fields named ``final_<name>``,
+each filter with its own defaults.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from ._params import param
+
+__all__ = ["final_pass_param"]
+
+_HELP = {
+    "final_cell": "final pass (0: off): every point is classified again by its height above "
+    "a TIN of the lowest ground point of each final_cell cell (TerraScan's distance to the "
+    "ground TIN)",
+    "final_above": "final pass: height above the TIN up to which a point is ground on flat "
+    "terrain",
+    "final_below": "final pass: depth below the TIN down to which a point is ground",
+    "final_slope": "final pass: allowance per unit of the TIN's gradient, added to "
+    "final_above (slope-adaptive threshold after Zhao et al. 2016)",
+}
+
+
+def final_pass_param(name: str, default: float) -> Any:
+    """The dataclass field of the final-pass setting `name` (m, >= 0) with `default`."""
+    return param(default, minimum=0.0, unit="m", help=_HELP[name])

@@ -1,0 +1,207 @@
+"""Tests of pcl_rg.convex_segmentation: core vs reference, the convexity rule, errors."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+from conftest import MOSD_SCENES, run_in_threads, shared_data
+from test_region_growing import assert_numbered_by_smallest_index, matched_agreement, partition
+
+import pcl_rg
+from pcl_rg import _core, reference
+from pcl_rg._convex_segmentation import ConvexSegmentationParams
+from pcl_rg._normals import NormalsParams
+from pcl_rg.datasets import load_mosd
+from pcl_rg.reference.convex_segmentation import merge_convex, scaled_curvedness
+from pcl_rg.reference.normals import neighbour_lists
+from pcl_rg.reference.region_growing import grow_regions
+
+VIEW = (0.5, -1.5, 1.5)  # in front of and above the scenes below
+
+
+def box(rng, centre, size, n):
+    """The three faces of an axis-aligned box seen from VIEW: top, front (-y), side (+x)."""
+    (cx, cy), (w, d, h) = centre, size
+    u = rng.uniform(0, 1, (3, n, 2))
+    top = np.column_stack([cx + (u[0, :, 0] - 0.5) * w, cy + (u[0, :, 1] - 0.5) * d, np.full(n, h)])
+    front = np.column_stack(
+        [cx + (u[1, :, 0] - 0.5) * w, np.full(n, cy - d / 2), u[1, :, 1] * h]
+    )
+    side = np.column_stack([np.full(n, cx + w / 2), cy + (u[2, :, 0] - 0.5) * d, u[2, :, 1] * h])
+    return np.vstack([top, front, side])
+
+
+def table_scene(seed: int, noise: float = 5e-4, scale: float = 1.0):
+    """A table with two boxes standing apart on it; points and truth (0 table, 1, 2 boxes)."""
+    rng = np.random.default_rng(seed)
+    table = np.column_stack([rng.uniform(-0.6, 0.6, (6000, 2)), np.zeros(6000)])
+    boxes = [((-0.25, 0.0), (0.2, 0.16, 0.22)), ((0.25, 0.05), (0.18, 0.22, 0.15))]
+    for (cx, cy), (w, d, _) in boxes:
+        inside = (np.abs(table[:, 0] - cx) < w / 2) & (np.abs(table[:, 1] - cy) < d / 2)
+        table = table[~inside]
+    parts = [table] + [box(rng, c, s, 700) for c, s in boxes]
+    truth = np.concatenate([np.full(len(p), i) for i, p in enumerate(parts)])
+    pts = np.vstack(parts)
+    return (pts + rng.normal(0, noise, pts.shape)) * scale, truth
+
+
+def test_boxes_are_objects_not_faces_and_stay_off_the_table() -> None:
+    pts, truth = table_scene(seed=0)
+    labels = pcl_rg.convex_segmentation(pts, viewpoint=VIEW)
+    for part in range(3):
+        ids, counts = np.unique(labels[truth == part], return_counts=True)
+        assert counts.max() >= 0.95 * counts.sum(), (part, ids, counts)
+    majority = [np.bincount(labels[truth == part][labels[truth == part] >= 0]).argmax()
+                for part in range(3)]
+    assert len(set(majority)) == 3
+    # Smoothness-constrained growth alone splits the box into its faces (top, front,
+    # side: 700 points each): the merge does the work.
+    faces = pcl_rg.region_growing(pts, k=15, smoothness_deg=12, min_cluster_size=1)[truth == 1]
+    assert len({np.bincount(faces[i : i + 700]).argmax() for i in (0, 700, 1400)}) == 3
+
+
+def test_same_segments_at_any_scale() -> None:
+    # Scale-free: the same cloud in millimetres (x1000) gives the same partition.
+    pts, _ = table_scene(seed=1)
+    metres = pcl_rg.convex_segmentation(pts, viewpoint=VIEW)
+    view_mm = tuple(1000.0 * v for v in VIEW)
+    millimetres = pcl_rg.convex_segmentation(pts * 1000.0, viewpoint=view_mm)
+    assert matched_agreement(metres, millimetres) >= 0.999
+
+
+def test_a_box_seen_from_below_is_not_merged() -> None:
+    # Turn the viewpoint under the table: the box's faces are now concave to it.
+    pts, truth = table_scene(seed=2)
+    labels = pcl_rg.convex_segmentation(pts, viewpoint=(0.5, -1.5, -1.5))
+    assert len(np.unique(labels[truth == 1])) >= 2
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_core_equals_reference(seed: int) -> None:
+    pts, _ = table_scene(seed=seed)
+    k = 12
+    nbr, ties = neighbour_lists(pts, k, return_boundary_ties=True)
+    # Rows with a tie at the k-th place may keep either point (knn.hpp); all others agree.
+    core_nbr = _core.neighbour_lists(pts, NormalsParams(k=k).to_core())
+    np.testing.assert_array_equal(core_nbr[~ties], nbr[~ties])
+    p = ConvexSegmentationParams(k=k, viewpoint=VIEW, min_cluster_size=15)
+    core = pcl_rg.convex_segmentation(pts, params=p)
+    ref = reference.convex_segmentation(pts, params=p)
+    # Equal up to the growth's rounding and the k-th place ties (normals agree to
+    # ~1e-12): the merge itself is order-free and is compared exactly below.
+    assert matched_agreement(core, ref) >= 0.999
+    assert_numbered_by_smallest_index(core)
+
+
+@pytest.mark.parametrize("tolerance", [0.0, 5.0, 30.0])
+def test_merge_equals_reference_on_identical_inputs(tolerance: float) -> None:
+    pts, _ = table_scene(seed=4)
+    k = 15
+    geometry = pcl_rg.normals(pts, k=k)
+    nbr = _core.neighbour_lists(pts, NormalsParams(k=k).to_core())
+    measure = scaled_curvedness(pts, nbr.astype(np.intp), geometry.mean_curvature,
+                                geometry.gaussian_curvature)
+    p = ConvexSegmentationParams(k=k, viewpoint=VIEW, concavity_tolerance_deg=tolerance)
+    growth = pcl_rg.RegionGrowingParams(k=k, smoothness_deg=p.smoothness_deg,
+                                        curvature_threshold=p.curvature_threshold,
+                                        min_cluster_size=1)
+    patches = grow_regions(nbr, geometry.normals, np.ascontiguousarray(measure), growth)
+    patches = np.ascontiguousarray(patches, dtype=np.int32)
+    core = _core.merge_convex(pts, nbr, geometry.normals, patches, p.to_core())
+    ref = merge_convex(pts, nbr, geometry.normals, patches, p)
+    np.testing.assert_array_equal(core, ref)
+    # The merge only joins patches: every patch lies within one segment.
+    for patch in np.unique(patches):
+        assert len(np.unique(core[patches == patch])) == 1
+    # And the whole function is exactly these steps on the core's own growth.
+    measure_core = np.ascontiguousarray(measure)
+    grown = _core.grow_regions(nbr, geometry.normals, measure_core, growth.to_core())
+    np.testing.assert_array_equal(grown, patches)
+    np.testing.assert_array_equal(core, pcl_rg.convex_segmentation(pts, params=p))
+
+
+def test_merge_is_independent_of_patch_numbering() -> None:
+    pts, _ = table_scene(seed=5)
+    k = 15
+    geometry = pcl_rg.normals(pts, k=k)
+    nbr = _core.neighbour_lists(pts, NormalsParams(k=k).to_core())
+    patches = pcl_rg.region_growing(pts, k=k, smoothness_deg=12, curvature_threshold=1e-9,
+                                    min_cluster_size=1)
+    p = ConvexSegmentationParams(k=k, viewpoint=VIEW).to_core()
+    base = _core.merge_convex(pts, nbr, geometry.normals, patches, p)
+    shuffled = np.random.default_rng(0).permutation(patches.max() + 1).astype(np.int32)[patches]
+    other = _core.merge_convex(pts, nbr, geometry.normals, np.ascontiguousarray(shuffled), p)
+    assert partition(base) == partition(other)
+
+
+def test_tolerance_is_monotone() -> None:
+    # A larger tolerance only adds convex pairs: segments can only grow.
+    pts, _ = table_scene(seed=6)
+    strict = pcl_rg.convex_segmentation(pts, viewpoint=VIEW, concavity_tolerance_deg=1.0)
+    loose = pcl_rg.convex_segmentation(pts, viewpoint=VIEW, concavity_tolerance_deg=60.0)
+    assert len(np.unique(loose)) <= len(np.unique(strict))
+    for segment in np.unique(strict[strict >= 0]):
+        assert len(np.unique(loose[strict == segment])) == 1
+
+
+def test_deterministic_and_threads_give_the_serial_result() -> None:
+    pts, _ = table_scene(seed=7)
+    serial = pcl_rg.convex_segmentation(pts, viewpoint=VIEW)
+    for result in run_in_threads(lambda: pcl_rg.convex_segmentation(pts, viewpoint=VIEW)):
+        np.testing.assert_array_equal(result, serial)
+
+
+def test_params_defaults_match_core() -> None:
+    core = _core.ConvexSegmentationParams()
+    for field in dataclasses.fields(ConvexSegmentationParams):
+        value = getattr(core, field.name)
+        assert (tuple(value) if isinstance(value, list) else value) == field.default
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"k": 5}, "k must be >= 6"),
+        ({"smoothness_deg": 0.0}, "smoothness_deg"),
+        ({"curvature_threshold": -1.0}, "curvature_threshold"),
+        ({"concavity_tolerance_deg": 90.0}, "concavity_tolerance_deg"),
+        ({"min_cluster_size": 0}, "min_cluster_size"),
+        ({"k": 50}, "k must be < the number of points"),
+    ],
+)
+def test_bad_parameters(kwargs: dict, match: str) -> None:
+    pts = np.random.default_rng(0).uniform(0, 1, (40, 3))
+    with pytest.raises(ValueError, match=match):
+        pcl_rg.convex_segmentation(pts, **kwargs)
+
+
+def test_bad_inputs_of_the_merge_and_empty_input() -> None:
+    pts = np.random.default_rng(0).uniform(0, 1, (20, 3))
+    nbr = _core.neighbour_lists(pts, NormalsParams(k=6).to_core())
+    normals = pcl_rg.normals(pts, k=6).normals
+    p = ConvexSegmentationParams(k=6).to_core()
+    with pytest.raises(ValueError, match="patches: id 20 out of range"):
+        _core.merge_convex(pts, nbr, normals, np.full(20, 20, dtype=np.int32), p)
+    with pytest.raises(ValueError, match="patches must have shape"):
+        _core.merge_convex(pts, nbr, normals, np.zeros(3, dtype=np.int32), p)
+    assert pcl_rg.convex_segmentation(np.empty((0, 3))).shape == (0,)
+    assert reference.convex_segmentation(np.empty((0, 3))).shape == (0,)
+    with pytest.raises(ValueError, match="NaN or Inf"):
+        pcl_rg.convex_segmentation(np.full((10, 3), np.nan))
+
+
+@pytest.mark.parametrize("scene", MOSD_SCENES[:2])
+def test_mosd_scene_beats_region_growing(scene: str) -> None:
+    # A real Kinect frame at 5 mm voxels: objects, not faces, and not the table.
+    from pcl_rg.evaluation import segmentation_scores
+
+    data = load_mosd(shared_data("mosd", f"{scene}.pcd"))
+    grid = pcl_rg.voxel_grid(data.points, leaf_size=0.005)
+    carried = grid.voxel_of_point
+    ours = pcl_rg.convex_segmentation(grid.centroids)[carried]
+    base = pcl_rg.region_growing(grid.centroids)[carried]
+    mine, theirs = segmentation_scores(data.labels, ours), segmentation_scores(data.labels, base)
+    assert mine.mean_iou >= theirs.mean_iou
+    assert mine.over_segmented <= theirs.over_segmented
