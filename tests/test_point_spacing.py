@@ -118,13 +118,15 @@ def test_bad_points_are_refused() -> None:
 
 # ------------------------------------------------------------------ unset lengths
 
-TIN_LENGTHS = ("stop_edge", "near_vertex_distance", "seed_cell")
+TIN_LENGTHS = ("stop_edge", "near_vertex_distance", "seed_cell", "final_cell")
+# The ISPRS preset's lengths, which an unset length never exceeds (the caps).
+ISPRS_LENGTHS = {"stop_edge": 1.0, "near_vertex_distance": 1.0, "seed_cell": 2.0, "final_cell": 3.0}
 
 
 def test_the_defaults_leave_the_spacing_lengths_unset() -> None:
     tin, grid_params = TinGroundParams(), GridGroundParams()
     assert all(getattr(tin, name) is None for name in TIN_LENGTHS)
-    assert set(tin.SPACING_MULTIPLES) == set(TIN_LENGTHS)
+    assert set(tin.SPACING_MULTIPLES) == set(tin.SPACING_CAPS) == set(TIN_LENGTHS)
     assert grid_params.cell_size is None and set(grid_params.SPACING_MULTIPLES) == {"cell_size"}
     # So do the presets that are the defaults; LiDAR360's set is fixed lengths.
     assert TinGroundParams.isprs() == tin and GridGroundParams.isprs() == grid_params
@@ -149,6 +151,7 @@ def test_at_spacing_uses_the_multiples_and_keeps_given_lengths() -> None:
     fixed = TinGroundParams(near_vertex_distance=0.0).at_spacing(spacing)
     assert fixed.stop_edge == TinGroundParams.SPACING_MULTIPLES["stop_edge"] * spacing
     assert fixed.seed_cell == TinGroundParams.SPACING_MULTIPLES["seed_cell"] * spacing
+    assert fixed.final_cell == TinGroundParams.SPACING_MULTIPLES["final_cell"] * spacing
     assert fixed.near_vertex_distance == 0.0  # given: kept (0 is "off")
     assert fixed.at_spacing(5.0) == fixed  # nothing left unset
     cells = GridGroundParams(block_size=(30.0, 20.0)).at_spacing(spacing).cell_size
@@ -157,6 +160,31 @@ def test_at_spacing_uses_the_multiples_and_keeps_given_lengths() -> None:
         # The largest cell of at most `largest` that divides the block a whole number of times.
         k = round(block / cell)
         assert math.isclose(block / k, cell) and cell <= largest < block / (k - 1)
+
+
+@pytest.mark.parametrize("spacing", [0.96, 0.99, 1.06, 2.41, 50.0])
+def test_at_isprs_spacing_and_sparser_the_unset_lengths_are_the_isprs_ones(
+    spacing: float,
+) -> None:
+    # The ISPRS samples have 0.99-2.41 m: the caps bind, so the defaults are the fixed
+    # lengths chosen and cross-validated there; below 0.95 m they shrink with the spacing.
+    assert TinGroundParams().at_spacing(spacing) == TinGroundParams(**ISPRS_LENGTHS)
+    denser = TinGroundParams().at_spacing(0.9 * 0.95)
+    for name, length in ISPRS_LENGTHS.items():
+        assert getattr(denser, name) == pytest.approx(0.9 * length)
+
+
+def test_the_defaults_give_the_fixed_length_preset_on_isprs() -> None:
+    # samp41, the smallest urban sample (1.06 m spacing), and samp31, the densest (0.99 m).
+    for sample in ("samp41", "samp31"):
+        points, _ = load_isprs(
+            shared_data("isprs", f"{sample}-utm.pcd"),
+            shared_data("isprs", f"{sample}-utm-ground.pcd"),
+        )
+        assert 0.95 <= pcl_rg.point_spacing(points) < 1.1
+        np.testing.assert_array_equal(
+            pcl_rg.tin_ground(points), pcl_rg.tin_ground(points, **ISPRS_LENGTHS)
+        )
 
 
 def scenes() -> list[np.ndarray]:

@@ -10,12 +10,13 @@ prints a markdown table; --write also puts it, with the command, in the
 "Ground filters on ISPRS (grid_ground)" section of benchmarks/RESULTS.md.
 
 --search chooses one parameter set for all samples, by the mean total error,
-never per sample (the defaults of pcl_rg.GridGroundParams came from an earlier,
-full search over every field, before the final pass; see GridGroundParams.isprs
-for why its pick, SEARCH_PICK, is not the default). It
-runs a coordinate descent over a small fixed grid of values (SEARCH_GRID: five
-fields) from the definition of algorithms.md section 3 with every option on at a
-middle value (START), then an ablation that switches each option of the chosen
+never per sample: the defaults of pcl_rg.GridGroundParams are its pick with
+--rule resolution (RULES: the cell size a multiple of each sample's point
+spacing), the rule with the lowest leave-one-sample-out error (ground_isprs_cv.py).
+It runs a coordinate descent over a small fixed grid of values (SEARCH_GRID: five
+fields, and the cell size under the rules that scale it) from the definition of
+algorithms.md section 3 with every option on at a middle value (START), then an
+ablation that switches each option of the chosen
 set back to the definition, to show each one earns its place. It takes a minute.
 
 To add a method, append a (name, callable) pair to METHODS: the callable takes
@@ -178,8 +179,8 @@ SEARCH_GRID = {
 }
 
 
-# What --search picks on the seven samples (its fitted and cross-validated errors are in
-# RESULTS.md); not the default: see GridGroundParams.isprs.
+# What --search --rule fixed picks on the seven samples (3 m cells; its fitted and
+# cross-validated errors are in RESULTS.md); the default is the "resolution" rule's pick.
 SEARCH_PICK = dataclasses.replace(
     START, slope=0.3, filter_slope=0.7, final_cell=3.0, final_above=0.5, final_slope=1.0
 )
@@ -195,7 +196,7 @@ RULES: dict[str, tuple[str, ...]] = {
     "spacing": ("cell_size", "final_cell"),
     "resolution": ("cell_size",),
 }
-RULE = "fixed"  # the rule of GridGroundParams.isprs()
+RULE = "resolution"  # the rule of GridGroundParams.isprs() (its lowest CV error)
 SPACING_GRID = {"cell_size": [1.5, 2.0, 3.0, 4.0], "final_cell": [2.0, 3.0, 4.0, 5.0, 6.0]}
 SPACING_START = {"cell_size": 3.0, "final_cell": 4.0}
 
@@ -288,9 +289,24 @@ def ablation(samples) -> str:
         ("grow_across_blocks = False", dataclasses.replace(defaults, grow_across_blocks=False)),
         ("filter_passes = 0", dataclasses.replace(defaults, filter_passes=0)),
         ("filter_passes = 1", dataclasses.replace(defaults, filter_passes=1)),
-        ("final_cell = 3 (final pass on)", dataclasses.replace(defaults, final_cell=3.0)),
-        ("the --search pick (small search, final pass on)", SEARCH_PICK),
-        ("height_tolerance = 0", dataclasses.replace(defaults, height_tolerance=0.0)),
+        ("final_cell = 0 (final pass off)", dataclasses.replace(defaults, final_cell=0.0)),
+        ("cell_size = 3 m (fixed)", dataclasses.replace(defaults, cell_size=3.0)),
+        ("the --search --rule fixed pick (3 m cells, 3 m final cells)", SEARCH_PICK),
+        (
+            "the former default (full search, no final pass)",
+            dataclasses.replace(
+                defaults,
+                cell_size=3.0,
+                height_tolerance=0.3,
+                min_seed_component=30,
+                filter_passes=3,
+                filter_slope=1.0,
+                filter_tolerance=0.3,
+                final_cell=0.0,
+                final_above=0.5,
+            ),
+        ),
+        ("height_tolerance = 0.3", dataclasses.replace(defaults, height_tolerance=0.3)),
         ("the definition (all options off, t = 0)", pcl_rg.GridGroundParams.definition()),
     ]
     rows = [[name, f"{100 * mean_total(samples, p):.2f}"] for name, p in variants]

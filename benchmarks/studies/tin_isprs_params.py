@@ -59,12 +59,14 @@ SEARCH_GRID: dict[str, list] = {
 }
 
 # Stage 2 of the search: the final pass (final_pass.cpp), tuned on the densification
-# that stage 1 chose, from a middle start.
+# that stage 1 chose, from a middle start; and stop_edge again, as the final pass
+# completes the ground below the stop edge (a longer one inserts fewer points).
 FINAL_GRID: dict[str, list] = {
     "final_cell": [0.0, 1.0, 2.0, 3.0, 4.0],
     "final_above": [0.2, 0.3, 0.5, 0.8],
     "final_below": [0.5, 1.0, 2.0, 5.0],
     "final_slope": [0.0, 0.5, 1.0, 2.0],
+    "stop_edge": SEARCH_GRID["stop_edge"],
 }
 FINAL_START = {"final_cell": 2.0, "final_above": 0.5, "final_below": 1.0, "final_slope": 1.0}
 
@@ -77,16 +79,21 @@ SPACING_GRID: dict[str, list] = {
     "final_cell": [0.0, 1.0, 2.0, 3.0, 4.0],
 }
 
-# Which lengths follow the spacing, per rule: "fixed" searches every length in metres
-# (its picks are also the capped rule's on ISPRS, whose spacing never makes the cap
-# bind); "spacing" every length as a multiple; "resolution" only the two that set the
-# TIN's resolution, the seed and final-pass cells staying in metres.
-RULES: dict[str, tuple[str, ...]] = {
-    "fixed": (),
-    "spacing": ("stop_edge", "near_vertex_distance", "seed_cell", "final_cell"),
-    "resolution": ("stop_edge", "near_vertex_distance"),
+# Per rule: the lengths searched as multiples of the spacing, and whether stop_edge
+# reaches 4 m and is searched again in stage 2 (else: up to 2 m, stage 1 only, the
+# search before lengths could follow the spacing). "capped" is the rule of the preset:
+# min(ISPRS length, multiple x spacing), which on ISPRS (spacing 0.99-2.41 m) is the
+# length in metres, so its search is in metres; "capped-long-stop" the same with the
+# longer stop edges; "spacing" every length a multiple; "resolution" only the two that
+# set the TIN's resolution, the seed and final-pass cells staying in metres.
+RULES: dict[str, tuple[tuple[str, ...], bool]] = {
+    "capped": ((), False),
+    "capped-long-stop": ((), True),
+    "spacing": (("stop_edge", "near_vertex_distance", "seed_cell", "final_cell"), True),
+    "resolution": (("stop_edge", "near_vertex_distance"), True),
 }
-RULE = "fixed"  # the rule of TinGroundParams.isprs() (see its docstring)
+RULE = "capped"  # the rule of TinGroundParams.isprs() (see its docstring)
+SHORT_STOP_EDGES = [0.01, 0.5, 1.0, 2.0]
 
 # The improvements and the value that switches each off (the plain definition).
 IMPROVEMENTS = {
@@ -150,7 +157,11 @@ def search(samples, rule: str = RULE) -> tuple[Scaled, list[str]]:
     searched as multiples of each sample's spacing (SPACING_GRID), from the same
     numbers of spacings as the metres of the start.
     """
-    scaled = RULES[rule]
+    scaled, long_stop = RULES[rule]
+    first = dict(SEARCH_GRID) if long_stop else {**SEARCH_GRID, "stop_edge": SHORT_STOP_EDGES}
+    second = dict(FINAL_GRID) if long_stop else {**FINAL_GRID}
+    if not long_stop:
+        del second["stop_edge"]
     base = dataclasses.replace(
         pcl_rg.TinGroundParams.lidar360(),
         iteration_angle=30.0,
@@ -166,12 +177,12 @@ def search(samples, rule: str = RULE) -> tuple[Scaled, list[str]]:
         return mean_total(samples, setting)
 
     densified, _ = coordinate_descent(
-        score, start, _grid(SEARCH_GRID, scaled), lines, replace=Scaled.replace
+        score, start, _grid(first, scaled), lines, replace=Scaled.replace
     )
     best, best_error = coordinate_descent(
         score,
         _start(FINAL_START, scaled, densified),
-        _grid(FINAL_GRID, scaled),
+        _grid(second, scaled),
         lines,
         replace=Scaled.replace,
     )

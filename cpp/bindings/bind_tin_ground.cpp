@@ -46,6 +46,7 @@ void bind_tin_ground(py::module_& m) {
             info["stop_edge"] = stats.stop_edge;
             info["near_vertex_distance"] = stats.near_vertex_distance;
             info["seed_cell"] = stats.seed_cell;
+            info["final_cell"] = stats.final_cell;
             return py::make_tuple(ground, info);
         },
         py::arg("points").noconvert(), py::arg("params"),

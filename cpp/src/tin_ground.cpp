@@ -138,10 +138,13 @@ void validate(const TinGroundParams& params) {
 
 TinGroundParams with_spacing(const TinGroundParams& params, double spacing) {
     TinGroundParams resolved = params;
-    if (!resolved.stop_edge) resolved.stop_edge = kTinStopEdgePerSpacing * spacing;
-    if (!resolved.near_vertex_distance)
-        resolved.near_vertex_distance = kTinNearVertexPerSpacing * spacing;
-    if (!resolved.seed_cell) resolved.seed_cell = kTinSeedCellPerSpacing * spacing;
+    const auto fill = [spacing](std::optional<double>& length, double cap, double multiple) {
+        if (!length) length = std::min(cap, multiple * spacing);
+    };
+    fill(resolved.stop_edge, kTinStopEdgeCap, kTinStopEdgePerSpacing);
+    fill(resolved.near_vertex_distance, kTinNearVertexCap, kTinNearVertexPerSpacing);
+    fill(resolved.seed_cell, kTinSeedCellCap, kTinSeedCellPerSpacing);
+    fill(resolved.final_cell, kTinFinalCellCap, kTinFinalCellPerSpacing);
     return resolved;
 }
 
@@ -152,12 +155,13 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
     if (n == 0) return stats;
     // The unset lengths from the spacing of these points (measured only when needed).
     stats.point_spacing = std::numeric_limits<double>::quiet_NaN();
-    if (!given.stop_edge || !given.near_vertex_distance || !given.seed_cell)
+    if (!given.stop_edge || !given.near_vertex_distance || !given.seed_cell || !given.final_cell)
         stats.point_spacing = spacing_or_one_metre(points);
     const TinGroundParams params = with_spacing(given, stats.point_spacing);
     stats.stop_edge = *params.stop_edge;
     stats.near_vertex_distance = *params.near_vertex_distance;
     stats.seed_cell = *params.seed_cell;
+    stats.final_cell = *params.final_cell;
     if (n < 3)
         throw std::invalid_argument("points must hold at least 3 points for a TIN, got " +
                                     std::to_string(n));
@@ -420,7 +424,7 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
     }
     for (std::size_t s = 0; s < n; ++s) ground[order[s]] = is_ground[s];
     stats.tin_vertices = static_cast<std::int64_t>(tin.vertex_count());
-    if (params.final_cell > 0.0) {
+    if (*params.final_cell > 0.0) {
         clock = std::chrono::steady_clock::now();
         final_pass(points, final_pass_params(params), ground);
         stats.classification_seconds += seconds_since(clock);

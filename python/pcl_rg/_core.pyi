@@ -53,7 +53,7 @@ class TinGroundParams:
     seed_cell: float | None
     seed_tolerance: float
     outlier_depth: float
-    final_cell: float
+    final_cell: float | None
     final_above: float
     final_below: float
     final_slope: float

@@ -77,7 +77,7 @@ class GridGroundParams:
         0.0, minimum=0.0, unit="m", help="height difference always allowed between linked points"
     )
     min_seed_component: int = param(
-        30,
+        10,
         minimum=1,
         help="robust seed: lowest point whose component holds at least this many points "
         "(1: the lowest point)",
@@ -92,12 +92,12 @@ class GridGroundParams:
         "than filter_slope * d + filter_tolerance; later passes test only against the "
         "previous ground",
     )
-    filter_slope: float = param(1.0, minimum=0.0, help="slope of the pre-filter")
+    filter_slope: float = param(0.7, minimum=0.0, help="slope of the pre-filter")
     filter_tolerance: float = param(
-        0.3, minimum=0.0, unit="m", help="height tolerance of the pre-filter"
+        0.5, minimum=0.0, unit="m", help="height tolerance of the pre-filter"
     )
-    final_cell: float = final_pass_param("final_cell", 0.0)
-    final_above: float = final_pass_param("final_above", 0.5)
+    final_cell: float = final_pass_param("final_cell", 4.0)
+    final_above: float = final_pass_param("final_above", 0.8)
     final_below: float = final_pass_param("final_below", 1.0)
     final_slope: float = final_pass_param("final_slope", 1.0)
 
@@ -151,14 +151,21 @@ class GridGroundParams:
     def isprs(cls, **overrides: Any) -> GridGroundParams:
         """The defaults: one set chosen on the seven ISPRS samples (mean total error).
 
-        Chosen by the full search of ``benchmarks/studies/ground_isprs.py`` (every
-        field) before the final pass existed; the three options of the grower are
-        on and the final pass (``final_cell``) is off. The study's smaller search
-        with the final pass does better on ISPRS (5.35 % fitted, 6.0 % left one
-        sample out, against 6.90 % and 10.8 %) but its grower (no height
-        tolerance, 0.5 m pre-filter tolerance) calls 11.6 % of the object points
-        of the synthetic scene at 10 points/m^2 ground (this set: 1.2 %), so it is
-        not the default; ``benchmarks/RESULTS.md``. `overrides` replace single fields.
+        Chosen by ``benchmarks/studies/ground_isprs.py --search`` (a coordinate
+        descent over the growth's and the pre-filter's slopes, the cell size and
+        the final pass, from the definition with every option on at a middle
+        value) with the "resolution" rule: ``cell_size`` follows the point
+        spacing (unset: at most 2 spacings, :attr:`SPACING_MULTIPLES`), the
+        final pass's 4 m cell and the 30 m blocks stay in metres. Among the
+        rules for the lengths (every one in metres, every one in spacings, only
+        the cell) it has the lowest leave-one-sample-out error on the seven
+        ISPRS samples: 4.64 % fitted, 5.15 % cross-validated (kappa 0.838),
+        against 6.03 % for the same search with 3 m cells and 10.8 % for the
+        former default (``benchmarks/studies/ground_isprs_cv.py``). With cells
+        in metres its grower took objects on dense data; with the cell
+        following the spacing it holds from 2 to 20 points per m^2
+        (``benchmarks/studies/ground_density.py``; scores in
+        ``benchmarks/RESULTS.md``). `overrides` replace single fields.
 
         Examples
         --------
@@ -235,7 +242,7 @@ def grid_ground(
     min_seed_component : int, optional
         Robust seed against low outliers (>= 1): the seed of a block is its
         lowest point whose connected component holds at least this many
-        points; 1 takes the lowest point as the definition does. Default 30.
+        points; 1 takes the lowest point as the definition does. Default 10.
     grow_across_blocks : bool, optional
         Let links join points of neighbouring blocks; seeds stay one per
         block and ground is the union of their components. Default True
@@ -245,17 +252,17 @@ def grid_ground(
         Default 2.
     filter_slope : float, optional
         The pre-filter drops a point lying higher than a point of its 3 x 3
-        cells by more than ``filter_slope * d + filter_tolerance``. Default 1.
+        cells by more than ``filter_slope * d + filter_tolerance``. Default 0.7.
     filter_tolerance : float, optional
-        Metres; see `filter_slope`. Default 0.3 m.
+        Metres; see `filter_slope`. Default 0.5 m.
     final_cell : float, optional
         Metres (>= 0; 0 = off, as in the definition). Final pass: a TIN is
         built from the lowest ground point of each ``final_cell`` cell, and
         every point is classified again by its height above it (see Notes).
-        Default 0 (off).
+        Default 4 m.
     final_above : float, optional
         Metres: with the final pass, a point up to this high above the TIN is
-        ground on flat terrain. Default 0.5 m.
+        ground on flat terrain. Default 0.8 m.
     final_below : float, optional
         Metres: with the final pass, a point down to this deep below the TIN
         is ground. Default 1 m.
@@ -309,8 +316,8 @@ def grid_ground(
        connected component through the links is ground, everything else is
        object.
 
-    Options, measured on the ISPRS samples and, but for the final pass, on by
-    default (each lowers the mean total error there;
+    Options, measured on the ISPRS samples and on by default (each lowers the
+    mean total error there;
     ``benchmarks/studies/ground_isprs.py``):
 
     * ``min_seed_component = m > 1``: the seed is the lowest point whose
@@ -325,7 +332,7 @@ def grid_ground(
       ``l_z(p) - l_z(q) > filter_slope * d + filter_tolerance``. In pass 1
       every point counts as q; in each further pass only the ground of the
       previous pass does, and the growth is repeated.
-    * ``final_cell = c > 0`` (off by default; a final pass, as TerraScan classifies points by
+    * ``final_cell = c > 0`` (a final pass, as TerraScan classifies points by
       their distance to the ground TIN, with Zhao et al. 2016's
       slope-adaptive threshold): the lowest ground point of each c x c cell
       (anchored on the world lattice of c) is a vertex of a Delaunay TIN

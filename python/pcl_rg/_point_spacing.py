@@ -47,11 +47,17 @@ def point_spacing(points: npt.ArrayLike) -> float:
     vegetation and walls make it smaller than the spacing of the ground alone.
 
     The unset lengths of :class:`TinGroundParams` (``stop_edge``,
-    ``near_vertex_distance``, ``seed_cell``) and :class:`GridGroundParams`
-    (``cell_size``) are multiples of this (1 m where it is NaN), measured on the
-    points of each call; the value used is in :func:`collect_diagnostics`. The
-    C++ core computes it in O(N), equal to the NumPy reference
-    :func:`pcl_rg.reference.point_spacing`.
+    ``near_vertex_distance``, ``seed_cell``, ``final_cell``: the ISPRS
+    lengths, capped at a multiple of this) and :class:`GridGroundParams`
+    (``cell_size``: at most 2 of this) follow it (1 m where it is NaN),
+    measured on the points of each call; the value used is in
+    :func:`collect_diagnostics`. The C++ core computes it in O(N), equal to the
+    NumPy reference :func:`pcl_rg.reference.point_spacing`.
+
+    It is the airborne ground filters' measure, 2-D and per m^2 of ground
+    plan; :func:`pcl_rg.point_scale` is another, for
+    :func:`pcl_rg.convex_segmentation`: the 3-D median nearest-neighbour
+    distance on a scanned surface, with the surface noise.
 
     On the ISPRS filter-test samples it is 1.0-1.1 m (urban, samp1x-4x) and
     2.3-2.4 m (rural, samp5x-6x).

@@ -9,10 +9,11 @@
 
 namespace pcl_rg {
 
-/// Defaults were chosen once by the mean total error over the seven ISPRS samples
-/// (benchmarks/studies/ground_isprs.py --search). The definition of algorithms.md section 3 is
-/// min_seed_component = 1, grow_across_blocks = false, filter_passes = 0, and its pure
-/// slope rule height_tolerance = 0.
+/// Defaults are GridGroundParams.isprs(): the pick of benchmarks/studies/ground_isprs.py
+/// --search --rule resolution over the seven ISPRS samples (mean total error; chosen
+/// among the rules by leave-one-sample-out error, ground_isprs_cv.py). The definition of
+/// algorithms.md section 3 is min_seed_component = 1, grow_across_blocks = false,
+/// filter_passes = 0, final_cell = 0, and its pure slope rule height_tolerance = 0.
 /// The multiple of the point spacing an unset cell_size is at most (see cell_size);
 /// chosen with the other defaults on the seven ISPRS samples (benchmarks/studies/
 /// ground_isprs.py --search, cross-validated by ground_isprs_cv.py). Python mirror:
@@ -39,7 +40,7 @@ struct GridGroundParams {
     /// Robust seed (>= 1): the seed is the lowest point of the block whose connected
     /// component holds at least this many points (1: the lowest point, the seed's rule).
     /// When no component is that large the lowest point's component is ground.
-    std::int64_t min_seed_component = 30;
+    std::int64_t min_seed_component = 10;
     /// Links also join points of different blocks (cells still 3 x 3); the seeds stay
     /// one per block and ground is the union of their components.
     bool grow_across_blocks = true;
@@ -49,15 +50,15 @@ struct GridGroundParams {
     /// of pass k - 1. Dropped points are object and never link; the growth runs per pass.
     std::int64_t filter_passes = 2;
     /// Slope of the pre-filter (>= 0, finite).
-    double filter_slope = 1.0;
+    double filter_slope = 0.7;
     /// Height tolerance of the pre-filter (>= 0, finite, m).
-    double filter_tolerance = 0.3;
+    double filter_tolerance = 0.5;
     /// Final pass (0: off): cell (m, >= 0) of a TIN of the lowest ground point per cell;
     /// every point is then ground when -final_below <= z - z_TIN <= final_above +
     /// final_slope * |grad z_TIN| (final_pass.hpp; TerraScan, Zhao et al. 2016).
-    double final_cell = 0.0;
+    double final_cell = 4.0;
     /// Height above the final TIN up to which a point is ground on flat terrain (m, >= 0).
-    double final_above = 0.5;
+    double final_above = 0.8;
     /// Depth below the final TIN down to which a point is ground (m, >= 0).
     double final_below = 1.0;
     /// Allowance per unit of the final TIN's gradient (m, >= 0).
