@@ -120,7 +120,7 @@ def test_bad_points_are_refused() -> None:
 
 TIN_LENGTHS = ("stop_edge", "near_vertex_distance", "seed_cell", "final_cell")
 # The ISPRS preset's lengths, which an unset length never exceeds (the caps).
-ISPRS_LENGTHS = {"stop_edge": 1.0, "near_vertex_distance": 1.0, "seed_cell": 2.0, "final_cell": 3.0}
+ISPRS_LENGTHS = {"stop_edge": 2.0, "near_vertex_distance": 1.0, "seed_cell": 2.0, "final_cell": 3.0}
 
 
 def test_the_defaults_leave_the_spacing_lengths_unset() -> None:

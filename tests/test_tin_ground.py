@@ -27,7 +27,7 @@ ISPRS = pcl_rg.TinGroundParams.isprs()
 # The preset with the lengths fixed (those it had before they followed the spacing), for
 # the tests of the world lattice: a subset or a moved cloud keeps them.
 ISPRS_FIXED = dataclasses.replace(
-    ISPRS, stop_edge=1.0, near_vertex_distance=1.0, seed_cell=2.0, final_cell=3.0
+    ISPRS, stop_edge=2.0, near_vertex_distance=1.0, seed_cell=2.0, final_cell=3.0
 )
 
 

@@ -57,7 +57,7 @@ OBJECT_CLASSES = [
 # The presets with their lengths fixed at the ISPRS values (what they are on ISPRS
 # data, and what main's presets were), for comparison.
 TIN_FIXED = pcl_rg.TinGroundParams(
-    stop_edge=1.0, near_vertex_distance=1.0, seed_cell=2.0, final_cell=3.0
+    stop_edge=2.0, near_vertex_distance=1.0, seed_cell=2.0, final_cell=3.0
 )
 GRID_FIXED = pcl_rg.GridGroundParams(cell_size=3.0)
 # The "resolution" rule's pick on the seven ISPRS samples (tin_isprs_params.py --rule
@@ -81,7 +81,7 @@ GRID_FORMER = pcl_rg.GridGroundParams(
 METHODS: list[tuple[str, Callable[[np.ndarray], np.ndarray]]] = [
     ("tin_ground (defaults: isprs preset)", lambda points: pcl_rg.tin_ground(points)),
     (
-        "tin_ground (preset, lengths fixed at 1/1/2/3 m)",
+        "tin_ground (preset, lengths fixed at 2/1/2/3 m)",
         lambda points: pcl_rg.tin_ground(points, params=TIN_FIXED),
     ),
     (

@@ -44,10 +44,10 @@ class TinGroundParams:
     ("unset") by default: each call then takes
     ``min(SPACING_CAPS[name], SPACING_MULTIPLES[name] * spacing)`` with the
     spacing of its points (:func:`pcl_rg.point_spacing`, 1 m where that is
-    undefined). The caps are the lengths chosen on the ISPRS samples (1, 1, 2 and
+    undefined). The caps are the lengths chosen on the ISPRS samples (2, 1, 2 and
     3 m) and each multiple is its cap / 0.95 m, so data as sparse as those
     samples (spacing 0.99-2.41 m) gets exactly the ISPRS lengths, and denser
-    data gets them in proportion to its spacing (0.5 m spacing: 0.53, 0.53, 1.05
+    data gets them in proportion to its spacing (0.5 m spacing: 1.05, 0.53, 1.05
     and 1.58 m). A number fixes the length; 0 still switches
     ``near_vertex_distance``, ``seed_cell`` and ``final_cell`` off. The spacing
     and the lengths a call used are in :func:`pcl_rg.collect_diagnostics`;
@@ -56,7 +56,7 @@ class TinGroundParams:
     """
 
     SPACING_CAPS: ClassVar[Mapping[str, float]] = MappingProxyType(
-        {"stop_edge": 1.0, "near_vertex_distance": 1.0, "seed_cell": 2.0, "final_cell": 3.0}
+        {"stop_edge": 2.0, "near_vertex_distance": 1.0, "seed_cell": 2.0, "final_cell": 3.0}
     )
     """The unset lengths' largest values, m: the ISPRS preset's (C++: kTin*Cap)."""
     SPACING_MULTIPLES: ClassVar[Mapping[str, float]] = MappingProxyType(
@@ -109,7 +109,7 @@ class TinGroundParams:
         above=0.0,
         unit="m",
         help="triangles whose longest edge is shorter accept ground points without inserting "
-        "them (LiDAR360 Stop Triangulation When Edge Length <); unset: min(1 m, 1.05 x the point "
+        "them (LiDAR360 Stop Triangulation When Edge Length <); unset: min(2 m, 2.1 x the point "
         "spacing)",
     )
     near_vertex_distance: float | None = param(
@@ -175,12 +175,12 @@ class TinGroundParams:
         --------
         >>> from pcl_rg import TinGroundParams
         >>> TinGroundParams().at_spacing(2.0) == TinGroundParams(
-        ...     stop_edge=1.0, near_vertex_distance=1.0, seed_cell=2.0, final_cell=3.0
+        ...     stop_edge=2.0, near_vertex_distance=1.0, seed_cell=2.0, final_cell=3.0
         ... )  # ISPRS density: the caps
         True
         >>> dense = TinGroundParams().at_spacing(0.25)  # 16 points per m^2
         >>> [round(v, 3) for v in (dense.stop_edge, dense.seed_cell, dense.final_cell)]
-        [0.263, 0.526, 0.789]
+        [0.526, 0.526, 0.789]
         """
         spacing = check_number("spacing", spacing, float, above=0.0)
         unset = {
@@ -198,8 +198,8 @@ class TinGroundParams:
         densification's fields, then the final pass's on the densification
         chosen); the scores are in ``benchmarks/RESULTS.md``. Against
         :meth:`lidar360` it switches the angle reduction off (no ISPRS triangle
-        has a longest edge under 1 cm), stops densifying below 1 m edges instead
-        of 2 m, and switches the four improvements on. On the seven ISPRS
+        has a longest edge under 1 cm), keeps its 2 m stop edge (the final pass
+        completes the ground below it), and switches the four improvements on. On the seven ISPRS
         samples it scores 3.33 % fitted and 4.25 % left one sample out
         (``benchmarks/studies/ground_isprs_cv.py``). Searches whose lengths
         follow the point spacing did no better there (every length in spacings
@@ -296,7 +296,7 @@ def tin_ground(
         Metres (default 0.01; LiDAR360 5): in a triangle whose longest XY edge L is shorter, the
         angle limit is ``iteration_angle * L / reduce_angle_edge``.
     stop_edge : float, optional
-        Metres (default: unset, min(1 m, 1.05 x the point spacing); LiDAR360 2): a
+        Metres (default: unset, min(2 m, 2.1 x the point spacing); LiDAR360 2): a
         triangle whose longest XY edge is shorter accepts ground points but does
         not get them inserted, which bounds the TIN's density.
     near_vertex_distance : float, optional
@@ -386,7 +386,7 @@ def tin_ground(
     (``near_vertex_distance``, ``seed_cell``, ``outlier_depth``, ``final_cell``)
     on; its scores are in ``benchmarks/RESULTS.md``. The lengths ``stop_edge``,
     ``near_vertex_distance``, ``seed_cell`` and ``final_cell`` are unset there:
-    each call takes the ISPRS preset's lengths (1, 1, 2, 3 m) where the mean
+    each call takes the ISPRS preset's lengths (2, 1, 2, 3 m) where the mean
     spacing of its points (:func:`pcl_rg.point_spacing`, 2-D, airborne; 1 m
     where undefined) is at least 0.95 m, and shorter ones in proportion to the
     spacing on denser data (:class:`TinGroundParams`), so the preset keeps its

@@ -18,7 +18,7 @@ namespace pcl_rg {
 /// proportion to its spacing. Python mirror: TinGroundParams.SPACING_CAPS and
 /// SPACING_MULTIPLES.
 inline constexpr double kTinFullLengthSpacing = 0.95;
-inline constexpr double kTinStopEdgeCap = 1.0;
+inline constexpr double kTinStopEdgeCap = 2.0;
 inline constexpr double kTinNearVertexCap = 1.0;
 inline constexpr double kTinSeedCellCap = 2.0;
 inline constexpr double kTinFinalCellCap = 3.0;
