@@ -180,21 +180,32 @@ def publish_report(
 
 
 def coordinate_descent(
-    score: Callable[[Any], float], start: Any, grid: dict[str, list], lines: list[str]
+    score: Callable[[Any], float],
+    start: Any,
+    grid: dict[str, list],
+    lines: list[str],
+    replace: Callable[[Any, str, Any], Any] | None = None,
 ) -> tuple[Any, float]:
     """Lower `score` one field at a time over `grid`'s values, from `start`.
 
     Sweeps until one changes nothing (three at most); each improvement is logged to
     `lines` and stderr. Returns (best params, its score). The params are frozen
-    dataclasses; fields not in `grid` keep `start`'s values.
+    dataclasses; fields not in `grid` keep `start`'s values. `replace(params, name,
+    value)` makes a trial (default: dataclasses.replace; _scaled.Scaled.replace for
+    lengths searched as multiples of the point spacing).
     """
+    if replace is None:
+
+        def replace(params: Any, name: str, value: Any) -> Any:
+            return dataclasses.replace(params, **{name: value})
+
     best, best_error = start, score(start)
     lines.append(f"start {start}: mean total {100 * best_error:.2f} %")
     for sweep in range(1, 4):
         changed = False
         for name, values in grid.items():
             for value in values:
-                trial = dataclasses.replace(best, **{name: value})
+                trial = replace(best, name, value)
                 error = score(trial)
                 if error < best_error - 1e-12:
                     best, best_error, changed = trial, error, True

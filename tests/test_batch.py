@@ -62,7 +62,12 @@ def agreement(report, expected_classes):
 
 
 def ground_of_merged(paths, method, params=None):
-    """What ``pcl-rg ground`` writes for the merged cloud: noise (7, 18) left as it was."""
+    """What ``pcl-rg ground`` writes for the merged cloud: noise (7, 18) left as it was.
+
+    With the lengths that batch.ground gives every tile (those of the survey's spacing)
+    when `params` leaves them unset."""
+    kind = pcl_rg.GridGroundParams if method == "grid" else pcl_rg.TinGroundParams
+    params = (params or kind()).at_spacing(batch.survey_spacing(paths))
     clouds = merged(paths)
     points = np.concatenate([c.points for c in clouds])
     classes = np.concatenate([c.classification for c in clouds])

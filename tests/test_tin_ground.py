@@ -24,6 +24,11 @@ from pcl_rg.reference.tin_ground import seeds
 
 LIDAR360 = pcl_rg.TinGroundParams.lidar360()
 ISPRS = pcl_rg.TinGroundParams.isprs()
+# The preset with the lengths fixed (those it had before they followed the spacing), for
+# the tests of the world lattice: a subset or a moved cloud keeps them.
+ISPRS_FIXED = dataclasses.replace(
+    ISPRS, stop_edge=2.0, near_vertex_distance=1.0, seed_cell=2.0, final_cell=3.0
+)
 
 
 def scene(seed: int, size: float = 70.0, density: float = 1.0):
@@ -263,11 +268,16 @@ def test_translation_by_whole_seed_cells_gives_the_same_mask() -> None:
     # Coordinates on a 2^-10 m grid, so that adding the offset is exact in float64. The
     # offset is a whole number of seed cells (20 m for lidar360, 2 m for isprs) and of
     # final-pass cells (3 m for isprs), so the cells, anchored on the world lattice,
-    # hold the same points.
+    # hold the same points. The spacing too is the same (the offset is exact), so the
+    # preset's unset lengths are.
     points = np.round(scene(5).points * 1024.0) / 1024.0
     offset = np.array([500_040.0, 5_000_040.0, 300.0])
-    for params, cell in ((LIDAR360, LIDAR360.max_building_size), (ISPRS, ISPRS.seed_cell)):
-        assert (offset[:2] % cell == 0.0).all() and (offset[:2] % ISPRS.final_cell == 0.0).all()
+    for params, cell in (
+        (LIDAR360, LIDAR360.max_building_size),
+        (ISPRS_FIXED, ISPRS_FIXED.seed_cell),
+    ):
+        assert (offset[:2] % cell == 0.0).all()
+        assert (offset[:2] % ISPRS_FIXED.final_cell == 0.0).all()
         ground = pcl_rg.tin_ground(points, params=params)
         moved = pcl_rg.tin_ground(points + offset, params=params)
         np.testing.assert_array_equal(moved, ground)
@@ -289,8 +299,10 @@ def test_seed_cells_lie_on_the_world_lattice_not_at_the_minimum_corner() -> None
     assert run_core(points, morph)[1]["seeds"] == 2
 
 
-@pytest.mark.parametrize("params", [LIDAR360, ISPRS], ids=["lidar360", "isprs"])
+@pytest.mark.parametrize("params", [LIDAR360, ISPRS_FIXED], ids=["lidar360", "isprs"])
 def test_a_tile_cut_at_cell_boundaries_keeps_the_seed_cells(params) -> None:
+    # (Fixed lengths: the tile's spacing, and so an unset seed_cell, differs from the
+    # whole scene's.)
     # The scene moved to start at (7, 13), inside a cell, then cut at x = 60 and y = 20,
     # multiples of both presets' seed cells (20 m and 2 m); the tile's minimum corner
     # lies inside a cell too, at another place in it. With lidar360 a seed is the lowest

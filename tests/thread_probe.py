@@ -69,6 +69,7 @@ def _jobs(c: dict[str, np.ndarray]) -> dict[str, Callable[[], str]]:
             pcl_rg.statistical_outlier_removal(uni[:200_000], mean_k=8, std_mul=1.0)
         ),
         "grid_ground": lambda: _digest(pcl_rg.grid_ground(air)),
+        "point_spacing": lambda: _digest(np.array([pcl_rg.point_spacing(air)])),
         "tin_ground": lambda: _digest(pcl_rg.tin_ground(air)),
         "tin_ground_lidar360": lambda: _digest(
             pcl_rg.tin_ground(air, params=pcl_rg.TinGroundParams.lidar360())

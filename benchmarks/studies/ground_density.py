@@ -12,7 +12,10 @@ each density: Type I / II / total error and kappa (pcl_rg.evaluation, Sithole &
 Vosselman's definitions), means over the seeds, and the share of each object class
 called ground. PCL's progressive morphological filter runs with the tutorial
 parameters of ground_isprs.py and approximate=True (the exact filter is too slow
-for millions of points).
+for millions of points). Beside the presets run the same sets with their lengths
+fixed in metres, the pick of the "resolution" rule of tin_isprs_params.py (stop
+edge and near-vertex distance in spacings, CV 4.28 % on ISPRS) and the former
+grid_ground default.
 """
 
 from __future__ import annotations
@@ -27,6 +30,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/_common.py
 from _common import machine, markdown_table, publish  # noqa: E402
+from _scaled import Scaled  # noqa: E402
 
 import pcl_rg  # noqa: E402
 import pcl_rg.pcl  # noqa: E402
@@ -50,9 +54,49 @@ OBJECT_CLASSES = [
     ("bridge", BRIDGE_DECK),
 ]
 
+# The presets with their lengths fixed at the ISPRS values (what they are on ISPRS
+# data, and what main's presets were), for comparison.
+TIN_FIXED = pcl_rg.TinGroundParams(
+    stop_edge=2.0, near_vertex_distance=1.0, seed_cell=2.0, final_cell=3.0
+)
+GRID_FIXED = pcl_rg.GridGroundParams(cell_size=3.0)
+# The "resolution" rule's pick on the seven ISPRS samples (tin_isprs_params.py --rule
+# resolution): not the default, its CV error there is higher (RESULTS.md).
+TIN_RESOLUTION = Scaled(
+    pcl_rg.TinGroundParams(iteration_angle=25.0, seed_cell=2.0, final_cell=2.0),
+    (("near_vertex_distance", 1.0), ("stop_edge", 3.0)),
+)
+# The former grid_ground default (full search before the final pass, 3 m cells).
+GRID_FORMER = pcl_rg.GridGroundParams(
+    cell_size=3.0,
+    height_tolerance=0.3,
+    min_seed_component=30,
+    filter_passes=3,
+    filter_slope=1.0,
+    filter_tolerance=0.3,
+    final_cell=0.0,
+    final_above=0.5,
+)
+
 METHODS: list[tuple[str, Callable[[np.ndarray], np.ndarray]]] = [
     ("tin_ground (defaults: isprs preset)", lambda points: pcl_rg.tin_ground(points)),
+    (
+        "tin_ground (preset, lengths fixed at 2/1/2/3 m)",
+        lambda points: pcl_rg.tin_ground(points, params=TIN_FIXED),
+    ),
+    (
+        "tin_ground (resolution rule's pick)",
+        lambda points: TIN_RESOLUTION.run(pcl_rg.tin_ground, points),
+    ),
     ("grid_ground (defaults: isprs preset)", lambda points: pcl_rg.grid_ground(points)),
+    (
+        "grid_ground (preset, 3 m cells)",
+        lambda points: pcl_rg.grid_ground(points, params=GRID_FIXED),
+    ),
+    (
+        "grid_ground (former default)",
+        lambda points: pcl_rg.grid_ground(points, params=GRID_FORMER),
+    ),
     (
         "PCL APMF (tutorial, approximate)",
         lambda points: pcl_rg.pcl.progressive_morphological_filter(points, approximate=True),
@@ -60,19 +104,41 @@ METHODS: list[tuple[str, Callable[[np.ndarray], np.ndarray]]] = [
 ]
 
 
+def _metres(value) -> str:
+    if isinstance(value, tuple):
+        return "x".join(f"{v:.2f}" for v in value) + " m"
+    return f"{value:.2f} m"
+
+
 def run(densities, seeds, methods) -> tuple[list[list[str]], list[str]]:
     rows, notes = [], []
     for density in densities:
         values: dict[str, list[list[float]]] = {name: [] for name, _ in methods}
-        counts = []
+        counts, spacings, lengths = [], [], {}
         for seed in seeds:
             scene = isprs_like_scene(seed=seed, size=SIZE, density=density, offset=OFFSET)
             truth = scene.labels == GROUND
             counts.append((len(truth), float(np.mean(~truth))))
             for name, method in methods:
                 start = time.perf_counter()
-                ground = method(scene.points)
+                with pcl_rg.collect_diagnostics() as diagnostics:
+                    ground = method(scene.points)
                 seconds = time.perf_counter() - start
+                for function in ("tin_ground", "grid_ground"):
+                    if function in diagnostics and name.endswith("preset)"):
+                        used = diagnostics[function]
+                        spacings.append(used["point_spacing"])
+                        lengths[function] = {
+                            k: used[k]
+                            for k in (
+                                "stop_edge",
+                                "near_vertex_distance",
+                                "seed_cell",
+                                "final_cell",
+                                "cell_size",
+                            )
+                            if k in used
+                        }
                 e = ground_errors(truth, ground)
                 shares = [
                     float(np.mean(ground[scene.labels == code])) for _, code in OBJECT_CLASSES
@@ -86,9 +152,15 @@ def run(densities, seeds, methods) -> tuple[list[list[str]], list[str]]:
                 )
         points = np.mean([c[0] for c in counts])
         share = np.mean([c[1] for c in counts])
+        used = "; ".join(
+            f"{function}: " + ", ".join(f"{k} {_metres(v)}" for k, v in values_.items())
+            for function, values_ in lengths.items()
+        )
         notes.append(
             f"{density:g} pts/m^2: {points:,.0f} points per scene, "
-            f"{100 * share:.1f} % object points"
+            f"{100 * share:.1f} % object points, measured spacing "
+            f"{np.mean(spacings) if spacings else float('nan'):.3f} m (mean over the seeds); "
+            f"the presets took (last seed) {used}"
         )
         for name, _ in methods:
             m = np.mean(values[name], axis=0)

@@ -10,12 +10,13 @@ prints a markdown table; --write also puts it, with the command, in the
 "Ground filters on ISPRS (grid_ground)" section of benchmarks/RESULTS.md.
 
 --search chooses one parameter set for all samples, by the mean total error,
-never per sample (the defaults of pcl_rg.GridGroundParams came from an earlier,
-full search over every field, before the final pass; see GridGroundParams.isprs
-for why its pick, SEARCH_PICK, is not the default). It
-runs a coordinate descent over a small fixed grid of values (SEARCH_GRID: five
-fields) from the definition of algorithms.md section 3 with every option on at a
-middle value (START), then an ablation that switches each option of the chosen
+never per sample: the defaults of pcl_rg.GridGroundParams are its pick with
+--rule resolution (RULES: the cell size a multiple of each sample's point
+spacing), the rule with the lowest leave-one-sample-out error (ground_isprs_cv.py).
+It runs a coordinate descent over a small fixed grid of values (SEARCH_GRID: five
+fields, and the cell size under the rules that scale it) from the definition of
+algorithms.md section 3 with every option on at a middle value (START), then an
+ablation that switches each option of the chosen
 set back to the definition, to show each one earns its place. It takes a minute.
 
 To add a method, append a (name, callable) pair to METHODS: the callable takes
@@ -45,6 +46,7 @@ from _common import (  # noqa: E402
     markdown_table,
     publish,
 )
+from _scaled import PER_SPACING, Scaled  # noqa: E402
 
 import pcl_rg
 import pcl_rg.pcl
@@ -124,13 +126,20 @@ def score(samples, methods) -> list[list[str]]:
 
 
 
-# (sample, params) -> errors: the descent meets the same set many times.
+# (sample, params used) -> errors: the descent meets the same set many times.
 _ERRORS: dict = {}
+_SPACINGS: dict = {}
 
 
-def mean_total(samples, params: pcl_rg.GridGroundParams) -> float:
+def mean_total(samples, setting) -> float:
+    """Mean total error of `setting` (a Scaled, or params run as given)."""
+    if not isinstance(setting, Scaled):
+        setting = Scaled(setting)
     totals = []
     for name, (points, truth) in samples.items():
+        if name not in _SPACINGS:
+            _SPACINGS[name] = pcl_rg.point_spacing(points)
+        params = setting.resolve(_SPACINGS[name])
         if (name, params) not in _ERRORS:
             _ERRORS[name, params] = ground_errors(truth, pcl_rg.grid_ground(points, params=params))
         totals.append(_ERRORS[name, params].total)
@@ -170,22 +179,51 @@ SEARCH_GRID = {
 }
 
 
-# What --search picks on the seven samples (its fitted and cross-validated errors are in
-# RESULTS.md); not the default: see GridGroundParams.isprs.
+# What --search --rule fixed picks on the seven samples (3 m cells; its fitted and
+# cross-validated errors are in RESULTS.md); the default is the "resolution" rule's pick.
 SEARCH_PICK = dataclasses.replace(
     START, slope=0.3, filter_slope=0.7, final_cell=3.0, final_above=0.5, final_slope=1.0
 )
 
 
-def choose(samples, lines: list[str]) -> tuple[pcl_rg.GridGroundParams, float]:
-    """The search's pick on `samples`: (params, mean total error)."""
-    return coordinate_descent(lambda p: mean_total(samples, p), START, SEARCH_GRID, lines)
+# The lengths that follow the point spacing, per rule (as tin_isprs_params.RULES):
+# "fixed" is the search above (3 m cells; also the capped rule's picks on ISPRS);
+# "spacing" searches cell_size and final_cell as multiples of each sample's spacing;
+# "resolution" only cell_size. SPACING_GRID holds the multiples tried (ISPRS spacing:
+# 1.0-1.1 m urban, 2.3-2.4 m rural), SPACING_START where they start.
+RULES: dict[str, tuple[str, ...]] = {
+    "fixed": (),
+    "spacing": ("cell_size", "final_cell"),
+    "resolution": ("cell_size",),
+}
+RULE = "resolution"  # the rule of GridGroundParams.isprs() (its lowest CV error)
+SPACING_GRID = {"cell_size": [1.5, 2.0, 3.0, 4.0], "final_cell": [2.0, 3.0, 4.0, 5.0, 6.0]}
+SPACING_START = {"cell_size": 3.0, "final_cell": 4.0}
 
 
-def search(samples) -> str:
+def choose(samples, lines: list[str], rule: str = RULE) -> tuple[Scaled, float]:
+    """The search's pick on `samples`: (setting, mean total error)."""
+    scaled = RULES[rule]
+    start = Scaled(START)
+    grid = {}
+    for name in scaled:
+        start = start.replace(name + PER_SPACING, SPACING_START[name])
+    if "cell_size" in scaled:
+        grid["cell_size" + PER_SPACING] = SPACING_GRID["cell_size"]
+    for name, values in SEARCH_GRID.items():
+        if name in scaled:
+            grid[name + PER_SPACING] = SPACING_GRID[name]
+        else:
+            grid[name] = values
+    return coordinate_descent(
+        lambda p: mean_total(samples, p), start, grid, lines, replace=Scaled.replace
+    )
+
+
+def search(samples, rule: str = RULE) -> str:
     lines: list[str] = []
-    best, best_error = choose(samples, lines)
-    lines.append(f"chosen: {best}")
+    best, best_error = choose(samples, lines, rule)
+    lines.append(f"chosen ({rule}): {best.describe()}")
     lines.append(f"mean total error {100 * best_error:.2f} %")
     lines.append("ablation (each option back to the definition):")
     for name, plain in [
@@ -194,10 +232,13 @@ def search(samples) -> str:
         ("filter_passes", 0),
         ("final_cell", 0.0),
     ]:
-        error = mean_total(samples, dataclasses.replace(best, **{name: plain}))
+        error = mean_total(samples, best.replace(name, plain))
         lines.append(f"  {name} = {plain}: {100 * error:.2f} %")
-    everything_off = dataclasses.replace(
-        best, min_seed_component=1, grow_across_blocks=False, filter_passes=0
+    everything_off = Scaled(
+        dataclasses.replace(
+            best.params, min_seed_component=1, grow_across_blocks=False, filter_passes=0
+        ),
+        best.multiples,
     )
     lines.append(f"  all three: {100 * mean_total(samples, everything_off):.2f} %")
     defaults = pcl_rg.GridGroundParams()
@@ -210,10 +251,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--search", action="store_true", help="choose grid_ground defaults")
     parser.add_argument("--write", action="store_true", help=f"update {RESULTS.name}")
     parser.add_argument("--methods", nargs="*", help="names (prefixes) of METHODS to run")
+    parser.add_argument("--rule", choices=list(RULES), default=RULE, help="lengths that scale")
     args = parser.parse_args(argv)
     samples = load_samples()
     if args.search:
-        print(search(samples))
+        print(search(samples, args.rule))
         return 0
     methods = [
         (name, method)
@@ -247,9 +289,24 @@ def ablation(samples) -> str:
         ("grow_across_blocks = False", dataclasses.replace(defaults, grow_across_blocks=False)),
         ("filter_passes = 0", dataclasses.replace(defaults, filter_passes=0)),
         ("filter_passes = 1", dataclasses.replace(defaults, filter_passes=1)),
-        ("final_cell = 3 (final pass on)", dataclasses.replace(defaults, final_cell=3.0)),
-        ("the --search pick (small search, final pass on)", SEARCH_PICK),
-        ("height_tolerance = 0", dataclasses.replace(defaults, height_tolerance=0.0)),
+        ("final_cell = 0 (final pass off)", dataclasses.replace(defaults, final_cell=0.0)),
+        ("cell_size = 3 m (fixed)", dataclasses.replace(defaults, cell_size=3.0)),
+        ("the --search --rule fixed pick (3 m cells, 3 m final cells)", SEARCH_PICK),
+        (
+            "the former default (full search, no final pass)",
+            dataclasses.replace(
+                defaults,
+                cell_size=3.0,
+                height_tolerance=0.3,
+                min_seed_component=30,
+                filter_passes=3,
+                filter_slope=1.0,
+                filter_tolerance=0.3,
+                final_cell=0.0,
+                final_above=0.5,
+            ),
+        ),
+        ("height_tolerance = 0.3", dataclasses.replace(defaults, height_tolerance=0.3)),
         ("the definition (all options off, t = 0)", pcl_rg.GridGroundParams.definition()),
     ]
     rows = [[name, f"{100 * mean_total(samples, p):.2f}"] for name, p in variants]

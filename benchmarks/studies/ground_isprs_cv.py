@@ -1,21 +1,28 @@
 """Leave-one-sample-out cross-validation of the ISPRS presets of both ground filters.
 
 Usage: python benchmarks/studies/ground_isprs_cv.py [--write] [--filters tin grid]
+       [--rules fixed spacing resolution] [--jobs N]
 
 Each filter's search (tin_isprs_params.py, ground_isprs.py --search) picks one set
 on all seven samples of ../shared/data/isprs, so its error there is a fitted
 figure. This study repeats the search (the same coordinate descent, unchanged)
-seven times, each
-time on six samples, and scores the set it picks on the seventh, the one it never
-saw. The mean of those seven held-out errors is the figure that predicts unseen
-data; the table puts it beside the fitted one, per sample.
+seven times, each time on six samples, and scores the set it picks on the seventh,
+the one it never saw. The mean of those seven held-out errors is the figure that
+predicts unseen data; the table puts it beside the fitted one, per sample.
+
+The lengths that can follow the point spacing are searched, and picked, in metres or
+as multiples of each sample's spacing, as each study's RULES say (--rules: one
+summary row per filter and rule; the per-sample table is of each filter's own rule,
+the one its preset follows).
 """
 
 from __future__ import annotations
 
 import argparse
+import multiprocessing
 import sys
 import time
+from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -32,68 +39,90 @@ from pcl_rg.evaluation import ground_errors  # noqa: E402
 SECTION = "## Ground filters on ISPRS: cross-validated presets"
 
 
-def tin_search(samples) -> pcl_rg.TinGroundParams:
-    best, _ = tin_isprs_params.search(samples)
+def tin_search(samples, rule):
+    best, _ = tin_isprs_params.search(samples, rule)
     return best
 
 
-def grid_search(samples) -> pcl_rg.GridGroundParams:
-    best, _ = ground_isprs.choose(samples, [])
+def grid_search(samples, rule):
+    best, _ = ground_isprs.choose(samples, [], rule)
     return best
 
 
+# Each filter: the function, the search (a _scaled.Scaled setting from the training
+# samples, for a rule) and the study that holds its RULES and own RULE.
 FILTERS = {
-    "tin": (pcl_rg.tin_ground, pcl_rg.TinGroundParams.isprs(), tin_search),
-    # Not GridGroundParams.isprs(): the search's pick on all seven (see ground_isprs.py).
-    "grid": (pcl_rg.grid_ground, ground_isprs.SEARCH_PICK, grid_search),
+    "tin": (pcl_rg.tin_ground, tin_search, tin_isprs_params),
+    "grid": (pcl_rg.grid_ground, grid_search, ground_isprs),
 }
 
 
-def changed_fields(params, preset) -> str:
-    """The fields where a fold's pick differs from the preset, as name=value."""
-    names = [f for f in params.__dataclass_fields__ if getattr(params, f) != getattr(preset, f)]
-    return ", ".join(f"{n}={getattr(params, n)}" for n in names) or "= preset"
+def cross_validate(name: str, rule: str, samples) -> tuple[list[list[str]], list, list]:
+    """Every fold of one filter and rule: (table rows, fitted errors, held-out errors).
 
-
-def cross_validate(name: str, samples) -> tuple[list[list[str]], list[float], list[float]]:
-    function, preset, search = FILTERS[name]
-    rows, fitted_totals, held_out_totals = [], [], []
+    Fitted: the search's pick on all seven samples, scored on each.
+    """
+    function, search, _ = FILTERS[name]
+    start = time.perf_counter()
+    fitted_pick = search(samples, rule)
+    print(f"  {name} ({rule}) on all seven: {fitted_pick.describe()}", file=sys.stderr)
+    rows, fitted, unseen = [], [], []
     for held_out, (points, truth) in samples.items():
-        start = time.perf_counter()
         training = {s: v for s, v in samples.items() if s != held_out}
-        chosen = search(training)
-        fitted = ground_errors(truth, function(points, params=preset))
-        unseen = ground_errors(truth, function(points, params=chosen))
-        fitted_totals.append(fitted.total)
-        held_out_totals.append(unseen.total)
+        chosen = search(training, rule)
+        fit = ground_errors(truth, fitted_pick.run(function, points))
+        out = ground_errors(truth, chosen.run(function, points))
+        fitted.append(fit)
+        unseen.append(out)
         rows.append(
             [
                 name,
                 held_out,
-                f"{100 * fitted.total:.2f}",
-                f"{fitted.kappa:.3f}",
-                f"{100 * unseen.type_i:.2f}",
-                f"{100 * unseen.type_ii:.2f}",
-                f"{100 * unseen.total:.2f}",
-                f"{unseen.kappa:.3f}",
-                changed_fields(chosen, preset),
+                f"{100 * fit.total:.2f}",
+                f"{fit.kappa:.3f}",
+                f"{100 * out.type_i:.2f}",
+                f"{100 * out.type_ii:.2f}",
+                f"{100 * out.total:.2f}",
+                f"{out.kappa:.3f}",
+                chosen.describe(fitted_pick).replace("= preset", "= the fitted pick"),
             ]
         )
         print(
-            f"  {name} without {held_out}: held out {100 * unseen.total:.2f} % "
-            f"(fitted {100 * fitted.total:.2f} %), {time.perf_counter() - start:.0f} s",
+            f"  {name} ({rule}) without {held_out}: held out {100 * out.total:.2f} % "
+            f"(fitted {100 * fit.total:.2f} %), {time.perf_counter() - start:.0f} s",
             file=sys.stderr,
             flush=True,
         )
-    return rows, fitted_totals, held_out_totals
+    rows.insert(0, [name, "(all seven)", "", "", "", "", "", "", fitted_pick.describe()])
+    return rows, fitted, unseen
+
+
+def _mean(errors, field: str) -> float:
+    return float(np.mean([getattr(e, field) for e in errors]))
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--write", action="store_true", help="update RESULTS.md")
     parser.add_argument("--filters", nargs="+", choices=list(FILTERS), default=list(FILTERS))
+    parser.add_argument(
+        "--rules", nargs="+", default=None, help="rules of the studies' RULES (default: own)"
+    )
+    parser.add_argument("--jobs", type=int, default=1, help="(filter, rule)s run at once")
     args = parser.parse_args(argv)
     samples = ground_isprs.load_samples()
+    tasks = []
+    for name in args.filters:
+        study = FILTERS[name][2]
+        rules = [r for r in (args.rules or [study.RULE]) if r in study.RULES]
+        tasks += [(name, rule) for rule in rules]
+    if args.jobs > 1:  # side by side, each in its own process (own score cache)
+        context = multiprocessing.get_context("fork")
+        with ProcessPoolExecutor(args.jobs, mp_context=context) as pool:
+            futures = [pool.submit(cross_validate, *task, samples) for task in tasks]
+            results = [future.result() for future in futures]
+    else:
+        results = [cross_validate(*task, samples) for task in tasks]
     header = [
         "filter",
         "held-out sample",
@@ -103,43 +132,47 @@ def main(argv: list[str] | None = None) -> int:
         "CV Type II %",
         "CV total %",
         "CV kappa",
-        "fold's pick (fields unlike the preset)",
+        "fold's pick (fields unlike the fitted pick)",
     ]
     rows, summary = [], []
-    for name in args.filters:
-        fold_rows, fitted, unseen = cross_validate(name, samples)
+    for (name, rule), (fold_rows, fitted, unseen) in zip(tasks, results):
+        line = [
+            name,
+            rule + (" (the preset's)" if rule == FILTERS[name][2].RULE else ""),
+            f"{100 * _mean(fitted, 'total'):.2f}",
+            f"{_mean(fitted, 'kappa'):.3f}",
+            f"{100 * _mean(unseen, 'total'):.2f}",
+            f"{_mean(unseen, 'kappa'):.3f}",
+        ]
+        summary.append(line)
+        if rule != FILTERS[name][2].RULE:
+            continue
         rows += fold_rows
-        kappas_fit = np.mean([float(r[3]) for r in fold_rows])
-        kappas_cv = np.mean([float(r[7]) for r in fold_rows])
         rows.append(
-            [
-                f"**{name}**",
-                "**mean**",
-                f"**{100 * np.mean(fitted):.2f}**",
-                f"{kappas_fit:.3f}",
-                "",
-                "",
-                f"**{100 * np.mean(unseen):.2f}**",
-                f"{kappas_cv:.3f}",
-                "",
-            ]
-        )
-        growth = 100 * (np.mean(unseen) / np.mean(fitted) - 1)
-        summary.append(
-            f"- {name}: fitted {100 * np.mean(fitted):.2f} %, cross-validated "
-            f"{100 * np.mean(unseen):.2f} % ({growth:+.0f} %)."
+            [f"**{name}**", "**mean**", f"**{line[2]}**", line[3], "", "", f"**{line[4]}**",
+             line[5], ""]
         )
     command = "python benchmarks/studies/ground_isprs_cv.py" + (" --write" if args.write else "")
+    command += f" --filters {' '.join(args.filters)}" if args.filters != list(FILTERS) else ""
+    command += f" --rules {' '.join(args.rules)}" if args.rules else ""
+    command += f" --jobs {args.jobs}" if args.jobs > 1 else ""
     text = (
         f"{SECTION}\n\n`{command}` on {machine()}. Fitted: the search's pick on all seven "
-        "samples, scored on each (for tin the preset, TinGroundParams.isprs(); for grid "
-        "ground_isprs.SEARCH_PICK, which is not the default: see GridGroundParams.isprs). "
-        "CV: the same search run on the other six samples, its "
+        "samples, scored on each. CV: the same search run on the other six samples, its "
         "pick scored on the held-out one (leave one sample out). Mean total error and mean "
-        "kappa over the seven samples.\n\n"
-        + markdown_table(header, rows)
-        + "\n\n"
-        + "\n".join(summary)
+        "kappa over the seven samples. Rules for the lengths that can follow the point "
+        "spacing (the studies' RULES): fixed, every length in metres (on ISPRS also the "
+        "capped rule, min(fitted length, multiple x spacing), whose cap binds only below "
+        "ISPRS spacing); spacing, every such length a multiple of the spacing; "
+        "resolution, only the lengths that set the resolution (tin: stop_edge, "
+        "near_vertex_distance; grid: cell_size), the seed and final-pass cells in metres."
+        "\n\n"
+        + markdown_table(
+            ["filter", "rule", "fitted total %", "fitted kappa", "CV total %", "CV kappa"],
+            summary,
+        )
+        + "\n\nPer held-out sample, each filter's own rule:\n\n"
+        + (markdown_table(header, rows) if rows else "(not run)")
         + "\n"
     )
     publish(text, SECTION, args.write)

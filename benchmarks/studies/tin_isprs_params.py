@@ -9,7 +9,10 @@ Usage:
 The search is a cheap coordinate descent over a fixed grid of values (SEARCH_GRID),
 from LiDAR360's defaults with the improvements switched on at middle values, judged
 by the mean total error over the seven samples: one set for all samples, never per
-sample. It takes a few minutes on two cores. The set it found is
+sample. The lengths that can follow the point spacing (stop_edge,
+near_vertex_distance, seed_cell, final_cell) are searched in metres or as multiples
+of each sample's spacing (pcl_rg.point_spacing), as the rule of RULES says
+(--rule; _scaled.Scaled). It takes a few minutes on two cores. The set it found is
 pcl_rg.TinGroundParams.isprs(); the report scores it beside LiDAR360's
 defaults (per sample and mean Type I / II / total error, kappa, time) and an
 ablation that switches each improvement off again.
@@ -30,6 +33,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/_common.py
 from _common import coordinate_descent, error_cells, machine, markdown_table, publish  # noqa: E402
+from _scaled import PER_SPACING, Scaled  # noqa: E402
 from ground_isprs import METHODS, load_samples  # noqa: E402  (same folder)
 
 import pcl_rg
@@ -37,14 +41,16 @@ from pcl_rg.evaluation import ground_errors
 
 SECTION = "## Ground filters on ISPRS (tin_ground)"
 
-# Values tried per field. reduce_angle_edge / stop_edge of 0.01 m switch those two
-# LiDAR360 options off in practice (no ISPRS triangle is that small).
+# Values tried per field, in search order. reduce_angle_edge / stop_edge of 0.01 m
+# switch those two LiDAR360 options off in practice (no ISPRS triangle is that small);
+# stop_edge reaches 4 m, as a longer stop edge inserts fewer points (faster) and the
+# final pass completes the ground below it.
 SEARCH_GRID: dict[str, list] = {
     "max_building_size": [20.0, 30.0, 40.0, 50.0, 60.0],
     "iteration_angle": [15.0, 20.0, 25.0, 30.0, 35.0, 40.0],
     "iteration_distance": [0.6, 0.8, 1.0, 1.2, 1.4, 1.7, 2.0],
     "reduce_angle_edge": [0.01, 1.0, 2.0, 5.0],
-    "stop_edge": [0.01, 0.5, 1.0, 2.0],
+    "stop_edge": [0.01, 0.5, 1.0, 2.0, 3.0, 4.0],
     "max_terrain_angle": [70.0, 80.0, 85.0, 88.0],
     "near_vertex_distance": [0.0, 0.5, 1.0, 1.5, 2.0],
     "seed_cell": [0.0, 1.0, 1.5, 2.0, 3.0, 4.0],
@@ -53,14 +59,41 @@ SEARCH_GRID: dict[str, list] = {
 }
 
 # Stage 2 of the search: the final pass (final_pass.cpp), tuned on the densification
-# that stage 1 chose, from a middle start.
+# that stage 1 chose, from a middle start; and stop_edge again, as the final pass
+# completes the ground below the stop edge (a longer one inserts fewer points).
 FINAL_GRID: dict[str, list] = {
     "final_cell": [0.0, 1.0, 2.0, 3.0, 4.0],
     "final_above": [0.2, 0.3, 0.5, 0.8],
     "final_below": [0.5, 1.0, 2.0, 5.0],
     "final_slope": [0.0, 0.5, 1.0, 2.0],
+    "stop_edge": SEARCH_GRID["stop_edge"],
 }
 FINAL_START = {"final_cell": 2.0, "final_above": 0.5, "final_below": 1.0, "final_slope": 1.0}
+
+# The same lengths as multiples of the point spacing (the ISPRS samples have 1.0-1.1 m
+# urban, 2.3-2.4 m rural; 0 switches near_vertex_distance, seed_cell, final_cell off).
+SPACING_GRID: dict[str, list] = {
+    "stop_edge": [0.01, 0.5, 1.0, 1.5, 2.0, 3.0, 4.0],
+    "near_vertex_distance": [0.0, 0.5, 1.0, 1.5, 2.0],
+    "seed_cell": [0.0, 1.0, 1.5, 2.0, 3.0, 4.0],
+    "final_cell": [0.0, 1.0, 2.0, 3.0, 4.0],
+}
+
+# Per rule: the lengths searched as multiples of the spacing, and whether stop_edge
+# reaches 4 m and is searched again in stage 2 (else: up to 2 m, stage 1 only, the
+# search before lengths could follow the spacing). "capped" is the rule of the preset:
+# min(ISPRS length, multiple x spacing), which on ISPRS (spacing 0.99-2.41 m) is the
+# length in metres, so its search is in metres; "capped-long-stop" the same with the
+# longer stop edges; "spacing" every length a multiple; "resolution" only the two that
+# set the TIN's resolution, the seed and final-pass cells staying in metres.
+RULES: dict[str, tuple[tuple[str, ...], bool]] = {
+    "capped": ((), False),
+    "capped-long-stop": ((), True),
+    "spacing": (("stop_edge", "near_vertex_distance", "seed_cell", "final_cell"), True),
+    "resolution": (("stop_edge", "near_vertex_distance"), True),
+}
+RULE = "capped"  # the rule of TinGroundParams.isprs() (see its docstring)
+SHORT_STOP_EDGES = [0.01, 0.5, 1.0, 2.0]
 
 # The improvements and the value that switches each off (the plain definition).
 IMPROVEMENTS = {
@@ -70,13 +103,20 @@ IMPROVEMENTS = {
     "final_cell": 0.0,
 }
 
-# (sample, params) -> errors: the descent meets the same set many times.
+# (sample, params used) -> errors: the descent meets the same set many times.
 _ERRORS: dict = {}
+_SPACINGS: dict = {}
 
 
-def errors(samples, params: pcl_rg.TinGroundParams) -> list:
+def errors(samples, setting) -> list:
+    """Errors per sample of `setting` (a Scaled, or params run as given)."""
+    if not isinstance(setting, Scaled):
+        setting = Scaled(setting)
     out = []
     for name, (points, truth) in samples.items():
+        if name not in _SPACINGS:
+            _SPACINGS[name] = pcl_rg.point_spacing(points)
+        params = setting.resolve(_SPACINGS[name])
         if (name, params) not in _ERRORS:
             ground = pcl_rg.tin_ground(points, params=params)
             _ERRORS[name, params] = ground_errors(truth, ground)
@@ -84,38 +124,71 @@ def errors(samples, params: pcl_rg.TinGroundParams) -> list:
     return out
 
 
-def mean_total(samples, params: pcl_rg.TinGroundParams) -> float:
-    return float(np.mean([e.total for e in errors(samples, params)]))
+def mean_total(samples, setting) -> float:
+    return float(np.mean([e.total for e in errors(samples, setting)]))
 
 
-def search(samples) -> tuple[pcl_rg.TinGroundParams, list[str]]:
-    """Two coordinate descents: (best params, log lines).
+def _grid(values: dict[str, list], scaled: tuple[str, ...]) -> dict[str, list]:
+    """`values` with the lengths of `scaled` as multiples (SPACING_GRID) instead."""
+    return {
+        name + PER_SPACING if name in scaled else name: SPACING_GRID[name]
+        if name in scaled
+        else grid
+        for name, grid in values.items()
+    }
 
-    Stage 1 is the original search over SEARCH_GRID (final pass off), from LiDAR360's
+
+def _start(settings: dict[str, float], scaled: tuple[str, ...], base) -> Scaled:
+    """`base` (params or a Scaled) with `settings`, those of `scaled` as the same
+    number of spacings."""
+    setting = base if isinstance(base, Scaled) else Scaled(base)
+    for name, value in settings.items():
+        setting = setting.replace(name + PER_SPACING if name in scaled else name, value)
+    return setting
+
+
+def search(samples, rule: str = RULE) -> tuple[Scaled, list[str]]:
+    """Two coordinate descents: (best setting, log lines).
+
+    Stage 1 searches the densification (SEARCH_GRID, final pass off) from LiDAR360's
     defaults with the improvements on at middle values; stage 2 tunes the final pass
     over FINAL_GRID on stage 1's pick (final_cell = 0 among its values, so the pass
-    stays off unless it lowers the error on `samples`).
+    stays off unless it lowers the error on `samples`). The lengths of RULES[rule] are
+    searched as multiples of each sample's spacing (SPACING_GRID), from the same
+    numbers of spacings as the metres of the start.
     """
-    start = dataclasses.replace(
+    scaled, long_stop = RULES[rule]
+    first = dict(SEARCH_GRID) if long_stop else {**SEARCH_GRID, "stop_edge": SHORT_STOP_EDGES}
+    second = dict(FINAL_GRID) if long_stop else {**FINAL_GRID}
+    if not long_stop:
+        del second["stop_edge"]
+    base = dataclasses.replace(
         pcl_rg.TinGroundParams.lidar360(),
         iteration_angle=30.0,
         reduce_angle_edge=0.01,
-        stop_edge=0.01,
-        near_vertex_distance=1.0,
-        seed_cell=2.0,
         outlier_depth=4.0,
     )
+    start = _start(
+        {"stop_edge": 0.01, "near_vertex_distance": 1.0, "seed_cell": 2.0}, scaled, base
+    )
     lines: list[str] = []
-    def score(params: pcl_rg.TinGroundParams) -> float:
-        return mean_total(samples, params)
 
-    densified, _ = coordinate_descent(score, start, SEARCH_GRID, lines)
+    def score(setting: Scaled) -> float:
+        return mean_total(samples, setting)
+
+    densified, _ = coordinate_descent(
+        score, start, _grid(first, scaled), lines, replace=Scaled.replace
+    )
     best, best_error = coordinate_descent(
-        score, dataclasses.replace(densified, **FINAL_START), FINAL_GRID, lines
+        score,
+        _start(FINAL_START, scaled, densified),
+        _grid(second, scaled),
+        lines,
+        replace=Scaled.replace,
     )
     if mean_total(samples, densified) <= best_error:
         best, best_error = densified, mean_total(samples, densified)
-    lines.append(f"chosen: {best}: mean total {100 * best_error:.2f} %")
+    lines.append(f"chosen ({rule}): {best.describe()}: mean total {100 * best_error:.2f} %")
     return best, lines
 
 
@@ -197,12 +270,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--compare", action="store_true", help="also the means of ground_isprs.METHODS"
     )
+    parser.add_argument("--rule", choices=list(RULES), default=RULE, help="lengths that scale")
     args = parser.parse_args(argv)
     samples = load_samples()
     if not args.report:
-        best, lines = search(samples)
+        best, lines = search(samples, args.rule)
         print("\n".join(lines))
-        if best != pcl_rg.TinGroundParams.isprs():
+        if errors(samples, best) != errors(samples, pcl_rg.TinGroundParams.isprs()):
             print("note: the search ended elsewhere than TinGroundParams.isprs()")
     command = (
         "python benchmarks/studies/tin_isprs_params.py"

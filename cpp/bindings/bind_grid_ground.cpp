@@ -1,4 +1,8 @@
 // Binding of pcl_rg::grid_ground (see cpp/include/pcl_rg/grid_ground.hpp).
+#include <pybind11/stl.h>  // std::optional cell_size: None when unset
+
+#include <limits>
+
 #include "bindings.hpp"
 #include "numpy_io.hpp"
 #include "pcl_rg/grid_ground.hpp"
@@ -18,10 +22,13 @@ void bind_grid_ground(py::module_& m) {
             [](GridGroundParams& p, const std::array<double, 2>& v) { p.block_size = v; })
         .def_property(
             "cell_size",
-            [](const GridGroundParams& p) {
-                return py::make_tuple(p.cell_size[0], p.cell_size[1]);
+            [](const GridGroundParams& p) -> py::object {
+                if (!p.cell_size) return py::none();  // unset: from the point spacing
+                return py::make_tuple((*p.cell_size)[0], (*p.cell_size)[1]);
             },
-            [](GridGroundParams& p, const std::array<double, 2>& v) { p.cell_size = v; })
+            [](GridGroundParams& p, const std::optional<std::array<double, 2>>& v) {
+                p.cell_size = v;
+            })
         .def_readwrite("slope", &GridGroundParams::slope)
         .def_readwrite("height_tolerance", &GridGroundParams::height_tolerance)
         .def_readwrite("min_seed_component", &GridGroundParams::min_seed_component)
@@ -38,11 +45,20 @@ void bind_grid_ground(py::module_& m) {
         "grid_ground",
         [](const PointsArray& points, const GridGroundParams& params) {
             validate(params);  // before allocating, so bad parameters cost nothing
-            return per_point<bool>(
-                points, [&](const PointsView& view, bool* out) { grid_ground(view, params, out); });
+            GridGroundStats stats;
+            stats.point_spacing = std::numeric_limits<double>::quiet_NaN();
+            if (params.cell_size) stats.cell_size = *params.cell_size;
+            py::array_t<bool> ground = per_point<bool>(
+                points,
+                [&](const PointsView& view, bool* out) { grid_ground(view, params, out, &stats); });
+            py::dict info;
+            info["point_spacing"] = stats.point_spacing;
+            info["cell_size"] = py::make_tuple(stats.cell_size[0], stats.cell_size[1]);
+            return py::make_tuple(ground, info);
         },
         py::arg("points").noconvert(), py::arg("params"),
-        "Core grid region-growing ground filter: bool ground mask. Use pcl_rg.grid_ground.");
+        "Core grid region-growing ground filter: (ground mask, stats dict). Use "
+        "pcl_rg.grid_ground.");
 }
 
 }  // namespace pcl_rg::bindings

@@ -1,4 +1,6 @@
 // Binding of pcl_rg::tin_ground (see tin_ground.hpp).
+#include <pybind11/stl.h>  // std::optional lengths: None when unset
+
 #include "bindings.hpp"
 #include "numpy_io.hpp"
 #include "pcl_rg/tin_ground.hpp"
@@ -38,6 +40,11 @@ void bind_tin_ground(py::module_& m) {
             info["prepare_seconds"] = stats.prepare_seconds;
             info["triangulation_seconds"] = stats.triangulation_seconds;
             info["classification_seconds"] = stats.classification_seconds;
+            info["point_spacing"] = stats.point_spacing;
+            info["stop_edge"] = stats.stop_edge;
+            info["near_vertex_distance"] = stats.near_vertex_distance;
+            info["seed_cell"] = stats.seed_cell;
+            info["final_cell"] = stats.final_cell;
             return py::make_tuple(ground, info);
         },
         py::arg("points").noconvert(), py::arg("params"),

@@ -17,4 +17,5 @@ PYBIND11_MODULE(_core, m) {
     pcl_rg::bindings::bind_convex_segmentation(m);
     pcl_rg::bindings::bind_tin_ground(m);
     pcl_rg::bindings::bind_delaunay(m);
+    pcl_rg::bindings::bind_point_spacing(m);
 }

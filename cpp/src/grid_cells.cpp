@@ -21,9 +21,10 @@ CellGrid build_grid(PointsView points, const GridGroundParams& params,
     const std::size_t n = points.size;
     const auto count = static_cast<std::ptrdiff_t>(n);
     const bool parallel = n >= kGridParallelMin;
+    const std::array<double, 2>& cell_size = *params.cell_size;  // set by grid_ground
     CellGrid grid;
-    grid.width = grid_index(extent[0], params.cell_size[0]) + 1;
-    grid.height = grid_index(extent[1], params.cell_size[1]) + 1;
+    grid.width = grid_index(extent[0], cell_size[0]) + 1;
+    grid.height = grid_index(extent[1], cell_size[1]) + 1;
     // Dense numbering while the grid is at most a few times the cloud (or 2^20).
     const double limit = std::max(4.0 * static_cast<double>(n), 1048576.0);
     grid.dense = static_cast<double>(grid.width) * static_cast<double>(grid.height) <= limit;
@@ -34,16 +35,16 @@ CellGrid build_grid(PointsView points, const GridGroundParams& params,
         cells = static_cast<std::size_t>(grid.width * grid.height);
 #pragma omp parallel for schedule(guided) if (parallel)
         for (std::ptrdiff_t i = 0; i < count; ++i) {
-            const std::int64_t cx = grid_index(points.coord(i, 0) - origin[0], params.cell_size[0]);
-            const std::int64_t cy = grid_index(points.coord(i, 1) - origin[1], params.cell_size[1]);
+            const std::int64_t cx = grid_index(points.coord(i, 0) - origin[0], cell_size[0]);
+            const std::int64_t cy = grid_index(points.coord(i, 1) - origin[1], cell_size[1]);
             key[i] = static_cast<std::uint32_t>(cy * grid.width + cx);
         }
     } else {
         std::vector<std::pair<std::int64_t, std::int64_t>> cell(n);
 #pragma omp parallel for schedule(guided) if (parallel)
         for (std::ptrdiff_t i = 0; i < count; ++i)
-            cell[i] = {grid_index(points.coord(i, 1) - origin[1], params.cell_size[1]),
-                       grid_index(points.coord(i, 0) - origin[0], params.cell_size[0])};
+            cell[i] = {grid_index(points.coord(i, 1) - origin[1], cell_size[1]),
+                       grid_index(points.coord(i, 0) - origin[0], cell_size[0])};
         grid.occupied = cell;
         std::sort(grid.occupied.begin(), grid.occupied.end());
         grid.occupied.erase(std::unique(grid.occupied.begin(), grid.occupied.end()),

@@ -49,6 +49,7 @@
 #include "pcl_rg/final_pass.hpp"
 #include "pcl_rg/grid_cells.hpp"
 #include "pcl_rg/interrupt.hpp"
+#include "pcl_rg/point_spacing.hpp"
 
 namespace pcl_rg {
 
@@ -56,12 +57,15 @@ void validate(const GridGroundParams& params) {
     static const char* const axis_name[2] = {"x", "y"};
     for (const double block : params.block_size)
         check::real("block_size", block, check::positive());
-    for (const double cell : params.cell_size) check::real("cell_size", cell, check::positive());
-    for (int a = 0; a < 2; ++a)
-        check::relation(
-            params.cell_size[a] <= params.block_size[a], "cell_size",
-            "<= block_size (" + check::format_value(params.block_size[a]) + ") on " + axis_name[a],
-            params.cell_size[a]);
+    if (params.cell_size) {
+        const std::array<double, 2>& cell_size = *params.cell_size;
+        for (const double cell : cell_size) check::real("cell_size", cell, check::positive());
+        for (int a = 0; a < 2; ++a)
+            check::relation(cell_size[a] <= params.block_size[a], "cell_size",
+                            "<= block_size (" + check::format_value(params.block_size[a]) +
+                                ") on " + axis_name[a],
+                            cell_size[a]);
+    }
     check::real("slope", params.slope, check::non_negative());
     check::real("height_tolerance", params.height_tolerance, check::non_negative());
     check::integer("min_seed_component", params.min_seed_component, check::at_least(1));
@@ -327,10 +331,30 @@ void grow(const CellGrid& grid, const GridGroundParams& params,
 
 }  // namespace
 
-void grid_ground(PointsView points, const GridGroundParams& params, bool* ground) {
-    validate(params);
+GridGroundParams with_spacing(const GridGroundParams& params, double spacing) {
+    GridGroundParams resolved = params;
+    if (!resolved.cell_size) {
+        // Whole cells per block, so that cells line up with the blocks and across tiles.
+        std::array<double, 2> cell_size{};
+        for (int a = 0; a < 2; ++a)
+            cell_size[a] =
+                params.block_size[a] /
+                std::max(1.0, std::ceil(params.block_size[a] / (kGridCellPerSpacing * spacing)));
+        resolved.cell_size = cell_size;
+    }
+    return resolved;
+}
+
+void grid_ground(PointsView points, const GridGroundParams& given, bool* ground,
+                 GridGroundStats* stats) {
+    validate(given);
     const std::size_t n = points.size;
     if (n == 0) return;
+    // An unset cell size from the spacing of these points (measured only then).
+    const double spacing =
+        given.cell_size ? std::numeric_limits<double>::quiet_NaN() : spacing_or_one_metre(points);
+    const GridGroundParams params = with_spacing(given, spacing);
+    if (stats) *stats = GridGroundStats{spacing, *params.cell_size};
     check::indexable_by_int32(n);
     // Blocks and cells anchored at the world lattice of blocks: the block corner at or
     // below the minimum corner, so l >= 0 and every index is >= 0.
@@ -345,7 +369,7 @@ void grid_ground(PointsView points, const GridGroundParams& params, bool* ground
     }
     const std::array<double, 2> extent{extent_x, extent_y};
     for (int a = 0; a < 2; ++a)
-        if (!(extent[a] / params.cell_size[a] < kMaxIndex))
+        if (!(extent[a] / (*params.cell_size)[a] < kMaxIndex))
             throw std::invalid_argument(
                 "cell_size is too small for the extent of points: more than 2^40 cells on " +
                 std::string(a == 0 ? "x" : "y"));

@@ -93,6 +93,7 @@
 #include "pcl_rg/delaunay.hpp"
 #include "pcl_rg/final_pass.hpp"
 #include "pcl_rg/interrupt.hpp"
+#include "pcl_rg/point_spacing.hpp"
 #include "pcl_rg/timer.hpp"
 #include "pcl_rg/tin_seeds.hpp"
 #include "tin_acceptance.hpp"
@@ -126,19 +127,41 @@ void validate(const TinGroundParams& params) {
     check::real("iteration_angle", params.iteration_angle, {std::nullopt, 0.0, 90.0, std::nullopt});
     check::real("iteration_distance", params.iteration_distance, check::positive());
     check::real("reduce_angle_edge", params.reduce_angle_edge, check::positive());
-    check::real("stop_edge", params.stop_edge, check::positive());
-    check::real("near_vertex_distance", params.near_vertex_distance, check::non_negative());
-    check::real("seed_cell", params.seed_cell, check::non_negative());
+    if (params.stop_edge) check::real("stop_edge", *params.stop_edge, check::positive());
+    if (params.near_vertex_distance)
+        check::real("near_vertex_distance", *params.near_vertex_distance, check::non_negative());
+    if (params.seed_cell) check::real("seed_cell", *params.seed_cell, check::non_negative());
     check::real("seed_tolerance", params.seed_tolerance, check::non_negative());
     check::real("outlier_depth", params.outlier_depth, check::non_negative());
     validate(final_pass_params(params));
 }
 
-TinGroundStats tin_ground(PointsView points, const TinGroundParams& params, bool* ground) {
-    validate(params);
+TinGroundParams with_spacing(const TinGroundParams& params, double spacing) {
+    TinGroundParams resolved = params;
+    const auto fill = [spacing](std::optional<double>& length, double cap, double multiple) {
+        if (!length) length = std::min(cap, multiple * spacing);
+    };
+    fill(resolved.stop_edge, kTinStopEdgeCap, kTinStopEdgePerSpacing);
+    fill(resolved.near_vertex_distance, kTinNearVertexCap, kTinNearVertexPerSpacing);
+    fill(resolved.seed_cell, kTinSeedCellCap, kTinSeedCellPerSpacing);
+    fill(resolved.final_cell, kTinFinalCellCap, kTinFinalCellPerSpacing);
+    return resolved;
+}
+
+TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool* ground) {
+    validate(given);
     TinGroundStats stats;
     const std::size_t n = points.size;
     if (n == 0) return stats;
+    // The unset lengths from the spacing of these points (measured only when needed).
+    stats.point_spacing = std::numeric_limits<double>::quiet_NaN();
+    if (!given.stop_edge || !given.near_vertex_distance || !given.seed_cell || !given.final_cell)
+        stats.point_spacing = spacing_or_one_metre(points);
+    const TinGroundParams params = with_spacing(given, stats.point_spacing);
+    stats.stop_edge = *params.stop_edge;
+    stats.near_vertex_distance = *params.near_vertex_distance;
+    stats.seed_cell = *params.seed_cell;
+    stats.final_cell = *params.final_cell;
     if (n < 3)
         throw std::invalid_argument("points must hold at least 3 points for a TIN, got " +
                                     std::to_string(n));
@@ -263,8 +286,8 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& params, bool
                      params.iteration_distance,
                      params.iteration_angle,
                      params.reduce_angle_edge,
-                     params.stop_edge,
-                     params.near_vertex_distance,
+                     *params.stop_edge,
+                     *params.near_vertex_distance,
                      std::sin(params.iteration_angle * kDegToRad),
                      std::cos(params.max_terrain_angle * kDegToRad)};
     // Per sorted position: ground flag, the triangle slot the point was last located in,
@@ -401,7 +424,7 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& params, bool
     }
     for (std::size_t s = 0; s < n; ++s) ground[order[s]] = is_ground[s];
     stats.tin_vertices = static_cast<std::int64_t>(tin.vertex_count());
-    if (params.final_cell > 0.0) {
+    if (*params.final_cell > 0.0) {
         clock = std::chrono::steady_clock::now();
         final_pass(points, final_pass_params(params), ground);
         stats.classification_seconds += seconds_since(clock);

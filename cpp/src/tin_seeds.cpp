@@ -198,7 +198,7 @@ void drop_low_outliers(std::vector<double>& height, std::int64_t ncx, std::int64
 std::vector<std::uint32_t> morphological_seeds(PointsView points,
                                                const std::array<double, 3>& origin, double ex,
                                                double ey, const TinGroundParams& params) {
-    const double cell = params.seed_cell;
+    const double cell = *params.seed_cell;
     const double limit = 4.0 * static_cast<double>(points.size) + 4194304.0;
     if (!((std::floor(ex / cell) + 1.0) * (std::floor(ey / cell) + 1.0) <= limit))
         throw std::invalid_argument(
@@ -244,13 +244,13 @@ std::vector<std::uint32_t> tin_seeds(PointsView points, const TinGroundParams& p
             check::format_value(cell));
     // The seed cells (of seed_cell, else of max_building_size) on the world lattice of
     // their size: their corner at or below the minimum corner; z stays the minimum.
-    const double seed_size = params.seed_cell > 0.0 ? params.seed_cell : cell;
+    const double seed_size = *params.seed_cell > 0.0 ? *params.seed_cell : cell;
     const std::array<double, 3> seed_origin{lattice_floor(origin[0], seed_size),
                                             lattice_floor(origin[1], seed_size), origin[2]};
     const double sex = upper[0] - seed_origin[0], sey = upper[1] - seed_origin[1];
     if (!std::isfinite(sex) || !std::isfinite(sey))
         throw std::invalid_argument("points: the XY extent is too large (not finite in float64)");
-    return params.seed_cell > 0.0
+    return *params.seed_cell > 0.0
                ? morphological_seeds(points, seed_origin, sex, sey, params)
                : lowest_points(points, seed_origin, cell,
                                static_cast<std::int64_t>(std::floor(sex / cell)) + 1,

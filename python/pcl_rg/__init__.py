@@ -23,6 +23,7 @@ _NAMES = {
     "convex_segmentation": "_convex_segmentation",
     "GridGroundParams": "_grid_ground",
     "grid_ground": "_grid_ground",
+    "point_spacing": "_point_spacing",
     "NormalsParams": "_normals",
     "NormalsResult": "_normals",
     "normals": "_normals",
@@ -77,6 +78,7 @@ if TYPE_CHECKING:  # what type checkers and IDEs see; nothing runs here
     from ._grid_ground import GridGroundParams, grid_ground
     from ._normals import NormalsParams, NormalsResult, normals
     from ._point_scale import PointScale, point_scale
+    from ._point_spacing import point_spacing
     from ._region_growing import RegionGrowingParams, region_growing
     from ._statistical_outlier_removal import (
         StatisticalOutlierRemovalParams,

@@ -24,7 +24,7 @@ def lzf_compress(data: bytes) -> bytes: ...
 
 class GridGroundParams:
     block_size: tuple[float, float]
-    cell_size: tuple[float, float]
+    cell_size: tuple[float, float] | None
     slope: float
     height_tolerance: float
     min_seed_component: int
@@ -40,7 +40,7 @@ class GridGroundParams:
 
 def grid_ground(
     points: npt.NDArray[np.float64], params: GridGroundParams
-) -> npt.NDArray[np.bool_]: ...
+) -> tuple[npt.NDArray[np.bool_], dict[str, float | tuple[float, float]]]: ...
 
 class TinGroundParams:
     max_building_size: float
@@ -48,12 +48,12 @@ class TinGroundParams:
     iteration_angle: float
     iteration_distance: float
     reduce_angle_edge: float
-    stop_edge: float
-    near_vertex_distance: float
-    seed_cell: float
+    stop_edge: float | None
+    near_vertex_distance: float | None
+    seed_cell: float | None
     seed_tolerance: float
     outlier_depth: float
-    final_cell: float
+    final_cell: float | None
     final_above: float
     final_below: float
     final_slope: float
@@ -74,6 +74,7 @@ class DelaunayTin:
     def to_grid(self, xy: npt.NDArray[np.float64]) -> npt.NDArray[np.int32]: ...
 
 def delaunay_triangulate(xy: npt.NDArray[np.float64]) -> npt.NDArray[np.int64]: ...
+def point_spacing(points: npt.NDArray[np.float64]) -> float: ...
 
 # --- normals, region growing (region_growing.hpp) -----------------------------------
 

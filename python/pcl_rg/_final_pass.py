@@ -26,6 +26,19 @@ _HELP = {
 }
 
 
-def final_pass_param(name: str, default: float) -> Any:
-    """The dataclass field of the final-pass setting `name` (m, >= 0) with `default`."""
+def final_pass_param(name: str, default: float | None, optional: bool = False) -> Any:
+    """The dataclass field of the final-pass setting `name` (m, >= 0) with `default`.
+
+    `optional`: None ("unset") is admitted too, the filter then takes the length from
+    the point spacing (tin_ground's final_cell).
+    """
+    if optional:
+        return param(
+            default,
+            kind=float,
+            optional=True,
+            minimum=0.0,
+            unit="m",
+            help=_HELP[name] + "; unset: from the point spacing",
+        )
     return param(default, minimum=0.0, unit="m", help=_HELP[name])

@@ -2,16 +2,29 @@
 
 from __future__ import annotations
 
+import dataclasses
+import math
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any
+from types import MappingProxyType
+from typing import Any, ClassVar
 
 import numpy as np
 import numpy.typing as npt
 
 from . import _core
+from ._diagnostics import record
 from ._docstrings import fill_docstring
 from ._final_pass import final_pass_param
-from ._params import check_fields, format_value, param, preset, resolve_arguments, to_core
+from ._params import (
+    check_fields,
+    check_number,
+    format_value,
+    param,
+    preset,
+    resolve_arguments,
+    to_core,
+)
 from ._validation import as_points
 
 __all__ = ["GridGroundParams", "grid_ground"]
@@ -25,7 +38,19 @@ class GridGroundParams:
     error over the seven ISPRS samples (``benchmarks/studies/ground_isprs.py --search``),
     not tuned per sample. :meth:`definition` gives the plain rule of the seed
     (algorithms.md section 3), with the three options off.
+
+    ``cell_size`` is None ("unset") by default: each call then takes, per axis,
+    ``block_size / k`` with k the smallest whole number that makes the cell at
+    most ``SPACING_MULTIPLES["cell_size"]`` times the spacing of its points
+    (:func:`pcl_rg.point_spacing`, 1 m where that is undefined): cells follow the
+    density and still line up with the blocks. The spacing and the cell size a
+    call used are in :func:`pcl_rg.collect_diagnostics`; :meth:`at_spacing` fixes
+    them ahead.
     """
+
+    SPACING_MULTIPLES: ClassVar[Mapping[str, float]] = MappingProxyType({"cell_size": 2.0})
+    """The largest cell an unset cell_size takes, in point spacings (C++:
+    kGridCellPerSpacing)."""
 
     block_size: tuple[float, float] = param(
         (30.0, 30.0),
@@ -35,22 +60,24 @@ class GridGroundParams:
         help="block edge length, one value or x,y: one seed per block; should exceed the "
         "largest building",
     )
-    cell_size: tuple[float, float] = param(
-        (3.0, 3.0),
+    cell_size: tuple[float, float] | None = param(
+        None,
         axes=2,
+        optional=True,
         above=0.0,
         unit="m",
         help="cell edge length, one value or x,y (<= block_size): points link within the "
-        "3 x 3 cells around them",
+        "3 x 3 cells around them; unset: block_size / k, the largest such cell of at most "
+        "2 x the point spacing",
     )
     slope: float = param(
         0.3, minimum=0.0, help="tangent of the steepest terrain: link when |dz| <= slope * d + tol"
     )
     height_tolerance: float = param(
-        0.3, minimum=0.0, unit="m", help="height difference always allowed between linked points"
+        0.0, minimum=0.0, unit="m", help="height difference always allowed between linked points"
     )
     min_seed_component: int = param(
-        30,
+        10,
         minimum=1,
         help="robust seed: lowest point whose component holds at least this many points "
         "(1: the lowest point)",
@@ -59,42 +86,86 @@ class GridGroundParams:
         True, help="links also join points of neighbouring blocks (one seed per block)"
     )
     filter_passes: int = param(
-        3,
+        2,
         minimum=0,
         help="slope pre-filter passes (0: off): drop points higher than a neighbour by more "
         "than filter_slope * d + filter_tolerance; later passes test only against the "
         "previous ground",
     )
-    filter_slope: float = param(1.0, minimum=0.0, help="slope of the pre-filter")
+    filter_slope: float = param(0.7, minimum=0.0, help="slope of the pre-filter")
     filter_tolerance: float = param(
-        0.3, minimum=0.0, unit="m", help="height tolerance of the pre-filter"
+        0.5, minimum=0.0, unit="m", help="height tolerance of the pre-filter"
     )
-    final_cell: float = final_pass_param("final_cell", 0.0)
-    final_above: float = final_pass_param("final_above", 0.5)
+    final_cell: float = final_pass_param("final_cell", 4.0)
+    final_above: float = final_pass_param("final_above", 0.8)
     final_below: float = final_pass_param("final_below", 1.0)
     final_slope: float = final_pass_param("final_slope", 1.0)
 
     def __post_init__(self) -> None:
         check_fields(self)
-        for axis, block, cell in zip("xy", self.block_size, self.cell_size):
+        for axis, block, cell in zip("xy", self.block_size, self.cell_size or self.block_size):
             if cell > block:
                 raise ValueError(
                     f"cell_size must be <= block_size ({format_value(block)}) on {axis}, "
                     f"got {format_value(cell)}"
                 )
 
+    def at_spacing(
+        self, spacing: float, multiples: Mapping[str, float] | None = None
+    ) -> GridGroundParams:
+        """These parameters with ``cell_size``, if unset, set for a point spacing.
+
+        Parameters
+        ----------
+        spacing : float
+            Metres (> 0), e.g. ``pcl_rg.point_spacing(points)``.
+        multiples : mapping of str to float, optional
+            Another multiple than :attr:`SPACING_MULTIPLES` (for parameter
+            studies).
+
+        Returns
+        -------
+        GridGroundParams
+            A copy whose ``cell_size``, if it was None, is per axis
+            ``block_size / k``, k the smallest whole number with
+            ``block_size / k <= SPACING_MULTIPLES["cell_size"] * spacing``; a call
+            with it gives what a call with these parameters gives on points of
+            that spacing.
+
+        Examples
+        --------
+        >>> from pcl_rg import GridGroundParams
+        >>> GridGroundParams().at_spacing(1.0).cell_size  # 30 m blocks, 15 cells
+        (2.0, 2.0)
+        >>> GridGroundParams().at_spacing(0.25).cell_size  # 60 cells per block
+        (0.5, 0.5)
+        """
+        spacing = check_number("spacing", spacing, float, above=0.0)
+        if self.cell_size is not None:
+            return self
+        largest = {**self.SPACING_MULTIPLES, **(multiples or {})}["cell_size"] * spacing
+        cell = tuple(block / max(1.0, math.ceil(block / largest)) for block in self.block_size)
+        return dataclasses.replace(self, cell_size=cell)
+
     @preset
     def isprs(cls, **overrides: Any) -> GridGroundParams:
         """The defaults: one set chosen on the seven ISPRS samples (mean total error).
 
-        Chosen by the full search of ``benchmarks/studies/ground_isprs.py`` (every
-        field) before the final pass existed; the three options of the grower are
-        on and the final pass (``final_cell``) is off. The study's smaller search
-        with the final pass does better on ISPRS (5.35 % fitted, 6.0 % left one
-        sample out, against 6.90 % and 10.8 %) but its grower (no height
-        tolerance, 0.5 m pre-filter tolerance) calls 11.6 % of the object points
-        of the synthetic scene at 10 points/m^2 ground (this set: 1.2 %), so it is
-        not the default; ``benchmarks/RESULTS.md``. `overrides` replace single fields.
+        Chosen by ``benchmarks/studies/ground_isprs.py --search`` (a coordinate
+        descent over the growth's and the pre-filter's slopes, the cell size and
+        the final pass, from the definition with every option on at a middle
+        value) with the "resolution" rule: ``cell_size`` follows the point
+        spacing (unset: at most 2 spacings, :attr:`SPACING_MULTIPLES`), the
+        final pass's 4 m cell and the 30 m blocks stay in metres. Among the
+        rules for the lengths (every one in metres, every one in spacings, only
+        the cell) it has the lowest leave-one-sample-out error on the seven
+        ISPRS samples: 4.64 % fitted, 5.15 % cross-validated (kappa 0.838),
+        against 6.03 % for the same search with 3 m cells and 10.8 % for the
+        former default (``benchmarks/studies/ground_isprs_cv.py``). With cells
+        in metres its grower took objects on dense data; with the cell
+        following the spacing it holds from 2 to 20 points per m^2
+        (``benchmarks/studies/ground_density.py``; scores in
+        ``benchmarks/RESULTS.md``). `overrides` replace single fields.
 
         Examples
         --------
@@ -159,36 +230,39 @@ def grid_ground(
         building. Default 30 m.
     cell_size : float or sequence of 2 floats, optional
         Cell edge length (bx, by) in metres, at most `block_size`. A point
-        links to points of its own and the 8 neighbouring cells. Default 3 m.
+        links to points of its own and the 8 neighbouring cells. Default: unset,
+        per axis ``block_size / k`` with k the smallest whole number that makes
+        it at most 2 point spacings (:func:`pcl_rg.point_spacing`): 2 m on the
+        urban ISPRS samples' 1 m spacing, 0.5 m at 0.25 m.
     slope : float, optional
         S, tangent of the steepest terrain slope (>= 0). Default 0.3.
     height_tolerance : float, optional
         t, height difference in metres always allowed between linked points
-        (>= 0). Default 0.3 m (0 in the seed's pure slope rule).
+        (>= 0). Default 0, the seed's pure slope rule.
     min_seed_component : int, optional
         Robust seed against low outliers (>= 1): the seed of a block is its
         lowest point whose connected component holds at least this many
-        points; 1 takes the lowest point as the definition does. Default 30.
+        points; 1 takes the lowest point as the definition does. Default 10.
     grow_across_blocks : bool, optional
         Let links join points of neighbouring blocks; seeds stay one per
         block and ground is the union of their components. Default True
         (False in the definition).
     filter_passes : int, optional
         Passes of a slope pre-filter (>= 0; 0 = off, as in the definition).
-        Default 3.
+        Default 2.
     filter_slope : float, optional
         The pre-filter drops a point lying higher than a point of its 3 x 3
-        cells by more than ``filter_slope * d + filter_tolerance``. Default 1.
+        cells by more than ``filter_slope * d + filter_tolerance``. Default 0.7.
     filter_tolerance : float, optional
-        Metres; see `filter_slope`. Default 0.3 m.
+        Metres; see `filter_slope`. Default 0.5 m.
     final_cell : float, optional
         Metres (>= 0; 0 = off, as in the definition). Final pass: a TIN is
         built from the lowest ground point of each ``final_cell`` cell, and
         every point is classified again by its height above it (see Notes).
-        Default 0 (off).
+        Default 4 m.
     final_above : float, optional
         Metres: with the final pass, a point up to this high above the TIN is
-        ground on flat terrain. Default 0.5 m.
+        ground on flat terrain. Default 0.8 m.
     final_below : float, optional
         Metres: with the final pass, a point down to this deep below the TIN
         is ground. Default 1 m.
@@ -221,14 +295,16 @@ def grid_ground(
     multiples of block_size in world coordinates so that tiles of a survey
     share one lattice: a tile cut at block boundaries has the blocks it has in
     the merged cloud. Cells start at the same corner, so they line up across
-    tiles too whenever block_size is a whole multiple of cell_size (as for
-    the defaults, 30 and 3). Let ``l = p - o`` be the points in float64 local
-    coordinates, with ``o_x, o_y`` the block corner at or below the input's
-    minimum corner, ``floor(min / block_size) * block_size`` per axis (one
-    block lower where rounding puts that above the minimum), and ``o_z`` the
-    minimum z. A translation by whole blocks leaves the blocks, the cells and,
-    up to float64 rounding, the result unchanged; any other may move block and
-    cell boundaries through the points.
+    tiles too whenever block_size is a whole multiple of cell_size (as an
+    unset cell_size always is, though tiles of different spacings may get
+    different cells: fix them with :meth:`GridGroundParams.at_spacing`). Let
+    ``l = p - o`` be the points in float64 local coordinates, with ``o_x, o_y``
+    the block corner at or below the input's minimum corner,
+    ``floor(min / block_size) * block_size`` per axis (one block lower where
+    rounding puts that above the minimum), and ``o_z`` the minimum z. A
+    translation by whole blocks leaves the blocks, the cells and, up to float64
+    rounding, the result unchanged; any other may move block and cell
+    boundaries through the points.
 
     1. Block of a point: ``floor(l_xy / block_size)``; cell:
        ``floor(l_xy / cell_size)``, both per axis in float64. Two points are
@@ -240,8 +316,8 @@ def grid_ground(
        connected component through the links is ground, everything else is
        object.
 
-    Options, measured on the ISPRS samples and, but for the final pass, on by
-    default (each lowers the mean total error there;
+    Options, measured on the ISPRS samples and on by default (each lowers the
+    mean total error there;
     ``benchmarks/studies/ground_isprs.py``):
 
     * ``min_seed_component = m > 1``: the seed is the lowest point whose
@@ -256,7 +332,7 @@ def grid_ground(
       ``l_z(p) - l_z(q) > filter_slope * d + filter_tolerance``. In pass 1
       every point counts as q; in each further pass only the ground of the
       previous pass does, and the growth is repeated.
-    * ``final_cell = c > 0`` (off by default; a final pass, as TerraScan classifies points by
+    * ``final_cell = c > 0`` (a final pass, as TerraScan classifies points by
       their distance to the ground TIN, with Zhao et al. 2016's
       slope-adaptive threshold): the lowest ground point of each c x c cell
       (anchored on the world lattice of c) is a vertex of a Delaunay TIN
@@ -267,6 +343,9 @@ def grid_ground(
       point. A grower's ground that took low objects along gets the lower
       surface of its cells' minima, and terrain points the growth missed
       join it.
+
+    ``collect_diagnostics()`` reports the spacing an unset cell size took
+    (``point_spacing``, NaN when cell_size was given) and the ``cell_size`` used.
 
     Links are symmetric, so the result does not depend on the visiting
     order; the C++ core (a counting sort into a flat CSR cell grid, a
@@ -305,4 +384,6 @@ def grid_ground(
     """
     p = resolve_arguments(GridGroundParams, locals())
     xyz = as_points(points)
-    return _core.grid_ground(xyz, p.to_core())
+    ground, stats = _core.grid_ground(xyz, p.to_core())
+    record("grid_ground", points=len(xyz), ground=int(ground.sum()), **stats)
+    return ground

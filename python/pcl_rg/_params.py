@@ -67,6 +67,8 @@ class Spec:
     """Number of per-axis values; one number is broadcast to all of them."""
     bits: int = 64
     """Width of the C++ signed integer an int parameter is stored in."""
+    optional: bool = False
+    """None is a value too: "unset" (a std::optional in C++), filled in by the algorithm."""
 
     def rule(self) -> str:
         """The bounds in words, the same words the C++ checks use."""
@@ -111,19 +113,22 @@ def param(
     axes: int | None = None,
     kind: type | None = None,
     bits: int = 64,
+    optional: bool = False,
 ) -> Any:
     """A dataclass field declaring one parameter (see the module docstring).
 
-    `kind` defaults to the type of `default` (float for per-axis values).
+    `kind` defaults to the type of `default` (float for per-axis values). With
+    `optional`, None is admitted as "unset" (the C++ field is a std::optional); the
+    docstring of the field says what the algorithm then uses.
     """
     if kind is None:
         if axes is not None:
             kind = float
-        elif default is dataclasses.MISSING:
+        elif default is dataclasses.MISSING or default is None:
             raise TypeError("param() needs kind= when there is no default")
         else:
             kind = type(default)
-    spec = Spec(kind, help, unit, minimum, above, maximum, below, choices, axes, bits)
+    spec = Spec(kind, help, unit, minimum, above, maximum, below, choices, axes, bits, optional)
     return dataclasses.field(default=default, metadata={_SPEC: spec, "help": help})
 
 
@@ -190,6 +195,8 @@ def _per_axis(name: str, value: Any, spec: Spec) -> tuple[float, ...]:
 
 def check_value(name: str, value: Any, spec: Spec) -> Any:
     """`value` converted to the parameter's kind, or TypeError/ValueError."""
+    if value is None and spec.optional:
+        return None
     if spec.axes is not None:
         return _per_axis(name, value, spec)
     if spec.kind is bool:

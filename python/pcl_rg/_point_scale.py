@@ -61,6 +61,12 @@ def point_scale(points: npt.ArrayLike) -> PointScale:
     defaults of :func:`pcl_rg.convex_segmentation` and of the automatic
     voxel size of :func:`pcl_rg.pipeline.seed004`.
 
+    Not to be confused with :func:`pcl_rg.point_spacing`, the 2-D mean XY
+    spacing (occupied area per point) that the airborne ground filters
+    (:func:`pcl_rg.tin_ground`, :func:`pcl_rg.grid_ground`) scale their unset
+    lengths with: this spacing is 3-D, a median nearest-neighbour distance on
+    a scanned surface, and comes with its noise.
+
     Examples
     --------
     >>> import numpy as np

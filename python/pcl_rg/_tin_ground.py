@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import dataclasses
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any
+from types import MappingProxyType
+from typing import Any, ClassVar
 
 import numpy as np
 import numpy.typing as npt
@@ -14,6 +17,7 @@ from ._docstrings import fill_docstring
 from ._final_pass import final_pass_param
 from ._params import (
     check_fields,
+    check_number,
     deprecated_preset,
     param,
     preset,
@@ -34,7 +38,32 @@ class TinGroundParams:
     samples, which gives a complete ground class at 1-20 pts/m^2;
     :meth:`lidar360` is LiDAR360's own set (the seed's definition), which keeps
     only a sparse key-point set as ground on such data (see the README).
+
+    The four lengths that depend on the point spacing, ``stop_edge``,
+    ``near_vertex_distance``, ``seed_cell`` and ``final_cell``, are None
+    ("unset") by default: each call then takes
+    ``min(SPACING_CAPS[name], SPACING_MULTIPLES[name] * spacing)`` with the
+    spacing of its points (:func:`pcl_rg.point_spacing`, 1 m where that is
+    undefined). The caps are the lengths chosen on the ISPRS samples (2, 1, 2 and
+    3 m) and each multiple is its cap / 0.95 m, so data as sparse as those
+    samples (spacing 0.99-2.41 m) gets exactly the ISPRS lengths, and denser
+    data gets them in proportion to its spacing (0.5 m spacing: 1.05, 0.53, 1.05
+    and 1.58 m). A number fixes the length; 0 still switches
+    ``near_vertex_distance``, ``seed_cell`` and ``final_cell`` off. The spacing
+    and the lengths a call used are in :func:`pcl_rg.collect_diagnostics`;
+    :meth:`at_spacing` fixes them ahead (for example once for all tiles of a
+    survey).
     """
+
+    SPACING_CAPS: ClassVar[Mapping[str, float]] = MappingProxyType(
+        {"stop_edge": 2.0, "near_vertex_distance": 1.0, "seed_cell": 2.0, "final_cell": 3.0}
+    )
+    """The unset lengths' largest values, m: the ISPRS preset's (C++: kTin*Cap)."""
+    SPACING_MULTIPLES: ClassVar[Mapping[str, float]] = MappingProxyType(
+        {name: cap / 0.95 for name, cap in SPACING_CAPS.items()}
+    )
+    """Multiples of the point spacing the unset lengths take below their caps (C++:
+    kTin*PerSpacing, each cap / kTinFullLengthSpacing = 0.95 m)."""
 
     max_building_size: float = param(
         40.0,
@@ -73,28 +102,37 @@ class TinGroundParams:
         "iteration_angle * L / reduce_angle_edge (LiDAR360 Reduce Iteration Angle When Edge "
         "Length <)",
     )
-    stop_edge: float = param(
-        1.0,
+    stop_edge: float | None = param(
+        None,
+        kind=float,
+        optional=True,
         above=0.0,
         unit="m",
         help="triangles whose longest edge is shorter accept ground points without inserting "
-        "them (LiDAR360 Stop Triangulation When Edge Length <)",
+        "them (LiDAR360 Stop Triangulation When Edge Length <); unset: min(2 m, 2.1 x the point "
+        "spacing)",
     )
-    near_vertex_distance: float = param(
-        1.0,
+    near_vertex_distance: float | None = param(
+        None,
+        kind=float,
+        optional=True,
         minimum=0.0,
         unit="m",
         help="improvement (0: off): in the angle test a point's distance to a vertex counts "
         "as at least this much, so points (nearly) above a vertex are judged by their "
-        "distance to the plane (helps on coarse or repeated XY)",
+        "distance to the plane (helps on coarse or repeated XY); unset: min(1 m, 1.05 x the "
+        "point spacing)",
     )
-    seed_cell: float = param(
-        2.0,
+    seed_cell: float | None = param(
+        None,
+        kind=float,
+        optional=True,
         minimum=0.0,
         unit="m",
         help="improvement (0: off): seeds are the lowest points of seed_cell cells lying "
         "within seed_tolerance of the grey opening of those heights by a max_building_size "
-        "window (dense seeds, none on roofs; after Zhao et al. 2016)",
+        "window (dense seeds, none on roofs; after Zhao et al. 2016); unset: min(2 m, 2.1 x "
+        "the point spacing)",
     )
     seed_tolerance: float = param(
         0.5,
@@ -109,7 +147,7 @@ class TinGroundParams:
         help="improvement (0: off; with seed_cell): a cell more than this below the 9th "
         "lowest of its 5 x 5 cells gives no seed (low outliers)",
     )
-    final_cell: float = final_pass_param("final_cell", 3.0)
+    final_cell: float | None = final_pass_param("final_cell", None, optional=True)
     final_above: float = final_pass_param("final_above", 0.5)
     final_below: float = final_pass_param("final_below", 5.0)
     final_slope: float = final_pass_param("final_slope", 1.0)
@@ -117,19 +155,59 @@ class TinGroundParams:
     def __post_init__(self) -> None:
         check_fields(self)
 
+    def at_spacing(self, spacing: float) -> TinGroundParams:
+        """These parameters with every unset length set for a point spacing.
+
+        Parameters
+        ----------
+        spacing : float
+            Metres (> 0), e.g. ``pcl_rg.point_spacing(points)``.
+
+        Returns
+        -------
+        TinGroundParams
+            A copy in which each length that was None is
+            ``min(SPACING_CAPS[name], SPACING_MULTIPLES[name] * spacing)``; a call
+            with it gives what a call with these parameters gives on points of
+            that spacing.
+
+        Examples
+        --------
+        >>> from pcl_rg import TinGroundParams
+        >>> TinGroundParams().at_spacing(2.0) == TinGroundParams(
+        ...     stop_edge=2.0, near_vertex_distance=1.0, seed_cell=2.0, final_cell=3.0
+        ... )  # ISPRS density: the caps
+        True
+        >>> dense = TinGroundParams().at_spacing(0.25)  # 16 points per m^2
+        >>> [round(v, 3) for v in (dense.stop_edge, dense.seed_cell, dense.final_cell)]
+        [0.526, 0.526, 0.789]
+        """
+        spacing = check_number("spacing", spacing, float, above=0.0)
+        unset = {
+            name: min(self.SPACING_CAPS[name], multiple * spacing)
+            for name, multiple in self.SPACING_MULTIPLES.items()
+            if getattr(self, name) is None
+        }
+        return dataclasses.replace(self, **unset) if unset else self
+
     @preset
     def isprs(cls, **overrides: Any) -> TinGroundParams:
         """The defaults: one set chosen on the seven ISPRS samples (mean total error).
 
-        Chosen by ``benchmarks/studies/tin_isprs_params.py``; the scores are in
-        ``benchmarks/RESULTS.md``. Against :meth:`lidar360` it switches the angle
-        reduction off (no ISPRS triangle has a longest edge under 1 cm), stops
-        densifying below 1 m edges instead of 2 m, and switches the four
-        improvements on. The search has two stages: the densification's fields,
-        then the final pass's on the densification chosen; the final pass is on
-        because it lowers the leave-one-sample-out error, not only the fitted one
-        (``benchmarks/studies/ground_isprs_cv.py``). `overrides` replace single
-        fields.
+        Chosen by ``benchmarks/studies/tin_isprs_params.py`` (two stages: the
+        densification's fields, then the final pass's on the densification
+        chosen); the scores are in ``benchmarks/RESULTS.md``. Against
+        :meth:`lidar360` it switches the angle reduction off (no ISPRS triangle
+        has a longest edge under 1 cm), keeps its 2 m stop edge (the final pass
+        completes the ground below it), and switches the four improvements on. On the seven ISPRS
+        samples it scores 3.33 % fitted and 4.25 % left one sample out
+        (``benchmarks/studies/ground_isprs_cv.py``). Searches whose lengths
+        follow the point spacing did no better there (every length in spacings
+        5.63 %, stop edge and near-vertex distance only 4.28 %), so the lengths
+        are those fitted on ISPRS wherever the data are as sparse (spacing of
+        at least 0.95 m) and shrink in proportion to the spacing on denser data
+        (:attr:`SPACING_CAPS`, :attr:`SPACING_MULTIPLES`; the four are unset
+        here). `overrides` replace single fields.
 
         Examples
         --------
@@ -212,28 +290,29 @@ def tin_ground(
         Degrees in (0, 90] (default 30; LiDAR360 8): largest angle between the triangle's
         plane and the lines from its vertices to an accepted point.
     iteration_distance : float, optional
-        Metres (default 1.4): largest distance from an accepted point to its
+        Metres (default 1.4, as LiDAR360): largest distance from an accepted point to its
         triangle's plane.
     reduce_angle_edge : float, optional
         Metres (default 0.01; LiDAR360 5): in a triangle whose longest XY edge L is shorter, the
         angle limit is ``iteration_angle * L / reduce_angle_edge``.
     stop_edge : float, optional
-        Metres (default 1; LiDAR360 2): a triangle whose longest XY edge is shorter accepts
-        ground points but does not get them inserted, which bounds the TIN's
-        density.
+        Metres (default: unset, min(2 m, 2.1 x the point spacing); LiDAR360 2): a
+        triangle whose longest XY edge is shorter accepts ground points but does
+        not get them inserted, which bounds the TIN's density.
     near_vertex_distance : float, optional
-        Metres (default 1; 0 is Axelsson's test, LiDAR360's). An improvement for data with
-        coarse or repeated XY: in the angle test the distance from the point to a
-        vertex counts as at least this much, so a point (nearly) above a vertex is
-        accepted when ``d <= sin(limit) * near_vertex_distance`` instead of being
-        judged by an angle close to 90 degrees minus the slope.
+        Metres (default: unset, min(1 m, 1.05 x the point spacing); 0 is Axelsson's test,
+        LiDAR360's). An improvement for data with coarse or repeated XY: in the
+        angle test the distance from the point to a vertex counts as at least
+        this much, so a point (nearly) above a vertex is accepted when
+        ``d <= sin(limit) * near_vertex_distance`` instead of being judged by an
+        angle close to 90 degrees minus the slope.
     seed_cell : float, optional
-        Metres (default 2; 0: one seed per ``max_building_size`` cell, LiDAR360). An
-        improvement after Zhao et al. 2016: the lowest point of every
-        ``seed_cell`` cell is a seed when it lies at most ``seed_tolerance`` above
-        the grey opening of those lowest heights by a square window of
-        ``max_building_size``, which gives dense seeds on open terrain and none
-        on roofs.
+        Metres (default: unset, min(2 m, 2.1 x the point spacing); 0: one seed per
+        ``max_building_size`` cell, LiDAR360). An improvement after Zhao et al.
+        2016: the lowest point of every ``seed_cell`` cell is a seed when it lies
+        at most ``seed_tolerance`` above the grey opening of those lowest heights
+        by a square window of ``max_building_size``, which gives dense seeds on
+        open terrain and none on roofs.
     seed_tolerance : float, optional
         Metres (default 0.5): see ``seed_cell``.
     outlier_depth : float, optional
@@ -242,8 +321,9 @@ def tin_ground(
         5 x 5 window gives no seed; repeated until none is found, so clusters
         of low outliers (multipath) are peeled from the rim in.
     final_cell : float, optional
-        Metres (default 3; 0: off). An improvement after TerraScan's practice of
-        classifying the points close to the final ground TIN: a TIN is built
+        Metres (default: unset, min(3 m, 3.16 x the point spacing); 0: off). An
+        improvement after TerraScan's practice of classifying the points close
+        to the final ground TIN: a TIN is built
         from the lowest ground point of each ``final_cell`` cell (anchored on
         the world lattice of that size), and every point is ground when
         ``-final_below <= z - z_TIN <= final_above + final_slope * g``, with
@@ -304,8 +384,16 @@ def tin_ground(
     The defaults are the :meth:`TinGroundParams.isprs` preset, the one set
     chosen on the seven ISPRS samples, with the four improvements
     (``near_vertex_distance``, ``seed_cell``, ``outlier_depth``, ``final_cell``)
-    on; its scores
-    are in ``benchmarks/RESULTS.md``. :meth:`TinGroundParams.lidar360` is
+    on; its scores are in ``benchmarks/RESULTS.md``. The lengths ``stop_edge``,
+    ``near_vertex_distance``, ``seed_cell`` and ``final_cell`` are unset there:
+    each call takes the ISPRS preset's lengths (2, 1, 2, 3 m) where the mean
+    spacing of its points (:func:`pcl_rg.point_spacing`, 2-D, airborne; 1 m
+    where undefined) is at least 0.95 m, and shorter ones in proportion to the
+    spacing on denser data (:class:`TinGroundParams`), so the preset keeps its
+    ISPRS results and works at 20 points per m^2 too.
+    ``collect_diagnostics()`` reports the spacing (``point_spacing``, NaN when
+    every length was given) and the four lengths used.
+    :meth:`TinGroundParams.lidar360` is
     LiDAR360's own set: with an 8 degree angle, reduced below 5 m edges, few
     objects but much ground is missed on 1-3 m spaced data.
 

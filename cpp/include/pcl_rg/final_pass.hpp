@@ -2,6 +2,8 @@
 // filter's ground (TerraScan's "classify by distance to ground TIN"), shared by the filters.
 #pragma once
 
+#include <optional>
+
 #include "pcl_rg/points.hpp"
 
 namespace pcl_rg {
@@ -20,11 +22,17 @@ struct FinalPassParams {
     double slope = 1.0;
 };
 
+/// A setting's value; a filter's unset (std::nullopt) final_cell reads as 0, which passes
+/// validate: the filter fills it in from the point spacing before the pass runs.
+inline double final_setting(double value) { return value; }
+inline double final_setting(const std::optional<double>& value) { return value.value_or(0.0); }
+
 /// The final pass's settings of a filter's params (fields final_cell, final_above,
 /// final_below, final_slope).
 template <class FilterParams>
 FinalPassParams final_pass_params(const FilterParams& params) {
-    return {params.final_cell, params.final_above, params.final_below, params.final_slope};
+    return {final_setting(params.final_cell), params.final_above, params.final_below,
+            params.final_slope};
 }
 
 /// Throws std::invalid_argument when a setting is out of range, naming it as the filters

@@ -74,7 +74,8 @@ struct CellGrid {
 };
 
 /// Steps 1 and 2: block and cell of every point (local coordinates l = p - origin),
-/// and the counting sorts. `extent` is the largest l in x and y.
+/// and the counting sorts. `extent` is the largest l in x and y; `params` must have
+/// cell_size set (grid_ground passes with_spacing(...)).
 CellGrid build_grid(PointsView points, const GridGroundParams& params,
                     const std::array<double, 3>& origin, const std::array<double, 2>& extent);
 

@@ -3,15 +3,23 @@
 
 #include <array>
 #include <cstdint>
+#include <optional>
 
 #include "pcl_rg/points.hpp"
 
 namespace pcl_rg {
 
-/// Defaults were chosen once by the mean total error over the seven ISPRS samples
-/// (benchmarks/studies/ground_isprs.py --search). The definition of algorithms.md section 3 is
-/// min_seed_component = 1, grow_across_blocks = false, filter_passes = 0, and its pure
-/// slope rule height_tolerance = 0.
+/// Defaults are GridGroundParams.isprs(): the pick of benchmarks/studies/ground_isprs.py
+/// --search --rule resolution over the seven ISPRS samples (mean total error; chosen
+/// among the rules by leave-one-sample-out error, ground_isprs_cv.py). The definition of
+/// algorithms.md section 3 is min_seed_component = 1, grow_across_blocks = false,
+/// filter_passes = 0, final_cell = 0, and its pure slope rule height_tolerance = 0.
+/// The multiple of the point spacing an unset cell_size is at most (see cell_size);
+/// chosen with the other defaults on the seven ISPRS samples (benchmarks/studies/
+/// ground_isprs.py --search, cross-validated by ground_isprs_cv.py). Python mirror:
+/// GridGroundParams.SPACING_MULTIPLES.
+inline constexpr double kGridCellPerSpacing = 2.0;
+
 struct GridGroundParams {
     /// Block edge lengths along x, y (> 0, m): one seed per block; should exceed the
     /// largest building. Blocks are anchored at multiples of block_size in world
@@ -20,17 +28,19 @@ struct GridGroundParams {
     /// Cell edge lengths along x, y (> 0, m, at most the block size): links reach the
     /// 3 x 3 cells around a point. Cells start at the block corner below the input's
     /// minimum corner, so they line up across tiles when block_size is a whole
-    /// multiple of cell_size (as for the defaults, 30 and 3).
-    std::array<double, 2> cell_size{3.0, 3.0};
+    /// multiple of cell_size. Unset (the default): per axis block_size / k with k the
+    /// smallest whole number making the cell at most kGridCellPerSpacing x the point
+    /// spacing (point_spacing.hpp: spacing_or_one_metre), so cells always line up.
+    std::optional<std::array<double, 2>> cell_size;
     /// S, tangent of the steepest terrain (>= 0, finite): p, q are linked when
     /// |z_p - z_q| <= slope * d_xy(p, q) + height_tolerance.
     double slope = 0.3;
     /// t, height difference always allowed between linked points (>= 0, finite, m).
-    double height_tolerance = 0.3;
+    double height_tolerance = 0.0;
     /// Robust seed (>= 1): the seed is the lowest point of the block whose connected
     /// component holds at least this many points (1: the lowest point, the seed's rule).
     /// When no component is that large the lowest point's component is ground.
-    std::int64_t min_seed_component = 30;
+    std::int64_t min_seed_component = 10;
     /// Links also join points of different blocks (cells still 3 x 3); the seeds stay
     /// one per block and ground is the union of their components.
     bool grow_across_blocks = true;
@@ -38,17 +48,17 @@ struct GridGroundParams {
     /// higher than some point q of its 3 x 3 cells (any block) by more than
     /// filter_slope * d_xy + filter_tolerance; pass k > 1 tests only against the ground
     /// of pass k - 1. Dropped points are object and never link; the growth runs per pass.
-    std::int64_t filter_passes = 3;
+    std::int64_t filter_passes = 2;
     /// Slope of the pre-filter (>= 0, finite).
-    double filter_slope = 1.0;
+    double filter_slope = 0.7;
     /// Height tolerance of the pre-filter (>= 0, finite, m).
-    double filter_tolerance = 0.3;
+    double filter_tolerance = 0.5;
     /// Final pass (0: off): cell (m, >= 0) of a TIN of the lowest ground point per cell;
     /// every point is then ground when -final_below <= z - z_TIN <= final_above +
     /// final_slope * |grad z_TIN| (final_pass.hpp; TerraScan, Zhao et al. 2016).
-    double final_cell = 0.0;
+    double final_cell = 4.0;
     /// Height above the final TIN up to which a point is ground on flat terrain (m, >= 0).
-    double final_above = 0.5;
+    double final_above = 0.8;
     /// Depth below the final TIN down to which a point is ground (m, >= 0).
     double final_below = 1.0;
     /// Allowance per unit of the final TIN's gradient (m, >= 0).
@@ -57,6 +67,15 @@ struct GridGroundParams {
 
 /// Throws std::invalid_argument naming the parameter when a value is out of range.
 void validate(const GridGroundParams& params);
+
+/// `params` with cell_size, when unset, set from `spacing` (m, > 0) as stated there.
+GridGroundParams with_spacing(const GridGroundParams& params, double spacing);
+
+/// What a run used, for diagnostics.
+struct GridGroundStats {
+    double point_spacing = 0.0;         ///< spacing cell_size took (m; NaN: it was given)
+    std::array<double, 2> cell_size{};  ///< the cell size used (m)
+};
 
 /// Fills `ground[i]` (N entries) with the ground mask of algorithms.md section 3 and the
 /// options above. In float64 local coordinates l = p - o, with o_x, o_y the block corner
@@ -69,6 +88,8 @@ void validate(const GridGroundParams& params);
 /// order; dx, dy differences of local coordinates). Ground is the union of the connected
 /// components of the blocks' seeds. Parallel (OpenMP) and deterministic: the result
 /// depends on the point order only through the tie rule of the seed (lowest index).
-void grid_ground(PointsView points, const GridGroundParams& params, bool* ground);
+/// `stats`, when given, receives the spacing and cell size used.
+void grid_ground(PointsView points, const GridGroundParams& params, bool* ground,
+                 GridGroundStats* stats = nullptr);
 
 }  // namespace pcl_rg

@@ -3,14 +3,35 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 
 #include "pcl_rg/points.hpp"
 
 namespace pcl_rg {
 
+/// The lengths left unset take min(cap, multiple x the point spacing) (point_spacing.hpp:
+/// spacing_or_one_metre). The caps are the lengths of the ISPRS preset, fixed lengths
+/// chosen and cross-validated on the seven ISPRS samples (benchmarks/studies/
+/// tin_isprs_params.py, ground_isprs_cv.py: no rule that scales them did better there);
+/// each multiple is its cap / kTinFullLengthSpacing, so data as sparse as the ISPRS
+/// samples (0.99-2.41 m) keeps the preset's lengths and denser data gets them in
+/// proportion to its spacing. Python mirror: TinGroundParams.SPACING_CAPS and
+/// SPACING_MULTIPLES.
+inline constexpr double kTinFullLengthSpacing = 0.95;
+inline constexpr double kTinStopEdgeCap = 2.0;
+inline constexpr double kTinNearVertexCap = 1.0;
+inline constexpr double kTinSeedCellCap = 2.0;
+inline constexpr double kTinFinalCellCap = 3.0;
+inline constexpr double kTinStopEdgePerSpacing = kTinStopEdgeCap / kTinFullLengthSpacing;
+inline constexpr double kTinNearVertexPerSpacing = kTinNearVertexCap / kTinFullLengthSpacing;
+inline constexpr double kTinSeedCellPerSpacing = kTinSeedCellCap / kTinFullLengthSpacing;
+inline constexpr double kTinFinalCellPerSpacing = kTinFinalCellCap / kTinFullLengthSpacing;
+
 /// The defaults are Python's TinGroundParams.isprs() preset (chosen on the ISPRS
 /// samples); TinGroundParams.lidar360() is LiDAR360's own set: 20, 88, 8, 1.4, 5, 2 and
-/// the improvements off.
+/// the improvements off. The four lengths that depend on the point spacing are unset
+/// (std::nullopt) by default: each call then takes them from the spacing of its points
+/// (the constants above).
 struct TinGroundParams {
     /// Seed-grid cell (m, > 0): the lowest point of each cell is a seed. LiDAR360 "Max
     /// Building Size"; must exceed the largest building, or its flat roof becomes ground.
@@ -31,19 +52,22 @@ struct TinGroundParams {
     /// Edge Length <".
     double reduce_angle_edge = 0.01;
     /// Triangles whose longest XY edge is shorter (m, > 0) accept ground points without
-    /// inserting them. LiDAR360 "Stop Triangulation When Edge Length <".
-    double stop_edge = 1.0;
+    /// inserting them. LiDAR360 "Stop Triangulation When Edge Length <". Unset:
+    /// min(kTinStopEdgeCap, kTinStopEdgePerSpacing x the point spacing).
+    std::optional<double> stop_edge;
     /// Improvement (0: off): in the angle test the 3-D distance from a point
     /// to a vertex counts as at least this much (m, >= 0), so a point (nearly) above a
     /// vertex is judged by its distance to the plane, d <= sin(limit) * this, instead
     /// of an angle near 90 deg minus the slope. Helps on data with coarse or repeated XY.
-    double near_vertex_distance = 1.0;
+    /// Unset: min(kTinNearVertexCap, kTinNearVertexPerSpacing x the point spacing).
+    std::optional<double> near_vertex_distance;
     /// Improvement (0: off): seeds from a morphological opening instead of
     /// one per max_building_size cell. The lowest point of every seed_cell cell (m, >= 0)
     /// is a seed when it lies at most seed_tolerance above the grey opening of the
     /// cells' lowest heights by a square window of max_building_size, in the manner of
     /// Zhao et al. 2016's morphological seeds: dense seeds on open terrain, none on roofs.
-    double seed_cell = 2.0;
+    /// Unset: min(kTinSeedCellCap, kTinSeedCellPerSpacing x the point spacing).
+    std::optional<double> seed_cell;
     /// Height above the opened surface up to which a seed_cell cell's lowest point is a
     /// seed (m, >= 0); used only when seed_cell > 0.
     double seed_tolerance = 0.5;
@@ -54,8 +78,9 @@ struct TinGroundParams {
     /// Final pass (0: off): cell (m, >= 0) of a TIN of the lowest ground point per cell;
     /// every point is then ground when -final_below <= z - z_TIN <= final_above +
     /// final_slope * |grad z_TIN| (final_pass.hpp; TerraScan, Zhao et al. 2016), so ground
-    /// is complete below the stop edge.
-    double final_cell = 3.0;
+    /// is complete below the stop edge. Unset: min(kTinFinalCellCap,
+    /// kTinFinalCellPerSpacing x the point spacing).
+    std::optional<double> final_cell;
     /// Height above the final TIN up to which a point is ground on flat terrain (m, >= 0).
     double final_above = 0.5;
     /// Depth below the final TIN down to which a point is ground (m, >= 0).
@@ -76,7 +101,15 @@ struct TinGroundStats {
     double prepare_seconds = 0.0;         ///< snapping, spatial sort, seeds
     double triangulation_seconds = 0.0;   ///< Delaunay insertions
     double classification_seconds = 0.0;  ///< point location and acceptance tests
+    double point_spacing = 0.0;         ///< spacing the unset lengths took (m; NaN: all were given)
+    double stop_edge = 0.0;             ///< the lengths used (m): given, or from the spacing
+    double near_vertex_distance = 0.0;  ///< (see stop_edge)
+    double seed_cell = 0.0;             ///< (see stop_edge)
+    double final_cell = 0.0;            ///< (see stop_edge)
 };
+
+/// `params` with every unset length set from `spacing` (m, > 0) as stated there.
+TinGroundParams with_spacing(const TinGroundParams& params, double spacing);
 
 /// Fills `ground[i]` for every point (true: ground). Empty input is fine; 1 or 2
 /// points, or points all collinear in XY, throw std::invalid_argument.

@@ -15,6 +15,7 @@ namespace pcl_rg {
 /// The seeds of tin_ground, sorted by index: the lowest point of each max_building_size
 /// cell, or the morphological seeds when params.seed_cell > 0; the cells lie on the world
 /// lattice of their size. `origin` (the minimum corner) and `upper` bound the points' box.
+/// `params` must have seed_cell set (tin_ground passes with_spacing(...)).
 std::vector<std::uint32_t> tin_seeds(PointsView points, const TinGroundParams& params,
                                      const std::array<double, 3>& origin,
                                      const std::array<double, 3>& upper);

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import glob
+import math
 import os
 from collections.abc import Sequence
 from typing import NamedTuple
@@ -19,6 +20,7 @@ __all__ = [
     "neighbours",
     "output_paths",
     "survey_box",
+    "survey_spacing",
 ]
 
 
@@ -84,6 +86,18 @@ def output_paths(paths: Sequence[str], folder: str) -> list[str]:
 
 def box_of(extent: Extent) -> Box:
     return Box(extent.xmin, extent.ymin, extent.xmax, extent.ymax)
+
+
+def survey_spacing(extents: Sequence[Extent]) -> float:
+    """The nominal point spacing of a survey from its tiles' headers:
+    sqrt(sum of the tiles' XY box areas / their number of points), NaN when undefined.
+
+    The unset lengths of the ground filters take one spacing for all tiles from this,
+    so that every tile of a survey runs with the same parameters.
+    """
+    area = sum((e.xmax - e.xmin) * (e.ymax - e.ymin) for e in extents)
+    points = sum(e.points for e in extents)
+    return math.sqrt(area / points) if points and area > 0.0 else math.nan
 
 
 def grow(box: Box, margin: float) -> Box:

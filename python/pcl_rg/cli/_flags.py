@@ -81,6 +81,9 @@ class Flag(typing.NamedTuple):
 
 def _kind(annotation: Any) -> tuple[str, Any]:
     """(kind, detail) of a field type: int, float, bool, str, choice, axes."""
+    others = [a for a in typing.get_args(annotation) if a is not type(None)]
+    if len(others) == 1 and len(typing.get_args(annotation)) == 2:
+        annotation = others[0]  # an optional parameter: None is its default, "unset"
     origin = typing.get_origin(annotation)
     args = typing.get_args(annotation)
     if annotation is bool:
@@ -158,6 +161,8 @@ def show(value: Any) -> str:
         return ",".join(show(v) for v in value)
     if isinstance(value, float):
         return f"{value:g}"
+    if value is None:
+        return "unset"
     return str(value)
 
 

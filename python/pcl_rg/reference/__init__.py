@@ -17,6 +17,7 @@ from .convex_segmentation import convex_segmentation
 from .grid_ground import grid_ground
 from .normals import normals
 from .point_scale import point_scale
+from .point_spacing import point_spacing
 from .region_growing import region_growing
 from .statistical_outlier_removal import statistical_outlier_removal
 from .tin_ground import tin_ground
@@ -28,6 +29,7 @@ __all__ = [
     "lattice_floor",
     "normals",
     "point_scale",
+    "point_spacing",
     "region_growing",
     "statistical_outlier_removal",
     "tin_ground",

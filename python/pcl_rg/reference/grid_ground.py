@@ -15,6 +15,7 @@ from .._params import resolve_arguments
 from .._validation import as_points
 from ._final_pass import final_pass
 from ._lattice import lattice_floor
+from .point_spacing import spacing_or_one_metre
 
 __all__ = ["GridNeighbours", "grid_ground", "grid_neighbours"]
 
@@ -50,9 +51,12 @@ def grid_neighbours(points: npt.ArrayLike, params: GridGroundParams) -> GridNeig
     cell ``floor(l_xy / cell_size)``. The origin ``o`` is, on x and y, the corner
     of the world lattice of blocks at or below the minimum corner
     (:func:`lattice_floor`), and the minimum z, so blocks (and cells, when
-    block_size is a whole multiple of cell_size) line up across tiles.
+    block_size is a whole multiple of cell_size) line up across tiles. An unset
+    cell_size comes from the spacing of the points (``GridGroundParams.at_spacing``).
     """
     xyz = as_points(points)
+    if params.cell_size is None:
+        params = params.at_spacing(spacing_or_one_metre(xyz))
     lowest = xyz.min(axis=0)
     origin = np.array(
         [
@@ -165,6 +169,8 @@ def grid_ground(
     n = len(xyz)
     if n == 0:
         return np.empty(0, dtype=bool)
+    if p.cell_size is None:
+        p = p.at_spacing(spacing_or_one_metre(xyz))
     nb = grid_neighbours(xyz, p)
     candidate = np.ones(n, dtype=bool)
     ground = np.ones(n, dtype=bool)  # pass 1 tests against every point

@@ -1,0 +1,27 @@
+// Mean XY point spacing of a cloud: the length the density-aware defaults of the ground
+// filters scale with (TinGroundParams, GridGroundParams).
+#pragma once
+
+#include "pcl_rg/points.hpp"
+
+namespace pcl_rg {
+
+/// Mean XY spacing of the points (m): sqrt(M * c * c / N), the side of the square each
+/// point would have if the occupied area were shared evenly. With N the number of points
+/// and w, h the XY extent (max - min), the cells are squares of side
+/// c = max(3 * sqrt(w * h / N), max(w, h) / 65536) (9 points per cell if the box were
+/// evenly covered; the second term bounds the cell count of slim clouds) anchored at the
+/// minimum corner: cell = floor((x - xmin) / c), floor((y - ymin) / c) in float64, and M
+/// counts the cells that hold a point. Empty cells (water, gaps wider than about 3
+/// spacings, the outside of an irregular outline) do not count, so a half-empty tile has
+/// the spacing of its points, not of its box. Every return counts, so vegetation and
+/// walls make the spacing smaller than that of the ground alone. NaN when undefined:
+/// fewer than 2 points, or no XY area (w * h == 0: all on one line along x or y, such
+/// as a vertical wall). Deterministic, O(N); NumPy twin: pcl_rg.reference.point_spacing.
+double point_spacing(PointsView points);
+
+/// The spacing the unset lengths of the ground filters scale with: point_spacing, or
+/// 1 m where that is NaN (a cloud with no XY extent has no spacing to measure).
+double spacing_or_one_metre(PointsView points);
+
+}  // namespace pcl_rg
