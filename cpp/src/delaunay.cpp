@@ -132,9 +132,8 @@ Delaunay::Delaunay(std::int32_t width, std::int32_t height) {
                                     std::to_string(width) + " x " + std::to_string(height));
     xy_ = {{0, 0}, {width, 0}, {width, height}, {0, height}};
     // (0, 1, 2) and (0, 2, 3), both counter-clockwise, sharing the diagonal 0-2.
-    tri_ = {{{0, 1, 2}, {-1, 1, -1}}, {{0, 2, 3}, {-1, -1, 0}}};
+    tri_ = {{{0, 1, 2}, {-1, 1, -1}, stamp_, 0}, {{0, 2, 3}, {-1, -1, 0}, stamp_, 0}};
     vt_ = {0, 0, 0, 1};
-    ts_ = {stamp_, stamp_};
 }
 
 void Delaunay::reserve(std::size_t vertices) {
@@ -142,17 +141,16 @@ void Delaunay::reserve(std::size_t vertices) {
     xy_.reserve(vertices);
     vt_.reserve(vertices);
     tri_.reserve(2 * vertices);
-    ts_.reserve(2 * vertices);
 }
 
 void Delaunay::write(std::int32_t t, std::int32_t a, std::int32_t b, std::int32_t c,
                      std::int32_t na, std::int32_t nb, std::int32_t nc) {
-    tri_[t] = Triangle{{a, b, c}, {na, nb, nc}};
-    if (ts_[t] != stamp_) {
-        ts_[t] = stamp_;
-        touched_.push_back(t);
-    }
-    vt_[a] = vt_[b] = vt_[c] = t;
+    Triangle& tr = tri_[t];
+    if (tr.stamp != stamp_) touched_.push_back(t);
+    tr = Triangle{{a, b, c}, {na, nb, nc}, stamp_, 0};
+    // Every write puts the point being inserted first: only its entry is kept up to
+    // date (see vertex_triangle), which spares two scattered stores per write.
+    vt_[a] = t;
 }
 
 void Delaunay::relink(std::int32_t t, std::int32_t from, std::int32_t to) {
@@ -169,8 +167,8 @@ std::int32_t Delaunay::new_slot() {
     if (tri_.size() >= static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max()))
         throw std::length_error("Delaunay: too many triangles for 32-bit ids");
     const auto t = static_cast<std::int32_t>(tri_.size());
-    tri_.push_back(Triangle{{-1, -1, -1}, {-1, -1, -1}});
-    ts_.push_back(stamp_ - 1);  // so that write() lists it as touched
+    // Stamped stamp_ - 1, so that write() lists it as touched.
+    tri_.push_back(Triangle{{-1, -1, -1}, {-1, -1, -1}, stamp_ - 1, 0});
     return t;
 }
 
@@ -196,6 +194,15 @@ std::int32_t Delaunay::locate(std::int32_t x, std::int32_t y, std::int32_t start
         t = tr.n[cross];
     }
     throw std::logic_error("Delaunay: point location did not terminate");
+}
+
+bool Delaunay::holds(std::int32_t t, std::int32_t x, std::int32_t y) const {
+    const Triangle& tr = tri_[t];
+    for (int e = 0; e < 3; ++e) {
+        const Vertex a = xy_[tr.v[e == 2 ? 0 : e + 1]], b = xy_[tr.v[e == 0 ? 2 : e - 1]];
+        if (orient_perturbed(a.x, a.y, b.x, b.y, x, y) < 0) return false;
+    }
+    return true;
 }
 
 std::int32_t Delaunay::insert(std::int32_t x, std::int32_t y, std::int32_t start, bool* inserted) {

@@ -36,6 +36,7 @@
 #include <cstdint>
 #include <limits>
 #include <stdexcept>
+#include <utility>
 #include <vector>
 
 #include "pcl_rg/check.hpp"
@@ -56,9 +57,7 @@ void final_pass(PointsView points, const FinalPassParams& params, bool* ground) 
     if (n == 0) return;
     const Interruption interruption;
     const std::array<double, 3> origin = local_origin(points);
-    std::array<double, 3> upper = origin;
-    for (std::size_t i = 0; i < n; ++i)
-        for (int a = 0; a < 3; ++a) upper[a] = std::max(upper[a], points.coord(i, a));
+    const std::array<double, 3> upper = upper_corner(points, origin);
     const double ex = upper[0] - origin[0], ey = upper[1] - origin[1];
     if (!std::isfinite(ex) || !std::isfinite(ey) || !std::isfinite(upper[2] - origin[2]))
         throw std::invalid_argument("points: the extent is too large (not finite in float64)");
@@ -79,28 +78,66 @@ void final_pass(PointsView points, const FinalPassParams& params, bool* ground) 
         double z;
         std::uint32_t i;
     };
-    std::vector<Candidate> candidates;
-    for (std::size_t i = 0; i < n; ++i)
-        if (ground[i])
-            candidates.push_back({static_cast<std::int64_t>(
-                                      std::floor((points.coord(i, 0) - cell_x0) / params.cell)),
-                                  static_cast<std::int64_t>(
-                                      std::floor((points.coord(i, 1) - cell_y0) / params.cell)),
-                                  z_of(i), static_cast<std::uint32_t>(i)});
-    std::fill(ground, ground + n, false);
-    if (candidates.empty()) return;
+    const auto cell_of = [&](std::size_t i) {
+        return std::make_pair(
+            static_cast<std::int64_t>(std::floor((points.coord(i, 0) - cell_x0) / params.cell)),
+            static_cast<std::int64_t>(std::floor((points.coord(i, 1) - cell_y0) / params.cell)));
+    };
     auto lower = [](const Candidate& a, const Candidate& b) {
         return a.z < b.z || (a.z == b.z && a.i < b.i);
     };
-    std::sort(candidates.begin(), candidates.end(), [&](const Candidate& a, const Candidate& b) {
-        return a.cx < b.cx || (a.cx == b.cx && (a.cy < b.cy || (a.cy == b.cy && lower(a, b))));
-    });
+    const double ncx = std::floor((upper[0] - cell_x0) / params.cell) + 1.0;
+    const double ncy = std::floor((upper[1] - cell_y0) / params.cell) + 1.0;
     std::vector<Candidate> vertices;
-    for (std::size_t k = 0; k < candidates.size(); ++k)
-        if (k == 0 || candidates[k].cx != candidates[k - 1].cx ||
-            candidates[k].cy != candidates[k - 1].cy)
-            vertices.push_back(candidates[k]);
-    std::vector<Candidate>().swap(candidates);
+    if (ncx * ncy <= static_cast<double>(n)) {
+        // A dense grid of the cells, no larger than the cloud: the lowest per cell by a
+        // scan (each thread its share into its own grid when the grid is small, then
+        // merged); the lowest under a total order does not depend on the sharing.
+        const auto width = static_cast<std::int64_t>(ncy);
+        const auto cells = static_cast<std::size_t>(ncx * ncy);
+        std::vector<std::int64_t> lowest(cells, -1);
+        auto keep_lower = [&](std::int64_t& b, std::int64_t i) {
+            if (b < 0 || z_of(static_cast<std::size_t>(i)) < z_of(static_cast<std::size_t>(b)) ||
+                (z_of(static_cast<std::size_t>(i)) == z_of(static_cast<std::size_t>(b)) && i < b))
+                b = i;
+        };
+        const auto count = static_cast<std::int64_t>(n);
+#pragma omp parallel if (cells <= n / 8 && count > 65536)
+        {
+            std::vector<std::int64_t> mine(cells, -1);
+#pragma omp for schedule(static) nowait
+            for (std::int64_t i = 0; i < count; ++i) {
+                if (!ground[i]) continue;
+                const auto [cx, cy] = cell_of(static_cast<std::size_t>(i));
+                keep_lower(mine[static_cast<std::size_t>(cx * width + cy)], i);
+            }
+#pragma omp critical(pcl_rg_final_pass_lowest)
+            for (std::size_t k = 0; k < cells; ++k)
+                if (mine[k] >= 0) keep_lower(lowest[k], mine[k]);
+        }
+        for (const std::int64_t i : lowest)
+            if (i >= 0)
+                vertices.push_back(
+                    {0, 0, z_of(static_cast<std::size_t>(i)), static_cast<std::uint32_t>(i)});
+    } else {
+        std::vector<Candidate> candidates;
+        for (std::size_t i = 0; i < n; ++i)
+            if (ground[i]) {
+                const auto [cx, cy] = cell_of(i);
+                candidates.push_back({cx, cy, z_of(i), static_cast<std::uint32_t>(i)});
+            }
+        std::sort(candidates.begin(), candidates.end(),
+                  [&](const Candidate& a, const Candidate& b) {
+                      return a.cx < b.cx ||
+                             (a.cx == b.cx && (a.cy < b.cy || (a.cy == b.cy && lower(a, b))));
+                  });
+        for (std::size_t k = 0; k < candidates.size(); ++k)
+            if (k == 0 || candidates[k].cx != candidates[k - 1].cx ||
+                candidates[k].cy != candidates[k - 1].cy)
+                vertices.push_back(candidates[k]);
+    }
+    std::fill(ground, ground + n, false);
+    if (vertices.empty()) return;
     // Of vertices on one snapped XY, the lowest (ties: smallest index).
     for (Candidate& v : vertices) v.cx = gx[v.i], v.cy = gy[v.i];
     std::sort(vertices.begin(), vertices.end(), [&](const Candidate& a, const Candidate& b) {

@@ -1,6 +1,7 @@
 // The cell grid of the grid ground filter (see grid_cells.hpp and grid_ground.cpp).
 #include "pcl_rg/grid_cells.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "pcl_rg/interrupt.hpp"
@@ -57,7 +58,7 @@ CellGrid build_grid(PointsView points, const GridGroundParams& params,
                 grid.occupied.begin());
     }
 
-    // Stable counting sort by cell: within a cell, input order. Serial sweeps that miss
+    // Stable counting sort by cell: within a cell, input order (for now). Serial sweeps that miss
     // the cache: polled every few thousand points.
     const Interruption interruption;
     interruption.check_now();
@@ -90,6 +91,38 @@ CellGrid build_grid(PointsView points, const GridGroundParams& params,
         }
     }
     interruption.check();
+
+    // Within a cell, by height (ties: input index), for the slope pre-filter: it then
+    // meets a cell's low points first and stops at the first one it cannot fail against
+    // (and the links look only at heights within reach). Nothing else depends on the
+    // order within a cell (grid_ground.cpp). Sorted on the gathered copies, which lie
+    // together; without the pre-filter the sort costs more than it saves.
+    grid.by_height = params.filter_passes > 0;
+    const auto cell_count = static_cast<std::ptrdiff_t>(grid.by_height ? cells : 0);
+#pragma omp parallel if (parallel && grid.by_height)
+    {
+        std::vector<std::uint32_t> rank;
+        std::vector<Local> p;
+        std::vector<std::uint32_t> id;
+#pragma omp for schedule(dynamic, 1024)
+        for (std::ptrdiff_t c = 0; c < cell_count; ++c) {
+            const std::size_t begin = grid.start[c], size = grid.start[c + 1] - begin;
+            if (size < 2) continue;
+            rank.resize(size);
+            for (std::size_t k = 0; k < size; ++k) rank[k] = static_cast<std::uint32_t>(k);
+            const Local* local = grid.p.data() + begin;
+            const std::uint32_t* index = grid.id.data() + begin;
+            std::sort(rank.begin(), rank.end(), [&](std::uint32_t a, std::uint32_t b) {
+                return local[a].z < local[b].z || (local[a].z == local[b].z && index[a] < index[b]);
+            });
+            p.assign(local, local + size);
+            id.assign(index, index + size);
+            for (std::size_t k = 0; k < size; ++k) {
+                grid.p[begin + k] = p[rank[k]];
+                grid.id[begin + k] = id[rank[k]];
+            }
+        }
+    }
 
     // Blocks, numbered densely unless the block grid is far larger than the cloud.
     const std::int64_t nbx = grid_index(extent[0], params.block_size[0]) + 1;

@@ -27,9 +27,10 @@
 //
 // Speed: one stable counting sort of the points into a flat CSR cell grid (dense, or
 // sorted occupied cells when the extent is far larger than the cloud), so a point's
-// 3 x 3 cells are found in O(1); then the pre-filter in parallel over cells (a cell is
-// skipped when the point is within the tolerance of the cell's lowest point, which is
-// exact: no test in it can fail), and the link tests in parallel over blocks feeding a
+// 3 x 3 cells are found in O(1), each cell's points rising in height; then the
+// pre-filter in parallel over cells (it reads a cell's points from the lowest up and
+// stops at the first within the tolerance of the point, which is exact: no later test
+// in that cell can fail), and the link tests in parallel over blocks feeding a
 // lock-free union-find (Afforest: most pairs are never tested); seeds are picked per
 // block in parallel. The components, not a BFS from each seed, are computed because the
 // robust seed needs their sizes and growth across blocks merges them.
@@ -138,17 +139,6 @@ void slope_filter(const CellGrid& grid, const GridGroundParams& params,
     const double slope = params.filter_slope, tolerance = params.filter_tolerance;
     const bool parallel = grid.p.size() >= kGridParallelMin;
     const auto cells = static_cast<std::ptrdiff_t>(grid.cells());
-    // Lowest tested point per cell: if z_s - lowest <= tolerance no test in the cell can
-    // fail, since z_s - z_q <= z_s - lowest and slope * d + tolerance >= tolerance hold
-    // after rounding too (rounding is monotone).
-    std::vector<double> lowest(grid.cells());
-#pragma omp parallel for schedule(guided) if (parallel)
-    for (std::ptrdiff_t c = 0; c < cells; ++c) {
-        double low = std::numeric_limits<double>::infinity();
-        for (std::size_t q = grid.start[c]; q < grid.start[c + 1]; ++q)
-            if (against[q]) low = std::min(low, grid.p[q].z);
-        lowest[c] = low;
-    }
     const Interruption interruption;
 #pragma omp parallel for schedule(dynamic, 256) if (parallel) firstprivate(interruption)
     for (std::ptrdiff_t c = 0; c < cells; ++c) {
@@ -164,8 +154,15 @@ void slope_filter(const CellGrid& grid, const GridGroundParams& params,
             bool keep = true;
             for (int a = 0; a < k && keep; ++a) {
                 const std::ptrdiff_t other = around[a];
-                if (sz - lowest[other] <= tolerance) continue;
+                // A cell's points rise (grid_cells.cpp), and a test can fail only when
+                // sz - z_q > tolerance, as slope * d + tolerance >= tolerance holds after
+                // rounding too (rounding is monotone): past the first q with
+                // sz - z_q <= tolerance none can fail.
                 for (std::size_t q = grid.start[other]; q < grid.start[other + 1]; ++q) {
+                    if (!(sz - grid.p[q].z > tolerance)) {
+                        if (grid.by_height) break;
+                        continue;
+                    }
                     if (!against[q]) continue;
                     const double dx = sx - grid.p[q].x, dy = sy - grid.p[q].y;
                     const double d = std::sqrt(dx * dx + dy * dy);
@@ -187,6 +184,28 @@ inline bool linked(const CellGrid& grid, std::size_t s, std::size_t q, double sl
     const double dx = grid.p[s].x - grid.p[q].x, dy = grid.p[s].y - grid.p[q].y;
     const double d = std::sqrt(dx * dx + dy * dy);
     return std::abs(grid.p[s].z - grid.p[q].z) <= slope * d + tolerance;
+}
+
+// Positions [first, last) of cell c whose height lies within `reach` of z (all of them
+// unless the cell's points rise, grid_cells.cpp): both ends by bisection on tests that are monotone
+// along the cell, z - z_q > reach for those below and z_q - z > reach for those above, in the
+// floating-point arithmetic of linked(), so that every q outside fails that test.
+inline std::pair<std::size_t, std::size_t> within_reach(const CellGrid& grid, std::ptrdiff_t c,
+                                                        double z, double reach) {
+    const auto begin = grid.p.begin() + static_cast<std::ptrdiff_t>(grid.start[c]);
+    const auto end = grid.p.begin() + static_cast<std::ptrdiff_t>(grid.start[c + 1]);
+    if (begin == end || !grid.by_height) return {grid.start[c], grid.start[c + 1]};
+    // Mostly the whole cell is within reach: two tests instead of two bisections.
+    const auto first =
+        !(z - begin->z > reach)
+            ? begin
+            : std::partition_point(begin, end, [&](const Local& q) { return z - q.z > reach; });
+    const auto last =
+        !((end - 1)->z - z > reach)
+            ? end
+            : std::partition_point(first, end, [&](const Local& q) { return !(q.z - z > reach); });
+    return {static_cast<std::size_t>(first - grid.p.begin()),
+            static_cast<std::size_t>(last - grid.p.begin())};
 }
 
 // Calls visit(s, around, k) for every candidate position s with the k occupied cells of
@@ -219,8 +238,9 @@ void for_each_candidate(const CellGrid& grid, const std::vector<unsigned char>& 
 
 // Components of the link graph among the candidates, in `sets`, after Afforest (Sutton,
 // Ben-Nun and Barak, "Optimizing parallel graph connectivity computation via subgraph
-// sampling", IPDPS 2018): (1) each candidate unites with its first two linked neighbours,
-// which already joins most of every large component; (2) a snapshot of the roots lets
+// sampling", IPDPS 2018): (1) each candidate unites with two linked neighbours, sought
+// from a pseudo-random cell and place, which already joins most of every large
+// component; (2) a snapshot of the roots lets
 // the full pass skip, without a test, every pair already joined; (3) across blocks the
 // terrain is mostly one giant component, the most frequent root of a sample, and points
 // in it are skipped altogether, which is exact: an edge between the giant and another
@@ -231,6 +251,11 @@ void label_components(const CellGrid& grid, const GridGroundParams& params,
     const double slope = params.slope, tolerance = params.height_tolerance;
     const bool across = params.grow_across_blocks;
     const bool parallel = n >= kGridParallelMin;
+    // Points of a 3 x 3 block of cells lie less than 3 cells apart on each axis (up to
+    // rounding of the cell index, relatively 2^-12 at 2^40 cells), so every computed
+    // d is below 4 * (cell_x + cell_y) and a linked q has |z_s - z_q| <= slope * that
+    // + tolerance (rounding is monotone): only heights within this reach are visited.
+    const double reach = slope * (4.0 * (params.cell_size[0] + params.cell_size[1])) + tolerance;
     const auto joinable = [&](std::size_t s, std::size_t q) {
         return candidate[q] && (across || grid.block[q] == grid.block[s]) &&
                linked(grid, s, q, slope, tolerance);
@@ -238,13 +263,25 @@ void label_components(const CellGrid& grid, const GridGroundParams& params,
     sets.reset();
     for_each_candidate(
         grid, candidate, parallel, [&](std::size_t s, const std::ptrdiff_t* around, int k) {
+            // From a pseudo-random one of the cells and place in it, round the lists:
+            // the sampled links then run in every direction and join points of all
+            // heights. (The cells in a fixed order made every point link into its
+            // lower-left cell's lowest points: diagonal strips, a small giant.)
             int links = 0;
-            for (int a = 0; a < k && links < 2; ++a)
-                for (std::size_t q = grid.start[around[a]]; q < grid.start[around[a] + 1]; ++q)
+            const std::size_t hash = (s * std::size_t{2654435761u}) >> 8;
+            for (int j = 0; j < k && links < 2; ++j) {
+                const std::ptrdiff_t cell = around[(static_cast<std::size_t>(j) + hash) % k];
+                const std::size_t first = grid.start[cell], size = grid.start[cell + 1] - first;
+                const std::size_t offset = hash % size;
+                for (std::size_t i = 0; i < size; ++i) {
+                    const std::size_t q =
+                        first + (offset + i < size ? offset + i : offset + i - size);
                     if (q != s && joinable(s, q)) {
                         sets.unite(static_cast<std::uint32_t>(s), static_cast<std::uint32_t>(q));
                         if (++links == 2) break;
                     }
+                }
+            }
         });
     std::vector<std::uint32_t> root(n);
     const auto count = static_cast<std::ptrdiff_t>(n);
@@ -253,15 +290,16 @@ void label_components(const CellGrid& grid, const GridGroundParams& params,
     if (!across) {
         // Many mid-sized components, one or more per block: every unordered pair once,
         // from its smaller position.
-        for_each_candidate(grid, candidate, parallel,
-                           [&](std::size_t s, const std::ptrdiff_t* around, int k) {
-                               for (int a = 0; a < k; ++a)
-                                   for (std::size_t q = std::max(grid.start[around[a]], s + 1);
-                                        q < grid.start[around[a] + 1]; ++q)
-                                       if (root[q] != root[s] && joinable(s, q))
-                                           sets.unite(static_cast<std::uint32_t>(s),
-                                                      static_cast<std::uint32_t>(q));
-                           });
+        for_each_candidate(
+            grid, candidate, parallel, [&](std::size_t s, const std::ptrdiff_t* around, int k) {
+                for (int a = 0; a < k; ++a) {
+                    const auto [first, last] = within_reach(grid, around[a], grid.p[s].z, reach);
+                    for (std::size_t q = std::max(first, s + 1); q < last; ++q)
+                        if (root[q] != root[s] && joinable(s, q))
+                            sets.unite(static_cast<std::uint32_t>(s),
+                                       static_cast<std::uint32_t>(q));
+                }
+            });
         return;
     }
     std::vector<std::uint32_t> sample;
@@ -279,10 +317,12 @@ void label_components(const CellGrid& grid, const GridGroundParams& params,
     for_each_candidate(
         grid, candidate, parallel, [&](std::size_t s, const std::ptrdiff_t* around, int k) {
             if (root[s] == giant) return;
-            for (int a = 0; a < k; ++a)
-                for (std::size_t q = grid.start[around[a]]; q < grid.start[around[a] + 1]; ++q)
+            for (int a = 0; a < k; ++a) {
+                const auto [first, last] = within_reach(grid, around[a], grid.p[s].z, reach);
+                for (std::size_t q = first; q < last; ++q)
                     if (root[q] != root[s] && joinable(s, q))
                         sets.unite(static_cast<std::uint32_t>(s), static_cast<std::uint32_t>(q));
+            }
         });
 }
 

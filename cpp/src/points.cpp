@@ -7,13 +7,53 @@
 
 namespace pcl_rg {
 
+namespace {
+
+// Per axis the least (take_max false) or greatest coordinate of the points and `start`,
+// in parallel: min and max are exact, so the sharing out does not matter, except for the
+// sign of a zero result, which the serial fold from `start` in index order settles (the
+// first zero met wins), as it has always been.
+std::array<double, 3> corner(PointsView points, bool take_max, const std::array<double, 3>& start) {
+    std::array<double, 3> out = start;
+    double x = start[0], y = start[1], z = start[2];
+    const auto n = static_cast<std::ptrdiff_t>(points.size);
+    if (take_max) {
+#pragma omp parallel for schedule(static) reduction(max : x, y, z) if (n > 65536)
+        for (std::ptrdiff_t i = 0; i < n; ++i) {
+            x = std::max(x, points.coord(i, 0));
+            y = std::max(y, points.coord(i, 1));
+            z = std::max(z, points.coord(i, 2));
+        }
+    } else {
+#pragma omp parallel for schedule(static) reduction(min : x, y, z) if (n > 65536)
+        for (std::ptrdiff_t i = 0; i < n; ++i) {
+            x = std::min(x, points.coord(i, 0));
+            y = std::min(y, points.coord(i, 1));
+            z = std::min(z, points.coord(i, 2));
+        }
+    }
+    const double found[3] = {x, y, z};
+    for (int a = 0; a < 3; ++a) {
+        out[a] = found[a];
+        if (found[a] != 0.0) continue;
+        out[a] = start[a];
+        for (std::size_t i = 0; i < points.size; ++i)
+            out[a] = take_max ? std::max(out[a], points.coord(i, a))
+                              : std::min(out[a], points.coord(i, a));
+    }
+    return out;
+}
+
+}  // namespace
+
 std::array<double, 3> local_origin(PointsView points) {
     if (points.size == 0) return {0.0, 0.0, 0.0};
-    std::array<double, 3> lo;
-    lo.fill(std::numeric_limits<double>::infinity());
-    for (std::size_t i = 0; i < points.size; ++i)
-        for (int a = 0; a < 3; ++a) lo[a] = std::min(lo[a], points.coord(i, a));
-    return lo;
+    const double inf = std::numeric_limits<double>::infinity();
+    return corner(points, false, {inf, inf, inf});
+}
+
+std::array<double, 3> upper_corner(PointsView points, const std::array<double, 3>& origin) {
+    return corner(points, true, origin);
 }
 
 double lattice_floor(double low, double size) {

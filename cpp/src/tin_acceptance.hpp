@@ -35,14 +35,20 @@ struct Verdict {
 
 // A triangle with its vertices counter-clockwise from the lexicographically smallest
 // (x, y), so that the floating-point results do not depend on how it is stored.
+// With what every test against it shares, so that consecutive points of one triangle
+// (points are tested in Morton order) compute it once.
 struct Facet {
     std::array<std::int32_t, 3> v;
     double x[3], y[3], z[3];  // metres, local frame
     double longest;           // longest XY edge (m)
+    double nx, ny, nz;        // normal (v1 - v0) x (v2 - v0)
+    double norm;              // its length
+    double sin_limit;         // sine of the (reduced) iteration angle
 };
 
-inline Facet facet(const Delaunay& tin, const std::vector<double>& vz, double quantum,
+inline Facet facet(const Delaunay& tin, const std::vector<double>& vz, const Limits& lim,
                    std::int32_t t) {
+    const double quantum = lim.quantum;
     Facet f;
     f.v = {tin.triangle_vertex(t, 0), tin.triangle_vertex(t, 1), tin.triangle_vertex(t, 2)};
     int first = 0;
@@ -65,6 +71,15 @@ inline Facet facet(const Delaunay& tin, const std::vector<double>& vz, double qu
         longest2 = std::max(longest2, dx * dx + dy * dy);
     }
     f.longest = std::sqrt(longest2);
+    const double ux = f.x[1] - f.x[0], uy = f.y[1] - f.y[0], uz = f.z[1] - f.z[0];
+    const double wx = f.x[2] - f.x[0], wy = f.y[2] - f.y[0], wz = f.z[2] - f.z[0];
+    f.nx = uy * wz - uz * wy;
+    f.ny = uz * wx - ux * wz;
+    f.nz = ux * wy - uy * wx;
+    f.norm = std::sqrt(f.nx * f.nx + f.ny * f.ny + f.nz * f.nz);
+    f.sin_limit = lim.sin_angle;
+    if (f.longest < lim.reduce_angle_edge)
+        f.sin_limit = std::sin(lim.iteration_angle * f.longest / lim.reduce_angle_edge * kDegToRad);
     return f;
 }
 
@@ -72,18 +87,11 @@ inline Facet facet(const Delaunay& tin, const std::vector<double>& vz, double qu
 // and asin(d / |p - v_i|) <= the (reduced) iteration angle for every vertex.
 inline bool plane_test(const Facet& f, const Limits& lim, double px, double py, double pz,
                        double* d_out) {
-    const double ux = f.x[1] - f.x[0], uy = f.y[1] - f.y[0], uz = f.z[1] - f.z[0];
-    const double wx = f.x[2] - f.x[0], wy = f.y[2] - f.y[0], wz = f.z[2] - f.z[0];
-    const double nx = uy * wz - uz * wy;
-    const double ny = uz * wx - ux * wz;
-    const double nz = ux * wy - uy * wx;
-    const double num = nx * (px - f.x[0]) + ny * (py - f.y[0]) + nz * (pz - f.z[0]);
-    const double d = std::fabs(num) / std::sqrt(nx * nx + ny * ny + nz * nz);
+    const double num = f.nx * (px - f.x[0]) + f.ny * (py - f.y[0]) + f.nz * (pz - f.z[0]);
+    const double d = std::fabs(num) / f.norm;
     *d_out = d;
     if (!(d <= lim.iteration_distance)) return false;
-    double sin_limit = lim.sin_angle;
-    if (f.longest < lim.reduce_angle_edge)
-        sin_limit = std::sin(lim.iteration_angle * f.longest / lim.reduce_angle_edge * kDegToRad);
+    const double sin_limit = f.sin_limit;
     for (int k = 0; k < 3; ++k) {
         const double dx = px - f.x[k], dy = py - f.y[k], dz = pz - f.z[k];
         const double r = std::max(std::sqrt(dx * dx + dy * dy + dz * dz), lim.near_vertex_distance);
@@ -110,10 +118,9 @@ inline bool terrain_test(const Delaunay& tin, const Facet& f, const Limits& lim,
     return true;
 }
 
-// The acceptance test of point p (grid xy, local z) located in triangle t.
-inline Verdict evaluate(const Delaunay& tin, const std::vector<double>& vz, const Limits& lim,
-                        std::int32_t pgx, std::int32_t pgy, double pz, std::int32_t t) {
-    const Facet f = facet(tin, vz, lim.quantum, t);
+// The acceptance test of point p (grid xy, local z) located in the facet's triangle.
+inline Verdict evaluate(const Delaunay& tin, const Facet& f, const Limits& lim, std::int32_t pgx,
+                        std::int32_t pgy, double pz) {
     const double px = static_cast<double>(pgx - 1) * lim.quantum;
     const double py = static_cast<double>(pgy - 1) * lim.quantum;
     Verdict out;

@@ -102,7 +102,7 @@ namespace pcl_rg {
 
 namespace {
 
-using namespace tin_acceptance;  // Limits, Verdict, evaluate, kDegToRad
+using namespace tin_acceptance;  // Limits, Facet, Verdict, facet, evaluate, kDegToRad
 
 // Sets bit s of a bitmap; atomic, as neighbouring points may be marked by two threads.
 void mark(std::vector<std::uint64_t>& bits, std::uint32_t s) {
@@ -174,9 +174,7 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
 
     // --- 1. local frame and integer grid -------------------------------------------
     const std::array<double, 3> origin = local_origin(points);
-    std::array<double, 3> upper = origin;
-    for (std::size_t i = 0; i < n; ++i)
-        for (int a = 0; a < 3; ++a) upper[a] = std::max(upper[a], points.coord(i, a));
+    const std::array<double, 3> upper = upper_corner(points, origin);
     const double ex = upper[0] - origin[0], ey = upper[1] - origin[1];
     if (!std::isfinite(upper[2] - origin[2]))
         throw std::invalid_argument("points: the z extent is too large (not finite in float64)");
@@ -333,7 +331,11 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
         head.resize(tin.triangle_count(), -1);
 #pragma omp parallel if (m > kParallelTests) firstprivate(interruption)
         {
-            std::int32_t last = 0;
+            // The last triangle this thread located and its facet: the next point in
+            // Morton order often lies in it, and a triangle's location is unique
+            // (Delaunay::locate), so it is checked first and its facet reused.
+            std::int32_t last = 0, cached = -1;
+            Facet f{};
 #pragma omp for schedule(dynamic, 1)
             for (std::ptrdiff_t chunk = 0; chunk < (m + kChunk - 1) / kChunk; ++chunk) {
                 // Polled per chunk, not per test: a test costs only a few hundred cycles.
@@ -343,8 +345,11 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
                     const std::uint32_t s = work[k];
                     try {
                         const std::int32_t t =
-                            tin.locate(sx[s], sy[s], tri[s] >= 0 ? tri[s] : last);
-                        const Verdict verdict = evaluate(tin, vz, lim, sx[s], sy[s], sz[s], t);
+                            cached >= 0 && tin.holds(cached, sx[s], sy[s])
+                                ? cached
+                                : tin.locate(sx[s], sy[s], tri[s] >= 0 ? tri[s] : last);
+                        if (t != cached) f = facet(tin, vz, lim, t), cached = t;
+                        const Verdict verdict = evaluate(tin, f, lim, sx[s], sy[s], sz[s]);
                         last = tri[s] = t;
                         accepted[s] = verdict.accepted;
                         stop[s] = verdict.stop;

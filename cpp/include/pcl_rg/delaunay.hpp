@@ -88,6 +88,9 @@ class Delaunay {
     /// `start` (any triangle id). p must lie strictly inside the box.
     std::int32_t locate(std::int32_t x, std::int32_t y, std::int32_t start) const;
 
+    /// Whether triangle t holds p + (eps, eps^2) (see locate): then locate returns t.
+    bool holds(std::int32_t t, std::int32_t x, std::int32_t y) const;
+
     /// Inserts p (strictly inside the box) and restores the Delaunay property; returns
     /// its vertex id. A point equal to an existing vertex is not inserted: that
     /// vertex's id is returned and *inserted is set to false.
@@ -105,7 +108,8 @@ class Delaunay {
     std::int32_t triangle_vertex(std::int32_t t, int k) const { return tri_[t].v[k]; }
     /// Triangle across the edge opposite vertex k of t, or -1 on the box.
     std::int32_t neighbour(std::int32_t t, int k) const { return tri_[t].n[k]; }
-    /// Some triangle having v as a vertex.
+    /// A triangle near v, to start a walk from: one having v as a vertex when insert()
+    /// returned v (later insertions may rewrite it; it stays a valid id).
     std::int32_t vertex_triangle(std::int32_t v) const { return vt_[v]; }
     /// The stamp recorded on every slot written from now on; also empties touched().
     void set_stamp(std::int32_t stamp) {
@@ -125,15 +129,17 @@ class Delaunay {
     struct Vertex {
         std::int32_t x, y;  // grid coordinates
     };
-    struct Triangle {
-        std::int32_t v[3];  // vertices, counter-clockwise
-        std::int32_t n[3];  // n[k]: across the edge opposite v[k]
+    // 32 bytes, aligned: one record never straddles two cache lines.
+    struct alignas(32) Triangle {
+        std::int32_t v[3];    // vertices, counter-clockwise
+        std::int32_t n[3];    // n[k]: across the edge opposite v[k]
+        std::int32_t stamp;   // the stamp when last written
+        std::int32_t unused;  // padding
     };
     // Interleaved so that a walk step touches one cache line per record.
     std::vector<Vertex> xy_;
-    std::vector<std::int32_t> vt_;  // one incident triangle per vertex
+    std::vector<std::int32_t> vt_;  // a nearby triangle per vertex (vertex_triangle)
     std::vector<Triangle> tri_;
-    std::vector<std::int32_t> ts_;       // stamp per triangle
     std::vector<std::int32_t> stack_;    // edges to legalize
     std::vector<std::int32_t> touched_;  // slots written under the current stamp
     std::int32_t stamp_ = 0;

@@ -31,6 +31,7 @@ struct CellGrid {
     std::vector<std::uint32_t> block;  // block number of each position
     std::vector<std::uint32_t> cell;   // cell number of each position
     std::vector<std::size_t> start;    // positions of cell c: [start[c], start[c + 1])
+    bool by_height = false;            // a cell's points by height (else input order)
     std::size_t blocks = 0;
     std::vector<std::size_t> block_start;     // members of block b: block_member[
     std::vector<std::uint32_t> block_member;  //   block_start[b] .. block_start[b + 1])

@@ -20,6 +20,10 @@ struct PointsView {
 /// becomes float32, so UTM-sized coordinates lose nothing (zeros for an empty view).
 std::array<double, 3> local_origin(PointsView points);
 
+/// Upper corner of the bounding box, `origin` being local_origin(points) (itself for an
+/// empty view).
+std::array<double, 3> upper_corner(PointsView points, const std::array<double, 3>& origin);
+
 /// The largest k * size (k a whole number, the product in float64) that is <= low: the
 /// corner of the world lattice of step `size` at or below `low`, so that grids anchored
 /// there line up across tiles. floor(low / size) * size alone can land above low, as the
