@@ -119,6 +119,23 @@ def airborne_scene(points: int, density: float = 4.0) -> tuple[Any, str]:
     )
 
 
+def former_grid_default() -> Any:
+    """grid_ground's default before the final pass and the density-aware cell: the
+    full search over every field on ISPRS, 3 m cells (the studies' reference row)."""
+    import pcl_rg
+
+    return pcl_rg.GridGroundParams(
+        cell_size=3.0,
+        height_tolerance=0.3,
+        min_seed_component=30,
+        filter_passes=3,
+        filter_slope=1.0,
+        filter_tolerance=0.3,
+        final_cell=0.0,
+        final_above=0.5,
+    )
+
+
 def markdown_table(header: list[str], rows: list[list[str]]) -> str:
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     lines += ["| " + " | ".join(row) + " |" for row in rows]

@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/_common.py
-from _common import machine, markdown_table, publish  # noqa: E402
+from _common import former_grid_default, machine, markdown_table, publish  # noqa: E402
 from _scaled import Scaled  # noqa: E402
 
 import pcl_rg  # noqa: E402
@@ -66,17 +66,7 @@ TIN_RESOLUTION = Scaled(
     pcl_rg.TinGroundParams(iteration_angle=25.0, seed_cell=2.0, final_cell=2.0),
     (("near_vertex_distance", 1.0), ("stop_edge", 3.0)),
 )
-# The former grid_ground default (full search before the final pass, 3 m cells).
-GRID_FORMER = pcl_rg.GridGroundParams(
-    cell_size=3.0,
-    height_tolerance=0.3,
-    min_seed_component=30,
-    filter_passes=3,
-    filter_slope=1.0,
-    filter_tolerance=0.3,
-    final_cell=0.0,
-    final_above=0.5,
-)
+GRID_FORMER = former_grid_default()
 
 METHODS: list[tuple[str, Callable[[np.ndarray], np.ndarray]]] = [
     ("tin_ground (defaults: isprs preset)", lambda points: pcl_rg.tin_ground(points)),

@@ -23,6 +23,9 @@ points : array_like, shape (N, 3)
     "params": """\
 params : {params_type}, optional
     All parameters at once; keywords given explicitly override it.""",
+    "points_value_error": """\
+ValueError
+    Non-finite points or a wrong shape.""",
     "type_error": """\
 TypeError
     Non-numeric points or parameters of the wrong type.""",

@@ -42,8 +42,7 @@ def point_scale(points: npt.ArrayLike) -> PointScale:
 
     Raises
     ------
-    ValueError
-        Non-finite points or a wrong shape.
+    %(points_value_error)s
     %(type_error)s
 
     Notes

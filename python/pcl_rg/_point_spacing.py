@@ -30,8 +30,7 @@ def point_spacing(points: npt.ArrayLike) -> float:
 
     Raises
     ------
-    ValueError
-        Non-finite points or a wrong shape.
+    %(points_value_error)s
     %(type_error)s
 
     Notes
