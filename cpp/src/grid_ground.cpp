@@ -255,7 +255,8 @@ void label_components(const CellGrid& grid, const GridGroundParams& params,
     // rounding of the cell index, relatively 2^-12 at 2^40 cells), so every computed
     // d is below 4 * (cell_x + cell_y) and a linked q has |z_s - z_q| <= slope * that
     // + tolerance (rounding is monotone): only heights within this reach are visited.
-    const double reach = slope * (4.0 * (params.cell_size[0] + params.cell_size[1])) + tolerance;
+    const double reach =
+        slope * (4.0 * ((*params.cell_size)[0] + (*params.cell_size)[1])) + tolerance;
     const auto joinable = [&](std::size_t s, std::size_t q) {
         return candidate[q] && (across || grid.block[q] == grid.block[s]) &&
                linked(grid, s, q, slope, tolerance);
