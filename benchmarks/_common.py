@@ -93,7 +93,13 @@ def command_of(script: str, parser: argparse.ArgumentParser, args: argparse.Name
         if value == action.default:
             continue
         flag = action.option_strings[0]
-        words.append(flag if value is True else f"{flag} {value}")
+        if value is True:
+            words.append(flag)
+        elif isinstance(value, (list, tuple)):
+            items = (f"{v:g}" if isinstance(v, float) else str(v) for v in value)
+            words.append(" ".join([flag, *items]))
+        else:
+            words.append(f"{flag} {value}")
     return " ".join(words)
 
 

@@ -24,30 +24,24 @@ PER_SPACING = "/spacing"
 class Scaled:
     """`params` with the lengths named in `multiples` set from the spacing of the points.
 
-    `caps` (optional, rule "capped") bounds a scaled length from above: it is
-    min(cap, multiple x spacing). Hashable, so the searches can cache scores.
+    Hashable, so the searches can cache scores.
     """
 
     params: Any
     multiples: tuple[tuple[str, float], ...] = ()
-    caps: tuple[tuple[str, float], ...] = ()
 
     def resolve(self, spacing: float) -> Any:
         """The params a call uses on points of this spacing (m; NaN: 1 m, as the core)."""
         if not math.isfinite(spacing):
             spacing = 1.0
-        caps = dict(self.caps)
-        values: dict[str, Any] = {}
-        for name, multiple in self.multiples:
-            length = multiple * spacing
-            if name in caps:
-                length = min(caps[name], length)
-            if name == "cell_size":  # whole cells per block, as GridGroundParams.at_spacing
-                length = tuple(
-                    block / max(1.0, math.ceil(block / length)) for block in self.params.block_size
-                )
-            values[name] = length
-        return dataclasses.replace(self.params, **values)
+        multiples = dict(self.multiples)
+        params = self.params
+        if "cell_size" in multiples:  # whole cells per block: GridGroundParams.at_spacing
+            params = dataclasses.replace(params, cell_size=None).at_spacing(
+                spacing, {"cell_size": multiples.pop("cell_size")}
+            )
+        values = {name: multiple * spacing for name, multiple in multiples.items()}
+        return dataclasses.replace(params, **values)
 
     def run(self, function, points):
         """`function` (pcl_rg.tin_ground or grid_ground) on `points` with this setting."""
@@ -62,7 +56,7 @@ class Scaled:
         else:
             multiples.pop(name, None)
             params = dataclasses.replace(self.params, **{name: value})
-        return Scaled(params, tuple(sorted(multiples.items())), self.caps)
+        return Scaled(params, tuple(sorted(multiples.items())))
 
     def describe(self, preset: Scaled | None = None) -> str:
         """name=value of the fields (and multiples) unlike `preset`'s (all when None)."""

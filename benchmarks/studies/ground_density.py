@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/_common.py
-from _common import former_grid_default, machine, markdown_table, publish  # noqa: E402
+from _common import command_of, former_grid_default, publish_report  # noqa: E402
 from _scaled import Scaled  # noqa: E402
 
 import pcl_rg  # noqa: E402
@@ -196,23 +196,18 @@ def main(argv: list[str] | None = None) -> int:
         *(f"{label} called ground %" for label, _ in OBJECT_CLASSES),
         "time s",
     ]
-    command = "python benchmarks/studies/ground_density.py" + (" --write" if args.write else "")
-    if args.seeds != [0, 1, 2] or args.densities != [2.0, 8.0, 20.0] or args.methods:
-        command += " (arguments: " + " ".join(sys.argv[1:]) + ")"
-    text = (
-        f"{SECTION}\n\n`{command}` on {machine()}, {time.perf_counter() - start:.0f} s. "
+    about = (
+        f"{time.perf_counter() - start:.0f} s. "
         f"`pcl_rg.datasets.isprs_like_scene(seed, size={SIZE:g}, density)` for seeds "
         f"{', '.join(map(str, args.seeds))}, with a UTM offset; each filter with one "
         "parameter set for every density and seed. Errors are means over the seeds "
         "(Sithole & Vosselman: Type I = ground rejected, Type II = objects accepted); "
         "'called ground' is the share of that object class's points classified ground; "
-        "time is one call, wall clock, mean over the seeds.\n\n"
-        + markdown_table(header, rows)
-        + "\n\n"
-        + "\n".join(f"- {note}" for note in notes)
-        + "\n"
+        "time is one call, wall clock, mean over the seeds."
     )
-    publish(text, SECTION, args.write)
+    command = command_of("benchmarks/studies/ground_density.py", parser, args)
+    notes = [f"- {note}" for note in notes]
+    publish_report(SECTION, command, about, header, rows, notes, write=args.write)
     return 0
 
 

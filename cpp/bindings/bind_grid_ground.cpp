@@ -1,8 +1,6 @@
 // Binding of pcl_rg::grid_ground (see cpp/include/pcl_rg/grid_ground.hpp).
 #include <pybind11/stl.h>  // std::optional cell_size: None when unset
 
-#include <limits>
-
 #include "bindings.hpp"
 #include "numpy_io.hpp"
 #include "pcl_rg/grid_ground.hpp"
@@ -46,8 +44,6 @@ void bind_grid_ground(py::module_& m) {
         [](const PointsArray& points, const GridGroundParams& params) {
             validate(params);  // before allocating, so bad parameters cost nothing
             GridGroundStats stats;
-            stats.point_spacing = std::numeric_limits<double>::quiet_NaN();
-            if (params.cell_size) stats.cell_size = *params.cell_size;
             py::array_t<bool> ground = per_point<bool>(
                 points,
                 [&](const PointsView& view, bool* out) { grid_ground(view, params, out, &stats); });

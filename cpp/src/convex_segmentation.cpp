@@ -255,9 +255,7 @@ ConvexSegmentationTimings segment_points(PointsView points, const ConvexSegmenta
             const double delta = points.coord(far, d) - points.coord(i, d);
             squared += delta * delta;
         }
-        const double curvedness =
-            std::sqrt(mean[i] * mean[i] + std::max(mean[i] * mean[i] - gaussian[i], 0.0));
-        measure[i] = curvedness * std::sqrt(squared);
+        measure[i] = curvedness(mean[i], gaussian[i]) * std::sqrt(squared);
     }
     timings.normals_seconds = seconds_since(start);
     poll_interrupt();

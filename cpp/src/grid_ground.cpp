@@ -154,15 +154,12 @@ void slope_filter(const CellGrid& grid, const GridGroundParams& params,
             bool keep = true;
             for (int a = 0; a < k && keep; ++a) {
                 const std::ptrdiff_t other = around[a];
-                // A cell's points rise (grid_cells.cpp), and a test can fail only when
-                // sz - z_q > tolerance, as slope * d + tolerance >= tolerance holds after
-                // rounding too (rounding is monotone): past the first q with
-                // sz - z_q <= tolerance none can fail.
+                // A cell's points rise (grid_cells.cpp sorts them whenever the filter
+                // runs), and a test can fail only when sz - z_q > tolerance, as
+                // slope * d + tolerance >= tolerance holds after rounding too (rounding
+                // is monotone): past the first q with sz - z_q <= tolerance none can fail.
                 for (std::size_t q = grid.start[other]; q < grid.start[other + 1]; ++q) {
-                    if (!(sz - grid.p[q].z > tolerance)) {
-                        if (grid.by_height) break;
-                        continue;
-                    }
+                    if (!(sz - grid.p[q].z > tolerance)) break;
                     if (!against[q]) continue;
                     const double dx = sx - grid.p[q].x, dy = sy - grid.p[q].y;
                     const double d = std::sqrt(dx * dx + dy * dy);
@@ -390,6 +387,9 @@ void grid_ground(PointsView points, const GridGroundParams& given, bool* ground,
                  GridGroundStats* stats) {
     validate(given);
     const std::size_t n = points.size;
+    if (stats)  // what an empty input reports: no spacing measured, the given cell size
+        *stats = GridGroundStats{std::numeric_limits<double>::quiet_NaN(),
+                                 given.cell_size.value_or(std::array<double, 2>{})};
     if (n == 0) return;
     // An unset cell size from the spacing of these points (measured only then).
     const double spacing =

@@ -175,10 +175,7 @@ RegionGrowingTimings region_growing(PointsView points, const RegionGrowingParams
     for (std::ptrdiff_t i = 0; i < static_cast<std::ptrdiff_t>(n); ++i) {
         switch (params.seed_measure) {
             case SeedMeasure::curvedness:
-                // (k1^2 + k2^2) / 2 = H^2 + max(H^2 - K, 0): the same value without the
-                // square root of k1,2, whose rounding is amplified near umbilics (k1 = k2).
-                measure[i] =
-                    std::sqrt(mean[i] * mean[i] + std::max(mean[i] * mean[i] - gaussian[i], 0.0));
+                measure[i] = curvedness(mean[i], gaussian[i]);
                 break;
             case SeedMeasure::gaussian:
                 measure[i] = std::abs(gaussian[i]);

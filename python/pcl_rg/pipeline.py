@@ -9,6 +9,7 @@ from typing import NamedTuple
 import numpy as np
 import numpy.typing as npt
 
+from ._convex_segmentation import ConvexSegmentationParams
 from ._diagnostics import collect_diagnostics
 from ._docstrings import fill_docstring
 from ._point_scale import point_scale
@@ -22,13 +23,9 @@ from ._voxel_grid import VoxelGridParams, voxel_grid
 
 __all__ = ["PipelineReport", "Seed004Result", "StageReport", "auto_leaf_size", "seed004"]
 
-#: Leaf size in units of the measured noise (see :func:`auto_leaf_size`); the default
+#: Leaf size in units of the measured noise (see :func:`auto_leaf_size`): the default
 #: ``noise_leaves`` of :class:`pcl_rg.ConvexSegmentationParams`.
-NOISE_LEAVES = 10.0
-#: Neighbours (itself included) of the spacing and noise measurements.
-_MEASURE_K = 16
-#: At most this many points, evenly spread over the input order, are measured.
-_MEASURED_POINTS = 20_000
+NOISE_LEAVES = ConvexSegmentationParams().noise_leaves
 
 
 @dataclass(frozen=True, slots=True)

@@ -3,6 +3,7 @@
 
 #include <array>
 #include <cstdint>
+#include <limits>
 #include <optional>
 
 #include "pcl_rg/points.hpp"
@@ -73,7 +74,8 @@ GridGroundParams with_spacing(const GridGroundParams& params, double spacing);
 
 /// What a run used, for diagnostics.
 struct GridGroundStats {
-    double point_spacing = 0.0;         ///< spacing cell_size took (m; NaN: it was given)
+    /// The spacing an unset cell_size took (m; NaN: it was given, or no points).
+    double point_spacing = std::numeric_limits<double>::quiet_NaN();
     std::array<double, 2> cell_size{};  ///< the cell size used (m)
 };
 

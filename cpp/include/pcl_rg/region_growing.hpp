@@ -1,7 +1,9 @@
 // Curvature-seeded region growing (seed 004; algorithms.md section 5, steps 3 and 4).
 #pragma once
 
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <limits>
@@ -9,6 +11,13 @@
 #include "pcl_rg/points.hpp"
 
 namespace pcl_rg {
+
+/// Curvedness sqrt((k1^2 + k2^2) / 2) from the mean and Gaussian curvatures:
+/// (k1^2 + k2^2) / 2 = H^2 + max(H^2 - K, 0), the same value without the square root of
+/// k1,2, whose rounding is amplified near umbilics (k1 = k2).
+inline double curvedness(double mean, double gaussian) {
+    return std::sqrt(mean * mean + std::max(mean * mean - gaussian, 0.0));
+}
 
 /// Per-point measure that orders the seeds and gates further seeds.
 enum class SeedMeasure {

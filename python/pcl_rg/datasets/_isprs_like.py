@@ -208,10 +208,8 @@ def _place_discs(
     x = r + rng.random(m) * (size - 2.0 * r)
     y = r + rng.random(m) * (size - 2.0 * r)
     ok = np.ones(m, dtype=bool)
-    for xmin, ymin, xmax, ymax in b[:, :4]:
-        dx = np.maximum(np.maximum(xmin - x, x - xmax), 0.0)
-        dy = np.maximum(np.maximum(ymin - y, y - ymax), 0.0)
-        ok &= np.hypot(dx, dy) > r + 1.0
+    for box in b[:, :4]:
+        ok &= objects.box_distance(x, y, box) > r + 1.0
     ok &= np.abs(line_distance(t, t.road_normal, t.road_offset, x, y)) > _ROAD_TOP_HALF + r
     x, y, r = x[ok], y[ok], r[ok]
     keep = np.cumsum(np.pi * r * r) <= cover * size * size
@@ -435,16 +433,7 @@ def isprs_like_scene(
     )
     blocks.append((nx, ny, height(nx, ny) + dz, NOISE))
 
-    n = sum(blk[0].size for blk in blocks)
-    order = rng.permutation(n)
-    points = np.empty((n, 3))
-    labels = np.empty(n, dtype=np.uint8)
-    start = 0
-    for bx, by, bz, code in blocks:
-        idx = order[start : start + bx.size]
-        points[idx, 0], points[idx, 1], points[idx, 2] = bx, by, bz
-        labels[idx] = code
-        start += bx.size
+    points, labels = objects.assemble(blocks, rng.permutation(sum(b[0].size for b in blocks)))
     points += origin
     roof = buildings[:, 5] + buildings[:, 6] * 0.5 * np.minimum(
         buildings[:, 2] - buildings[:, 0], buildings[:, 3] - buildings[:, 1]

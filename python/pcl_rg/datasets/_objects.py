@@ -120,6 +120,7 @@ def place_buildings(
 def box_distance(
     x: NDArray[np.float64], y: NDArray[np.float64], box: NDArray[np.float64]
 ) -> NDArray[np.float64]:
+    """Distance of (x, y) from the footprint `box` ([xmin, ymin, xmax, ymax]); 0 inside."""
     dx = np.maximum(np.maximum(box[0] - x, x - box[2]), 0.0)
     dy = np.maximum(np.maximum(box[1] - y, y - box[3]), 0.0)
     return np.hypot(dx, dy)
