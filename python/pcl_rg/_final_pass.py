@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from ._params import param
+from ._params import param, spacing_length
 
 __all__ = ["final_pass_param"]
 
@@ -33,12 +33,5 @@ def final_pass_param(name: str, default: float | None, optional: bool = False) -
     the point spacing (tin_ground's final_cell).
     """
     if optional:
-        return param(
-            default,
-            kind=float,
-            optional=True,
-            minimum=0.0,
-            unit="m",
-            help=_HELP[name] + "; unset: from the point spacing",
-        )
+        return spacing_length(minimum=0.0, help=_HELP[name] + "; unset: from the point spacing")
     return param(default, minimum=0.0, unit="m", help=_HELP[name])

@@ -36,6 +36,7 @@ __all__ = [
     "preset",
     "presets",
     "resolve",
+    "spacing_length",
     "spec_of",
     "to_core",
     "unit_of",
@@ -130,6 +131,18 @@ def param(
             kind = type(default)
     spec = Spec(kind, help, unit, minimum, above, maximum, below, choices, axes, bits, optional)
     return dataclasses.field(default=default, metadata={_SPEC: spec, "help": help})
+
+
+def spacing_length(
+    *, help: str, minimum: float | None = None, above: float | None = None, axes: int | None = None
+) -> Any:
+    """A length parameter (m) that is unset (None) by default.
+
+    When it is left unset the algorithm takes it from the measured point spacing
+    (:func:`pcl_rg.point_spacing`); `help` ends by saying how.
+    """
+    bounds = {"minimum": minimum, "above": above, "axes": axes}
+    return param(None, kind=float, optional=True, unit="m", help=help, **bounds)
 
 
 def spec_of(field: dataclasses.Field[Any]) -> Spec:

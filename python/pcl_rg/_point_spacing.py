@@ -3,13 +3,19 @@ scale with."""
 
 from __future__ import annotations
 
+import math
+from collections.abc import Callable
+from typing import TypeVar
+
 import numpy.typing as npt
 
 from . import _core
 from ._docstrings import fill_docstring
 from ._validation import as_points
 
-__all__ = ["point_spacing"]
+__all__ = ["lengths_spacing", "point_spacing", "with_spacing_lengths"]
+
+P = TypeVar("P")
 
 
 @fill_docstring
@@ -73,3 +79,20 @@ def point_spacing(points: npt.ArrayLike) -> float:
     0.5
     """
     return float(_core.point_spacing(as_points(points)))
+
+
+def lengths_spacing(spacing: float) -> float:
+    """The spacing (m) the unset lengths follow: `spacing`, or 1 m where it is NaN
+    (too few points, no XY area), as in the C++ core."""
+    return 1.0 if math.isnan(spacing) else spacing
+
+
+def with_spacing_lengths(params: P, spacing: Callable[[], float]) -> P:
+    """`params` with its unset lengths set for the point spacing `spacing()` (m).
+
+    `spacing` is called only when some length is unset (see :func:`lengths_spacing`
+    for NaN). Serves the references and the batch engine (one spacing per survey).
+    """
+    if not any(getattr(params, name) is None for name in getattr(params, "SPACING_MULTIPLES", ())):
+        return params
+    return params.at_spacing(lengths_spacing(spacing()))  # type: ignore[attr-defined]

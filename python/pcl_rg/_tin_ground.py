@@ -22,6 +22,7 @@ from ._params import (
     param,
     preset,
     resolve_arguments,
+    spacing_length,
     to_core,
 )
 from ._validation import MAX_POINTS_INT32, as_points
@@ -102,33 +103,21 @@ class TinGroundParams:
         "iteration_angle * L / reduce_angle_edge (LiDAR360 Reduce Iteration Angle When Edge "
         "Length <)",
     )
-    stop_edge: float | None = param(
-        None,
-        kind=float,
-        optional=True,
+    stop_edge: float | None = spacing_length(
         above=0.0,
-        unit="m",
         help="triangles whose longest edge is shorter accept ground points without inserting "
         "them (LiDAR360 Stop Triangulation When Edge Length <); unset: min(2 m, 2.1 x the point "
         "spacing)",
     )
-    near_vertex_distance: float | None = param(
-        None,
-        kind=float,
-        optional=True,
+    near_vertex_distance: float | None = spacing_length(
         minimum=0.0,
-        unit="m",
         help="improvement (0: off): in the angle test a point's distance to a vertex counts "
         "as at least this much, so points (nearly) above a vertex are judged by their "
         "distance to the plane (helps on coarse or repeated XY); unset: min(1 m, 1.05 x the "
         "point spacing)",
     )
-    seed_cell: float | None = param(
-        None,
-        kind=float,
-        optional=True,
+    seed_cell: float | None = spacing_length(
         minimum=0.0,
-        unit="m",
         help="improvement (0: off): seeds are the lowest points of seed_cell cells lying "
         "within seed_tolerance of the grey opening of those heights by a max_building_size "
         "window (dense seeds, none on roofs; after Zhao et al. 2016); unset: min(2 m, 2.1 x "

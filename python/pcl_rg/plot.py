@@ -104,6 +104,11 @@ def segment_colours(labels: npt.ArrayLike) -> np.ndarray:
 
 
 _PLOT_ENTRIES = {
+    "points_and_png": """\
+points : array_like, shape (N, 3)
+    Coordinates in metres.
+path : str or path-like
+    Output PNG file.""",
     "max_points": """\
 max_points : int
     At most this many points are drawn (an even, seeded subsample).""",
@@ -206,10 +211,7 @@ def top_view(
 
     Parameters
     ----------
-    points : array_like, shape (N, 3)
-        Coordinates in metres.
-    path : str or path-like
-        Output PNG file.
+    %(points_and_png)s
     classes : array_like of int, shape (N,), optional
         A class per point (ASPRS codes, see `CLASS_COLOURS`), drawn in its
         colour with a legend.
@@ -297,10 +299,7 @@ def profile(
 
     Parameters
     ----------
-    points : array_like, shape (N, 3)
-        Coordinates in metres.
-    path : str or path-like
-        Output PNG file.
+    %(points_and_png)s
     start, end : sequence of 2 float
         x, y of the line's ends A and B, in the points' coordinates (metres).
     width : float, default 2.0

@@ -25,6 +25,7 @@ from collections.abc import Iterator, Sequence
 from typing import Any
 
 from .. import __version__
+from .._point_spacing import with_spacing_lengths
 from ..io import Extent
 from . import _tasks
 from ._manifest import Manifest, file_signature
@@ -240,15 +241,14 @@ def _run_on(
         boxes.append(box_of(e) if finite and e.points else None)
         report.points = e.points
     readable = [i for i, e in enumerate(extents) if e["ok"]]
-    unset = getattr(job.params, "SPACING_MULTIPLES", {})
-    if job.operation == "ground" and any(getattr(job.params, n) is None for n in unset):
+    if job.operation == "ground":
         # Lengths that follow the point spacing: one spacing for the whole survey, so that
         # every tile runs with the same parameters (a tile's own would differ a little).
-        spacing = survey_spacing([Extent(*extents[i]["extent"]) for i in readable if boxes[i]])
-        job = dataclasses.replace(
-            job, params=job.params.at_spacing(spacing if spacing == spacing else 1.0)
-        )
-        parameters = _plain(dataclasses.asdict(job.params))
+        in_survey = [Extent(*extents[i]["extent"]) for i in readable if boxes[i]]
+        params = with_spacing_lengths(job.params, lambda: survey_spacing(in_survey))
+        if params != job.params:
+            job = dataclasses.replace(job, params=params)
+            parameters = _plain(dataclasses.asdict(job.params))
     # Denoising's statistics are global: every tile is context for every other.
     near = (
         [[j for j in readable if j != i and boxes[j]] for i in range(len(paths))]

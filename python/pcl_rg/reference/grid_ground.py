@@ -12,10 +12,11 @@ from scipy.spatial import cKDTree
 
 from .._grid_ground import GridGroundParams
 from .._params import resolve_arguments
+from .._point_spacing import with_spacing_lengths
 from .._validation import as_points
 from ._final_pass import final_pass
 from ._lattice import lattice_floor
-from .point_spacing import spacing_or_one_metre
+from .point_spacing import point_spacing
 
 __all__ = ["GridNeighbours", "grid_ground", "grid_neighbours"]
 
@@ -55,8 +56,7 @@ def grid_neighbours(points: npt.ArrayLike, params: GridGroundParams) -> GridNeig
     cell_size comes from the spacing of the points (``GridGroundParams.at_spacing``).
     """
     xyz = as_points(points)
-    if params.cell_size is None:
-        params = params.at_spacing(spacing_or_one_metre(xyz))
+    params = with_spacing_lengths(params, lambda: point_spacing(xyz))
     lowest = xyz.min(axis=0)
     origin = np.array(
         [
@@ -169,8 +169,7 @@ def grid_ground(
     n = len(xyz)
     if n == 0:
         return np.empty(0, dtype=bool)
-    if p.cell_size is None:
-        p = p.at_spacing(spacing_or_one_metre(xyz))
+    p = with_spacing_lengths(p, lambda: point_spacing(xyz))
     nb = grid_neighbours(xyz, p)
     candidate = np.ones(n, dtype=bool)
     ground = np.ones(n, dtype=bool)  # pass 1 tests against every point

@@ -29,9 +29,3 @@ def point_spacing(points: npt.ArrayLike) -> float:
     iy = np.floor((y - ymin) / c).astype(np.int64)
     occupied = np.unique(ix * ny + iy).size
     return math.sqrt(occupied * c * c / n)
-
-
-def spacing_or_one_metre(points: npt.ArrayLike) -> float:
-    """The spacing the unset lengths of the ground filters scale with (1 m if undefined)."""
-    spacing = point_spacing(points)
-    return 1.0 if math.isnan(spacing) else spacing

@@ -20,10 +20,11 @@ from scipy import ndimage
 from scipy.spatial import Delaunay, cKDTree
 
 from .._params import resolve_arguments
+from .._point_spacing import with_spacing_lengths
 from .._tin_ground import TinGroundParams
 from .._validation import as_points
 from ._lattice import lattice_floor
-from .point_spacing import spacing_or_one_metre
+from .point_spacing import point_spacing
 
 __all__ = ["grid_quantum", "locate", "seeds", "tin_ground", "triangulate"]
 
@@ -234,14 +235,7 @@ def seeds(points: npt.ArrayLike, params: TinGroundParams) -> np.ndarray:
     if len(xyz) == 0:
         return np.empty(0, dtype=np.intp)
     ex, ey, _ = xyz.max(axis=0) - xyz.min(axis=0)
-    return _seeds(xyz, ex, ey, _with_spacing(params, xyz))
-
-
-def _with_spacing(p: TinGroundParams, xyz: np.ndarray) -> TinGroundParams:
-    """The unset lengths from the spacing of the points (measured only when needed)."""
-    if all(getattr(p, name) is not None for name in p.SPACING_MULTIPLES):
-        return p
-    return p.at_spacing(spacing_or_one_metre(xyz))
+    return _seeds(xyz, ex, ey, with_spacing_lengths(params, lambda: point_spacing(xyz)))
 
 
 def _evaluate(tri, vx, vy, vz, q, px, py, pz, p: TinGroundParams):  # type: ignore[no-untyped-def]
@@ -333,7 +327,7 @@ def tin_ground(
     n = len(xyz)
     if n == 0:
         return np.zeros(0, dtype=bool)
-    p = _with_spacing(p, xyz)
+    p = with_spacing_lengths(p, lambda: point_spacing(xyz))
     if n < 3:
         raise ValueError(f"points must hold at least 3 points for a TIN, got {n}")
 
