@@ -203,16 +203,8 @@ def test_ground_classifies_and_keeps_every_dimension(capsys, tmp_path, scene_las
 
 
 def test_ground_tin_and_method_flags(capsys, tmp_path, scene_las):
-    result = run_json(
-        capsys,
-        "ground",
-        scene_las,
-        tmp_path / "t.ply",
-        "--method",
-        "tin",
-        "--iteration-angle",
-        "12",
-    )
+    flags = "--method tin --iteration-angle 12".split()
+    result = run_json(capsys, "ground", scene_las, tmp_path / "t.ply", *flags)
     source = read_points(scene_las)
     noise = source.classification == 7
     ground = pcl_rg.tin_ground(source.points[~noise], iteration_angle=12.0)
@@ -328,17 +320,8 @@ def test_denoise(capsys, tmp_path, scene_las):
         written.classification[inlier], np.where(original == 7, 1, original)
     )
     assert result["noise"] == (~inlier).sum()
-    run_json(
-        capsys,
-        "denoise",
-        scene_las,
-        tmp_path / "kept.las",
-        "--mean-k",
-        "8",
-        "--std-mul",
-        "2.5",
-        "--drop",
-    )
+    flags = "--mean-k 8 --std-mul 2.5 --drop".split()
+    run_json(capsys, "denoise", scene_las, tmp_path / "kept.las", *flags)
     np.testing.assert_array_equal(read_points(tmp_path / "kept.las").points, source.points[inlier])
 
 
@@ -363,16 +346,8 @@ def test_downsample_centroids_and_attributes(capsys, tmp_path, scene_las):
     # One number or three: the same voxels.
     run_json(capsys, "downsample", scene_las, tmp_path / "w.las", "--leaf-size", "2,2,2")
     assert raw(tmp_path / "w.las").tobytes() == raw(tmp_path / "v.las").tobytes()
-    run_json(
-        capsys,
-        "downsample",
-        scene_las,
-        tmp_path / "a.xyz",
-        "--leaf-size",
-        "4,4,1",
-        "--min-points-per-voxel",
-        "3",
-    )
+    flags = "--leaf-size 4,4,1 --min-points-per-voxel 3".split()
+    run_json(capsys, "downsample", scene_las, tmp_path / "a.xyz", *flags)
     grid = pcl_rg.voxel_grid(source.points, leaf_size=(4, 4, 1), min_points_per_voxel=3)
     np.testing.assert_array_equal(read_points(tmp_path / "a.xyz").points, grid.centroids)
 
@@ -380,17 +355,9 @@ def test_downsample_centroids_and_attributes(capsys, tmp_path, scene_las):
 @pytest.mark.parametrize("method", ["curvature", "pcl"])
 def test_segment(capsys, tmp_path, scene_las, method):
     run_json(capsys, "downsample", scene_las, tmp_path / "v.laz", "--leaf-size", "1")
+    flags = "--k 12 --min-cluster-size 30".split()
     result = run_json(
-        capsys,
-        "segment",
-        tmp_path / "v.laz",
-        tmp_path / "s.laz",
-        "--method",
-        method,
-        "--k",
-        "12",
-        "--min-cluster-size",
-        "30",
+        capsys, "segment", tmp_path / "v.laz", tmp_path / "s.laz", "--method", method, *flags
     )
     source = read_points(tmp_path / "v.laz")
     function = pcl_rg.region_growing if method == "curvature" else pcl_rg.pcl.region_growing
@@ -400,18 +367,9 @@ def test_segment(capsys, tmp_path, scene_las, method):
     assert "segment_id" in written.header.point_format.extra_dimension_names
     np.testing.assert_array_equal(written.fields["segment_id"], labels)
     assert result["segments"] == len(np.unique(labels[labels >= 0]))
+    flags = "--k 12 --min-cluster-size 30 --drop".split()
     run_json(
-        capsys,
-        "segment",
-        tmp_path / "v.laz",
-        tmp_path / "only.laz",
-        "--method",
-        method,
-        "--k",
-        "12",
-        "--min-cluster-size",
-        "30",
-        "--drop",
+        capsys, "segment", tmp_path / "v.laz", tmp_path / "only.laz", "--method", method, *flags
     )
     np.testing.assert_array_equal(
         read_points(tmp_path / "only.laz").fields["segment_id"], labels[labels >= 0]
@@ -421,18 +379,8 @@ def test_segment(capsys, tmp_path, scene_las, method):
 def test_segment_mosd_pcd_and_evaluate(capsys, tmp_path):
     source_path = shared_data("mosd", "learn0.pcd")
     out = tmp_path / "seg.pcd"
-    result = run_json(
-        capsys,
-        "segment",
-        source_path,
-        out,
-        "--k",
-        "15",
-        "--curvature-threshold",
-        "100",
-        "--smoothness-deg",
-        "8",
-    )
+    flags = "--k 15 --curvature-threshold 100 --smoothness-deg 8".split()
+    result = run_json(capsys, "segment", source_path, out, *flags)
     source = read_points(source_path)
     valid = np.isfinite(source.points).all(axis=1)
     labels = pcl_rg.region_growing(
@@ -456,20 +404,8 @@ def test_segment_mosd_pcd_and_evaluate(capsys, tmp_path):
     assert report["under_segmented"] == scores.under_segmented
     # The tutorial cloud with PCL's method, as PLY.
     tutorial = shared_data("pcl", "region_growing_tutorial.pcd")
-    result = run_json(
-        capsys,
-        "segment",
-        tutorial,
-        tmp_path / "tutorial.ply",
-        "--method",
-        "pcl",
-        "--k",
-        "30",
-        "--smoothness-deg",
-        "3",
-        "--curvature-threshold",
-        "1",
-    )
+    flags = "--method pcl --k 30 --smoothness-deg 3 --curvature-threshold 1".split()
+    result = run_json(capsys, "segment", tutorial, tmp_path / "tutorial.ply", *flags)
     cloud = read_points(tutorial)
     labels = pcl_rg.pcl.region_growing(
         cloud.points, k=30, smoothness_deg=3.0, curvature_threshold=1.0
@@ -482,18 +418,8 @@ def test_segment_mosd_pcd_and_evaluate(capsys, tmp_path):
 def test_pipeline(capsys, tmp_path, scene_las):
     from pcl_rg.pipeline import seed004
 
-    result = run_json(
-        capsys,
-        "pipeline",
-        scene_las,
-        tmp_path / "p.laz",
-        "--sor-mean-k",
-        "10",
-        "--voxel-leaf-size",
-        "1",
-        "--region-k",
-        "12",
-    )
+    flags = "--sor-mean-k 10 --voxel-leaf-size 1 --region-k 12".split()
+    result = run_json(capsys, "pipeline", scene_las, tmp_path / "p.laz", *flags)
     source = read_points(scene_las)
     expected = seed004(
         source.points,
@@ -512,10 +438,11 @@ def test_pipeline(capsys, tmp_path, scene_las):
         "min_points_per_voxel": 1,
     }
     # Without SOR and voxel grid: region growing on every point; classes untouched.
-    run_json(capsys, "pipeline", scene_las, tmp_path / "q.laz", "--no-sor", "--no-auto-voxel",
-             "--region-k", "12")
-    expected = seed004(source.points, sor=None, region=pcl_rg.RegionGrowingParams(k=12),
-                       auto_voxel=False)
+    flags = "--no-sor --no-auto-voxel --region-k 12".split()
+    run_json(capsys, "pipeline", scene_las, tmp_path / "q.laz", *flags)
+    expected = seed004(
+        source.points, sor=None, region=pcl_rg.RegionGrowingParams(k=12), auto_voxel=False
+    )
     written = read_points(tmp_path / "q.laz")
     np.testing.assert_array_equal(written.fields["segment_id"], expected.labels)
     np.testing.assert_array_equal(written.classification, source.classification)

@@ -461,18 +461,24 @@ def write_points(
 
     Examples
     --------
-    >>> import os, tempfile
+    A LAZ file with a field and classes, then its first point written again
+    with the first file's header as template:
+
+    >>> import pathlib, tempfile
     >>> import numpy as np
-    >>> from pcl_rg.io import read_points, write_points
-    >>> xyz = np.array([[500000.125, 5400000.5, 12.25], [500001.0, 5400001.0, 13.0]])
+    >>> import pcl_rg.io
     >>> with tempfile.TemporaryDirectory() as folder:
-    ...     path = os.path.join(folder, "two.laz")
-    ...     write_points(path, xyz, {"intensity": np.array([10, 20], np.uint16)},
-    ...                  classification=[2, 6])
-    ...     cloud = read_points(path)
-    ...     write_points(os.path.join(folder, "ground.laz"), cloud.points[:1],
-    ...                  {k: v[:1] for k, v in cloud.fields.items()}, template=cloud)
-    ...     ground = read_points(os.path.join(folder, "ground.laz"))
+    ...     laz, first = pathlib.Path(folder, "two.laz"), pathlib.Path(folder, "ground.laz")
+    ...     pcl_rg.io.write_points(
+    ...         laz,
+    ...         [[500000.125, 5400000.5, 12.25], [500001.0, 5400001.0, 13.0]],
+    ...         {"intensity": np.array([10, 20], np.uint16)},
+    ...         classification=[2, 6],
+    ...     )
+    ...     cloud = pcl_rg.io.read_points(laz)
+    ...     kept = {name: values[:1] for name, values in cloud.fields.items()}
+    ...     pcl_rg.io.write_points(first, cloud.points[:1], kept, template=cloud)
+    ...     ground = pcl_rg.io.read_points(first)
     >>> cloud.points.tolist(), cloud.classification.tolist(), cloud.fields["intensity"].tolist()
     ([[500000.125, 5400000.5, 12.25], [500001.0, 5400001.0, 13.0]], [2, 6], [10, 20])
     >>> len(ground), ground.header.point_format.id, ground.classification.tolist()
