@@ -14,8 +14,13 @@ import numpy as np
 import pytest
 from conftest import MOSD_SCENES, examples, point_arrays, run_in_threads, shared_data
 from hypothesis import HealthCheck, given, settings
-from hypothesis import strategies as st
-from test_region_growing import assert_numbered_by_smallest_index, box_scene, matched_agreement
+from test_region_growing import (
+    assert_labels_or_value_error,
+    assert_numbered_by_smallest_index,
+    box_scene,
+    matched_agreement,
+    region_growing_keywords,
+)
 
 import pcl_rg
 import pcl_rg.pcl
@@ -234,27 +239,12 @@ def test_bad_points_and_empty_input() -> None:
 @settings(max_examples=examples(100), deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(
     points=point_arrays((0, 30), [0.0, 1.0, -2.0, 1e-6, 1e4], 5),
-    k=st.integers(1, 32),
-    angle=st.floats(-10, 200),
-    threshold=st.floats(-1, 1),
-    sizes=st.tuples(st.integers(0, 40), st.integers(0, 40)),
+    keywords=region_growing_keywords(1.0),
 )
-def test_fuzz_only_value_errors(points, k, angle, threshold, sizes) -> None:
+def test_fuzz_only_value_errors(points, keywords) -> None:
     # Duplicates and collinear points included: PCL gives NaN or arbitrary normals
     # there, which its growth accepts; nothing may crash.
-    try:
-        labels = region_growing_pcl(
-            points,
-            k=k,
-            smoothness_deg=angle,
-            curvature_threshold=threshold,
-            min_cluster_size=sizes[0],
-            max_cluster_size=sizes[1],
-        )
-    except ValueError:
-        return
-    assert labels.dtype == np.int32 and labels.shape == (len(points),)
-    assert_numbered_by_smallest_index(labels)
+    assert_labels_or_value_error(region_growing_pcl, points, keywords)
 
 
 # --- progressive morphological filter ----------------------------------------------

@@ -379,25 +379,38 @@ def test_bad_points_and_empty_input() -> None:
     assert reference.region_growing(np.empty((0, 3))).shape == (0,)
 
 
-@settings(max_examples=examples(150), deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(
-    points=point_arrays((0, 30), [0.0, 1.0, -2.0, 1e-7, 1e5], 5),
-    k=st.integers(1, 32),
-    angle=st.floats(-10, 200),
-    threshold=st.floats(-1, 1e3),
-    sizes=st.tuples(st.integers(0, 40), st.integers(0, 40)),
-    measure=st.sampled_from(SEED_MEASURES + ("bogus",)),
-)
-def test_fuzz_only_value_errors(points, k, angle, threshold, sizes, measure) -> None:
+def region_growing_keywords(largest_threshold: float, **more) -> st.SearchStrategy[dict]:
+    """Keyword arguments of a region growing, from sensible to absurd (negative
+    angles and sizes, max below min), with `more` strategies added."""
+    return st.fixed_dictionaries(
+        {
+            "k": st.integers(1, 32),
+            "smoothness_deg": st.floats(-10, 200),
+            "curvature_threshold": st.floats(-1, largest_threshold),
+            "min_cluster_size": st.integers(0, 40),
+            "max_cluster_size": st.integers(0, 40),
+            **more,
+        }
+    )
+
+
+def assert_labels_or_value_error(function, points: np.ndarray, keywords: dict) -> None:
+    """`function(points, **keywords)` raises ValueError or labels every point."""
     try:
-        labels = pcl_rg.region_growing(
-            points, k=k, smoothness_deg=angle, curvature_threshold=threshold,
-            min_cluster_size=sizes[0], max_cluster_size=sizes[1], seed_measure=measure,
-        )
+        labels = function(points, **keywords)
     except ValueError:
         return
     assert labels.dtype == np.int32 and labels.shape == (len(points),)
     assert_numbered_by_smallest_index(labels)
+
+
+@settings(max_examples=examples(150), deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    points=point_arrays((0, 30), [0.0, 1.0, -2.0, 1e-7, 1e5], 5),
+    keywords=region_growing_keywords(1e3, seed_measure=st.sampled_from(SEED_MEASURES + ("bogus",))),
+)
+def test_fuzz_only_value_errors(points, keywords) -> None:
+    assert_labels_or_value_error(pcl_rg.region_growing, points, keywords)
 
 
 # -------------------------------------------------------------------- real data
