@@ -130,7 +130,6 @@ void grow_regions(std::size_t n, std::size_t k, const std::uint32_t* neighbours,
     }
 }
 
-
 RegionGrowingTimings region_growing(PointsView points, const RegionGrowingParams& params,
                                     std::int32_t* labels) {
     validate(params);
