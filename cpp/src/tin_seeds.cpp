@@ -16,44 +16,75 @@ namespace pcl_rg {
 
 namespace {
 
+// The minimum (or maximum) of every window [i - r, i + r] of the line of `length`
+// values in[i * stride], clipped at its ends, written to out[i * stride]: van Herk's
+// algorithm (van Herk, "A fast algorithm for local minimum and maximum filters on
+// rectangular and octagonal kernels", Pattern Recognition Letters 13(7), 1992; Gil and
+// Werman 1993), three comparisons per value whatever r. The line is padded with r
+// identities at each end, so every window covers 2r + 1 slots and spans at most two
+// blocks of 2r + 1: its minimum is that of the suffix minimum in the first block and
+// the prefix minimum in the second. Exact, as min and max are, so equal to scanning
+// each window. `prefix` and `suffix` are scratch.
+template <class Take>
+void window_extreme(const double* in, double* out, std::int64_t length, std::ptrdiff_t stride,
+                    std::int64_t r, double identity, Take take, std::vector<double>& prefix,
+                    std::vector<double>& suffix) {
+    r = std::min(r, length - 1);  // a wider window already covers the whole line
+    const std::int64_t w = 2 * r + 1, padded = length + 2 * r;
+    prefix.resize(static_cast<std::size_t>(padded));
+    suffix.resize(static_cast<std::size_t>(padded));
+    auto value = [&](std::int64_t j) {
+        return j >= r && j < r + length ? in[(j - r) * stride] : identity;
+    };
+    for (std::int64_t j = 0; j < padded; ++j)
+        prefix[j] = j % w == 0 ? value(j) : take(prefix[j - 1], value(j));
+    for (std::int64_t j = padded - 1; j >= 0; --j)
+        suffix[j] = j % w == w - 1 || j == padded - 1 ? value(j) : take(suffix[j + 1], value(j));
+    for (std::int64_t i = 0; i < length; ++i) out[i * stride] = take(suffix[i], prefix[i + 2 * r]);
+}
+
 // Square min or max filter of half-width r over an ncx x ncy raster (+inf = no value,
-// ignored; windows clipped at the border), separably by y then x: exact, as min and
-// max are.
+// ignored; windows clipped at the border), separably by y then x (window_extreme):
+// exact, as min and max are. +inf is the identity of min; for max the empty cells are
+// read as -inf, and a window of empty cells gives +inf again.
 std::vector<double> square_filter(const std::vector<double>& a, std::int64_t ncx, std::int64_t ncy,
                                   std::int64_t r, bool take_max) {
     const double none = std::numeric_limits<double>::infinity();
-    auto better = [take_max, none](double u, double v) {  // u replaces v
-        if (u == none) return false;
-        if (v == none) return true;
-        return take_max ? u > v : u < v;
-    };
-    std::vector<double> along_y(a.size(), none), out(a.size(), none);
-    // A window of r cells per side: polled once per column, which can take a while.
-    const Interruption interruption;
-#pragma omp parallel for schedule(static) firstprivate(interruption)
-    for (std::int64_t x = 0; x < ncx; ++x) {
-        if (interruption.requested()) continue;
+    std::vector<double> source = a;
+    if (take_max)
+        for (double& v : source)
+            if (v == none) v = -none;
+    std::vector<double> along_y(a.size()), out(a.size());
+    const auto lower = [](double u, double v) { return v < u ? v : u; };
+    const auto higher = [](double u, double v) { return v > u ? v : u; };
+    const double identity = take_max ? -none : none;
+    const Interruption interruption;  // polled once per line
+#pragma omp parallel firstprivate(interruption)
+    {
+        std::vector<double> prefix, suffix;
+#pragma omp for schedule(static)
+        for (std::int64_t x = 0; x < ncx; ++x) {
+            if (interruption.requested()) continue;
+            if (take_max)
+                window_extreme(&source[x * ncy], &along_y[x * ncy], ncy, 1, r, identity, higher,
+                               prefix, suffix);
+            else
+                window_extreme(&source[x * ncy], &along_y[x * ncy], ncy, 1, r, identity, lower,
+                               prefix, suffix);
+        }
+#pragma omp for schedule(static)
         for (std::int64_t y = 0; y < ncy; ++y) {
-            double v = none;
-            for (std::int64_t k = std::max<std::int64_t>(0, y - r); k <= std::min(ncy - 1, y + r);
-                 ++k)
-                if (better(a[x * ncy + k], v)) v = a[x * ncy + k];
-            along_y[x * ncy + y] = v;
+            if (interruption.requested()) continue;
+            if (take_max)
+                window_extreme(&along_y[y], &out[y], ncx, ncy, r, identity, higher, prefix, suffix);
+            else
+                window_extreme(&along_y[y], &out[y], ncx, ncy, r, identity, lower, prefix, suffix);
         }
     }
     interruption.check();
-#pragma omp parallel for schedule(static) firstprivate(interruption)
-    for (std::int64_t x = 0; x < ncx; ++x) {
-        if (interruption.requested()) continue;
-        for (std::int64_t y = 0; y < ncy; ++y) {
-            double v = none;
-            for (std::int64_t k = std::max<std::int64_t>(0, x - r); k <= std::min(ncx - 1, x + r);
-                 ++k)
-                if (better(along_y[k * ncy + y], v)) v = along_y[k * ncy + y];
-            out[x * ncy + y] = v;
-        }
-    }
-    interruption.check();
+    if (take_max)
+        for (double& v : out)
+            if (v == -none) v = none;
     return out;
 }
 
