@@ -30,32 +30,39 @@ bool lower(PointsView points, double z0, std::size_t a, std::size_t b) {
 
 std::vector<std::int64_t> lowest_in_cells(PointsView points, const CellLattice& lattice,
                                           const bool* take) {
+    // Each cell keeps its lowest point's height next to its index, so that a comparison
+    // reads no other point (the points of a cell are scattered over the input).
+    struct Lowest {
+        double z;
+        std::int64_t i;  // -1: none yet
+    };
     const auto cells = static_cast<std::size_t>(lattice.columns * lattice.rows);
-    std::vector<std::int64_t> lowest(cells, -1);
-    auto keep_lower = [&](std::int64_t& b, std::int64_t i) {
-        if (b < 0 ||
-            lower(points, lattice.z0, static_cast<std::size_t>(i), static_cast<std::size_t>(b)))
-            b = i;
+    std::vector<Lowest> lowest(cells, Lowest{0.0, -1});
+    auto keep_lower = [](Lowest& b, const Lowest& p) {
+        if (b.i < 0 || p.z < b.z || (p.z == b.z && p.i < b.i)) b = p;
     };
     const auto n = static_cast<std::int64_t>(points.size);
     const Interruption interruption;
 #pragma omp parallel if (cells <= points.size / 8 && n > 65536) firstprivate(interruption)
     {
-        std::vector<std::int64_t> mine(cells, -1);
+        std::vector<Lowest> mine(cells, Lowest{0.0, -1});
         bool stop = false;
 #pragma omp for schedule(static) nowait
         for (std::int64_t i = 0; i < n; ++i) {
             if (i % 4096 == 0) stop = interruption.requested();
             if (stop || (take && !take[i])) continue;
             const auto [cx, cy] = cell_of(points, lattice, static_cast<std::size_t>(i));
-            keep_lower(mine[static_cast<std::size_t>(cx * lattice.rows + cy)], i);
+            keep_lower(mine[static_cast<std::size_t>(cx * lattice.rows + cy)],
+                       Lowest{points.coord(static_cast<std::size_t>(i), 2) - lattice.z0, i});
         }
 #pragma omp critical(pcl_rg_lowest_in_cells)
         for (std::size_t k = 0; k < cells; ++k)
-            if (mine[k] >= 0) keep_lower(lowest[k], mine[k]);
+            if (mine[k].i >= 0) keep_lower(lowest[k], mine[k]);
     }
     interruption.check();
-    return lowest;
+    std::vector<std::int64_t> index(cells);
+    for (std::size_t k = 0; k < cells; ++k) index[k] = lowest[k].i;
+    return index;
 }
 
 std::vector<std::uint32_t> lowest_points(PointsView points, const CellLattice& lattice,

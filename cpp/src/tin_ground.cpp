@@ -87,6 +87,7 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "ground_tin.hpp"
@@ -218,17 +219,16 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
     // Of seeds sharing an XY position only the smallest index becomes a vertex.
     std::vector<std::uint8_t> vertex_seed(n, 0);
     {
-        std::vector<std::uint32_t> by_xy(seeds.size());
-        for (std::size_t k = 0; k < by_xy.size(); ++k) by_xy[k] = static_cast<std::uint32_t>(k);
-        std::sort(by_xy.begin(), by_xy.end(), [&](std::uint32_t a, std::uint32_t b) {
-            return seed_x[a] < seed_x[b] ||
-                   (seed_x[a] == seed_x[b] &&
-                    (seed_y[a] < seed_y[b] || (seed_y[a] == seed_y[b] && a < b)));
-        });
+        // One 64-bit key per seed (x above y, both >= 0) sorted with its index: no
+        // indirection in the comparisons.
+        std::vector<std::pair<std::uint64_t, std::uint32_t>> by_xy(seeds.size());
         for (std::size_t k = 0; k < by_xy.size(); ++k)
-            if (k == 0 || seed_x[by_xy[k]] != seed_x[by_xy[k - 1]] ||
-                seed_y[by_xy[k]] != seed_y[by_xy[k - 1]])
-                vertex_seed[seeds[by_xy[k]]] = 1;
+            by_xy[k] = {
+                static_cast<std::uint64_t>(seed_x[k]) << 32 | static_cast<std::uint32_t>(seed_y[k]),
+                seeds[k]};
+        std::sort(by_xy.begin(), by_xy.end());
+        for (std::size_t k = 0; k < by_xy.size(); ++k)
+            if (k == 0 || by_xy[k].first != by_xy[k - 1].first) vertex_seed[by_xy[k].second] = 1;
     }
 
     // Virtual corners one grid step outside the extent, at the height of the nearest
