@@ -410,7 +410,10 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
         take_marked(retest, work);
         stats.classification_seconds += seconds_since(clock);
     }
-    for (std::size_t s = 0; s < n; ++s) ground[order[s]] = is_ground[s];
+    // Scattered writes of distinct entries: in parallel, the result is the same.
+    const auto count = static_cast<std::ptrdiff_t>(n);
+#pragma omp parallel for schedule(static) if (count > 65536)
+    for (std::ptrdiff_t s = 0; s < count; ++s) ground[order[s]] = is_ground[s] != 0;
     stats.tin_vertices = static_cast<std::int64_t>(tin.vertex_count());
     if (*params.final_cell > 0.0) {
         clock = std::chrono::steady_clock::now();
