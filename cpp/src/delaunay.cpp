@@ -85,6 +85,41 @@ void snap_to_grid(PointsView points, const std::array<double, 3>& origin, const 
     }
 }
 
+SnappedPoints snap_points(PointsView points, const std::array<double, 3>& origin,
+                          const std::array<double, 3>& upper) {
+    const std::size_t n = points.size;
+    SnappedPoints out;
+    out.origin = origin;
+    out.upper = upper;
+    out.frame = make_grid_frame(0.0, 0.0, upper[0] - origin[0], upper[1] - origin[1]);
+    const Interruption interruption;
+    {
+        std::vector<std::int32_t> gx, gy;
+        snap_to_grid(points, origin, out.frame, gx, gy);
+        out.order = morton_order_2d(gx.data(), gy.data(), n, out.frame.width, out.frame.height);
+        interruption.check_now();
+        out.x.resize(n);
+        out.y.resize(n);
+        out.z.resize(n);
+        // In blocks polled once each: the gathers miss the cache, the sweep takes a while.
+        constexpr std::size_t kBlock = 4096;
+        const auto blocks = static_cast<std::ptrdiff_t>((n + kBlock - 1) / kBlock);
+#pragma omp parallel for schedule(static) firstprivate(interruption)
+        for (std::ptrdiff_t b = 0; b < blocks; ++b) {
+            if (interruption.requested()) continue;
+            const std::size_t begin = static_cast<std::size_t>(b) * kBlock;
+            for (std::size_t s = begin; s < std::min(n, begin + kBlock); ++s) {
+                const std::uint32_t i = out.order[s];
+                out.x[s] = gx[i];
+                out.y[s] = gy[i];
+                out.z[s] = points.coord(i, 2) - origin[2];
+            }
+        }
+    }
+    interruption.check();
+    return out;
+}
+
 namespace {
 
 // Orientation of (a, b, p + (eps, eps^2)): the exact orientation when non-zero, else

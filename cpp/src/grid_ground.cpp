@@ -392,23 +392,22 @@ void grid_ground(PointsView points, const GridGroundParams& given, bool* ground,
                                  given.cell_size.value_or(std::array<double, 2>{})};
     if (n == 0) return;
     // An unset cell size from the spacing of these points (measured only then).
-    const double spacing =
-        given.cell_size ? std::numeric_limits<double>::quiet_NaN() : spacing_or_one_metre(points);
+    // The bounding box, scanned once for the spacing, the extent and the final pass.
+    const std::array<double, 3> lower = local_origin(points);
+    const std::array<double, 3> upper = upper_corner(points, lower);
+    const double spacing = given.cell_size ? std::numeric_limits<double>::quiet_NaN()
+                                           : spacing_or_one_metre(points, lower, upper);
     const GridGroundParams params = with_spacing(given, spacing);
     if (stats) *stats = GridGroundStats{spacing, *params.cell_size};
     check::indexable_by_int32(n);
     // Blocks and cells anchored at the world lattice of blocks: the block corner at or
     // below the minimum corner, so l >= 0 and every index is >= 0.
-    std::array<double, 3> origin = local_origin(points);
+    std::array<double, 3> origin = lower;
     for (int a = 0; a < 2; ++a) origin[a] = lattice_floor(origin[a], params.block_size[a]);
     const bool parallel = n >= kGridParallelMin;
-    double extent_x = 0.0, extent_y = 0.0;
-#pragma omp parallel for schedule(guided) if (parallel) reduction(max : extent_x, extent_y)
-    for (std::ptrdiff_t i = 0; i < static_cast<std::ptrdiff_t>(n); ++i) {
-        extent_x = std::max(extent_x, points.coord(i, 0) - origin[0]);
-        extent_y = std::max(extent_y, points.coord(i, 1) - origin[1]);
-    }
-    const std::array<double, 2> extent{extent_x, extent_y};
+    // The largest x - origin[0] of the points: rounding is monotonic, so it is the
+    // largest x minus origin[0].
+    const std::array<double, 2> extent{upper[0] - origin[0], upper[1] - origin[1]};
     for (int a = 0; a < 2; ++a)
         if (!(extent[a] / (*params.cell_size)[a] < kMaxIndex))
             throw std::invalid_argument(
@@ -432,7 +431,8 @@ void grid_ground(PointsView points, const GridGroundParams& given, bool* ground,
     const auto count = static_cast<std::ptrdiff_t>(n);
 #pragma omp parallel for schedule(guided) if (parallel)
     for (std::ptrdiff_t s = 0; s < count; ++s) ground[grid.id[s]] = result[s] != 0;
-    if (params.final_cell > 0.0) final_pass(points, final_pass_params(params), ground);
+    if (params.final_cell > 0.0)
+        final_pass(points, final_pass_params(params), lower, upper, ground);
 }
 
 }  // namespace pcl_rg

@@ -2,6 +2,7 @@
 #include "pcl_rg/point_spacing.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -10,15 +11,16 @@
 namespace pcl_rg {
 
 double point_spacing(PointsView points) {
+    if (points.size < 2) return std::numeric_limits<double>::quiet_NaN();
+    const std::array<double, 3> lower = local_origin(points);
+    return point_spacing(points, lower, upper_corner(points, lower));
+}
+
+double point_spacing(PointsView points, const std::array<double, 3>& lower,
+                     const std::array<double, 3>& upper) {
     const std::size_t n = points.size;
     if (n < 2) return std::numeric_limits<double>::quiet_NaN();
-    double xmin = points.coord(0, 0), xmax = xmin, ymin = points.coord(0, 1), ymax = ymin;
-    for (std::size_t i = 1; i < n; ++i) {
-        xmin = std::min(xmin, points.coord(i, 0));
-        xmax = std::max(xmax, points.coord(i, 0));
-        ymin = std::min(ymin, points.coord(i, 1));
-        ymax = std::max(ymax, points.coord(i, 1));
-    }
+    const double xmin = lower[0], xmax = upper[0], ymin = lower[1], ymax = upper[1];
     const double w = xmax - xmin, h = ymax - ymin;
     // No XY area (a vertical wall, a line along an axis): no density to measure.
     if (!(w * h > 0.0)) return std::numeric_limits<double>::quiet_NaN();
@@ -53,6 +55,12 @@ double point_spacing(PointsView points) {
 
 double spacing_or_one_metre(PointsView points) {
     const double spacing = point_spacing(points);
+    return std::isnan(spacing) ? 1.0 : spacing;
+}
+
+double spacing_or_one_metre(PointsView points, const std::array<double, 3>& lower,
+                            const std::array<double, 3>& upper) {
+    const double spacing = point_spacing(points, lower, upper);
     return std::isnan(spacing) ? 1.0 : spacing;
 }
 

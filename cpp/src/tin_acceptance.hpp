@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "ground_tin.hpp"
 #include "pcl_rg/delaunay.hpp"
 
 namespace pcl_rg::tin_acceptance {
@@ -33,37 +34,18 @@ struct Verdict {
     double d = 0.0;
 };
 
-// A triangle with its vertices counter-clockwise from the lexicographically smallest
-// (x, y), so that the floating-point results do not depend on how it is stored.
-// With what every test against it shares, so that consecutive points of one triangle
-// (points are tested in Morton order) compute it once.
-struct Facet {
-    std::array<std::int32_t, 3> v;
-    double x[3], y[3], z[3];  // metres, local frame
-    double longest;           // longest XY edge (m)
-    double nx, ny, nz;        // normal (v1 - v0) x (v2 - v0)
-    double norm;              // its length
-    double sin_limit;         // sine of the (reduced) iteration angle
+// A triangle's plane (ground_tin.hpp) with what every test against it shares, so that
+// consecutive points of one triangle (points are tested in Morton order) compute it once.
+struct Facet : ground_tin::Plane {
+    double longest;    // longest XY edge (m)
+    double norm;       // length of the normal
+    double sin_limit;  // sine of the (reduced) iteration angle
 };
 
 inline Facet facet(const Delaunay& tin, const std::vector<double>& vz, const Limits& lim,
                    std::int32_t t) {
-    const double quantum = lim.quantum;
     Facet f;
-    f.v = {tin.triangle_vertex(t, 0), tin.triangle_vertex(t, 1), tin.triangle_vertex(t, 2)};
-    int first = 0;
-    for (int k = 1; k < 3; ++k) {
-        const std::int32_t a = f.v[k], b = f.v[first];
-        if (tin.vertex_x(a) < tin.vertex_x(b) ||
-            (tin.vertex_x(a) == tin.vertex_x(b) && tin.vertex_y(a) < tin.vertex_y(b)))
-            first = k;
-    }
-    std::rotate(f.v.begin(), f.v.begin() + first, f.v.end());
-    for (int k = 0; k < 3; ++k) {
-        f.x[k] = static_cast<double>(tin.vertex_x(f.v[k]) - 1) * quantum;
-        f.y[k] = static_cast<double>(tin.vertex_y(f.v[k]) - 1) * quantum;
-        f.z[k] = vz[f.v[k]];
-    }
+    static_cast<ground_tin::Plane&>(f) = ground_tin::plane_of(tin, vz, lim.quantum, t);
     double longest2 = 0.0;
     for (int k = 0; k < 3; ++k) {
         const int j = (k + 1) % 3;
@@ -71,11 +53,6 @@ inline Facet facet(const Delaunay& tin, const std::vector<double>& vz, const Lim
         longest2 = std::max(longest2, dx * dx + dy * dy);
     }
     f.longest = std::sqrt(longest2);
-    const double ux = f.x[1] - f.x[0], uy = f.y[1] - f.y[0], uz = f.z[1] - f.z[0];
-    const double wx = f.x[2] - f.x[0], wy = f.y[2] - f.y[0], wz = f.z[2] - f.z[0];
-    f.nx = uy * wz - uz * wy;
-    f.ny = uz * wx - ux * wz;
-    f.nz = ux * wy - uy * wx;
     f.norm = std::sqrt(f.nx * f.nx + f.ny * f.ny + f.nz * f.nz);
     f.sin_limit = lim.sin_angle;
     if (f.longest < lim.reduce_angle_edge)

@@ -87,8 +87,10 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
+#include "ground_tin.hpp"
 #include "pcl_rg/check.hpp"
 #include "pcl_rg/delaunay.hpp"
 #include "pcl_rg/final_pass.hpp"
@@ -154,9 +156,12 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
     const std::size_t n = points.size;
     if (n == 0) return stats;
     // The unset lengths from the spacing of these points (measured only when needed).
+    // The bounding box, scanned once for the spacing, the frame and the final pass.
+    const std::array<double, 3> origin = local_origin(points);
+    const std::array<double, 3> upper = upper_corner(points, origin);
     stats.point_spacing = std::numeric_limits<double>::quiet_NaN();
     if (!given.stop_edge || !given.near_vertex_distance || !given.seed_cell || !given.final_cell)
-        stats.point_spacing = spacing_or_one_metre(points);
+        stats.point_spacing = spacing_or_one_metre(points, origin, upper);
     const TinGroundParams params = with_spacing(given, stats.point_spacing);
     stats.stop_edge = *params.stop_edge;
     stats.near_vertex_distance = *params.near_vertex_distance;
@@ -173,25 +178,26 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
     const Interruption interruption;  // polled between the steps and in the long loops
 
     // --- 1. local frame and integer grid -------------------------------------------
-    const std::array<double, 3> origin = local_origin(points);
-    const std::array<double, 3> upper = upper_corner(points, origin);
     const double ex = upper[0] - origin[0], ey = upper[1] - origin[1];
     if (!std::isfinite(upper[2] - origin[2]))
         throw std::invalid_argument("points: the z extent is too large (not finite in float64)");
     if (!std::isfinite(ex) || !std::isfinite(ey))
         throw std::invalid_argument("points: the XY extent is too large (not finite in float64)");
-    const GridFrame frame = make_grid_frame(0.0, 0.0, ex, ey);
-
-    std::vector<std::int32_t> gx, gy;
-    snap_to_grid(points, origin, frame, gx, gy);
+    // The points snapped and in Morton order, by sorted position (the final pass reuses
+    // them): neighbours in XY are neighbours in memory.
+    const SnappedPoints snapped = snap_points(points, origin, upper);
+    const GridFrame& frame = snapped.frame;
+    const std::vector<std::uint32_t>& order = snapped.order;
+    const std::vector<std::int32_t>&sx = snapped.x, &sy = snapped.y;
+    const std::vector<double>& sz = snapped.z;
 
     // A TIN needs three points not on one line (exact test on the grid).
     {
         std::size_t second = 0;
-        while (second < n && gx[second] == gx[0] && gy[second] == gy[0]) ++second;
+        while (second < n && sx[second] == sx[0] && sy[second] == sy[0]) ++second;
         bool spread = false;
         for (std::size_t k = second + 1; k < n && second < n && !spread; ++k)
-            spread = orient2d(gx[0], gy[0], gx[second], gy[second], gx[k], gy[k]) != 0;
+            spread = orient2d(sx[0], sy[0], sx[second], sy[second], sx[k], sy[k]) != 0;
         if (!spread)
             throw std::invalid_argument(
                 "points are all collinear in XY (or fewer than 3 distinct XY positions): "
@@ -204,59 +210,36 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
     interruption.check_now();
     stats.seeds = static_cast<std::int64_t>(seeds.size());
     for (const std::uint32_t s : seeds) ground[s] = true;
+    std::vector<std::int32_t> seed_x(seeds.size()), seed_y(seeds.size());
+    for (std::size_t k = 0; k < seeds.size(); ++k) {
+        seed_x[k] = snapped.grid_x(points, seeds[k]);
+        seed_y[k] = snapped.grid_y(points, seeds[k]);
+    }
 
     // Of seeds sharing an XY position only the smallest index becomes a vertex.
     std::vector<std::uint8_t> vertex_seed(n, 0);
     {
-        std::vector<std::uint32_t> by_xy = seeds;
-        std::sort(by_xy.begin(), by_xy.end(), [&](std::uint32_t a, std::uint32_t b) {
-            return gx[a] < gx[b] ||
-                   (gx[a] == gx[b] && (gy[a] < gy[b] || (gy[a] == gy[b] && a < b)));
-        });
+        // One 64-bit key per seed (x above y, both >= 0) sorted with its index: no
+        // indirection in the comparisons.
+        std::vector<std::pair<std::uint64_t, std::uint32_t>> by_xy(seeds.size());
         for (std::size_t k = 0; k < by_xy.size(); ++k)
-            if (k == 0 || gx[by_xy[k]] != gx[by_xy[k - 1]] || gy[by_xy[k]] != gy[by_xy[k - 1]])
-                vertex_seed[by_xy[k]] = 1;
+            by_xy[k] = {
+                static_cast<std::uint64_t>(seed_x[k]) << 32 | static_cast<std::uint32_t>(seed_y[k]),
+                seeds[k]};
+        std::sort(by_xy.begin(), by_xy.end());
+        for (std::size_t k = 0; k < by_xy.size(); ++k)
+            if (k == 0 || by_xy[k].first != by_xy[k - 1].first) vertex_seed[by_xy[k].second] = 1;
     }
 
     // Virtual corners one grid step outside the extent, at the height of the nearest
     // seed (exact squared grid distance, ties: smallest index).
-    const std::int64_t corner_x[4] = {0, frame.width, frame.width, 0};
-    const std::int64_t corner_y[4] = {0, 0, frame.height, frame.height};
     std::array<double, 4> corner_z{};
-    for (int c = 0; c < 4; ++c) {
-        std::int64_t best_d2 = std::numeric_limits<std::int64_t>::max();
-        std::uint32_t best = 0;
-        for (const std::uint32_t i : seeds) {  // in index order: the first of equals wins
-            const std::int64_t dx = gx[i] - corner_x[c], dy = gy[i] - corner_y[c];
-            const std::int64_t d2 = dx * dx + dy * dy;
-            if (d2 < best_d2) best_d2 = d2, best = i;
-        }
-        corner_z[c] = points.coord(best, 2) - origin[2];
+    {
+        const std::array<std::size_t, 4> nearest = ground_tin::nearest_to_corners(
+            frame, seeds.size(), [&](std::size_t k) { return seed_x[k]; },
+            [&](std::size_t k) { return seed_y[k]; }, [&](std::size_t k) { return seeds[k]; });
+        for (int c = 0; c < 4; ++c) corner_z[c] = points.coord(seeds[nearest[c]], 2) - origin[2];
     }
-
-    // Points in Morton order: local arrays indexed by sorted position.
-    const std::vector<std::uint32_t> order =
-        morton_order_2d(gx.data(), gy.data(), n, frame.width, frame.height);
-    interruption.check_now();
-    std::vector<std::int32_t> sx(n), sy(n);
-    std::vector<double> sz(n);
-    // In blocks polled once each: the gathers miss the cache, the sweep takes a while.
-    constexpr std::size_t kBlock = 4096;
-    const auto blocks = static_cast<std::ptrdiff_t>((n + kBlock - 1) / kBlock);
-#pragma omp parallel for schedule(static) firstprivate(interruption)
-    for (std::ptrdiff_t b = 0; b < blocks; ++b) {
-        if (interruption.requested()) continue;
-        const std::size_t begin = static_cast<std::size_t>(b) * kBlock;
-        for (std::size_t s = begin; s < std::min(n, begin + kBlock); ++s) {
-            const std::uint32_t i = order[s];
-            sx[s] = gx[i];
-            sy[s] = gy[i];
-            sz[s] = points.coord(i, 2) - origin[2];
-        }
-    }
-    interruption.check();
-    std::vector<std::int32_t>().swap(gx);
-    std::vector<std::int32_t>().swap(gy);
     stats.prepare_seconds = seconds_since(clock);
     clock = std::chrono::steady_clock::now();
 
@@ -427,11 +410,14 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
         take_marked(retest, work);
         stats.classification_seconds += seconds_since(clock);
     }
-    for (std::size_t s = 0; s < n; ++s) ground[order[s]] = is_ground[s];
+    // Scattered writes of distinct entries: in parallel, the result is the same.
+    const auto count = static_cast<std::ptrdiff_t>(n);
+#pragma omp parallel for schedule(static) if (count > 65536)
+    for (std::ptrdiff_t s = 0; s < count; ++s) ground[order[s]] = is_ground[s] != 0;
     stats.tin_vertices = static_cast<std::int64_t>(tin.vertex_count());
     if (*params.final_cell > 0.0) {
         clock = std::chrono::steady_clock::now();
-        final_pass(points, final_pass_params(params), ground);
+        final_pass(points, final_pass_params(params), snapped, ground);
         stats.classification_seconds += seconds_since(clock);
     }
     return stats;

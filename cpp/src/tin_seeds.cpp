@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "pcl_rg/cell_lowest.hpp"
 #include "pcl_rg/check.hpp"
 #include "pcl_rg/interrupt.hpp"
 #include "pcl_rg/points.hpp"
@@ -15,115 +16,75 @@ namespace pcl_rg {
 
 namespace {
 
-// Column * ncy + row of point i in square cells of side `cell` anchored at the origin.
-std::int64_t cell_key(PointsView points, const std::array<double, 3>& origin, double cell,
-                      std::int64_t ncy, std::size_t i) {
-    const auto cx = static_cast<std::int64_t>(std::floor((points.coord(i, 0) - origin[0]) / cell));
-    const auto cy = static_cast<std::int64_t>(std::floor((points.coord(i, 1) - origin[1]) / cell));
-    return cx * ncy + cy;
-}
-
-// Point a comes before point b: lower z, then smaller index.
-bool lower(PointsView points, std::size_t a, std::size_t b) {
-    const double za = points.coord(a, 2), zb = points.coord(b, 2);
-    return za < zb || (za == zb && a < b);
-}
-
-// Lowest point (ties: smallest index) of every cell of a dense ncx x ncy grid of square
-// cells anchored at the origin, row-major by x then y; -1 for an empty cell. When the
-// grid is small next to the cloud, each thread scans a share of the points into its own
-// grid and the grids are merged: the lowest under a total order does not depend on how
-// the points were shared out.
-std::vector<std::int64_t> lowest_in_cells(PointsView points, const std::array<double, 3>& origin,
-                                          double cell, std::int64_t ncx, std::int64_t ncy) {
-    const auto cells = static_cast<std::size_t>(ncx * ncy);
-    std::vector<std::int64_t> lowest(cells, -1);
-    auto keep_lower = [&](std::int64_t& b, std::int64_t i) {
-        if (b < 0 || lower(points, static_cast<std::size_t>(i), static_cast<std::size_t>(b))) b = i;
+// The minimum (or maximum) of every window [i - r, i + r] of the line of `length`
+// values in[i * stride], clipped at its ends, written to out[i * stride]: van Herk's
+// algorithm (van Herk, "A fast algorithm for local minimum and maximum filters on
+// rectangular and octagonal kernels", Pattern Recognition Letters 13(7), 1992; Gil and
+// Werman 1993), three comparisons per value whatever r. The line is padded with r
+// identities at each end, so every window covers 2r + 1 slots and spans at most two
+// blocks of 2r + 1: its minimum is that of the suffix minimum in the first block and
+// the prefix minimum in the second. Exact, as min and max are, so equal to scanning
+// each window. `prefix` and `suffix` are scratch.
+template <class Take>
+void window_extreme(const double* in, double* out, std::int64_t length, std::ptrdiff_t stride,
+                    std::int64_t r, double identity, Take take, std::vector<double>& prefix,
+                    std::vector<double>& suffix) {
+    r = std::min(r, length - 1);  // a wider window already covers the whole line
+    const std::int64_t w = 2 * r + 1, padded = length + 2 * r;
+    prefix.resize(static_cast<std::size_t>(padded));
+    suffix.resize(static_cast<std::size_t>(padded));
+    auto value = [&](std::int64_t j) {
+        return j >= r && j < r + length ? in[(j - r) * stride] : identity;
     };
-    const auto n = static_cast<std::int64_t>(points.size);
-    const Interruption interruption;
-#pragma omp parallel if (cells <= points.size / 8 && n > 65536) firstprivate(interruption)
-    {
-        std::vector<std::int64_t> mine(cells, -1);
-        bool stop = false;
-#pragma omp for schedule(static) nowait
-        for (std::int64_t i = 0; i < n; ++i) {
-            if (i % 4096 == 0) stop = interruption.requested();
-            if (stop) continue;
-            keep_lower(mine[static_cast<std::size_t>(
-                           cell_key(points, origin, cell, ncy, static_cast<std::size_t>(i)))],
-                       i);
-        }
-#pragma omp critical(pcl_rg_lowest_in_cells)
-        for (std::size_t k = 0; k < cells; ++k)
-            if (mine[k] >= 0) keep_lower(lowest[k], mine[k]);
-    }
-    interruption.check();
-    return lowest;
-}
-
-// The lowest point of every occupied cell, in index order: through the dense grid when
-// it is small, else by sorting (cell, z, index), so that any cell size works.
-std::vector<std::uint32_t> lowest_points(PointsView points, const std::array<double, 3>& origin,
-                                         double cell, std::int64_t ncx, std::int64_t ncy) {
-    const auto n = static_cast<std::int64_t>(points.size);
-    std::vector<std::uint32_t> lowest;
-    if (ncx <= (4 * n + 4096) / ncy) {
-        for (const std::int64_t b : lowest_in_cells(points, origin, cell, ncx, ncy))
-            if (b >= 0) lowest.push_back(static_cast<std::uint32_t>(b));
-    } else {
-        std::vector<std::pair<std::int64_t, std::uint32_t>> keyed(points.size);
-        for (std::size_t i = 0; i < points.size; ++i)
-            keyed[i] = {cell_key(points, origin, cell, ncy, i), static_cast<std::uint32_t>(i)};
-        std::sort(keyed.begin(), keyed.end(), [&](const auto& a, const auto& b) {
-            return a.first < b.first || (a.first == b.first && lower(points, a.second, b.second));
-        });
-        for (std::size_t k = 0; k < keyed.size(); ++k)
-            if (k == 0 || keyed[k].first != keyed[k - 1].first) lowest.push_back(keyed[k].second);
-    }
-    std::sort(lowest.begin(), lowest.end());
-    return lowest;
+    for (std::int64_t j = 0; j < padded; ++j)
+        prefix[j] = j % w == 0 ? value(j) : take(prefix[j - 1], value(j));
+    for (std::int64_t j = padded - 1; j >= 0; --j)
+        suffix[j] = j % w == w - 1 || j == padded - 1 ? value(j) : take(suffix[j + 1], value(j));
+    for (std::int64_t i = 0; i < length; ++i) out[i * stride] = take(suffix[i], prefix[i + 2 * r]);
 }
 
 // Square min or max filter of half-width r over an ncx x ncy raster (+inf = no value,
-// ignored; windows clipped at the border), separably by y then x: exact, as min and
-// max are.
+// ignored; windows clipped at the border), separably by y then x (window_extreme):
+// exact, as min and max are. +inf is the identity of min; for max the empty cells are
+// read as -inf, and a window of empty cells gives +inf again.
 std::vector<double> square_filter(const std::vector<double>& a, std::int64_t ncx, std::int64_t ncy,
                                   std::int64_t r, bool take_max) {
     const double none = std::numeric_limits<double>::infinity();
-    auto better = [take_max, none](double u, double v) {  // u replaces v
-        if (u == none) return false;
-        if (v == none) return true;
-        return take_max ? u > v : u < v;
-    };
-    std::vector<double> along_y(a.size(), none), out(a.size(), none);
-    // A window of r cells per side: polled once per column, which can take a while.
-    const Interruption interruption;
-#pragma omp parallel for schedule(static) firstprivate(interruption)
-    for (std::int64_t x = 0; x < ncx; ++x) {
-        if (interruption.requested()) continue;
+    std::vector<double> source = a;
+    if (take_max)
+        for (double& v : source)
+            if (v == none) v = -none;
+    std::vector<double> along_y(a.size()), out(a.size());
+    const auto lower = [](double u, double v) { return v < u ? v : u; };
+    const auto higher = [](double u, double v) { return v > u ? v : u; };
+    const double identity = take_max ? -none : none;
+    const Interruption interruption;  // polled once per line
+#pragma omp parallel firstprivate(interruption)
+    {
+        std::vector<double> prefix, suffix;
+#pragma omp for schedule(static)
+        for (std::int64_t x = 0; x < ncx; ++x) {
+            if (interruption.requested()) continue;
+            if (take_max)
+                window_extreme(&source[x * ncy], &along_y[x * ncy], ncy, 1, r, identity, higher,
+                               prefix, suffix);
+            else
+                window_extreme(&source[x * ncy], &along_y[x * ncy], ncy, 1, r, identity, lower,
+                               prefix, suffix);
+        }
+#pragma omp for schedule(static)
         for (std::int64_t y = 0; y < ncy; ++y) {
-            double v = none;
-            for (std::int64_t k = std::max<std::int64_t>(0, y - r); k <= std::min(ncy - 1, y + r);
-                 ++k)
-                if (better(a[x * ncy + k], v)) v = a[x * ncy + k];
-            along_y[x * ncy + y] = v;
+            if (interruption.requested()) continue;
+            if (take_max)
+                window_extreme(&along_y[y], &out[y], ncx, ncy, r, identity, higher, prefix, suffix);
+            else
+                window_extreme(&along_y[y], &out[y], ncx, ncy, r, identity, lower, prefix, suffix);
         }
     }
     interruption.check();
-#pragma omp parallel for schedule(static) firstprivate(interruption)
-    for (std::int64_t x = 0; x < ncx; ++x) {
-        if (interruption.requested()) continue;
-        for (std::int64_t y = 0; y < ncy; ++y) {
-            double v = none;
-            for (std::int64_t k = std::max<std::int64_t>(0, x - r); k <= std::min(ncx - 1, x + r);
-                 ++k)
-                if (better(along_y[k * ncy + y], v)) v = along_y[k * ncy + y];
-            out[x * ncy + y] = v;
-        }
-    }
-    interruption.check();
+    if (take_max)
+        for (double& v : out)
+            if (v == -none) v = none;
     return out;
 }
 
@@ -207,7 +168,8 @@ std::vector<std::uint32_t> morphological_seeds(PointsView points,
             check::format_value(cell));
     const auto ncx = static_cast<std::int64_t>(std::floor(ex / cell)) + 1;
     const auto ncy = static_cast<std::int64_t>(std::floor(ey / cell)) + 1;
-    const std::vector<std::int64_t> lowest = lowest_in_cells(points, origin, cell, ncx, ncy);
+    const std::vector<std::int64_t> lowest =
+        lowest_in_cells(points, CellLattice{origin[0], origin[1], 0.0, cell, ncx, ncy});
     const double none = std::numeric_limits<double>::infinity();
     std::vector<double> height(lowest.size(), none);
     for (std::size_t k = 0; k < lowest.size(); ++k)
@@ -252,9 +214,10 @@ std::vector<std::uint32_t> tin_seeds(PointsView points, const TinGroundParams& p
         throw std::invalid_argument("points: the XY extent is too large (not finite in float64)");
     return *params.seed_cell > 0.0
                ? morphological_seeds(points, seed_origin, sex, sey, params)
-               : lowest_points(points, seed_origin, cell,
-                               static_cast<std::int64_t>(std::floor(sex / cell)) + 1,
-                               static_cast<std::int64_t>(std::floor(sey / cell)) + 1);
+               : lowest_points(points,
+                               CellLattice{seed_origin[0], seed_origin[1], 0.0, cell,
+                                           static_cast<std::int64_t>(std::floor(sex / cell)) + 1,
+                                           static_cast<std::int64_t>(std::floor(sey / cell)) + 1});
 }
 
 }  // namespace pcl_rg

@@ -39,6 +39,30 @@ GridFrame make_grid_frame(double lower_x, double lower_y, double upper_x, double
 void snap_to_grid(PointsView points, const std::array<double, 3>& origin, const GridFrame& frame,
                   std::vector<std::int32_t>& gx, std::vector<std::int32_t>& gy);
 
+/// Points on the grid of a frame over their extent, in Morton order: what the ground
+/// filters build their TINs from (tin_ground.cpp, final_pass.cpp), prepared once.
+struct SnappedPoints {
+    std::array<double, 3> origin{};    ///< local_origin(points), the minimum corner
+    std::array<double, 3> upper{};     ///< upper_corner(points, origin)
+    GridFrame frame;                   ///< make_grid_frame(0, 0, upper - origin) in XY
+    std::vector<std::uint32_t> order;  ///< morton_order_2d of the grid XY (index order)
+    std::vector<std::int32_t> x, y;    ///< grid XY of point order[s], by sorted position s
+    std::vector<double> z;             ///< z - origin[2] of point order[s]
+
+    /// Point i's grid x or y, as snap_to_grid computes it.
+    std::int32_t grid_x(PointsView points, std::size_t i) const {
+        return frame.grid_x(points.coord(i, 0) - origin[0]);
+    }
+    std::int32_t grid_y(PointsView points, std::size_t i) const {
+        return frame.grid_y(points.coord(i, 1) - origin[1]);
+    }
+};
+
+/// The points (N > 0) snapped and sorted, `origin` and `upper` being their bounding box
+/// (upper - origin finite). In parallel; polls for interruption.
+SnappedPoints snap_points(PointsView points, const std::array<double, 3>& origin,
+                          const std::array<double, 3>& upper);
+
 /// Twice the signed area of (a, b, c): > 0 counter-clockwise, 0 collinear. Exact for
 /// coordinates in [0, kMaxGridCoordinate] (see delaunay.cpp for the bounds).
 inline std::int64_t orient2d(std::int64_t ax, std::int64_t ay, std::int64_t bx, std::int64_t by,

@@ -2,8 +2,10 @@
 // filter's ground (TerraScan's "classify by distance to ground TIN"), shared by the filters.
 #pragma once
 
+#include <array>
 #include <optional>
 
+#include "pcl_rg/delaunay.hpp"
 #include "pcl_rg/points.hpp"
 
 namespace pcl_rg {
@@ -47,5 +49,17 @@ void validate(const FinalPassParams& params);
 /// are checked by the caller (validate above). Deterministic for any number of
 /// threads; see final_pass.cpp for the exact formulas.
 void final_pass(PointsView points, const FinalPassParams& params, bool* ground);
+
+/// The same, on the points' bounding box `origin` (local_origin) and `upper`
+/// (upper_corner) when the caller has them: throws std::invalid_argument when the
+/// extent is not finite.
+void final_pass(PointsView points, const FinalPassParams& params,
+                const std::array<double, 3>& origin, const std::array<double, 3>& upper,
+                bool* ground);
+
+/// The same, on the points already snapped and sorted by snap_points (as tin_ground
+/// has them), so that nothing is computed twice; their extent is finite.
+void final_pass(PointsView points, const FinalPassParams& params, const SnappedPoints& snapped,
+                bool* ground);
 
 }  // namespace pcl_rg

@@ -2,6 +2,8 @@
 // filters scale with (TinGroundParams, GridGroundParams).
 #pragma once
 
+#include <array>
+
 #include "pcl_rg/points.hpp"
 
 namespace pcl_rg {
@@ -20,8 +22,15 @@ namespace pcl_rg {
 /// as a vertical wall). Deterministic, O(N); NumPy twin: pcl_rg.reference.point_spacing.
 double point_spacing(PointsView points);
 
+/// The same on the points' bounding box `lower` (local_origin) and `upper`
+/// (upper_corner) when the caller has it: the box is not scanned again.
+double point_spacing(PointsView points, const std::array<double, 3>& lower,
+                     const std::array<double, 3>& upper);
+
 /// The spacing the unset lengths of the ground filters scale with: point_spacing, or
 /// 1 m where that is NaN (a cloud with no XY extent has no spacing to measure).
 double spacing_or_one_metre(PointsView points);
+double spacing_or_one_metre(PointsView points, const std::array<double, 3>& lower,
+                            const std::array<double, 3>& upper);
 
 }  // namespace pcl_rg

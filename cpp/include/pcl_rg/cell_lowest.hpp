@@ -1,0 +1,36 @@
+// The lowest point of each cell of a square grid: the seeds of tin_ground (tin_seeds.cpp)
+// and the vertices of the ground filters' final pass (final_pass.cpp).
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "pcl_rg/points.hpp"
+
+namespace pcl_rg {
+
+/// Where the cells lie: square cells of side `size` (m, > 0) with the corner of cell
+/// (0, 0) at (x0, y0), a point (x, y) in cell (floor((x - x0) / size), floor((y - y0) /
+/// size)); `columns` x `rows` cells cover the points. Heights compare as z - z0 (z0 = 0:
+/// as stored), ties by the smaller index.
+struct CellLattice {
+    double x0 = 0.0, y0 = 0.0, z0 = 0.0;
+    double size = 1.0;
+    std::int64_t columns = 1, rows = 1;
+};
+
+/// Lowest point (then smallest index) of every cell, row-major by column then row
+/// (cell cx * rows + cy); -1 for a cell with no point. Only the points i with take[i]
+/// count (all when take is null). In parallel when the grid is small next to the cloud:
+/// each thread scans a share into its own grid, then the grids are merged; the lowest
+/// under a total order does not depend on the sharing. Polls for interruption.
+std::vector<std::int64_t> lowest_in_cells(PointsView points, const CellLattice& lattice,
+                                          const bool* take = nullptr);
+
+/// The lowest point of every occupied cell (as lowest_in_cells), sorted by index: through
+/// the dense grid when it holds at most about 4 cells per point, else by sorting
+/// (cell, height, index), so that any cell size works.
+std::vector<std::uint32_t> lowest_points(PointsView points, const CellLattice& lattice,
+                                         const bool* take = nullptr);
+
+}  // namespace pcl_rg

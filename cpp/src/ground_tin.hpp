@@ -1,0 +1,73 @@
+// Pieces shared by the TINs of the ground filters, the densification's
+// (tin_ground.cpp, tin_acceptance.hpp) and the final pass's (final_pass.cpp): the plane
+// of a triangle, and the heights of the four virtual box corners. Inline, in a header
+// private to cpp/src, as they run in the hot loops.
+#pragma once
+
+#include <algorithm>
+#include <array>
+#include <cstdint>
+#include <limits>
+#include <vector>
+
+#include "pcl_rg/delaunay.hpp"
+
+namespace pcl_rg::ground_tin {
+
+// A triangle with its vertices counter-clockwise from the lexicographically smallest
+// (x, y), so that the floating-point results do not depend on how it is stored, and its
+// normal n = (v1 - v0) x (v2 - v0) (nz > 0).
+struct Plane {
+    std::array<std::int32_t, 3> v;
+    double x[3], y[3], z[3];  // metres, local frame
+    double nx, ny, nz;
+};
+
+// The plane of triangle t of `tin`, vertex heights `vz`, grid step `quantum` (m).
+inline Plane plane_of(const Delaunay& tin, const std::vector<double>& vz, double quantum,
+                      std::int32_t t) {
+    Plane f;
+    f.v = {tin.triangle_vertex(t, 0), tin.triangle_vertex(t, 1), tin.triangle_vertex(t, 2)};
+    int first = 0;
+    for (int k = 1; k < 3; ++k) {
+        const std::int32_t a = f.v[k], b = f.v[first];
+        if (tin.vertex_x(a) < tin.vertex_x(b) ||
+            (tin.vertex_x(a) == tin.vertex_x(b) && tin.vertex_y(a) < tin.vertex_y(b)))
+            first = k;
+    }
+    std::rotate(f.v.begin(), f.v.begin() + first, f.v.end());
+    for (int k = 0; k < 3; ++k) {
+        f.x[k] = static_cast<double>(tin.vertex_x(f.v[k]) - 1) * quantum;
+        f.y[k] = static_cast<double>(tin.vertex_y(f.v[k]) - 1) * quantum;
+        f.z[k] = vz[f.v[k]];
+    }
+    const double ux = f.x[1] - f.x[0], uy = f.y[1] - f.y[0], uz = f.z[1] - f.z[0];
+    const double wx = f.x[2] - f.x[0], wy = f.y[2] - f.y[0], wz = f.z[2] - f.z[0];
+    f.nx = uy * wz - uz * wy;
+    f.ny = uz * wx - ux * wz;
+    f.nz = ux * wy - uy * wx;
+    return f;
+}
+
+// Of `count` candidates (grid XY gx(k), gy(k), point index index(k)), the one nearest
+// to each corner of `frame`'s box, (0, 0), (width, 0), (width, height), (0, height):
+// exact squared grid distance, ties by the smallest index. Returns the k of each.
+template <class GridX, class GridY, class Index>
+std::array<std::size_t, 4> nearest_to_corners(const GridFrame& frame, std::size_t count, GridX gx,
+                                              GridY gy, Index index) {
+    const std::int64_t corner_x[4] = {0, frame.width, frame.width, 0};
+    const std::int64_t corner_y[4] = {0, 0, frame.height, frame.height};
+    std::array<std::size_t, 4> nearest{};
+    for (int c = 0; c < 4; ++c) {
+        std::int64_t best_d2 = std::numeric_limits<std::int64_t>::max();
+        for (std::size_t k = 0; k < count; ++k) {
+            const std::int64_t dx = gx(k) - corner_x[c], dy = gy(k) - corner_y[c];
+            const std::int64_t d2 = dx * dx + dy * dy;
+            if (d2 < best_d2 || (d2 == best_d2 && index(k) < index(nearest[c])))
+                best_d2 = d2, nearest[c] = k;
+        }
+    }
+    return nearest;
+}
+
+}  // namespace pcl_rg::ground_tin
