@@ -19,6 +19,7 @@ the one its preset follows).
 from __future__ import annotations
 
 import argparse
+import functools
 import multiprocessing
 import sys
 import time
@@ -39,12 +40,12 @@ from pcl_rg.evaluation import ground_errors  # noqa: E402
 SECTION = "## Ground filters on ISPRS: cross-validated presets"
 
 
-def tin_search(samples, rule):
-    best, _ = tin_isprs_params.search(samples, rule)
+def tin_search(samples, rule, selection=tin_isprs_params.SELECTION):
+    best, _ = tin_isprs_params.search(samples, rule, selection)
     return best
 
 
-def grid_search(samples, rule):
+def grid_search(samples, rule, selection=None):
     best, _ = ground_isprs.choose(samples, [], rule)
     return best
 
@@ -57,13 +58,18 @@ FILTERS = {
 }
 
 
-def cross_validate(name: str, rule: str, samples) -> tuple[list[list[str]], list, list]:
+def cross_validate(
+    name: str, rule: str, samples, selection: str | None = None
+) -> tuple[list[list[str]], list, list]:
     """Every fold of one filter and rule: (table rows, fitted errors, held-out errors).
 
-    Fitted: the search's pick on all seven samples, scored on each.
+    Fitted: the search's pick on all seven samples, scored on each. `selection`: the
+    tin search's selection procedure (tin_isprs_params.SELECTIONS; None: its own), the
+    same in every fold and for the fitted pick.
     """
     function, search, _ = FILTERS[name]
     start = time.perf_counter()
+    search = functools.partial(search, selection=selection) if selection else search
     fitted_pick = search(samples, rule)
     print(f"  {name} ({rule}) on all seven: {fitted_pick.describe()}", file=sys.stderr)
     rows, fitted, unseen = [], [], []
@@ -97,6 +103,11 @@ def cross_validate(name: str, rule: str, samples) -> tuple[list[list[str]], list
     return rows, fitted, unseen
 
 
+def _own_selection(name: str) -> str | None:
+    """The selection procedure of a filter's preset (None: the filter has no choice)."""
+    return getattr(FILTERS[name][2], "SELECTION", None)
+
+
 def _mean(errors, field: str) -> float:
     return float(np.mean([getattr(e, field) for e in errors]))
 
@@ -108,6 +119,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--rules", nargs="+", default=None, help="rules of the studies' RULES (default: own)"
     )
+    parser.add_argument(
+        "--selections",
+        nargs="+",
+        choices=list(tin_isprs_params.SELECTIONS),
+        default=None,
+        help="tin search's selection procedures (default: its own)",
+    )
     parser.add_argument("--jobs", type=int, default=1, help="(filter, rule)s run at once")
     args = parser.parse_args(argv)
     samples = ground_isprs.load_samples()
@@ -115,14 +133,20 @@ def main(argv: list[str] | None = None) -> int:
     for name in args.filters:
         study = FILTERS[name][2]
         rules = [r for r in (args.rules or [study.RULE]) if r in study.RULES]
-        tasks += [(name, rule) for rule in rules]
+        selections = (args.selections or [None]) if name == "tin" else [None]
+        tasks += [(name, rule, selection) for rule in rules for selection in selections]
     if args.jobs > 1:  # side by side, each in its own process (own score cache)
         context = multiprocessing.get_context("fork")
         with ProcessPoolExecutor(args.jobs, mp_context=context) as pool:
-            futures = [pool.submit(cross_validate, *task, samples) for task in tasks]
+            futures = [
+                pool.submit(cross_validate, name, rule, samples, selection)
+                for name, rule, selection in tasks
+            ]
             results = [future.result() for future in futures]
     else:
-        results = [cross_validate(*task, samples) for task in tasks]
+        results = [
+            cross_validate(name, rule, samples, selection) for name, rule, selection in tasks
+        ]
     header = [
         "filter",
         "held-out sample",
@@ -135,10 +159,13 @@ def main(argv: list[str] | None = None) -> int:
         "fold's pick (fields unlike the fitted pick)",
     ]
     rows, summary = [], []
-    for (name, rule), (fold_rows, fitted, unseen) in zip(tasks, results):
+    for (name, rule, selection), (fold_rows, fitted, unseen) in zip(tasks, results):
+        own = rule == FILTERS[name][2].RULE and selection in (None, _own_selection(name))
         line = [
             name,
-            rule + (" (the preset's)" if rule == FILTERS[name][2].RULE else ""),
+            rule
+            + (f", selection {selection}" if selection else "")
+            + (" (the preset's)" if own else ""),
             f"{100 * _mean(fitted, 'total'):.2f}",
             f"{_mean(fitted, 'kappa'):.3f}",
             f"{100 * _mean(unseen, 'total'):.2f}",
@@ -147,14 +174,26 @@ def main(argv: list[str] | None = None) -> int:
         summary.append(line)
         if rule != FILTERS[name][2].RULE:
             continue
+        if selection:  # several selections of the filter's rule: each its own rows
+            fold_rows = [[f"{name} ({selection})", *row[1:]] for row in fold_rows]
         rows += fold_rows
         rows.append(
-            [f"**{name}**", "**mean**", f"**{line[2]}**", line[3], "", "", f"**{line[4]}**",
-             line[5], ""]
+            [
+                f"**{fold_rows[0][0]}**",
+                "**mean**",
+                f"**{line[2]}**",
+                line[3],
+                "",
+                "",
+                f"**{line[4]}**",
+                line[5],
+                "",
+            ]
         )
     command = "python benchmarks/studies/ground_isprs_cv.py" + (" --write" if args.write else "")
     command += f" --filters {' '.join(args.filters)}" if args.filters != list(FILTERS) else ""
     command += f" --rules {' '.join(args.rules)}" if args.rules else ""
+    command += f" --selections {' '.join(args.selections)}" if args.selections else ""
     command += f" --jobs {args.jobs}" if args.jobs > 1 else ""
     text = (
         f"{SECTION}\n\n`{command}` on {machine()}. Fitted: the search's pick on all seven "
