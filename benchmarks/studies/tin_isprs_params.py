@@ -5,11 +5,13 @@ Usage:
     python benchmarks/studies/tin_isprs_params.py --report   # report only (defaults, chosen set)
     python benchmarks/studies/tin_isprs_params.py --write    # also write the RESULTS.md section
     python benchmarks/studies/tin_isprs_params.py --report --compare --write  # with the others
+    python benchmarks/studies/tin_isprs_params.py --selection trimmed  # another procedure
 
 The search is a cheap coordinate descent over a fixed grid of values (SEARCH_GRID),
 from LiDAR360's defaults with the improvements switched on at middle values, judged
 by the mean total error over the seven samples: one set for all samples, never per
-sample. The lengths that can follow the point spacing (stop_edge,
+sample (--selection: the other procedures of SELECTIONS, compared left one sample out
+by ground_isprs_cv.py --selections). The lengths that can follow the point spacing (stop_edge,
 near_vertex_distance, seed_cell, final_cell) are searched in metres or as multiples
 of each sample's spacing (pcl_rg.point_spacing), as the rule of RULES says
 (--rule; _scaled.Scaled). It takes a few minutes on two cores. The set it found is
