@@ -57,7 +57,7 @@ def tin_search(samples, rule, selection=tin_isprs_params.SELECTION):
     return best
 
 
-def grid_search(samples, rule, selection=None):
+def grid_search(samples, rule):
     best, _ = ground_isprs.choose(samples, [], rule)
     return best
 
@@ -82,8 +82,9 @@ def cross_validate(
     function, search, _ = FILTERS[name]
     start = time.perf_counter()
     search = functools.partial(search, selection=selection) if selection else search
+    label = f"{name} ({rule}{', ' + selection if selection else ''})"
     fitted_pick = search(samples, rule)
-    print(f"  {name} ({rule}) on all seven: {fitted_pick.describe()}", file=sys.stderr)
+    print(f"  {label} on all seven: {fitted_pick.describe()}", file=sys.stderr)
     rows, fitted, unseen = [], [], []
     for held_out, (points, truth) in samples.items():
         training = {s: v for s, v in samples.items() if s != held_out}
@@ -106,7 +107,7 @@ def cross_validate(
             ]
         )
         print(
-            f"  {name} ({rule}) without {held_out}: held out {100 * out.total:.2f} % "
+            f"  {label} without {held_out}: held out {100 * out.total:.2f} % "
             f"(fitted {100 * fit.total:.2f} %), {time.perf_counter() - start:.0f} s",
             file=sys.stderr,
             flush=True,
