@@ -208,6 +208,7 @@ def coordinate_descent(
     grid: dict[str, list],
     lines: list[str],
     replace: Callable[[Any, str, Any], Any] | None = None,
+    min_gain: float = 0.0,
 ) -> tuple[Any, float]:
     """Lower `score` one field at a time over `grid`'s values, from `start`.
 
@@ -215,7 +216,8 @@ def coordinate_descent(
     `lines` and stderr. Returns (best params, its score). The params are frozen
     dataclasses; fields not in `grid` keep `start`'s values. `replace(params, name,
     value)` makes a trial (default: dataclasses.replace; _scaled.Scaled.replace for
-    lengths searched as multiples of the point spacing).
+    lengths searched as multiples of the point spacing). A trial replaces the best only
+    when it lowers the score by more than `min_gain` (0: any gain).
     """
     if replace is None:
 
@@ -230,7 +232,7 @@ def coordinate_descent(
             for value in values:
                 trial = replace(best, name, value)
                 error = score(trial)
-                if error < best_error - 1e-12:
+                if error < best_error - max(min_gain, 1e-12):
                     best, best_error, changed = trial, error, True
                     lines.append(f"  sweep {sweep}: {name} = {value}: {100 * error:.2f} %")
                     print(lines[-1], file=sys.stderr, flush=True)

@@ -17,7 +17,7 @@ import numpy as np
 from ._lattice import lattice_floor
 from .tin_ground import grid_quantum, locate, triangulate, with_corners
 
-__all__ = ["final_pass"]
+__all__ = ["final_pass", "heights_above_tin"]
 
 
 def final_pass(
@@ -34,10 +34,32 @@ def final_pass(
     >>> final_pass(xyz, ground, cell=4.0, above=0.5, below=1.0, slope=1.0).tolist()
     [True, True, True, True, True, False]
     """
-    n = len(xyz)
-    result = np.zeros(n, dtype=bool)
-    if n == 0:
-        return result
+    heights = heights_above_tin(xyz, ground, cell)
+    if heights is None:
+        return np.zeros(len(xyz), dtype=bool)
+    dz, gradient = heights
+    return (dz >= -below) & (dz <= above + slope * gradient)
+
+
+def heights_above_tin(
+    xyz: np.ndarray, ground: np.ndarray, cell: float
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """(z - z_TIN, |grad z_TIN|) per point for the final pass's TIN (None: no ground).
+
+    The TIN is the final pass's: the lowest `ground` point of each `cell` cell; the
+    errors study (benchmarks/studies/tin_isprs_errors.py) bins the errors by both.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from pcl_rg.reference._final_pass import heights_above_tin
+    >>> xyz = np.array([[0, 0, 0], [9, 0, 0], [0, 9, 0], [9, 9, 0], [5, 5, 2.0]])
+    >>> dz, gradient = heights_above_tin(xyz, np.array([1, 1, 1, 1, 0], bool), cell=4.0)
+    >>> dz.tolist(), gradient.tolist()
+    ([0.0, 0.0, 0.0, 0.0, 2.0], [0.0, 0.0, 0.0, 0.0, 0.0])
+    """
+    if len(xyz) == 0:
+        return np.zeros(0), np.zeros(0)
     lowest, upper = xyz.min(axis=0), xyz.max(axis=0)
     ex, ey, _ = upper - lowest
     if not all(math.isfinite(v) for v in upper - lowest):
@@ -57,7 +79,7 @@ def final_pass(
     # The lowest ground point of each cell (ties: index), then of each snapped XY.
     index = np.flatnonzero(ground)
     if index.size == 0:
-        return result
+        return None
     cx = np.floor((xyz[index, 0] - cell_x0) / cell).astype(np.int64)
     cy = np.floor((xyz[index, 1] - cell_y0) / cell).astype(np.int64)
     order = np.lexsort((index, z[index], cy, cx))
@@ -87,5 +109,4 @@ def final_pass(
     py = (gy - 1).astype(np.float64) * q
     surface = tz[:, 0] - (nx * (px - x[:, 0]) + ny * (py - y[:, 0])) / nz
     gradient = np.sqrt(nx * nx + ny * ny) / nz
-    dz = z - surface
-    return (dz >= -below) & (dz <= above + slope * gradient)
+    return z - surface, gradient
