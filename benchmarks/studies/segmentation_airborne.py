@@ -18,9 +18,10 @@ least 10 % of it, and a cluster is under-segmenting when it holds 10 % of each
 of two buildings. Labels of a voxel grid go back to every point (_common.carry).
 
 Methods, on the same points:
-- convex_segmentation at its defaults (chosen on Kinect scenes, nothing changed),
-  the sensor 1000 m above the scene's centre (its viewpoint, an input, not a
-  parameter); a second row leaves the viewpoint at its default, the origin.
+- convex_segmentation at its defaults (nothing given: the viewpoint is its own
+  default, an airborne sensor above the tile since the tile is far from the origin);
+  a second row gives the origin as the viewpoint (the former default), a third
+  switches the grid off (noise_leaves 0).
 - region_growing at its defaults, and with its curvature threshold (1/m, fitted
   at 5 mm voxels) scaled by 5 mm / the measured spacing, by hand, as the demo does.
 - PCL RegionGrowing at region_growing's k, angle and minimum cluster size.
@@ -89,7 +90,7 @@ NOTES = [
     "ground's segment).",
 ]
 NO_GRID = "convex_segmentation, noise_leaves 0 (no grid)"
-ORIGIN = "convex_segmentation, viewpoint left at the origin"
+ORIGIN = "convex_segmentation, viewpoint the origin (the former default)"
 HAND = "region_growing, threshold x 5 mm / spacing"
 
 
@@ -136,10 +137,9 @@ def methods(points: np.ndarray, protocol: str, quick: bool):
     settings = [dict(zip(GRID, values)) for values in itertools.product(*GRID.values())]
     if quick or protocol == KEPT:
         settings = [dict(smoothness_deg=12.0, curvature_threshold=0.6)]
-    runs = [("convex", i, pcl_rg.convex_segmentation, {**s, "viewpoint": above})
-            for i, s in enumerate(settings)]
+    runs = [("convex", i, pcl_rg.convex_segmentation, dict(s)) for i, s in enumerate(settings)]
     runs += [
-        (NO_GRID, 0, pcl_rg.convex_segmentation, dict(viewpoint=above, noise_leaves=0.0)),
+        (NO_GRID, 0, pcl_rg.convex_segmentation, dict(noise_leaves=0.0)),
         ("region_growing", 0, pcl_rg.region_growing, {}),
         (HAND, 0, pcl_rg.region_growing,
          dict(curvature_threshold=rg.curvature_threshold * KINECT_LEAF / spacing)),
@@ -148,7 +148,7 @@ def methods(points: np.ndarray, protocol: str, quick: bool):
     ]
     if protocol == KEPT:
         return settings, runs
-    runs.append((ORIGIN, 0, pcl_rg.convex_segmentation, {}))
+    runs.append((ORIGIN, 0, pcl_rg.convex_segmentation, dict(viewpoint=(0.0, 0.0, 0.0))))
     resolution = 1.5 * spacing
     for i, s in enumerate(LCCP_SETTINGS[:1] if quick else LCCP_SETTINGS):
         runs.append(("LCCP", i, pcl_rg.pcl.lccp, dict(
@@ -195,8 +195,9 @@ def run_all(quick: bool):
 
 
 def noise_ratios(points: np.ndarray) -> tuple[float, float]:
-    """10 x the noise over the spacing, with the noise at the median of the residuals
-    (pcl_rg.point_scale's, within the k-d tree's ties) and at their lower quartile.
+    """10 x the noise over the spacing, with the noise as the median plane residual of
+    every neighbourhood (the former rule) and of the surface neighbourhoods only
+    (pcl_rg.point_scale's, what noise_leaves uses now).
 
     The residual of a point: sqrt of the smallest eigenvalue of the covariance of its 16
     nearest points, as point_scale measures it, at the same sample of points.
@@ -207,14 +208,14 @@ def noise_ratios(points: np.ndarray) -> tuple[float, float]:
     centred = points[near] - points[near].mean(axis=1, keepdims=True)
     covariance = np.einsum("mki,mkj->mij", centred, centred) / NEIGHBOURS
     residual = np.sqrt(np.maximum(np.linalg.eigvalsh(covariance)[:, 0], 0.0))
-    spacing = float(np.median(distances[:, 1]))
-    median, quartile = np.quantile(residual, [0.5, 0.25])
-    return 10.0 * median / spacing, 10.0 * quartile / spacing
+    scale = pcl_rg.point_scale(points)
+    return 10.0 * float(np.median(residual)) / scale.spacing, 10.0 * scale.noise / scale.spacing
 
 
 def noise_table(scenes, quick: bool) -> list[str]:
-    """Where the grid rule's noise comes from: median against lower quartile, airborne
-    objects (ground removed) against the mOSD Kinect frames the rule was made for."""
+    """Where the grid rule's noise comes from: every neighbourhood against surface
+    neighbourhoods only, airborne objects (ground removed) against the mOSD Kinect
+    frames the rule was made for."""
     rows = []
     for leaf in (0.0, 0.005):
         ratios = [noise_ratios(points) for _, _, points, _ in mosd_at(leaf)]
@@ -225,14 +226,15 @@ def noise_table(scenes, quick: bool) -> list[str]:
             points = clouds(kind, seed, density)[REMOVED][0]
             for leaf in LEAVES:
                 gridded = pcl_rg.voxel_grid(points, leaf_size=leaf).centroids if leaf else points
-                ratios[leaf].append(noise_ratios(gridded))
+                ratios[leaf].append(noise_ratios(np.ascontiguousarray(gridded)))
         for leaf in LEAVES:
             rows.append([f"airborne, ground removed, {density:g} points/m^2, "
                          f"{scale_name(leaf)}", *ratio_cells(ratios[leaf])])
     return ["", "Why the grid: 10 x noise / spacing (a grid is used above 1), range over the "
-            "scenes, with the noise at the median of the plane residuals (point_scale, what "
-            "noise_leaves uses) and at their lower quartile:", "",
-            markdown_table(["data", "median", "lower quartile"], rows)]
+            "scenes, with the noise as the median plane residual of every neighbourhood (the "
+            "former rule) and of the surface neighbourhoods only (point_scale now: thickness "
+            "at most 0.3 x the second spread):", "",
+            markdown_table(["data", "every neighbourhood", "surfaces only"], rows)]
 
 
 def scale_name(leaf: float) -> str:
@@ -241,7 +243,8 @@ def scale_name(leaf: float) -> str:
 
 
 def ratio_cells(ratios: list) -> list[str]:
-    return [f"{min(r[i] for r in ratios):.2f}-{max(r[i] for r in ratios):.2f}" for i in (0, 1)]
+    return [f"{np.nanmin([r[i] for r in ratios]):.2f}-{np.nanmax([r[i] for r in ratios]):.2f}"
+            for i in (0, 1)]
 
 
 def pooled(rows: list) -> tuple[float, int, int, int]:
