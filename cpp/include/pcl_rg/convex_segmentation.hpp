@@ -88,8 +88,8 @@ void merge_convex(PointsView points, std::size_t k, const std::uint32_t* neighbo
 /// The viewpoint, when unset, is default_viewpoint() of the input points (not of a
 /// grid's centroids). When noise_leaves x noise > spacing (point_scale()), the steps
 /// below run on the centroids of a voxel grid of that leaf (voxel_grid.hpp) and each
-/// point takes its voxel's label. Steps: normals and curvatures (normals.hpp), the measure curvedness
-/// x r per point, patch growth (grow_regions with that measure, the gate
+/// point takes its voxel's label. Steps: normals and curvatures (normals.hpp), the measure
+/// curvedness x r per point, patch growth (grow_regions with that measure, the gate
 /// curvature_threshold and no size limit), then merge_convex(). Fills `labels` (N
 /// entries), numbered by smallest point index. Throws std::invalid_argument when k is
 /// not below the number of points segmented (non-empty input).
