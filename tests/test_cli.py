@@ -519,12 +519,18 @@ def test_pipeline(capsys, tmp_path, scene_las):
     written = read_points(tmp_path / "q.laz")
     np.testing.assert_array_equal(written.fields["segment_id"], expected.labels)
     np.testing.assert_array_equal(written.classification, source.classification)
-    # Without a leaf size the grid's leaf comes from the data, and the report says which.
+    # Without a leaf size the grid's leaf comes from the data, and the report says which:
+    # none on this airborne tile (its trees are no sensor noise), one on a dense noisy scan.
     result = run_json(capsys, "pipeline", scene_las, tmp_path / "r.laz", "--no-sor")
     expected = seed004(source.points, sor=None)
     np.testing.assert_array_equal(
         read_points(tmp_path / "r.laz").fields["segment_id"], expected.labels
     )
+    assert result["stages"][0]["name"] == "normals"
+    rng = np.random.default_rng(9)
+    scan = np.column_stack([rng.uniform(0, 0.5, (60000, 2)), rng.normal(0, 6e-4, 60000)])
+    write_points(tmp_path / "scan.ply", scan)
+    result = run_json(capsys, "pipeline", tmp_path / "scan.ply", tmp_path / "s.ply", "--no-sor")
     assert result["stages"][0]["name"].startswith("voxel grid (auto leaf ")
     code, _, err = run(
         capsys, "pipeline", scene_las, tmp_path / "x.laz", "--no-sor", "--sor-std-mul", "2"
