@@ -2,6 +2,10 @@
 
 Usage:
     python benchmarks/studies/segmentation_airborne.py [--quick] [--write] [--cache FILE]
+        [--densities D ...] [--protocols removed|kept ...]
+
+The measurements can be split over several runs (--densities, --protocols, each with
+its own --cache) and reported together: --cache given several times reads them all.
 
 Scenes: synthetic_scene (flat roofs, 200 m, 6 buildings, 40 trees) and
 isprs_like_scene (flat halls and gable-roofed houses, 250 m, shrubs, a bridge),
@@ -157,17 +161,21 @@ def methods(points: np.ndarray, protocol: str, quick: bool):
     return settings, runs
 
 
-def run_all(quick: bool):
+def run_all(quick: bool, densities=DENSITIES, protocols=(REMOVED, KEPT)):
     """scores[(protocol, method, index, density, leaf)] = per scene (ious, over, under);
-    seconds summed over the scenes; grid leaves of convex_segmentation per scene."""
+    seconds summed over the scenes; grid leaves of convex_segmentation per scene;
+    noise ratios (noise_ratios) of the ground-removed clouds per (density, leaf)."""
     scores: dict[tuple, list] = {}
     seconds: dict[tuple, float] = {}
     grids: dict[tuple, list] = {}
+    ratios: dict[tuple, list] = {}
     settings = []
     scenes = SCENES[::3] if quick else SCENES
-    for density in DENSITIES[:1] if quick else DENSITIES:
+    for density in densities[:1] if quick else densities:
         for kind, seed in scenes:
             for protocol, (points, truth, buildings, other) in clouds(kind, seed, density).items():
+                if protocol not in protocols:
+                    continue
                 for leaf in LEAVES:
                     if leaf > 0:
                         grid = pcl_rg.voxel_grid(points, leaf_size=leaf)
@@ -175,6 +183,8 @@ def run_all(quick: bool):
                         voxel_of_point = grid.voxel_of_point
                     else:
                         cloud, voxel_of_point = points, None
+                    if protocol == REMOVED:
+                        ratios.setdefault((density, leaf), []).append(noise_ratios(cloud))
                     runs_settings, runs = methods(cloud, protocol, quick)
                     if protocol == REMOVED:
                         settings = runs_settings
@@ -191,7 +201,7 @@ def run_all(quick: bool):
                         if grid_leaf is not None:
                             grids.setdefault(key, []).append(grid_leaf)
             print(f"  {kind} seed {seed} at {density:g}/m2 done", file=sys.stderr, flush=True)
-    return scenes, settings, scores, seconds, grids
+    return scenes, settings, scores, seconds, grids, ratios
 
 
 def noise_ratios(points: np.ndarray) -> tuple[float, float]:
@@ -212,24 +222,17 @@ def noise_ratios(points: np.ndarray) -> tuple[float, float]:
     return 10.0 * float(np.median(residual)) / scale.spacing, 10.0 * scale.noise / scale.spacing
 
 
-def noise_table(scenes, quick: bool) -> list[str]:
+def noise_table(ratios: dict) -> list[str]:
     """Where the grid rule's noise comes from: every neighbourhood against surface
     neighbourhoods only, airborne objects (ground removed) against the mOSD Kinect
     frames the rule was made for."""
     rows = []
     for leaf in (0.0, 0.005):
-        ratios = [noise_ratios(points) for _, _, points, _ in mosd_at(leaf)]
-        rows.append([f"mOSD learn scenes, {scale_name(leaf)}", *ratio_cells(ratios)])
-    for density in DENSITIES[:1] if quick else DENSITIES:
-        ratios: dict[float, list] = {leaf: [] for leaf in LEAVES}
-        for kind, seed in scenes:  # each scene made once, then gridded at every leaf
-            points = clouds(kind, seed, density)[REMOVED][0]
-            for leaf in LEAVES:
-                gridded = pcl_rg.voxel_grid(points, leaf_size=leaf).centroids if leaf else points
-                ratios[leaf].append(noise_ratios(np.ascontiguousarray(gridded)))
-        for leaf in LEAVES:
-            rows.append([f"airborne, ground removed, {density:g} points/m^2, "
-                         f"{scale_name(leaf)}", *ratio_cells(ratios[leaf])])
+        mosd = [noise_ratios(points) for _, _, points, _ in mosd_at(leaf)]
+        rows.append([f"mOSD learn scenes, {scale_name(leaf)}", *ratio_cells(mosd)])
+    for density, leaf in sorted(ratios):
+        rows.append([f"airborne, ground removed, {density:g} points/m^2, "
+                     f"{scale_name(leaf)}", *ratio_cells(ratios[(density, leaf)])])
     return ["", "Why the grid: 10 x noise / spacing (a grid is used above 1), range over the "
             "scenes, with the noise as the median plane residual of every neighbourhood (the "
             "former rule) and of the surface neighbourhoods only (point_scale now: thickness "
@@ -287,7 +290,7 @@ def row(case, method, per_scene, took, leaves=None) -> list[str]:
             str(over), str(under), "" if took is None else f"{took:.2f}", leaf_cell(leaves)]
 
 
-def report(scenes, settings, scores, seconds, grids, quick: bool, write: bool) -> None:
+def report(scenes, settings, scores, seconds, grids, ratios, quick: bool, write: bool) -> None:
     cases = sorted({key[3:] for key in scores})
     n_scenes = len(scenes)
     default = pcl_rg.ConvexSegmentationParams()
@@ -358,7 +361,7 @@ def report(scenes, settings, scores, seconds, grids, quick: bool, write: bool) -
         "as non-building points in the IoU):",
         "",
         markdown_table(header, kept_rows),
-        *noise_table(scenes, quick),
+        *noise_table(ratios),
         *NOTES,
     ]
     command = "python benchmarks/studies/segmentation_airborne.py" + (" --quick" if quick else "")
@@ -369,19 +372,40 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="one density, two scenes")
     parser.add_argument("--write", action="store_true", help="put the section into RESULTS.md")
-    parser.add_argument("--cache", type=Path,
-                        help="pickle of the measurements: read when it exists, else written")
+    parser.add_argument("--cache", type=Path, action="append",
+                        help="pickle of the measurements: read when it exists, else written; "
+                        "given several times (all existing), their measurements together")
+    parser.add_argument("--densities", type=float, nargs="+", default=list(DENSITIES),
+                        help="points per m^2 to measure")
+    parser.add_argument("--protocols", nargs="+", default=["removed", "kept"],
+                        choices=["removed", "kept"], help="ground removed, ground kept")
+    parser.add_argument("--measure-only", action="store_true",
+                        help="measure and write the cache, no report (a part of a split run)")
     args = parser.parse_args(argv)
     start = time.perf_counter()
-    if args.cache and args.cache.exists():
-        with args.cache.open("rb") as handle:
-            scenes, settings, scores, seconds, grids = pickle.load(handle)
+    caches = args.cache or []
+    if caches and all(path.exists() for path in caches):
+        parts = []
+        for path in caches:
+            with path.open("rb") as handle:
+                parts.append(pickle.load(handle))
+        scenes, settings = parts[0][0], parts[0][1]
+        scores, seconds, grids, ratios = {}, {}, {}, {}
+        for part in parts:
+            settings = part[1] or settings
+            for merged, new in zip((scores, seconds, grids, ratios), part[2:]):
+                merged.update(new)
     else:
-        scenes, settings, scores, seconds, grids = run_all(args.quick)
-        if args.cache:
-            with args.cache.open("wb") as handle:
-                pickle.dump((scenes, settings, scores, seconds, grids), handle)
-    report(scenes, settings, scores, seconds, grids, args.quick, args.write and not args.quick)
+        protocols = tuple(REMOVED if name == "removed" else KEPT for name in args.protocols)
+        measured = run_all(args.quick, tuple(args.densities), protocols)
+        scenes, settings, scores, seconds, grids, ratios = measured
+        if caches:
+            with caches[0].open("wb") as handle:
+                pickle.dump(measured, handle)
+    if args.measure_only:
+        return 0
+    report(scenes, settings, scores, seconds, grids, ratios, args.quick,
+           args.write and not args.quick)
     print(f"({time.perf_counter() - start:.0f} s)", file=sys.stderr)
     return 0
 

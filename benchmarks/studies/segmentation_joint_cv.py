@@ -2,7 +2,7 @@
 
 Usage:
     python benchmarks/studies/segmentation_joint_cv.py --mosd-cache FILE \\
-        --airborne-cache FILE [--write]
+        --airborne-cache FILE [--airborne-cache FILE ...] [--write]
 
 Reads the measurements that segmentation_mosd.py and segmentation_airborne.py keep
 with their --cache option (run those first) and cross-validates
@@ -44,11 +44,16 @@ def load(path: Path):
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--mosd-cache", type=Path, required=True)
-    parser.add_argument("--airborne-cache", type=Path, required=True)
+    parser.add_argument("--airborne-cache", type=Path, required=True, action="append",
+                        help="segmentation_airborne.py's pickle (several: read together); "
+                        "the ground-removed measurements are used")
     parser.add_argument("--write", action="store_true", help="put the section into RESULTS.md")
     args = parser.parse_args(argv)
     mosd_settings, mosd_scores, _ = load(args.mosd_cache)
-    scenes, air_settings, air_scores, _, _ = load(args.airborne_cache)
+    parts = [load(path) for path in args.airborne_cache]
+    scenes = parts[0][0]
+    air_settings = next(part[1] for part in parts if part[1])
+    air_scores = {key: value for part in parts for key, value in part[2].items()}
     mosd_leaves = sorted({key[2] for key in mosd_scores if key[0] == "convex"})
     air_cases = sorted({key[3:] for key in air_scores if key[0] == REMOVED})
     n_mosd = len(mosd_scores[("convex", 0, mosd_leaves[0])])
