@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/_common.py
-from _common import machine, markdown_table, publish  # noqa: E402
+from _common import MOSD_SCENES, machine, markdown_table, publish  # noqa: E402
 
 import pcl_rg
 
@@ -118,7 +118,7 @@ def main(argv: list[str] | None = None) -> int:
                      cell(held_air[case]),
                      cell(air_scores[(REMOVED, "convex", pairs[fitted][1], *case)]),
                      cell(air_scores[(REMOVED, "convex", pairs[default_pair][1], *case)])])
-    names = [*(f"mOSD {i}" for i in range(n_mosd)), *(f"{k} {s}" for k, s in scenes)]
+    names = [*(f"mOSD {name}" for name in MOSD_SCENES[:n_mosd]), *(f"{k} {s}" for k, s in scenes)]
     text = "\n".join([
         SECTION, "",
         "`python benchmarks/studies/segmentation_joint_cv.py --mosd-cache FILE "
