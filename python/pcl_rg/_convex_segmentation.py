@@ -28,14 +28,14 @@ class ConvexSegmentationParams:
         "the region graph",
     )
     smoothness_deg: float = param(
-        12.0,
+        10.0,
         above=0.0,
         below=180.0,
         unit="deg",
         help="max angle between neighbouring normals within a patch",
     )
     curvature_threshold: float = param(
-        0.6,
+        0.8,
         minimum=0.0,
         help="joined points with curvedness x (k-th neighbour distance) <= this grow "
         "further; no unit, the same at any point spacing",
@@ -100,12 +100,12 @@ def convex_segmentation(
     smoothness_deg : float, optional
         A neighbour joins a patch when the angle between its normal and the
         current patch point's normal is at most this, in degrees, in (0, 180)
-        (default 12).
+        (default 10).
     curvature_threshold : float, optional
         A joined point grows further when its curvedness times the distance
         to its k-th neighbour is <= this (no unit: a curvature
         measured in neighbourhood radii, so the same value serves raw Kinect
-        frames, voxel grids and airborne tiles) (default 0.6).
+        frames, voxel grids and airborne tiles) (default 0.8).
     concavity_tolerance_deg : float, optional
         Two adjacent patches merge when each one's centroid lies at most this
         elevation angle above the other's mean plane, in degrees, in [0, 90)

@@ -18,16 +18,16 @@ struct ConvexSegmentationParams {
     /// segmented at the scale their noise allows, and sparser data as it is.
     double noise_leaves = 10.0;
     /// Neighbours per point, the point itself included (>= 6, < N), for the normals,
-    /// the curvatures, the growth and the region graph. Chosen on the mOSD learn scenes
-    /// by leave-one-scene-out cross-validation, see RESULTS.md.
+    /// the curvatures, the growth and the region graph. The defaults were chosen by
+    /// leave-one-scene-out cross-validation over the mOSD and airborne studies, RESULTS.md.
     int k = 15;
     /// A neighbour joins a patch when the angle between the unoriented normals is <=
     /// this, in degrees, in (0, 180).
-    double smoothness_deg = 12.0;
+    double smoothness_deg = 10.0;
     /// A joined point grows further when curvedness x r <= this (finite, >= 0, no
     /// unit), r the distance to the point's k-th neighbour: curvature in units of the
     /// neighbourhood radius, the same at every point spacing.
-    double curvature_threshold = 0.6;
+    double curvature_threshold = 0.8;
     /// Two adjacent patches merge when each one's centroid lies at most this far
     /// above the other's mean plane, as an elevation angle in degrees, in [0, 90).
     double concavity_tolerance_deg = 0.0;
