@@ -379,7 +379,7 @@ def test_segment(capsys, tmp_path, scene_las, method):
 def test_segment_mosd_pcd_and_evaluate(capsys, tmp_path):
     source_path = shared_data("mosd", "learn0.pcd")
     out = tmp_path / "seg.pcd"
-    flags = "--k 15 --curvature-threshold 100 --smoothness-deg 8".split()
+    flags = "--method curvature --k 15 --curvature-threshold 100 --smoothness-deg 8".split()
     result = run_json(capsys, "segment", source_path, out, *flags)
     source = read_points(source_path)
     valid = np.isfinite(source.points).all(axis=1)
@@ -446,12 +446,18 @@ def test_pipeline(capsys, tmp_path, scene_las):
     written = read_points(tmp_path / "q.laz")
     np.testing.assert_array_equal(written.fields["segment_id"], expected.labels)
     np.testing.assert_array_equal(written.classification, source.classification)
-    # Without a leaf size the grid's leaf comes from the data, and the report says which.
+    # Without a leaf size the grid's leaf comes from the data, and the report says which:
+    # none on this airborne tile (its trees are no sensor noise), one on a dense noisy scan.
     result = run_json(capsys, "pipeline", scene_las, tmp_path / "r.laz", "--no-sor")
     expected = seed004(source.points, sor=None)
     np.testing.assert_array_equal(
         read_points(tmp_path / "r.laz").fields["segment_id"], expected.labels
     )
+    assert result["stages"][0]["name"] == "normals"
+    rng = np.random.default_rng(9)
+    scan = np.column_stack([rng.uniform(0, 0.5, (60000, 2)), rng.normal(0, 6e-4, 60000)])
+    write_points(tmp_path / "scan.ply", scan)
+    result = run_json(capsys, "pipeline", tmp_path / "scan.ply", tmp_path / "s.ply", "--no-sor")
     assert result["stages"][0]["name"].startswith("voxel grid (auto leaf ")
     code, _, err = run(
         capsys, "pipeline", scene_las, tmp_path / "x.laz", "--no-sor", "--sor-std-mul", "2"
@@ -655,9 +661,11 @@ def test_bad_files_give_one_error_line(capsys, tmp_path, scene_las, command):
         (["ground", "--slope", "nan"], "argument --slope: invalid number"),
         (["ground", "--method", "magic"], "invalid choice: 'magic'"),
         (["ground", "--cell-size", "50", "--block-size", "10"], "cell_size must be <= block_size"),
-        (["segment", "--k", "2"], "argument --k: k must be >= 3"),
+        (["segment", "--k", "2"], "argument --k: k must be >= 6"),
+        (["segment", "--method", "curvature", "--k", "2"], "argument --k: k must be >= 3"),
         (["segment", "--smoothness-deg", "200"], "smoothness_deg must be in (0, 180)"),
-        (["segment", "--seed-measure", "bogus"], "seed_measure must be one of"),
+        (["segment", "--method", "curvature", "--seed-measure", "bogus"],
+         "seed_measure must be one of"),
         (["segment", "--method", "pcl", "--seed-measure", "mean"], "does not apply"),
         (["segment", "--k", "100000"], "k must be < the number of points"),
         (["denoise", "--unknown-flag"], "unrecognized arguments: --unknown-flag"),

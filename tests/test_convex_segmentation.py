@@ -14,11 +14,16 @@ from pcl_rg import _core, reference
 from pcl_rg._convex_segmentation import ConvexSegmentationParams
 from pcl_rg._normals import NormalsParams
 from pcl_rg.datasets import load_mosd
-from pcl_rg.reference.convex_segmentation import merge_convex, scaled_curvedness
+from pcl_rg.reference.convex_segmentation import (
+    default_viewpoint,
+    merge_convex,
+    scaled_curvedness,
+)
 from pcl_rg.reference.normals import neighbour_lists
 from pcl_rg.reference.region_growing import grow_regions
 
 VIEW = (0.5, -1.5, 1.5)  # in front of and above the scenes below
+UTM = np.array([500_000.0, 5_000_000.0, 300.0])  # where airborne tiles lie
 
 
 def box(rng, centre, size, n):
@@ -205,3 +210,77 @@ def test_mosd_scene_beats_region_growing(scene: str) -> None:
     mine, theirs = segmentation_scores(data.labels, ours), segmentation_scores(data.labels, base)
     assert mine.mean_iou >= theirs.mean_iou
     assert mine.over_segmented <= theirs.over_segmented
+
+
+def gable_houses(seed: int):
+    """Two gable-roofed houses, ground removed, as an airborne scan sees them: roofs at
+    8 points per m^2, walls at 1; points (local, metres) and truth per house h: h and
+    h + 2 its roof halves, h + 4 its walls."""
+    rng = np.random.default_rng(seed)
+    parts, truth = [], []
+    for house, (cx, cy) in enumerate([(20.0, 20.0), (50.0, 25.0)]):
+        for side in (-1.0, 1.0):  # the ridge runs along x at cy, 3 m above the 6 m eaves
+            u = rng.uniform(0, 1, (int(8 * 12 * 4), 2))
+            y = cy + side * 4.0 * u[:, 1]
+            z = 9.0 - 3.0 * np.abs(y - cy) / 4.0
+            parts.append(np.column_stack([cx - 6 + 12 * u[:, 0], y, z]))
+            truth.append(np.full(len(u), house + (2 if side > 0 else 0)))
+        for x0, y0, x1, y1 in [(-6, -4, 6, -4), (6, -4, 6, 4), (6, 4, -6, 4), (-6, 4, -6, -4)]:
+            u = rng.uniform(0, 1, (int(1 * 12 * 6), 2))
+            parts.append(np.column_stack(
+                [cx + x0 + (x1 - x0) * u[:, 0], cy + y0 + (y1 - y0) * u[:, 0], 6 * u[:, 1]]))
+            truth.append(np.full(len(u), house + 4))
+    pts = np.vstack(parts)
+    return pts + rng.normal(0, 0.02, pts.shape), np.concatenate(truth)
+
+
+def test_default_viewpoint_rule_core_equals_reference() -> None:
+    pts, _ = table_scene(seed=8)  # a sensor's own frame: the origin is next to the points
+    far = pts + UTM  # the same points on a UTM tile
+    for cloud in (pts, far, pts + [0.0, 0.0, 90.0], pts[:1], np.empty((0, 3))):
+        assert tuple(_core.default_viewpoint(np.ascontiguousarray(cloud))) == (
+            default_viewpoint(cloud))
+    assert default_viewpoint(pts) == (0.0, 0.0, 0.0)
+    # 90 m from a 1.7 m scene is within 100 diagonals (a crop of a distant scan): origin.
+    assert default_viewpoint(pts + [0.0, 0.0, 90.0]) == (0.0, 0.0, 0.0)
+    low, high = far.min(axis=0), far.max(axis=0)
+    above = default_viewpoint(far)
+    np.testing.assert_allclose(above[:2], (low[:2] + high[:2]) / 2)
+    assert above[2] == pytest.approx(high[2] + np.linalg.norm(high - low))
+
+
+def test_airborne_tile_needs_no_viewpoint() -> None:
+    # On a UTM tile the default looks down: each gable roof is convex seen from above and
+    # its halves are one segment; seen from below its ridge is a concave crease. (Walls
+    # that face away from the sensor, which a real airborne scan does not see, are turned
+    # inwards and may stay apart: only the roofs are checked.)
+    pts, truth = gable_houses(seed=0)
+    tile = pts + UTM
+    with pcl_rg.collect_diagnostics() as diagnostics:
+        labels = pcl_rg.convex_segmentation(tile)
+    used = diagnostics["convex_segmentation"]["viewpoint"]
+    assert used == default_viewpoint(tile)
+    np.testing.assert_array_equal(labels, pcl_rg.convex_segmentation(tile, viewpoint=used))
+    roof_segments = []
+    for h in (0, 1):
+        roof = labels[(truth == h) | (truth == h + 2)]
+        ids, counts = np.unique(roof, return_counts=True)
+        assert counts.max() >= 0.95 * counts.sum(), (h, ids, counts)
+        roof_segments.append(ids[counts.argmax()])
+    assert roof_segments[0] != roof_segments[1]
+    below = (*used[:2], UTM[2] - 1000.0)
+    split = pcl_rg.convex_segmentation(tile, viewpoint=below)
+    for h in (0, 1):
+        halves = [np.bincount(split[truth == t][split[truth == t] >= 0]).argmax()
+                  for t in (h, h + 2)]
+        assert halves[0] != halves[1]
+    # The origin as sensor (the former default) sees these roofs edge-on.
+    assert matched_agreement(pcl_rg.convex_segmentation(tile, viewpoint=(0, 0, 0)), labels) < 0.95
+
+
+def test_core_equals_reference_on_a_tile_with_the_default_viewpoint() -> None:
+    pts, _ = gable_houses(seed=1)
+    tile = pts + UTM
+    core, ref = pcl_rg.convex_segmentation(tile), reference.convex_segmentation(tile)
+    # As test_core_equals_reference: growth rounding and k-th place ties only.
+    assert matched_agreement(core, ref) >= 0.999

@@ -2,6 +2,10 @@
 
 Usage:
     python benchmarks/studies/segmentation_airborne.py [--quick] [--write] [--cache FILE]
+        [--densities D ...] [--protocols removed|kept ...]
+
+The measurements can be split over several runs (--densities, --protocols, each with
+its own --cache) and reported together: --cache given several times reads them all.
 
 Scenes: synthetic_scene (flat roofs, 200 m, 6 buildings, 40 trees) and
 isprs_like_scene (flat halls and gable-roofed houses, 250 m, shrubs, a bridge),
@@ -18,9 +22,10 @@ least 10 % of it, and a cluster is under-segmenting when it holds 10 % of each
 of two buildings. Labels of a voxel grid go back to every point (_common.carry).
 
 Methods, on the same points:
-- convex_segmentation at its defaults (chosen on Kinect scenes, nothing changed),
-  the sensor 1000 m above the scene's centre (its viewpoint, an input, not a
-  parameter); a second row leaves the viewpoint at its default, the origin.
+- convex_segmentation at its defaults (nothing given: the viewpoint is its own
+  default, an airborne sensor above the tile since the tile is far from the origin);
+  a second row gives the origin as the viewpoint (the former default), a third
+  switches the grid off (noise_leaves 0).
 - region_growing at its defaults, and with its curvature threshold (1/m, fitted
   at 5 mm voxels) scaled by 5 mm / the measured spacing, by hand, as the demo does.
 - PCL RegionGrowing at region_growing's k, angle and minimum cluster size.
@@ -78,18 +83,36 @@ NOTES = [
     "- convex_segmentation is at its defaults throughout (the CV row excepted); LCCP's "
     "lengths are scaled to the data and its row is the best of four settings per row "
     "(fitted, in its favour).",
-    "- The grid rule (noise_leaves) is what fails with the ground removed: the median "
-    "residual there is the vegetation's roughness. The lower quartile separates the Kinect "
-    "frames from the raw and 0.5 m airborne clouds, but not from every 1 m grid, so it is "
-    "no fix by itself; a noise measure that ignores volumetric vegetation is left open.",
-    "- Hence `pcl-rg segment` keeps `curvature` as its default method: convex_segmentation "
-    "needs the viewpoint on airborne tiles (the command's default is the origin), fails on "
-    "ground-removed 1 m grids at its defaults, and on whole tiles at 2 points/m^2 over-"
-    "segments most buildings (their sparse walls, 0.3 points per m^2 of wall, join the "
-    "ground's segment).",
+    "- The grid rule (noise_leaves) reads the noise on surface neighbourhoods only "
+    "(point_scale): with the ground removed, the median plane residual of every "
+    "neighbourhood is the vegetation's thickness (left column of the table above), which "
+    "made grids of 2.5-4.5 m on 1 m voxels and merged the buildings (mean IoU 0.09 there "
+    "before this rule); the surface neighbourhoods' noise keeps these clouds at or below "
+    "the grid threshold (a grid at most about their spacing), and the Kinect frames above it.",
+    "- The viewpoint is convex_segmentation's default: the tiles lie at a UTM offset, so the "
+    "origin is not taken for the sensor, which is put one bounding-box diagonal above the "
+    "tile's centre. The row with the origin as viewpoint is the former default.",
+    "- `pcl-rg segment` uses convex segmentation by default: its mean IoU leads region "
+    "growing's on mOSD at every scale and here in most rows (at 20 points/m^2, raw and on "
+    "0.5 m voxels, region growing's is as high or higher), with fewer over-segmented "
+    "buildings in every ground-removed row. On whole tiles at 2 points/m^2 it over-segments "
+    "most buildings all the same (their sparse walls, 0.3 points per m^2 of wall, join the "
+    "ground's segment); remove the ground first there.",
+    "- The ground-kept rows ran at the growth settings of the former defaults (12 deg, 0.6) "
+    "and not at 20 points/m^2 (their runs take longest); on the ground-removed rows those "
+    "settings and the defaults differ by at most 0.006 in mean IoU.",
 ]
-NO_GRID = "convex_segmentation, noise_leaves 0 (no grid)"
-ORIGIN = "convex_segmentation, viewpoint left at the origin"
+# The variant rows (no grid, the origin as viewpoint, every convex row with the ground
+# kept) run at the growth settings the defaults had before the joint cross-validation
+# (segmentation_joint_cv.py), smoothness 12 deg and curvature 0.6, as measured then.
+VARIANT_BASE = dict(smoothness_deg=12.0, curvature_threshold=0.6)
+NO_GRID = "convex_segmentation, noise_leaves 0 (no grid)"  # measurement keys
+ORIGIN = "convex_segmentation, viewpoint the origin (the former default)"
+SHOWN = {  # and how the table names them
+    NO_GRID: "convex_segmentation at 12 deg / 0.6, noise_leaves 0 (no grid)",
+    ORIGIN: "convex_segmentation at 12 deg / 0.6, viewpoint the origin (the former default)",
+}
+KEPT_CONVEX = "convex_segmentation at 12 deg / 0.6, otherwise defaults"
 HAND = "region_growing, threshold x 5 mm / spacing"
 
 
@@ -134,12 +157,14 @@ def methods(points: np.ndarray, protocol: str, quick: bool):
     above = (*points[:, :2].mean(axis=0), points[:, 2].max() + ABOVE)
     rg = RegionGrowingParams()
     settings = [dict(zip(GRID, values)) for values in itertools.product(*GRID.values())]
-    if quick or protocol == KEPT:
-        settings = [dict(smoothness_deg=12.0, curvature_threshold=0.6)]
-    runs = [("convex", i, pcl_rg.convex_segmentation, {**s, "viewpoint": above})
-            for i, s in enumerate(settings)]
+    if protocol == KEPT:
+        settings = [dict(VARIANT_BASE)]
+    elif quick:
+        default = pcl_rg.ConvexSegmentationParams()
+        settings = [{name: getattr(default, name) for name in GRID}]
+    runs = [("convex", i, pcl_rg.convex_segmentation, dict(s)) for i, s in enumerate(settings)]
     runs += [
-        (NO_GRID, 0, pcl_rg.convex_segmentation, dict(viewpoint=above, noise_leaves=0.0)),
+        (NO_GRID, 0, pcl_rg.convex_segmentation, dict(VARIANT_BASE, noise_leaves=0.0)),
         ("region_growing", 0, pcl_rg.region_growing, {}),
         (HAND, 0, pcl_rg.region_growing,
          dict(curvature_threshold=rg.curvature_threshold * KINECT_LEAF / spacing)),
@@ -148,7 +173,8 @@ def methods(points: np.ndarray, protocol: str, quick: bool):
     ]
     if protocol == KEPT:
         return settings, runs
-    runs.append((ORIGIN, 0, pcl_rg.convex_segmentation, {}))
+    runs.append((ORIGIN, 0, pcl_rg.convex_segmentation,
+                 dict(VARIANT_BASE, viewpoint=(0.0, 0.0, 0.0))))
     resolution = 1.5 * spacing
     for i, s in enumerate(LCCP_SETTINGS[:1] if quick else LCCP_SETTINGS):
         runs.append(("LCCP", i, pcl_rg.pcl.lccp, dict(
@@ -157,17 +183,21 @@ def methods(points: np.ndarray, protocol: str, quick: bool):
     return settings, runs
 
 
-def run_all(quick: bool):
+def run_all(quick: bool, densities=DENSITIES, protocols=(REMOVED, KEPT)):
     """scores[(protocol, method, index, density, leaf)] = per scene (ious, over, under);
-    seconds summed over the scenes; grid leaves of convex_segmentation per scene."""
+    seconds summed over the scenes; grid leaves of convex_segmentation per scene;
+    noise ratios (noise_ratios) of the ground-removed clouds per (density, leaf)."""
     scores: dict[tuple, list] = {}
     seconds: dict[tuple, float] = {}
     grids: dict[tuple, list] = {}
+    ratios: dict[tuple, list] = {}
     settings = []
     scenes = SCENES[::3] if quick else SCENES
-    for density in DENSITIES[:1] if quick else DENSITIES:
+    for density in densities[:1] if quick else densities:
         for kind, seed in scenes:
             for protocol, (points, truth, buildings, other) in clouds(kind, seed, density).items():
+                if protocol not in protocols:
+                    continue
                 for leaf in LEAVES:
                     if leaf > 0:
                         grid = pcl_rg.voxel_grid(points, leaf_size=leaf)
@@ -175,6 +205,8 @@ def run_all(quick: bool):
                         voxel_of_point = grid.voxel_of_point
                     else:
                         cloud, voxel_of_point = points, None
+                    if protocol == REMOVED:
+                        ratios.setdefault((density, leaf), []).append(noise_ratios(cloud))
                     runs_settings, runs = methods(cloud, protocol, quick)
                     if protocol == REMOVED:
                         settings = runs_settings
@@ -191,12 +223,13 @@ def run_all(quick: bool):
                         if grid_leaf is not None:
                             grids.setdefault(key, []).append(grid_leaf)
             print(f"  {kind} seed {seed} at {density:g}/m2 done", file=sys.stderr, flush=True)
-    return scenes, settings, scores, seconds, grids
+    return scenes, settings, scores, seconds, grids, ratios
 
 
 def noise_ratios(points: np.ndarray) -> tuple[float, float]:
-    """10 x the noise over the spacing, with the noise at the median of the residuals
-    (pcl_rg.point_scale's, within the k-d tree's ties) and at their lower quartile.
+    """10 x the noise over the spacing, with the noise as the median plane residual of
+    every neighbourhood (the former rule) and of the surface neighbourhoods only
+    (pcl_rg.point_scale's, what noise_leaves uses now).
 
     The residual of a point: sqrt of the smallest eigenvalue of the covariance of its 16
     nearest points, as point_scale measures it, at the same sample of points.
@@ -207,32 +240,26 @@ def noise_ratios(points: np.ndarray) -> tuple[float, float]:
     centred = points[near] - points[near].mean(axis=1, keepdims=True)
     covariance = np.einsum("mki,mkj->mij", centred, centred) / NEIGHBOURS
     residual = np.sqrt(np.maximum(np.linalg.eigvalsh(covariance)[:, 0], 0.0))
-    spacing = float(np.median(distances[:, 1]))
-    median, quartile = np.quantile(residual, [0.5, 0.25])
-    return 10.0 * median / spacing, 10.0 * quartile / spacing
+    scale = pcl_rg.point_scale(points)
+    return 10.0 * float(np.median(residual)) / scale.spacing, 10.0 * scale.noise / scale.spacing
 
 
-def noise_table(scenes, quick: bool) -> list[str]:
-    """Where the grid rule's noise comes from: median against lower quartile, airborne
-    objects (ground removed) against the mOSD Kinect frames the rule was made for."""
+def noise_table(ratios: dict) -> list[str]:
+    """Where the grid rule's noise comes from: every neighbourhood against surface
+    neighbourhoods only, airborne objects (ground removed) against the mOSD Kinect
+    frames the rule was made for."""
     rows = []
     for leaf in (0.0, 0.005):
-        ratios = [noise_ratios(points) for _, _, points, _ in mosd_at(leaf)]
-        rows.append([f"mOSD learn scenes, {scale_name(leaf)}", *ratio_cells(ratios)])
-    for density in DENSITIES[:1] if quick else DENSITIES:
-        ratios: dict[float, list] = {leaf: [] for leaf in LEAVES}
-        for kind, seed in scenes:  # each scene made once, then gridded at every leaf
-            points = clouds(kind, seed, density)[REMOVED][0]
-            for leaf in LEAVES:
-                gridded = pcl_rg.voxel_grid(points, leaf_size=leaf).centroids if leaf else points
-                ratios[leaf].append(noise_ratios(gridded))
-        for leaf in LEAVES:
-            rows.append([f"airborne, ground removed, {density:g} points/m^2, "
-                         f"{scale_name(leaf)}", *ratio_cells(ratios[leaf])])
+        mosd = [noise_ratios(points) for _, _, points, _ in mosd_at(leaf)]
+        rows.append([f"mOSD learn scenes, {scale_name(leaf)}", *ratio_cells(mosd)])
+    for density, leaf in sorted(ratios):
+        rows.append([f"airborne, ground removed, {density:g} points/m^2, "
+                     f"{scale_name(leaf)}", *ratio_cells(ratios[(density, leaf)])])
     return ["", "Why the grid: 10 x noise / spacing (a grid is used above 1), range over the "
-            "scenes, with the noise at the median of the plane residuals (point_scale, what "
-            "noise_leaves uses) and at their lower quartile:", "",
-            markdown_table(["data", "median", "lower quartile"], rows)]
+            "scenes, with the noise as the median plane residual of every neighbourhood (the "
+            "former rule) and of the surface neighbourhoods only (point_scale now: thickness "
+            "at most 0.3 x the second spread):", "",
+            markdown_table(["data", "every neighbourhood", "surfaces only"], rows)]
 
 
 def scale_name(leaf: float) -> str:
@@ -241,7 +268,8 @@ def scale_name(leaf: float) -> str:
 
 
 def ratio_cells(ratios: list) -> list[str]:
-    return [f"{min(r[i] for r in ratios):.2f}-{max(r[i] for r in ratios):.2f}" for i in (0, 1)]
+    return [f"{np.nanmin([r[i] for r in ratios]):.2f}-{np.nanmax([r[i] for r in ratios]):.2f}"
+            for i in (0, 1)]
 
 
 def pooled(rows: list) -> tuple[float, int, int, int]:
@@ -284,8 +312,10 @@ def row(case, method, per_scene, took, leaves=None) -> list[str]:
             str(over), str(under), "" if took is None else f"{took:.2f}", leaf_cell(leaves)]
 
 
-def report(scenes, settings, scores, seconds, grids, quick: bool, write: bool) -> None:
-    cases = sorted({key[3:] for key in scores})
+def report(scenes, settings, scores, seconds, grids, ratios, quick: bool, write: bool,
+           caches=()) -> None:
+    cases = sorted({key[3:] for key in scores if key[0] == REMOVED})
+    kept_missing = [case for case in cases if (KEPT, "convex", 0, *case) not in scores]
     n_scenes = len(scenes)
     default = pcl_rg.ConvexSegmentationParams()
     default_index = next(i for i, s in enumerate(settings)
@@ -304,8 +334,8 @@ def report(scenes, settings, scores, seconds, grids, quick: bool, write: bool) -
         defaults = key("convex", default_index)
         entries = [
             ("convex_segmentation, defaults", defaults),
-            (ORIGIN, key(ORIGIN)),
-            (NO_GRID, key(NO_GRID)),
+            (SHOWN[ORIGIN], key(ORIGIN)),
+            (SHOWN[NO_GRID], key(NO_GRID)),
             ("region_growing, defaults", key("region_growing")),
             (HAND, key(HAND)),
             ("PCL RegionGrowing", key("PCL RegionGrowing")),
@@ -320,13 +350,14 @@ def report(scenes, settings, scores, seconds, grids, quick: bool, write: bool) -
         best = max(others)
         lines.append(f"- {case[0]:g} points/m^2, voxel {case[1]:g} m: defaults {ours[0]:.3f} / "
                      f"{ours[1]} over; best other method {best[2]}: {best[0]:.3f} / {best[1]}")
-        kept = [("convex_segmentation, defaults", key("convex", 0, KEPT)),
-                (NO_GRID, key(NO_GRID, 0, KEPT)),
+        kept = [(KEPT_CONVEX, key("convex", 0, KEPT)),
+                (SHOWN[NO_GRID], key(NO_GRID, 0, KEPT)),
                 ("region_growing, defaults", key("region_growing", 0, KEPT)),
                 (HAND, key(HAND, 0, KEPT)),
                 ("PCL RegionGrowing", key("PCL RegionGrowing", 0, KEPT))]
         for method, k in kept:
-            kept_rows.append(row(case, method, scores[k], seconds[k], grids.get(k)))
+            if k in scores:  # a split run may leave some ground-kept cases out
+                kept_rows.append(row(case, method, scores[k], seconds[k], grids.get(k)))
     n_buildings = pooled(scores[(REMOVED, "convex", 0, *cases[0])])[3]
     names = ", ".join(f"{kind} {seed}" for kind, seed in scenes)
     about = (
@@ -352,13 +383,19 @@ def report(scenes, settings, scores, seconds, grids, quick: bool, write: bool) -
         *lines,
         "",
         "The same scenes with the ground kept (truth noise removed only; ground points count "
-        "as non-building points in the IoU):",
+        "as non-building points in the IoU)"
+        + (":" if not kept_missing else ", not measured at "
+           + ", ".join(sorted({f"{d:g} points/m^2" for d, _ in kept_missing})) + ":"),
         "",
         markdown_table(header, kept_rows),
-        *noise_table(scenes, quick),
+        *noise_table(ratios),
         *NOTES,
     ]
     command = "python benchmarks/studies/segmentation_airborne.py" + (" --quick" if quick else "")
+    command += "".join(f" --cache {path.name}" for path in caches)
+    if len(caches) > 1:
+        notes.append("- Measured in parts (one run per cache file, each with --densities, "
+                     "--protocols, --cache and --measure-only), then reported together.")
     publish_report(SECTION, command, about, header, rows, notes, write=write)
 
 
@@ -366,19 +403,40 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="one density, two scenes")
     parser.add_argument("--write", action="store_true", help="put the section into RESULTS.md")
-    parser.add_argument("--cache", type=Path,
-                        help="pickle of the measurements: read when it exists, else written")
+    parser.add_argument("--cache", type=Path, action="append",
+                        help="pickle of the measurements: read when it exists, else written; "
+                        "given several times (all existing), their measurements together")
+    parser.add_argument("--densities", type=float, nargs="+", default=list(DENSITIES),
+                        help="points per m^2 to measure")
+    parser.add_argument("--protocols", nargs="+", default=["removed", "kept"],
+                        choices=["removed", "kept"], help="ground removed, ground kept")
+    parser.add_argument("--measure-only", action="store_true",
+                        help="measure and write the cache, no report (a part of a split run)")
     args = parser.parse_args(argv)
     start = time.perf_counter()
-    if args.cache and args.cache.exists():
-        with args.cache.open("rb") as handle:
-            scenes, settings, scores, seconds, grids = pickle.load(handle)
+    caches = args.cache or []
+    if caches and all(path.exists() for path in caches):
+        parts = []
+        for path in caches:
+            with path.open("rb") as handle:
+                parts.append(pickle.load(handle))
+        scenes, settings = parts[0][0], parts[0][1]
+        scores, seconds, grids, ratios = {}, {}, {}, {}
+        for part in parts:
+            settings = part[1] or settings
+            for merged, new in zip((scores, seconds, grids, ratios), part[2:]):
+                merged.update(new)
     else:
-        scenes, settings, scores, seconds, grids = run_all(args.quick)
-        if args.cache:
-            with args.cache.open("wb") as handle:
-                pickle.dump((scenes, settings, scores, seconds, grids), handle)
-    report(scenes, settings, scores, seconds, grids, args.quick, args.write and not args.quick)
+        protocols = tuple(REMOVED if name == "removed" else KEPT for name in args.protocols)
+        measured = run_all(args.quick, tuple(args.densities), protocols)
+        scenes, settings, scores, seconds, grids, ratios = measured
+        if caches:
+            with caches[0].open("wb") as handle:
+                pickle.dump(measured, handle)
+    if args.measure_only:
+        return 0
+    report(scenes, settings, scores, seconds, grids, ratios, args.quick,
+           args.write and not args.quick, caches)
     print(f"({time.perf_counter() - start:.0f} s)", file=sys.stderr)
     return 0
 

@@ -1,4 +1,6 @@
 // Binding of pcl_rg::convex_segmentation (see cpp/include/pcl_rg/convex_segmentation.hpp).
+#include <pybind11/stl.h>  // the optional viewpoint: None when unset
+
 #include "bindings.hpp"
 #include "numpy_io.hpp"
 #include "pcl_rg/convex_segmentation.hpp"
@@ -38,12 +40,21 @@ void bind_convex_segmentation(py::module_& m) {
                     return convex_segmentation(view, params, out);
                 });
             return py::make_tuple(labels, timings.normals_seconds, timings.growth_seconds,
-                                  timings.merge_seconds, timings.leaf);
+                                  timings.merge_seconds, timings.leaf, timings.viewpoint);
         },
         py::arg("points").noconvert(), py::arg("params"),
         "Core convex segmentation: (labels, normals_seconds, growth_seconds, merge_seconds, "
-        "leaf). "
+        "leaf, viewpoint). "
         "Use pcl_rg.convex_segmentation.");
+
+    m.def(
+        "default_viewpoint",
+        [](const PointsArray& points) {
+            const PointsView view = points_view(points);
+            return default_viewpoint(view);
+        },
+        py::arg("points").noconvert(),
+        "The viewpoint convex_segmentation uses when none is given (convex_segmentation.hpp).");
 
     m.def(
         "merge_convex",

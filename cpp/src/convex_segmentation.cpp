@@ -38,7 +38,29 @@ void validate(const ConvexSegmentationParams& params) {
     check::real("concavity_tolerance_deg", params.concavity_tolerance_deg,
                 {0.0, std::nullopt, std::nullopt, 90.0});
     check::integer("min_cluster_size", params.min_cluster_size, check::at_least(1));
-    for (const double v : params.viewpoint) check::real("viewpoint", v, check::any());
+    if (params.viewpoint)
+        for (const double v : *params.viewpoint) check::real("viewpoint", v, check::any());
+}
+
+std::array<double, 3> default_viewpoint(PointsView points) {
+    if (points.size == 0) return {0.0, 0.0, 0.0};
+    std::array<double, 3> low, high;
+    for (int d = 0; d < 3; ++d) low[d] = high[d] = points.coord(0, d);
+    for (std::size_t i = 1; i < points.size; ++i)
+        for (int d = 0; d < 3; ++d) {
+            low[d] = std::min(low[d], points.coord(i, d));
+            high[d] = std::max(high[d], points.coord(i, d));
+        }
+    double diagonal_squared = 0.0, origin_squared = 0.0;
+    for (int d = 0; d < 3; ++d) {
+        diagonal_squared += (high[d] - low[d]) * (high[d] - low[d]);
+        // Distance from the origin to the box, per axis: how far 0 lies outside [low, high].
+        const double outside = std::max({low[d], -high[d], 0.0});
+        origin_squared += outside * outside;
+    }
+    const double diagonal = std::sqrt(diagonal_squared);
+    if (std::sqrt(origin_squared) <= kSensorFrameReach * diagonal) return {0.0, 0.0, 0.0};
+    return {0.5 * (low[0] + high[0]), 0.5 * (low[1] + high[1]), high[2] + diagonal};
 }
 
 namespace {
@@ -75,6 +97,8 @@ void merge_convex(PointsView points, std::size_t k, const std::uint32_t* neighbo
             throw std::invalid_argument("neighbours: index " + std::to_string(neighbours[i]) +
                                         " out of range for " + std::to_string(n) + " points");
     const Interruption interruption;
+    const std::array<double, 3> viewpoint =
+        params.viewpoint ? *params.viewpoint : default_viewpoint(points);
 
     // Steps 1 and 2: counts, centroids and mean oriented normals, summed in index order.
     std::vector<std::int64_t> count(n_patches, 0);
@@ -87,7 +111,7 @@ void merge_convex(PointsView points, std::size_t k, const std::uint32_t* neighbo
         const double* nv = normals + 3 * i;
         if (!(std::isfinite(nv[0]) && std::isfinite(nv[1]) && std::isfinite(nv[2]))) continue;
         double towards = 0.0;
-        for (int d = 0; d < 3; ++d) towards += nv[d] * (params.viewpoint[d] - points.coord(i, d));
+        for (int d = 0; d < 3; ++d) towards += nv[d] * (viewpoint[d] - points.coord(i, d));
         const double sign = towards < 0.0 ? -1.0 : 1.0;
         for (int d = 0; d < 3; ++d) mean_normal[3 * a + d] += sign * nv[d];
     }
@@ -192,20 +216,27 @@ ConvexSegmentationTimings segment_points(PointsView points, const ConvexSegmenta
 }  // namespace
 
 ConvexSegmentationTimings convex_segmentation(PointsView points,
-                                              const ConvexSegmentationParams& params,
+                                              const ConvexSegmentationParams& given,
                                               std::int32_t* labels) {
-    validate(params);
+    validate(given);
     const std::size_t n = points.size;
     if (n == 0) return ConvexSegmentationTimings{};
     check::indexable_by_int32(n);
     const auto start = std::chrono::steady_clock::now();
+    // Resolved on the input, so that a grid's centroids are seen from the same place.
+    ConvexSegmentationParams params = given;
+    params.viewpoint = given.viewpoint ? *given.viewpoint : default_viewpoint(points);
     double leaf = 0.0;
     if (params.noise_leaves > 0.0) {
         const PointScale scale = point_scale(points);
         if (params.noise_leaves * scale.noise > scale.spacing)  // NaN (tiny cloud): no grid
             leaf = params.noise_leaves * scale.noise;
     }
-    if (leaf == 0.0) return segment_points(points, params, labels);
+    if (leaf == 0.0) {
+        ConvexSegmentationTimings timings = segment_points(points, params, labels);
+        timings.viewpoint = *params.viewpoint;
+        return timings;
+    }
 
     VoxelGridParams grid_params;
     grid_params.leaf_size = {leaf, leaf, leaf};
@@ -226,6 +257,7 @@ ConvexSegmentationTimings convex_segmentation(PointsView points,
     }
     timings.normals_seconds += grid_seconds;  // the scale and the grid: preparation
     timings.leaf = leaf;
+    timings.viewpoint = *params.viewpoint;
     return timings;
 }
 

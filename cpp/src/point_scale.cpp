@@ -2,7 +2,9 @@
 // noise is the RMS residual of a local PCA plane fit (the smallest covariance
 // eigenvalue, as in Pauly et al., "Efficient simplification of point-sampled
 // surfaces", IEEE Visualization 2002, section 2), the spacing the nearest-neighbour
-// distance; medians make both robust to edges and outliers.
+// distance; medians make both robust to edges and outliers. The noise is read on
+// surface neighbourhoods only (thin against their spread): in a volume of scattered
+// points, such as tree canopy, the residual of a plane is the volume's thickness.
 #include "pcl_rg/point_scale.hpp"
 
 #include <Eigen/Dense>
@@ -20,6 +22,7 @@ namespace pcl_rg {
 namespace {
 
 double lower_median(std::vector<double>& values) {
+    if (values.empty()) return std::numeric_limits<double>::quiet_NaN();
     const auto middle = values.begin() + static_cast<std::ptrdiff_t>((values.size() - 1) / 2);
     std::nth_element(values.begin(), middle, values.end());
     return *middle;
@@ -65,10 +68,17 @@ PointScale point_scale(PointsView points) {
             covariance /= static_cast<double>(k);
             const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(covariance,
                                                                         Eigen::EigenvaluesOnly);
-            noise[r] = std::sqrt(std::max(solver.eigenvalues()[0], 0.0));
+            const double thickness = std::sqrt(std::max(solver.eigenvalues()[0], 0.0));
+            const double spread = std::sqrt(std::max(solver.eigenvalues()[1], 0.0));
+            // NaN marks a volume; the surfaces are gathered below in sample order.
+            noise[r] = thickness <= kPointScaleSurfaceRatio * spread
+                           ? thickness
+                           : std::numeric_limits<double>::quiet_NaN();
         }
     }
     scale.spacing = lower_median(spacing);
+    noise.erase(std::remove_if(noise.begin(), noise.end(), [](double v) { return std::isnan(v); }),
+                noise.end());
     scale.noise = lower_median(noise);
     return scale;
 }

@@ -28,14 +28,14 @@ class ConvexSegmentationParams:
         "the region graph",
     )
     smoothness_deg: float = param(
-        12.0,
+        10.0,
         above=0.0,
         below=180.0,
         unit="deg",
         help="max angle between neighbouring normals within a patch",
     )
     curvature_threshold: float = param(
-        0.6,
+        0.8,
         minimum=0.0,
         help="joined points with curvedness x (k-th neighbour distance) <= this grow "
         "further; no unit, the same at any point spacing",
@@ -56,14 +56,17 @@ class ConvexSegmentationParams:
     noise_leaves: float = param(
         10.0,
         minimum=0.0,
-        help="segment a voxel grid of this many times the measured noise when that is "
-        "coarser than the point spacing (0: never)",
+        help="segment a voxel grid of this many times the measured surface noise when "
+        "that is coarser than the point spacing (0: never)",
     )
-    viewpoint: tuple[float, float, float] = param(
-        (0.0, 0.0, 0.0),
+    viewpoint: tuple[float, float, float] | None = param(
+        None,
         axes=3,
         unit="m",
-        help="sensor position x,y,z in the caller's coordinates: normals are turned towards it",
+        optional=True,
+        help="sensor position x,y,z in the caller's coordinates: normals are turned towards "
+        "it (unset: the origin when the points lie near it, as in a sensor's own frame, "
+        "else one box diagonal above the points' bounding box, an airborne sensor)",
     )
 
     def __post_init__(self) -> None:
@@ -97,12 +100,12 @@ def convex_segmentation(
     smoothness_deg : float, optional
         A neighbour joins a patch when the angle between its normal and the
         current patch point's normal is at most this, in degrees, in (0, 180)
-        (default 12).
+        (default 10).
     curvature_threshold : float, optional
         A joined point grows further when its curvedness times the distance
         to its k-th neighbour is <= this (no unit: a curvature
         measured in neighbourhood radii, so the same value serves raw Kinect
-        frames, voxel grids and airborne tiles) (default 0.6).
+        frames, voxel grids and airborne tiles) (default 0.8).
     concavity_tolerance_deg : float, optional
         Two adjacent patches merge when each one's centroid lies at most this
         elevation angle above the other's mean plane, in degrees, in [0, 90)
@@ -116,13 +119,17 @@ def convex_segmentation(
         exceeds the point spacing, the steps below run on a voxel grid of that
         leaf and every point takes its voxel's label (default 10; 0: never).
         A raw Kinect frame (1.5 mm spacing, 0.5 mm noise) is segmented on a
-        5 mm grid; data already that coarse is segmented as it is. Airborne
-        points with the ground removed are mostly vegetation, whose roughness
-        counts as noise here: the grid comes out up to 4.5 m and merges
-        buildings, so pass 0 there (benchmarks/studies/segmentation_airborne.py).
+        grid of about 4.5 mm; data already that coarse is segmented as it is.
+        The noise is read on surface neighbourhoods only, so vegetation (thick
+        volumes of points) does not count as sensor noise.
     viewpoint : sequence of 3 float, optional
-        Sensor position, caller's coordinates (default the origin: a Kinect or
-        terrestrial frame; for airborne data give a point high above the area).
+        Sensor position, caller's coordinates. Default: the origin when the
+        points lie within 100 diagonals of their bounding box from it (a
+        Kinect or terrestrial frame, whose sensor is its origin); otherwise,
+        as for a tile in UTM coordinates, an airborne sensor one diagonal
+        above the top of the bounding box over its centre. Give it for data
+        in other frames (an airborne tile in local coordinates near the
+        origin, a mobile scan).
     %(params)s
 
     Returns
@@ -151,7 +158,8 @@ def convex_segmentation(
        (seeds in increasing measure, a neighbour joins when the normals are
        within `smoothness_deg`, and grows further when its measure is <=
        `curvature_threshold`), no size limit.
-    3. Normals are turned towards `viewpoint`. Per patch: centroid c and mean
+    3. Normals are turned towards `viewpoint` (the one used is in
+       :func:`pcl_rg.collect_diagnostics`). Per patch: centroid c and mean
        oriented normal m (normalized sum). Two patches are adjacent when a
        point of one lists a point of the other among its k neighbours; the
        pair's weight is the number of such entries.
@@ -169,13 +177,13 @@ def convex_segmentation(
     :func:`pcl_rg.region_growing`); the result does not depend on the number
     of threads.
 
-    The defaults were chosen on the seven mOSD learn scenes (Kinect, raw frames
-    and 3 to 8 mm voxel grids) by leave-one-scene-out cross-validation
-    (``benchmarks/studies/segmentation_mosd.py``, RESULTS.md). On synthetic
-    airborne scenes (``benchmarks/studies/segmentation_airborne.py``) they
-    need the viewpoint given; with the ground removed the grid fails (see
-    `noise_leaves`), and on whole tiles at 2 points per m^2 the sparse walls
-    of most buildings join the ground's segment.
+    The defaults were chosen by leave-one-scene-out cross-validation over the
+    seven mOSD learn scenes (Kinect, raw frames and 3 to 8 mm voxel grids,
+    ``benchmarks/studies/segmentation_mosd.py``) and six synthetic airborne
+    scenes (2 to 20 points per m^2, raw and 0.5 and 1 m voxel grids, ground
+    removed, ``benchmarks/studies/segmentation_airborne.py``); see
+    benchmarks/RESULTS.md. On whole airborne tiles (ground kept) at 2 points
+    per m^2 the sparse walls of most buildings join the ground's segment.
 
     References
     ----------
@@ -207,11 +215,14 @@ def convex_segmentation(
     """
     p = resolve_arguments(ConvexSegmentationParams, locals())
     xyz = as_points(points)
-    labels, normals_s, growth_s, merge_s, leaf = _core.convex_segmentation(xyz, p.to_core())
+    labels, normals_s, growth_s, merge_s, leaf, viewpoint = _core.convex_segmentation(
+        xyz, p.to_core()
+    )
     record(
         "convex_segmentation",
         points=len(xyz),
         leaf=leaf,
+        viewpoint=tuple(viewpoint),
         clusters=int(labels.max(initial=-1)) + 1,
         normals_seconds=normals_s,
         growth_seconds=growth_s,

@@ -16,6 +16,10 @@ __all__ = ["PointScale", "point_scale"]
 NEIGHBOURS = 16
 #: At most about this many points are measured (kPointScaleSamples).
 SAMPLES = 20_000
+#: A neighbourhood's residual counts as noise when its RMS thickness is at most this
+#: times its second spread, sqrt(lambda0) <= SURFACE_RATIO sqrt(lambda1)
+#: (kPointScaleSurfaceRatio).
+SURFACE_RATIO = 0.3
 
 
 class PointScale(NamedTuple):
@@ -24,7 +28,8 @@ class PointScale(NamedTuple):
     spacing: float
     """Median distance from a point to its nearest other point."""
     noise: float
-    """Median RMS distance of a point's 16 nearest neighbours from their plane."""
+    """Median RMS distance of a point's 16 nearest neighbours from their plane, over
+    the neighbourhoods that are surfaces (thin against their spread)."""
 
 
 @fill_docstring
@@ -38,7 +43,8 @@ def point_scale(points: npt.ArrayLike) -> PointScale:
     Returns
     -------
     PointScale
-        ``spacing`` and ``noise``, NaN both for 16 points or fewer.
+        ``spacing`` and ``noise``, NaN both for 16 points or fewer; ``noise``
+        NaN when no measured neighbourhood is a surface.
 
     Raises
     ------
@@ -54,11 +60,18 @@ def point_scale(points: npt.ArrayLike) -> PointScale:
     the neighbours' covariance (the RMS residual of their least-squares
     plane; Pauly et al., IEEE Visualization 2002), about 0.9 sigma for
     Gaussian noise of sigma on a plane, as the fit absorbs part of it. Each
-    is the lower median
-    of its values. Both scale with the data: the same cloud in millimetres
-    gives values 1000 times larger. They are the units of the scale-free
-    defaults of :func:`pcl_rg.convex_segmentation` and of the automatic
-    voxel size of :func:`pcl_rg.pipeline.seed004`.
+    is the lower median of its values; the noise's only over the surface
+    neighbourhoods, those whose thickness sqrt(lambda0) is at most 0.3 times
+    their second spread sqrt(lambda1) (`SURFACE_RATIO`). On a plane 16
+    neighbours spread about 1.1 spacings, so noise of up to a third of the
+    spacing is measured (a raw Kinect frame: 0.5 mm on 1.5 mm; larger noise
+    is read from its thinner neighbourhoods, so it comes out low); a volume of
+    scattered points (tree canopy, shrubs) is thick against its spread, and
+    its thickness is structure, not sensor noise. Both scale with the data:
+    the same cloud in millimetres gives values 1000 times larger. They are
+    the units of the scale-free defaults of
+    :func:`pcl_rg.convex_segmentation` and of the automatic voxel size of
+    :func:`pcl_rg.pipeline.seed004`.
 
     Not to be confused with :func:`pcl_rg.point_spacing`, the 2-D mean XY
     spacing (occupied area per point) that the airborne ground filters
@@ -75,6 +88,9 @@ def point_scale(points: npt.ArrayLike) -> PointScale:
     >>> scale = pcl_rg.point_scale(plane)
     >>> round(scale.noise, 4), round(scale.spacing, 4)  # the noise is 1 mm
     (0.0009, 0.0036)
+    >>> canopy = rng.uniform(0, 1, (20000, 3)) + (0, 0, 1.5)  # a volume above it
+    >>> round(pcl_rg.point_scale(np.vstack([plane, canopy])).noise, 4)  # still the plane's
+    0.0009
     """
     spacing, noise = _core.point_scale(as_points(points))
     return PointScale(spacing, noise)

@@ -128,10 +128,10 @@ def auto_leaf_size(points: npt.ArrayLike) -> float | None:
     resolve in dense scans: a raw Kinect frame 1 m away has about 1.5 mm
     spacing and 0.5 mm noise, and segments best on a grid of about 5 mm
     (benchmarks/RESULTS.md). Sparser data, whose noise is small against its
-    spacing (3 to 8 mm grids of the same frames, sparse airborne tiles), gets
-    no grid. Airborne points without their ground are mostly vegetation, whose
-    roughness counts as noise: their grid comes out metres wide (RESULTS.md,
-    segmentation of airborne scenes).
+    spacing (8 mm grids of the same frames, sparse airborne tiles), gets no
+    grid. The noise is read on surface neighbourhoods only, so vegetation
+    (airborne points without their ground are mostly trees) does not count
+    as noise (RESULTS.md, segmentation of airborne scenes).
 
     Examples
     --------
@@ -140,7 +140,7 @@ def auto_leaf_size(points: npt.ArrayLike) -> float | None:
     >>> rng = np.random.default_rng(0)
     >>> dense = np.column_stack([rng.uniform(0, 1, (200000, 2)), rng.normal(0, 1e-3, 200000)])
     >>> round(auto_leaf_size(dense), 3)  # 10 x the measured noise, above the 1.5 mm spacing
-    0.008
+    0.006
     >>> print(auto_leaf_size(dense[:1000]))  # 15 mm spacing: already coarser
     None
     """

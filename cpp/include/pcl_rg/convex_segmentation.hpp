@@ -5,6 +5,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 
 #include "pcl_rg/points.hpp"
 
@@ -17,16 +18,16 @@ struct ConvexSegmentationParams {
     /// segmented at the scale their noise allows, and sparser data as it is.
     double noise_leaves = 10.0;
     /// Neighbours per point, the point itself included (>= 6, < N), for the normals,
-    /// the curvatures, the growth and the region graph. Chosen on the mOSD learn scenes
-    /// by leave-one-scene-out cross-validation, see RESULTS.md.
+    /// the curvatures, the growth and the region graph. The defaults were chosen by
+    /// leave-one-scene-out cross-validation over the mOSD and airborne studies, RESULTS.md.
     int k = 15;
     /// A neighbour joins a patch when the angle between the unoriented normals is <=
     /// this, in degrees, in (0, 180).
-    double smoothness_deg = 12.0;
+    double smoothness_deg = 10.0;
     /// A joined point grows further when curvedness x r <= this (finite, >= 0, no
     /// unit), r the distance to the point's k-th neighbour: curvature in units of the
     /// neighbourhood radius, the same at every point spacing.
-    double curvature_threshold = 0.6;
+    double curvature_threshold = 0.8;
     /// Two adjacent patches merge when each one's centroid lies at most this far
     /// above the other's mean plane, as an elevation angle in degrees, in [0, 90).
     double concavity_tolerance_deg = 0.0;
@@ -35,23 +36,40 @@ struct ConvexSegmentationParams {
     /// ends smaller is dropped.
     std::int64_t min_cluster_size = 20;
     /// Sensor position (caller's coordinates, finite): normals are turned towards it.
-    std::array<double, 3> viewpoint{0.0, 0.0, 0.0};
+    /// Unset: default_viewpoint() of the points.
+    std::optional<std::array<double, 3>> viewpoint;
 };
+
+/// A sensor's own frame (Kinect, terrestrial scan) has the sensor at its origin, next
+/// to its points: the origin is the viewpoint when its distance from the points'
+/// bounding box is at most this many box diagonals. Farther, as on a tile in UTM
+/// coordinates, every line of sight from the origin crosses the data within a
+/// fraction of a degree: a direction, not a sensor.
+inline constexpr double kSensorFrameReach = 100.0;
+
+/// The viewpoint used when none is given: the origin when it lies within
+/// kSensorFrameReach diagonals of the points' axis-aligned bounding box; otherwise an
+/// airborne sensor, one diagonal above the top of the box over its centre
+/// ((x_min + x_max) / 2, (y_min + y_max) / 2, z_max + diagonal). Empty input: the origin.
+std::array<double, 3> default_viewpoint(PointsView points);
 
 /// Throws std::invalid_argument naming the parameter when a value is out of range.
 void validate(const ConvexSegmentationParams& params);
 
-/// Wall-clock seconds of the phases.
+/// Wall-clock seconds of the phases, and what the call chose.
 struct ConvexSegmentationTimings {
     double leaf = 0.0;             ///< leaf of the voxel grid used, 0 for none
     double normals_seconds = 0.0;  ///< neighbours, normals and curvatures
     double growth_seconds = 0.0;   ///< patch growth
     double merge_seconds = 0.0;    ///< region graph, convexity test, merge
+    /// The viewpoint used (the given one, or default_viewpoint() of the input).
+    std::array<double, 3> viewpoint{0.0, 0.0, 0.0};
 };
 
 /// The merge step alone on given patches. `neighbours` (n x k, row-major), unit
 /// `normals` (3n, any orientation; NaN allowed), `patches` (n, ids in [0, n) or -1).
-/// 1. Normals are turned towards the viewpoint (flipped when n . (v - x) < 0).
+/// 1. Normals are turned towards the viewpoint v (flipped when n . (v - x) < 0; unset:
+///    default_viewpoint() of these points).
 /// 2. Per patch: point count, centroid c, and m, the normalized sum of its finite
 ///    oriented normals.
 /// 3. Patches a != b are adjacent when a point of one lists a point of the other; the
@@ -66,10 +84,11 @@ void merge_convex(PointsView points, std::size_t k, const std::uint32_t* neighbo
                   const double* normals, const std::int32_t* patches,
                   const ConvexSegmentationParams& params, std::int32_t* labels);
 
-/// When noise_leaves x noise > spacing (point_scale()), the steps below run on the
-/// centroids of a voxel grid of that leaf (voxel_grid.hpp) and each point takes its
-/// voxel's label. Steps: normals and curvatures (normals.hpp), the measure curvedness
-/// x r per point, patch growth (grow_regions with that measure, the gate
+/// The viewpoint, when unset, is default_viewpoint() of the input points (not of a
+/// grid's centroids). When noise_leaves x noise > spacing (point_scale()), the steps
+/// below run on the centroids of a voxel grid of that leaf (voxel_grid.hpp) and each
+/// point takes its voxel's label. Steps: normals and curvatures (normals.hpp), the measure
+/// curvedness x r per point, patch growth (grow_regions with that measure, the gate
 /// curvature_threshold and no size limit), then merge_convex(). Fills `labels` (N
 /// entries), numbered by smallest point index. Throws std::invalid_argument when k is
 /// not below the number of points segmented (non-empty input).

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -16,7 +17,24 @@ from .point_scale import point_scale
 from .region_growing import grow_regions
 from .voxel_grid import voxel_grid
 
-__all__ = ["convex_segmentation", "merge_convex", "scaled_curvedness"]
+__all__ = ["convex_segmentation", "default_viewpoint", "merge_convex", "scaled_curvedness"]
+
+#: The origin is the viewpoint within this many bounding-box diagonals (kSensorFrameReach).
+SENSOR_FRAME_REACH = 100.0
+
+
+def default_viewpoint(points: np.ndarray) -> tuple[float, float, float]:
+    """The viewpoint used when none is given: the origin when it lies within
+    `SENSOR_FRAME_REACH` diagonals of the points' bounding box (a sensor's own frame),
+    else one diagonal above the top of the box over its centre (an airborne sensor)."""
+    if len(points) == 0:
+        return (0.0, 0.0, 0.0)
+    low, high = points.min(axis=0), points.max(axis=0)
+    diagonal = math.sqrt(float(np.sum((high - low) ** 2)))
+    outside = np.maximum(np.maximum(low, -high), 0.0)
+    if math.sqrt(float(np.sum(outside**2))) <= SENSOR_FRAME_REACH * diagonal:
+        return (0.0, 0.0, 0.0)
+    return (0.5 * (low[0] + high[0]), 0.5 * (low[1] + high[1]), float(high[2]) + diagonal)
 
 
 def scaled_curvedness(points: np.ndarray, neighbours: np.ndarray, mean: np.ndarray,
@@ -57,7 +75,8 @@ def merge_convex(
     count = np.bincount(ids, minlength=count_patches)
 
     # Steps 1 and 2: normals towards the viewpoint, centroids, mean oriented normals.
-    to_view = np.asarray(params.viewpoint, dtype=np.float64) - points
+    viewpoint = params.viewpoint if params.viewpoint is not None else default_viewpoint(points)
+    to_view = np.asarray(viewpoint, dtype=np.float64) - points
     towards = (normals[:, 0] * to_view[:, 0] + normals[:, 1] * to_view[:, 1]
                + normals[:, 2] * to_view[:, 2])
     oriented = np.where((towards < 0.0)[:, None], -normals, normals)
@@ -163,6 +182,8 @@ def convex_segmentation(
     xyz = as_points(points)
     if len(xyz) == 0:
         return np.empty(0, dtype=np.int32)
+    if p.viewpoint is None:  # resolved on the input, so a grid is seen from the same place
+        p = dataclasses.replace(p, viewpoint=default_viewpoint(xyz))
     if p.noise_leaves > 0:
         scale = point_scale(xyz)
         leaf = p.noise_leaves * scale.noise

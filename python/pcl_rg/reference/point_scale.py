@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
-from .._point_scale import NEIGHBOURS, SAMPLES, PointScale
+from .._point_scale import NEIGHBOURS, SAMPLES, SURFACE_RATIO, PointScale
 from .._validation import as_points
 from .normals import neighbour_lists
 
@@ -13,6 +13,8 @@ __all__ = ["point_scale"]
 
 
 def _lower_median(values: np.ndarray) -> float:
+    if values.size == 0:
+        return float("nan")
     return float(np.sort(values)[(len(values) - 1) // 2])
 
 
@@ -20,7 +22,8 @@ def point_scale(points: npt.ArrayLike) -> PointScale:
     """Reference point scale: same signature and result as :func:`pcl_rg.point_scale`.
 
     Agrees with the core to rounding (LAPACK's eigenvalues against Eigen's),
-    except where a neighbour list has a tie at its 16th place.
+    except where a neighbour list has a tie at its 16th place or a
+    neighbourhood's thickness lies within rounding of the surface rule.
 
     Examples
     --------
@@ -40,5 +43,7 @@ def point_scale(points: npt.ArrayLike) -> PointScale:
     spacing = np.linalg.norm(relative[:, 1], axis=1)
     centred = relative - relative.mean(axis=1, keepdims=True)
     covariance = np.einsum("mki,mkj->mij", centred, centred) / NEIGHBOURS
-    noise = np.sqrt(np.maximum(np.linalg.eigvalsh(covariance)[:, 0], 0.0))
-    return PointScale(_lower_median(spacing), _lower_median(noise))
+    eigenvalues = np.maximum(np.linalg.eigvalsh(covariance), 0.0)
+    thickness, spread = np.sqrt(eigenvalues[:, 0]), np.sqrt(eigenvalues[:, 1])
+    surface = thickness <= SURFACE_RATIO * spread
+    return PointScale(_lower_median(spacing), _lower_median(thickness[surface]))
