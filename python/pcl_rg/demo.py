@@ -295,11 +295,11 @@ def run_demo(
     voxel_of_point = np.full(n, -1, dtype=np.int64)
     voxel_of_point[kept_index] = grid.voxel_of_point
     segmentations = {}
-    # convex_segmentation at its scale-free defaults (nothing rescaled for 1 m voxels),
-    # the sensor high above the area; region growing needs its threshold rescaled.
-    above = (*grid.centroids[:, :2].mean(axis=0), grid.centroids[:, 2].max() + 1000.0)
+    # convex_segmentation at its defaults, as `pcl-rg segment` runs it: nothing rescaled
+    # for 1 m voxels, and at a UTM offset its default viewpoint is a sensor above the
+    # tile. Region growing needs its threshold rescaled.
     for method, function, options in (
-        ("convex", convex_segmentation, {"viewpoint": above}),
+        ("convex", convex_segmentation, {}),
         ("curvature", region_growing, {**SEGMENT, "curvature_threshold": CURVEDNESS}),
         ("pcl", region_growing_pcl, SEGMENT),
     ):
