@@ -14,7 +14,11 @@
 // definition: a robust seed (the lowest point whose component is large enough, against
 // low outliers), growth across block borders, and Vosselman's slope filter as a
 // pre-filter (a point far above a neighbour is an object point and never links),
-// repeated against the previous pass's ground so low outliers stop masking terrain.
+// repeated against the previous pass's ground so low outliers stop masking terrain; and
+// the final pass (final_pass.hpp) repeated on its own ground (final_passes), as
+// TerraScan's ground routines are run again on their result: where the growth took an
+// object point as the lowest ground point of a final cell, the first round may have
+// found a lower ground point there, and the next round's TIN runs under the object.
 //
 // Exactness: links are symmetric, so the components do not depend on the visiting order
 // and the NumPy reference (scipy connected_components) agrees point for point. Both
@@ -74,6 +78,7 @@ void validate(const GridGroundParams& params) {
     check::real("filter_slope", params.filter_slope, check::non_negative());
     check::real("filter_tolerance", params.filter_tolerance, check::non_negative());
     validate(final_pass_params(params));
+    check::integer("final_passes", params.final_passes, check::at_least(1));
 }
 
 namespace {
@@ -432,7 +437,11 @@ void grid_ground(PointsView points, const GridGroundParams& given, bool* ground,
     const auto count = static_cast<std::ptrdiff_t>(n);
 #pragma omp parallel for schedule(guided) if (parallel)
     for (std::ptrdiff_t s = 0; s < count; ++s) ground[grid.id[s]] = result[s] != 0;
-    if (params.final_cell > 0.0) final_pass(points, final_pass_params(params), ground);
+    if (params.final_cell > 0.0)
+        for (std::int64_t round = 0; round < params.final_passes; ++round) {
+            poll_interrupt();
+            final_pass(points, final_pass_params(params), ground);
+        }
 }
 
 }  // namespace pcl_rg

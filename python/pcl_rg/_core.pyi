@@ -36,6 +36,7 @@ class GridGroundParams:
     final_above: float
     final_below: float
     final_slope: float
+    final_passes: int
     def __init__(self) -> None: ...
 
 def grid_ground(

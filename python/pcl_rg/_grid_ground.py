@@ -100,6 +100,12 @@ class GridGroundParams:
     final_above: float = final_pass_param("final_above", 0.8)
     final_below: float = final_pass_param("final_below", 1.0)
     final_slope: float = final_pass_param("final_slope", 1.0)
+    final_passes: int = param(
+        1,
+        minimum=1,
+        help="rounds of the final pass (with final_cell > 0): each round after the first "
+        "builds its TIN from the previous round's ground",
+    )
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -215,6 +221,7 @@ def grid_ground(
     final_above: float | None = None,
     final_below: float | None = None,
     final_slope: float | None = None,
+    final_passes: int | None = None,
     params: GridGroundParams | None = None,
 ) -> np.ndarray:
     """Classify ground points by region growing from the lowest point of each block.
@@ -271,6 +278,10 @@ def grid_ground(
         above the TIN is ``final_above + final_slope * |grad z_TIN|``, so
         steep terrain, where a coarse TIN cuts under the surface, keeps its
         points. Default 1 m.
+    final_passes : int, optional
+        Rounds of the final pass (>= 1; with ``final_cell > 0``): each round
+        after the first builds its TIN from the previous round's ground.
+        Default 1.
     params : GridGroundParams, optional
         All parameters at once (defaults: the ``isprs`` preset); keywords given
         explicitly override it. ``GridGroundParams.definition()`` is the plain
@@ -286,7 +297,8 @@ def grid_ground(
     ValueError
         Non-finite points, a wrong shape, a block or cell size <= 0, a cell
         larger than the block, a negative slope or tolerance,
-        ``min_seed_component < 1`` or ``filter_passes < 0``.
+        ``min_seed_component < 1``, ``filter_passes < 0`` or
+        ``final_passes < 1``.
     %(type_error)s
 
     Notes
@@ -343,6 +355,12 @@ def grid_ground(
       point. A grower's ground that took low objects along gets the lower
       surface of its cells' minima, and terrain points the growth missed
       join it.
+    * ``final_passes = r > 1`` (off by default): the final pass runs r
+      times, each round's TIN from the previous round's ground, as
+      TerraScan's routines are run again on their own result. Where the
+      growth took an object as the lowest ground point of a cell, the first
+      round may have classified a lower terrain point there, and the next
+      TIN runs under the object instead of over it.
 
     ``collect_diagnostics()`` reports the spacing an unset cell size took
     (``point_spacing``, NaN when cell_size was given) and the ``cell_size`` used.

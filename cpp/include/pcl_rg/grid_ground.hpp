@@ -14,7 +14,8 @@ namespace pcl_rg {
 /// --search --rule resolution over the seven ISPRS samples (mean total error; chosen
 /// among the rules by leave-one-sample-out error, ground_isprs_cv.py). The definition of
 /// algorithms.md section 3 is min_seed_component = 1, grow_across_blocks = false,
-/// filter_passes = 0, final_cell = 0, and its pure slope rule height_tolerance = 0.
+/// filter_passes = 0, final_cell = 0 (final_passes then does nothing), and its pure slope
+/// rule height_tolerance = 0.
 /// The multiple of the point spacing an unset cell_size is at most (see cell_size);
 /// chosen with the other defaults on the seven ISPRS samples (benchmarks/studies/
 /// ground_isprs.py --search, cross-validated by ground_isprs_cv.py). Python mirror:
@@ -64,6 +65,10 @@ struct GridGroundParams {
     double final_below = 1.0;
     /// Allowance per unit of the final TIN's gradient (m, >= 0).
     double final_slope = 1.0;
+    /// Rounds of the final pass (>= 1; used when final_cell > 0): each round after the
+    /// first builds its TIN from the previous round's ground, whose lowest point per cell
+    /// may be a ground point the growth missed where the growth's was an object point.
+    std::int64_t final_passes = 1;
 };
 
 /// Throws std::invalid_argument naming the parameter when a value is out of range.

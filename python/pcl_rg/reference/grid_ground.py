@@ -145,6 +145,7 @@ def grid_ground(
     final_above: float | None = None,
     final_below: float | None = None,
     final_slope: float | None = None,
+    final_passes: int | None = None,
     params: GridGroundParams | None = None,
 ) -> np.ndarray:
     """Reference grid ground filter: same signature and result as :func:`pcl_rg.grid_ground`.
@@ -153,7 +154,8 @@ def grid_ground(
     filtered by cell), applies the pre-filter and the link rule to it, labels
     the connected components with SciPy and takes per block the component of
     the seed. With ``final_cell > 0`` the final pass of
-    :func:`pcl_rg.reference._final_pass.final_pass` follows.
+    :func:`pcl_rg.reference._final_pass.final_pass` follows, ``final_passes``
+    times, each round on the ground of the one before.
 
     Examples
     --------
@@ -179,5 +181,8 @@ def grid_ground(
             candidate = _slope_filter(nb, p, against=ground)
         ground = _grow(nb, p, candidate)
     if p.final_cell > 0:
-        ground = final_pass(xyz, ground, p.final_cell, p.final_above, p.final_below, p.final_slope)
+        for _ in range(p.final_passes):
+            ground = final_pass(
+                xyz, ground, p.final_cell, p.final_above, p.final_below, p.final_slope
+            )
     return ground
