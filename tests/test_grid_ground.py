@@ -15,7 +15,6 @@ import pcl_rg
 from pcl_rg import GridGroundParams, _core, reference
 from pcl_rg.datasets import GROUND, load_isprs, synthetic_scene
 from pcl_rg.evaluation import ground_errors
-from pcl_rg.reference._final_pass import final_pass
 from pcl_rg.reference.grid_ground import grid_neighbours
 
 DEFINITION = GridGroundParams.definition()
@@ -53,6 +52,8 @@ PARAMETER_GRID = [
     GridGroundParams(block_size=12, cell_size=(2, 4), filter_slope=0.5, filter_tolerance=0.1),
     GridGroundParams(grow_across_blocks=False, filter_passes=4),
     GridGroundParams(final_passes=2),
+    GridGroundParams(outlier_depth=1.0, final_below=5.0),
+    GridGroundParams.definition(outlier_depth=0.5, filter_passes=1),
     GridGroundParams(final_passes=3, final_cell=3.0, final_above=0.5),
 ]
 
@@ -244,61 +245,6 @@ def test_across_blocks_reaches_ground_the_blocks_split():
     np.testing.assert_array_equal(assert_core_equals_reference(points, plain), (x < 10) | pit)
     across = dataclasses.replace(plain, grow_across_blocks=True)
     assert assert_core_equals_reference(points, across).all()
-
-
-def test_final_passes_rerun_the_final_pass_on_its_own_ground(scene):
-    """Round r + 1 is the final pass (the reference's) on round r's ground."""
-    once = pcl_rg.grid_ground(scene.points, final_passes=1)
-    twice = assert_core_equals_reference(scene.points, GridGroundParams(final_passes=2))
-    p = GridGroundParams()
-    again = final_pass(
-        scene.points, once, p.final_cell, p.final_above, p.final_below, p.final_slope
-    )
-    np.testing.assert_array_equal(twice, again)
-    # Without the final pass there is nothing to repeat.
-    off = GridGroundParams(final_cell=0.0)
-    np.testing.assert_array_equal(
-        pcl_rg.grid_ground(scene.points, params=off),
-        pcl_rg.grid_ground(scene.points, params=dataclasses.replace(off, final_passes=3)),
-    )
-
-
-def test_second_final_round_runs_under_a_platform_the_growth_took():
-    """A 0.6 m platform filling the 4 m final cells x in [8, 12) is climbed by the growth
-    (slope 3); a terrain point seen through a hole in it (0.05 m, no platform point in
-    its 3 x 3 cells, too small a component to seed) is not grown. Round 1's TIN has a
-    platform point as that cell's vertex, yet takes the terrain point (0.55 m below
-    the platform, within final_below); round 2's TIN has the terrain point as vertex
-    and drops more of the platform. A third round changes nothing more."""
-    axis_x, axis_y = np.arange(0, 24, 0.25), np.arange(0, 8, 0.25)
-    x, y = (a.ravel() for a in np.meshgrid(axis_x, axis_y, indexing="ij"))
-    platform = (x >= 8) & (x < 12)
-    seen_through = (x == 10) & (y == 2)
-    keep = ~(platform & (np.hypot(x - 10, y - 2) <= 0.7)) | seen_through
-    z = np.where(seen_through, 0.05, np.where(platform, 0.6, 0.0))
-    points = np.c_[x, y, z][keep]
-    platform, seen_through = (platform & ~seen_through)[keep], seen_through[keep]
-    params = GridGroundParams.definition(
-        block_size=24,
-        cell_size=0.25,
-        slope=3.0,
-        min_seed_component=5,
-        final_cell=4.0,
-        final_above=0.3,
-        final_below=1.0,
-        final_slope=0.0,
-    )
-    grown = pcl_rg.grid_ground(points, params=dataclasses.replace(params, final_cell=0.0))
-    assert grown[platform].all() and not grown[seen_through].any()
-    rounds = [
-        assert_core_equals_reference(points, dataclasses.replace(params, final_passes=r))
-        for r in (1, 2, 3)
-    ]
-    for ground in rounds:
-        assert ground[seen_through].all() and ground[~platform].all()
-    assert rounds[1][platform].sum() < rounds[0][platform].sum()
-    assert not (rounds[1] & ~rounds[0]).any()
-    np.testing.assert_array_equal(rounds[2], rounds[1])
 
 
 # --------------------------------------------------------------------------
@@ -493,6 +439,8 @@ def test_keywords_override_params_and_scalars_expand():
         ({"filter_slope": -1}, ValueError, "filter_slope must be >= 0"),
         ({"filter_tolerance": -0.5}, ValueError, "filter_tolerance must be >= 0"),
         ({"final_passes": 0}, ValueError, "final_passes must be >= 1"),
+        ({"outlier_depth": -1.0}, ValueError, "outlier_depth must be >= 0"),
+        ({"outlier_depth": np.inf}, ValueError, "outlier_depth must be finite"),
         ({"final_passes": 1.5}, TypeError, "final_passes must be an integer"),
         ({"grow_across_blocks": 1}, TypeError, "grow_across_blocks must be True or False"),
         ({"slope": "steep"}, TypeError, "slope must be a real number"),
@@ -515,6 +463,10 @@ def test_core_validates_too():
     core = GridGroundParams().to_core()
     core.filter_passes = -2
     with pytest.raises(ValueError, match="filter_passes must be >= 0, got -2"):
+        _core.grid_ground(np.zeros((2, 3)), core)
+    core = GridGroundParams().to_core()
+    core.outlier_depth = -0.5
+    with pytest.raises(ValueError, match="outlier_depth must be >= 0, got -0.5"):
         _core.grid_ground(np.zeros((2, 3)), core)
     core = GridGroundParams().to_core()
     core.final_passes = 0
@@ -574,6 +526,7 @@ param_sets = st.builds(
     filter_slope=st.sampled_from([0.0, 0.7]),
     filter_tolerance=st.sampled_from([0.0, 0.4]),
     final_passes=st.integers(1, 3),
+    outlier_depth=st.sampled_from([0.0, 0.5, 2.0]),
 ).filter(lambda p: all(c <= b for c, b in zip(p.cell_size, p.block_size)))
 
 

@@ -80,6 +80,10 @@ METHODS: list[tuple[str, Callable[[np.ndarray], np.ndarray]]] = [
     ),
     ("grid_ground (defaults: isprs preset)", lambda points: pcl_rg.grid_ground(points)),
     (
+        "grid_ground (preset, one final round)",
+        lambda points: pcl_rg.grid_ground(points, final_passes=1),
+    ),
+    (
         "grid_ground (preset, 3 m cells)",
         lambda points: pcl_rg.grid_ground(points, params=GRID_FIXED),
     ),

@@ -28,6 +28,7 @@ class GridGroundParams:
     slope: float
     height_tolerance: float
     min_seed_component: int
+    outlier_depth: float
     grow_across_blocks: bool
     filter_passes: int
     filter_slope: float

@@ -82,6 +82,13 @@ class GridGroundParams:
         help="robust seed: lowest point whose component holds at least this many points "
         "(1: the lowest point)",
     )
+    outlier_depth: float = param(
+        0.0,
+        minimum=0.0,
+        unit="m",
+        help="low outliers (0: off): a point whose 3 x 3 cells hold other points, all more "
+        "than this above it, is never ground, never a seed and never a final-pass vertex",
+    )
     grow_across_blocks: bool = param(
         True, help="links also join points of neighbouring blocks (one seed per block)"
     )
@@ -101,7 +108,7 @@ class GridGroundParams:
     final_below: float = final_pass_param("final_below", 1.0)
     final_slope: float = final_pass_param("final_slope", 1.0)
     final_passes: int = param(
-        1,
+        3,
         minimum=1,
         help="rounds of the final pass (with final_cell > 0): each round after the first "
         "builds its TIN from the previous round's ground",
@@ -186,7 +193,7 @@ class GridGroundParams:
         """The plain rule of algorithms.md section 3: every option off.
 
         ``min_seed_component=1, grow_across_blocks=False, filter_passes=0``,
-        no final pass (``final_cell=0``) and the seed's pure slope rule
+        no final pass (``final_cell=0``, ``final_passes=1``) and the seed's pure slope rule
         ``height_tolerance=0``; the other fields keep their defaults unless
         given in `overrides`.
         """
@@ -196,6 +203,7 @@ class GridGroundParams:
             "grow_across_blocks": False,
             "filter_passes": 0,
             "final_cell": 0.0,
+            "final_passes": 1,
         }
         values.update(overrides)
         return cls(**values)
@@ -213,6 +221,7 @@ def grid_ground(
     slope: float | None = None,
     height_tolerance: float | None = None,
     min_seed_component: int | None = None,
+    outlier_depth: float | None = None,
     grow_across_blocks: bool | None = None,
     filter_passes: int | None = None,
     filter_slope: float | None = None,
@@ -250,6 +259,11 @@ def grid_ground(
         Robust seed against low outliers (>= 1): the seed of a block is its
         lowest point whose connected component holds at least this many
         points; 1 takes the lowest point as the definition does. Default 10.
+    outlier_depth : float, optional
+        Metres (>= 0; 0 = off, as in the definition): a point that has other
+        points in its 3 x 3 cells, every one more than this above it, is a
+        low outlier (a multipath echo under the terrain) and never ground.
+        Default 0.
     grow_across_blocks : bool, optional
         Let links join points of neighbouring blocks; seeds stay one per
         block and ground is the union of their components. Default True
@@ -281,7 +295,7 @@ def grid_ground(
     final_passes : int, optional
         Rounds of the final pass (>= 1; with ``final_cell > 0``): each round
         after the first builds its TIN from the previous round's ground.
-        Default 1.
+        Default 3 (1 in the definition).
     params : GridGroundParams, optional
         All parameters at once (defaults: the ``isprs`` preset); keywords given
         explicitly override it. ``GridGroundParams.definition()`` is the plain
@@ -297,7 +311,8 @@ def grid_ground(
     ValueError
         Non-finite points, a wrong shape, a block or cell size <= 0, a cell
         larger than the block, a negative slope or tolerance,
-        ``min_seed_component < 1``, ``filter_passes < 0`` or
+        a negative ``outlier_depth``, ``min_seed_component < 1``,
+        ``filter_passes < 0`` or
         ``final_passes < 1``.
     %(type_error)s
 
@@ -336,6 +351,11 @@ def grid_ground(
       component has at least m points, so low outliers (isolated below the
       terrain) are skipped; if no component of the block is that large, the
       lowest point's component is ground.
+    * ``outlier_depth = h > 0``: a point p with at least one other point q in
+      its 3 x 3 cells (any block), and ``l_z(q) - l_z(p) > h`` for every such
+      q, is a low outlier: no seed, no link, no pre-filter test against it,
+      and object after every round of the final pass (so never a vertex of
+      its TIN).
     * ``grow_across_blocks``: links also join neighbours in different blocks;
       the ground is the union of the seeds' components.
     * ``filter_passes = k > 0`` (G. Vosselman's slope filter as a
@@ -355,7 +375,7 @@ def grid_ground(
       point. A grower's ground that took low objects along gets the lower
       surface of its cells' minima, and terrain points the growth missed
       join it.
-    * ``final_passes = r > 1`` (off by default): the final pass runs r
+    * ``final_passes = r > 1``: the final pass runs r
       times, each round's TIN from the previous round's ground, as
       TerraScan's routines are run again on their own result. Where the
       growth took an object as the lowest ground point of a cell, the first

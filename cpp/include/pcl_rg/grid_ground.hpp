@@ -43,6 +43,10 @@ struct GridGroundParams {
     /// component holds at least this many points (1: the lowest point, the seed's rule).
     /// When no component is that large the lowest point's component is ground.
     std::int64_t min_seed_component = 10;
+    /// Low outliers (m, >= 0; 0: off): a point with another point in its 3 x 3 cells (any
+    /// block) and every such point more than this above it is never ground: not a seed,
+    /// not linked, not tested against by the pre-filter, not a final-pass TIN vertex.
+    double outlier_depth = 0.0;
     /// Links also join points of different blocks (cells still 3 x 3); the seeds stay
     /// one per block and ground is the union of their components.
     bool grow_across_blocks = true;
@@ -68,7 +72,7 @@ struct GridGroundParams {
     /// Rounds of the final pass (>= 1; used when final_cell > 0): each round after the
     /// first builds its TIN from the previous round's ground, whose lowest point per cell
     /// may be a ground point the growth missed where the growth's was an object point.
-    std::int64_t final_passes = 1;
+    std::int64_t final_passes = 3;
 };
 
 /// Throws std::invalid_argument naming the parameter when a value is out of range.

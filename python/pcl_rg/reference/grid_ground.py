@@ -97,6 +97,14 @@ def _slope_filter(nb: GridNeighbours, p: GridGroundParams, against: np.ndarray) 
     return candidate
 
 
+def _low_outliers(nb: GridNeighbours, depth: float) -> np.ndarray:
+    """Points with a neighbour, every neighbour more than `depth` above them."""
+    above = np.full(len(nb.z), np.inf)  # least z_q - z_p over the neighbours q of p
+    np.minimum.at(above, nb.i, -nb.dz)
+    np.minimum.at(above, nb.j, nb.dz)
+    return np.isfinite(above) & (above > depth)
+
+
 def _grow(nb: GridNeighbours, p: GridGroundParams, candidate: np.ndarray) -> np.ndarray:
     """Union of the components of the blocks' seeds, among the candidates."""
     n = len(nb.z)
@@ -137,6 +145,7 @@ def grid_ground(
     slope: float | None = None,
     height_tolerance: float | None = None,
     min_seed_component: int | None = None,
+    outlier_depth: float | None = None,
     grow_across_blocks: bool | None = None,
     filter_passes: int | None = None,
     filter_slope: float | None = None,
@@ -153,7 +162,8 @@ def grid_ground(
     Builds the whole neighbour graph (candidate pairs from a k-d tree,
     filtered by cell), applies the pre-filter and the link rule to it, labels
     the connected components with SciPy and takes per block the component of
-    the seed. With ``final_cell > 0`` the final pass of
+    the seed; low outliers (``outlier_depth > 0``) from the same pairs. With
+    ``final_cell > 0`` the final pass of
     :func:`pcl_rg.reference._final_pass.final_pass` follows, ``final_passes``
     times, each round on the ground of the one before.
 
@@ -174,15 +184,16 @@ def grid_ground(
     if p.cell_size is None:
         p = p.at_spacing(spacing_or_one_metre(xyz))
     nb = grid_neighbours(xyz, p)
-    candidate = np.ones(n, dtype=bool)
-    ground = np.ones(n, dtype=bool)  # pass 1 tests against every point
+    kept = ~_low_outliers(nb, p.outlier_depth) if p.outlier_depth > 0 else np.ones(n, bool)
+    candidate = kept.copy()
+    ground = kept.copy()  # pass 1 tests against every point but the low outliers
     for _ in range(max(p.filter_passes, 1)):
         if p.filter_passes > 0:
-            candidate = _slope_filter(nb, p, against=ground)
+            candidate = _slope_filter(nb, p, against=ground) & kept
         ground = _grow(nb, p, candidate)
     if p.final_cell > 0:
         for _ in range(p.final_passes):
-            ground = final_pass(
+            ground = kept & final_pass(
                 xyz, ground, p.final_cell, p.final_above, p.final_below, p.final_slope
             )
     return ground
