@@ -413,10 +413,13 @@ def test_keywords_override_params_and_scalars_expand():
     definition = GridGroundParams.definition()
     assert (
         definition.min_seed_component,
+        definition.outlier_depth,
         definition.grow_across_blocks,
         definition.filter_passes,
         definition.height_tolerance,
-    ) == (1, False, 0, 0.0)
+        definition.final_cell,
+        definition.final_passes,
+    ) == (1, 0.0, False, 0, 0.0, 0.0, 1)
 
 
 @pytest.mark.parametrize(

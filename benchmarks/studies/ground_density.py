@@ -67,6 +67,12 @@ TIN_RESOLUTION = Scaled(
     (("near_vertex_distance", 1.0), ("stop_edge", 3.0)),
 )
 GRID_FORMER = former_grid_default()
+# grid_ground's preset before outlier_depth, final_passes and final_below = 5 m
+# (ground_isprs.FORMER_PRESET: cells of at most 2 spacings).
+FORMER_PRESET = Scaled(
+    pcl_rg.GridGroundParams(outlier_depth=0.0, final_below=1.0, final_passes=1),
+    (("cell_size", 2.0),),
+)
 
 METHODS: list[tuple[str, Callable[[np.ndarray], np.ndarray]]] = [
     ("tin_ground (defaults: isprs preset)", lambda points: pcl_rg.tin_ground(points)),
@@ -80,8 +86,8 @@ METHODS: list[tuple[str, Callable[[np.ndarray], np.ndarray]]] = [
     ),
     ("grid_ground (defaults: isprs preset)", lambda points: pcl_rg.grid_ground(points)),
     (
-        "grid_ground (preset, one final round)",
-        lambda points: pcl_rg.grid_ground(points, final_passes=1),
+        "grid_ground (the preset before issue 14's options)",
+        lambda points: FORMER_PRESET.run(pcl_rg.grid_ground, points),
     ),
     (
         "grid_ground (preset, 3 m cells)",

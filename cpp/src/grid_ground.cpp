@@ -181,8 +181,9 @@ void slope_filter(const CellGrid& grid, const GridGroundParams& params,
     interruption.check();
 }
 
-// Low outliers: outlier[s] = 1 when some other point lies in the 3 x 3 cells of s and
-// every such q has z_q - z_s > depth (the reference's test, in the same arithmetic).
+// Low outliers: outlier[s] = 1 when some point q at another position lies in the 3 x 3
+// cells of s and every such q has z_q - z_s > depth (the reference's test, in the same
+// arithmetic). Copies of s are not counted, so that duplicating a cloud changes nothing.
 void low_outliers(const CellGrid& grid, double depth, std::vector<unsigned char>& outlier) {
     const bool parallel = grid.p.size() >= kGridParallelMin;
     const auto cells = static_cast<std::ptrdiff_t>(grid.cells());
@@ -196,7 +197,9 @@ void low_outliers(const CellGrid& grid, double depth, std::vector<unsigned char>
             bool alone = true, near = false;
             for (int a = 0; a < k && !near; ++a)
                 for (std::size_t q = grid.start[around[a]]; q < grid.start[around[a] + 1]; ++q) {
-                    if (q == s) continue;
+                    const Local& other = grid.p[q];
+                    const Local& self = grid.p[s];
+                    if (other.x == self.x && other.y == self.y && other.z == self.z) continue;
                     alone = false;
                     if (!(grid.p[q].z - grid.p[s].z > depth)) {
                         near = true;

@@ -37,7 +37,7 @@ class GridGroundParams:
     The defaults are the :meth:`isprs` preset, chosen once by the mean total
     error over the seven ISPRS samples (``benchmarks/studies/ground_isprs.py --search``),
     not tuned per sample. :meth:`definition` gives the plain rule of the seed
-    (algorithms.md section 3), with the three options off.
+    (algorithms.md section 3), with every option off.
 
     ``cell_size`` is None ("unset") by default: each call then takes, per axis,
     ``block_size / k`` with k the smallest whole number that makes the cell at
@@ -48,7 +48,7 @@ class GridGroundParams:
     them ahead.
     """
 
-    SPACING_MULTIPLES: ClassVar[Mapping[str, float]] = MappingProxyType({"cell_size": 2.0})
+    SPACING_MULTIPLES: ClassVar[Mapping[str, float]] = MappingProxyType({"cell_size": 1.5})
     """The largest cell an unset cell_size takes, in point spacings (C++:
     kGridCellPerSpacing)."""
 
@@ -68,7 +68,7 @@ class GridGroundParams:
         unit="m",
         help="cell edge length, one value or x,y (<= block_size): points link within the "
         "3 x 3 cells around them; unset: block_size / k, the largest such cell of at most "
-        "2 x the point spacing",
+        "1.5 x the point spacing",
     )
     slope: float = param(
         0.3, minimum=0.0, help="tangent of the steepest terrain: link when |dz| <= slope * d + tol"
@@ -83,7 +83,7 @@ class GridGroundParams:
         "(1: the lowest point)",
     )
     outlier_depth: float = param(
-        0.0,
+        2.0,
         minimum=0.0,
         unit="m",
         help="low outliers (0: off): a point whose 3 x 3 cells hold other points, all more "
@@ -105,7 +105,7 @@ class GridGroundParams:
     )
     final_cell: float = final_pass_param("final_cell", 4.0)
     final_above: float = final_pass_param("final_above", 0.8)
-    final_below: float = final_pass_param("final_below", 1.0)
+    final_below: float = final_pass_param("final_below", 5.0)
     final_slope: float = final_pass_param("final_slope", 1.0)
     final_passes: int = param(
         3,
@@ -148,10 +148,10 @@ class GridGroundParams:
         Examples
         --------
         >>> from pcl_rg import GridGroundParams
-        >>> GridGroundParams().at_spacing(1.0).cell_size  # 30 m blocks, 15 cells
-        (2.0, 2.0)
-        >>> GridGroundParams().at_spacing(0.25).cell_size  # 60 cells per block
-        (0.5, 0.5)
+        >>> GridGroundParams().at_spacing(1.0).cell_size  # 30 m blocks, 20 cells
+        (1.5, 1.5)
+        >>> GridGroundParams().at_spacing(0.25).cell_size  # 80 cells per block
+        (0.375, 0.375)
         """
         spacing = check_number("spacing", spacing, float, above=0.0)
         if self.cell_size is not None:
@@ -192,7 +192,8 @@ class GridGroundParams:
     def definition(cls, **overrides: Any) -> GridGroundParams:
         """The plain rule of algorithms.md section 3: every option off.
 
-        ``min_seed_component=1, grow_across_blocks=False, filter_passes=0``,
+        ``min_seed_component=1, outlier_depth=0, grow_across_blocks=False,
+        filter_passes=0``,
         no final pass (``final_cell=0``, ``final_passes=1``) and the seed's pure slope rule
         ``height_tolerance=0``; the other fields keep their defaults unless
         given in `overrides`.
@@ -200,6 +201,7 @@ class GridGroundParams:
         values: dict[str, Any] = {
             "height_tolerance": 0.0,
             "min_seed_component": 1,
+            "outlier_depth": 0.0,
             "grow_across_blocks": False,
             "filter_passes": 0,
             "final_cell": 0.0,
@@ -248,8 +250,8 @@ def grid_ground(
         Cell edge length (bx, by) in metres, at most `block_size`. A point
         links to points of its own and the 8 neighbouring cells. Default: unset,
         per axis ``block_size / k`` with k the smallest whole number that makes
-        it at most 2 point spacings (:func:`pcl_rg.point_spacing`): 2 m on the
-        urban ISPRS samples' 1 m spacing, 0.5 m at 0.25 m.
+        it at most 1.5 point spacings (:func:`pcl_rg.point_spacing`): 1.5 m on
+        the urban ISPRS samples' 1 m spacing, 0.375 m at 0.25 m.
     slope : float, optional
         S, tangent of the steepest terrain slope (>= 0). Default 0.3.
     height_tolerance : float, optional
@@ -261,9 +263,10 @@ def grid_ground(
         points; 1 takes the lowest point as the definition does. Default 10.
     outlier_depth : float, optional
         Metres (>= 0; 0 = off, as in the definition): a point that has other
-        points in its 3 x 3 cells, every one more than this above it, is a
+        points (not copies of it) in its 3 x 3 cells, every one more than this
+        above it, is a
         low outlier (a multipath echo under the terrain) and never ground.
-        Default 0.
+        Default 2 m.
     grow_across_blocks : bool, optional
         Let links join points of neighbouring blocks; seeds stay one per
         block and ground is the union of their components. Default True
@@ -286,7 +289,7 @@ def grid_ground(
         ground on flat terrain. Default 0.8 m.
     final_below : float, optional
         Metres: with the final pass, a point down to this deep below the TIN
-        is ground. Default 1 m.
+        is ground. Default 5 m (low outliers excepted, see `outlier_depth`).
     final_slope : float, optional
         Metres per unit gradient: with the final pass, the height allowed
         above the TIN is ``final_above + final_slope * |grad z_TIN|``, so
@@ -351,8 +354,8 @@ def grid_ground(
       component has at least m points, so low outliers (isolated below the
       terrain) are skipped; if no component of the block is that large, the
       lowest point's component is ground.
-    * ``outlier_depth = h > 0``: a point p with at least one other point q in
-      its 3 x 3 cells (any block), and ``l_z(q) - l_z(p) > h`` for every such
+    * ``outlier_depth = h > 0``: a point p with at least one point q at
+      another position in its 3 x 3 cells (any block), and ``l_z(q) - l_z(p) > h`` for every such
       q, is a low outlier: no seed, no link, no pre-filter test against it,
       and object after every round of the final pass (so never a vertex of
       its TIN).

@@ -97,11 +97,17 @@ def _slope_filter(nb: GridNeighbours, p: GridGroundParams, against: np.ndarray) 
     return candidate
 
 
-def _low_outliers(nb: GridNeighbours, depth: float) -> np.ndarray:
-    """Points with a neighbour, every neighbour more than `depth` above them."""
+def _low_outliers(nb: GridNeighbours, xyz: np.ndarray, depth: float) -> np.ndarray:
+    """Points with a neighbour elsewhere, every such neighbour more than `depth` above.
+
+    Copies (equal local coordinates) do not count, so duplicating a cloud changes nothing.
+    """
+    local = xyz - nb.origin
+    other = (local[nb.i] != local[nb.j]).any(axis=1)
+    i, j, dz = nb.i[other], nb.j[other], nb.dz[other]
     above = np.full(len(nb.z), np.inf)  # least z_q - z_p over the neighbours q of p
-    np.minimum.at(above, nb.i, -nb.dz)
-    np.minimum.at(above, nb.j, nb.dz)
+    np.minimum.at(above, i, -dz)
+    np.minimum.at(above, j, dz)
     return np.isfinite(above) & (above > depth)
 
 
@@ -184,7 +190,7 @@ def grid_ground(
     if p.cell_size is None:
         p = p.at_spacing(spacing_or_one_metre(xyz))
     nb = grid_neighbours(xyz, p)
-    kept = ~_low_outliers(nb, p.outlier_depth) if p.outlier_depth > 0 else np.ones(n, bool)
+    kept = ~_low_outliers(nb, xyz, p.outlier_depth) if p.outlier_depth > 0 else np.ones(n, bool)
     candidate = kept.copy()
     ground = kept.copy()  # pass 1 tests against every point but the low outliers
     for _ in range(max(p.filter_passes, 1)):
