@@ -165,15 +165,18 @@ class GridGroundParams:
         """The defaults: one set chosen on the seven ISPRS samples (mean total error).
 
         Chosen by ``benchmarks/studies/ground_isprs.py --search`` (a coordinate
-        descent over the growth's and the pre-filter's slopes, the cell size and
-        the final pass, from the definition with every option on at a middle
-        value) with the "resolution" rule: ``cell_size`` follows the point
-        spacing (unset: at most 2 spacings, :attr:`SPACING_MULTIPLES`), the
-        final pass's 4 m cell and the 30 m blocks stay in metres. Among the
-        rules for the lengths (every one in metres, every one in spacings, only
-        the cell) it has the lowest leave-one-sample-out error on the seven
-        ISPRS samples: 4.64 % fitted, 5.15 % cross-validated (kappa 0.838),
-        against 6.03 % for the same search with 3 m cells and 10.8 % for the
+        descent over the growth's and the pre-filter's slopes, the low-outlier
+        depth, the cell size and the final pass with its depth and rounds, from
+        the definition with every option on at a middle value, low outliers
+        off and one final round) with the "resolution" rule: ``cell_size``
+        follows the point spacing (unset: at most 1.5 spacings,
+        :attr:`SPACING_MULTIPLES`), the final pass's 4 m cell and the 30 m
+        blocks stay in metres. Among the rules for the lengths (every one in
+        metres, every one in spacings, only the cell) it has the lowest
+        leave-one-sample-out error on the seven ISPRS samples: @FIT@ % fitted,
+        @CV@ % cross-validated (kappa @KAPPA@), against @FIXED@ % for the same
+        search with 3 m cells, 5.15 % for the preset before low outliers, final
+        rounds and the deeper final_below (4.64 % fitted) and 10.8 % for the
         former default (``benchmarks/studies/ground_isprs_cv.py``). With cells
         in metres its grower took objects on dense data; with the cell
         following the spacing it holds from 2 to 20 points per m^2
