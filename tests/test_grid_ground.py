@@ -588,7 +588,7 @@ def test_isprs_core_equals_reference(isprs, sample):
     # 0.5 m steps) four of them may be co-circular, and qhull and the core's TIN may then
     # choose other diagonals, which moves the surface under a few points
     # (tests/test_final_pass.py). Bound: 1 point in 1000.
-    # The defaults' three rounds can carry such a difference into the next TIN; same bound.
+    # The defaults' second round can carry such a difference into its TIN; same bound.
     for final in (GridGroundParams(final_cell=3.0), GridGroundParams()):
         core = pcl_rg.grid_ground(points, params=final)
         expected = reference.grid_ground(points, params=final)
@@ -596,13 +596,13 @@ def test_isprs_core_equals_reference(isprs, sample):
 
 
 def test_isprs_errors_with_the_defaults(isprs):
-    """Mean total error over the seven samples with the defaults: 4.19 % when they were
+    """Mean total error over the seven samples with the defaults: 4.43 % when they were
     chosen (benchmarks/studies/ground_isprs.py --search; the cell size in multiples of each
     sample's point spacing); PCL's ProgressiveMorphologicalFilter with its tutorial
     parameters scores 8.87 % on the same files. The bound leaves room for nothing but
     rounding; every sample stays under 20 % and kappa above 0.5."""
     errors = [ground_errors(truth, pcl_rg.grid_ground(points)) for points, truth in isprs.values()]
-    assert np.mean([e.total for e in errors]) < 0.0420
+    assert np.mean([e.total for e in errors]) < 0.0445
     assert all(e.total < 0.20 and e.kappa > 0.5 for e in errors)
     plain = [
         ground_errors(truth, pcl_rg.grid_ground(points, params=DEFINITION)).total

@@ -67,10 +67,11 @@ TIN_RESOLUTION = Scaled(
     (("near_vertex_distance", 1.0), ("stop_edge", 3.0)),
 )
 GRID_FORMER = former_grid_default()
-# grid_ground's preset before outlier_depth, final_passes and final_below = 5 m
-# (ground_isprs.FORMER_PRESET: cells of at most 2 spacings).
+# grid_ground's preset before issue 14's options (ground_isprs.FORMER_PRESET).
 FORMER_PRESET = Scaled(
-    pcl_rg.GridGroundParams(outlier_depth=0.0, final_below=1.0, final_passes=1),
+    pcl_rg.GridGroundParams(
+        outlier_depth=0.0, final_above=0.8, final_below=1.0, final_slope=1.0, final_passes=1
+    ),
     (("cell_size", 2.0),),
 )
 

@@ -48,7 +48,7 @@ class GridGroundParams:
     them ahead.
     """
 
-    SPACING_MULTIPLES: ClassVar[Mapping[str, float]] = MappingProxyType({"cell_size": 1.5})
+    SPACING_MULTIPLES: ClassVar[Mapping[str, float]] = MappingProxyType({"cell_size": 2.0})
     """The largest cell an unset cell_size takes, in point spacings (C++:
     kGridCellPerSpacing)."""
 
@@ -68,7 +68,7 @@ class GridGroundParams:
         unit="m",
         help="cell edge length, one value or x,y (<= block_size): points link within the "
         "3 x 3 cells around them; unset: block_size / k, the largest such cell of at most "
-        "1.5 x the point spacing",
+        "2 x the point spacing",
     )
     slope: float = param(
         0.3, minimum=0.0, help="tangent of the steepest terrain: link when |dz| <= slope * d + tol"
@@ -104,11 +104,11 @@ class GridGroundParams:
         0.5, minimum=0.0, unit="m", help="height tolerance of the pre-filter"
     )
     final_cell: float = final_pass_param("final_cell", 4.0)
-    final_above: float = final_pass_param("final_above", 0.8)
+    final_above: float = final_pass_param("final_above", 0.5)
     final_below: float = final_pass_param("final_below", 5.0)
-    final_slope: float = final_pass_param("final_slope", 1.0)
+    final_slope: float = final_pass_param("final_slope", 2.0)
     final_passes: int = param(
-        3,
+        2,
         minimum=1,
         help="rounds of the final pass (with final_cell > 0): each round after the first "
         "builds its TIN from the previous round's ground",
@@ -148,10 +148,10 @@ class GridGroundParams:
         Examples
         --------
         >>> from pcl_rg import GridGroundParams
-        >>> GridGroundParams().at_spacing(1.0).cell_size  # 30 m blocks, 20 cells
-        (1.5, 1.5)
-        >>> GridGroundParams().at_spacing(0.25).cell_size  # 80 cells per block
-        (0.375, 0.375)
+        >>> GridGroundParams().at_spacing(1.0).cell_size  # 30 m blocks, 15 cells
+        (2.0, 2.0)
+        >>> GridGroundParams().at_spacing(0.25).cell_size  # 60 cells per block
+        (0.5, 0.5)
         """
         spacing = check_number("spacing", spacing, float, above=0.0)
         if self.cell_size is not None:
@@ -169,8 +169,9 @@ class GridGroundParams:
         depth, the cell size and the final pass with its depth and rounds, from
         the definition with every option on at a middle value, low outliers
         off and one final round) with the "resolution" rule: ``cell_size``
-        follows the point spacing (unset: at most 1.5 spacings,
-        :attr:`SPACING_MULTIPLES`), the final pass's 4 m cell and the 30 m
+        follows the point spacing (unset: at most 2 spacings,
+        :attr:`SPACING_MULTIPLES`; 1.5 fitted ISPRS a little better but split
+        the ground of the dense synthetic scene, so the search starts at 2), the final pass's 4 m cell and the 30 m
         blocks stay in metres. Among the rules for the lengths (every one in
         metres, every one in spacings, only the cell) it has the lowest
         leave-one-sample-out error on the seven ISPRS samples: @FIT@ % fitted,
@@ -253,8 +254,8 @@ def grid_ground(
         Cell edge length (bx, by) in metres, at most `block_size`. A point
         links to points of its own and the 8 neighbouring cells. Default: unset,
         per axis ``block_size / k`` with k the smallest whole number that makes
-        it at most 1.5 point spacings (:func:`pcl_rg.point_spacing`): 1.5 m on
-        the urban ISPRS samples' 1 m spacing, 0.375 m at 0.25 m.
+        it at most 2 point spacings (:func:`pcl_rg.point_spacing`): 2 m on the
+        urban ISPRS samples' 1 m spacing, 0.5 m at 0.25 m.
     slope : float, optional
         S, tangent of the steepest terrain slope (>= 0). Default 0.3.
     height_tolerance : float, optional
@@ -289,7 +290,7 @@ def grid_ground(
         Default 4 m.
     final_above : float, optional
         Metres: with the final pass, a point up to this high above the TIN is
-        ground on flat terrain. Default 0.8 m.
+        ground on flat terrain. Default 0.5 m.
     final_below : float, optional
         Metres: with the final pass, a point down to this deep below the TIN
         is ground. Default 5 m (low outliers excepted, see `outlier_depth`).
@@ -297,11 +298,11 @@ def grid_ground(
         Metres per unit gradient: with the final pass, the height allowed
         above the TIN is ``final_above + final_slope * |grad z_TIN|``, so
         steep terrain, where a coarse TIN cuts under the surface, keeps its
-        points. Default 1 m.
+        points. Default 2 m.
     final_passes : int, optional
         Rounds of the final pass (>= 1; with ``final_cell > 0``): each round
         after the first builds its TIN from the previous round's ground.
-        Default 3 (1 in the definition).
+        Default 2 (1 in the definition).
     params : GridGroundParams, optional
         All parameters at once (defaults: the ``isprs`` preset); keywords given
         explicitly override it. ``GridGroundParams.definition()`` is the plain

@@ -48,7 +48,7 @@ def point_spacing(points: npt.ArrayLike) -> float:
     The unset lengths of :class:`TinGroundParams` (``stop_edge``,
     ``near_vertex_distance``, ``seed_cell``, ``final_cell``: the ISPRS
     lengths, capped at a multiple of this) and :class:`GridGroundParams`
-    (``cell_size``: at most 1.5 of this) follow it (1 m where it is NaN),
+    (``cell_size``: at most 2 of this) follow it (1 m where it is NaN),
     measured on the points of each call; the value used is in
     :func:`collect_diagnostics`. The C++ core computes it in O(N), equal to the
     NumPy reference :func:`pcl_rg.reference.point_spacing`.

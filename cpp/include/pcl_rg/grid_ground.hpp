@@ -20,7 +20,7 @@ namespace pcl_rg {
 /// chosen with the other defaults on the seven ISPRS samples (benchmarks/studies/
 /// ground_isprs.py --search, cross-validated by ground_isprs_cv.py). Python mirror:
 /// GridGroundParams.SPACING_MULTIPLES.
-inline constexpr double kGridCellPerSpacing = 1.5;
+inline constexpr double kGridCellPerSpacing = 2.0;
 
 struct GridGroundParams {
     /// Block edge lengths along x, y (> 0, m): one seed per block; should exceed the
@@ -65,15 +65,15 @@ struct GridGroundParams {
     /// final_slope * |grad z_TIN| (final_pass.hpp; TerraScan, Zhao et al. 2016).
     double final_cell = 4.0;
     /// Height above the final TIN up to which a point is ground on flat terrain (m, >= 0).
-    double final_above = 0.8;
+    double final_above = 0.5;
     /// Depth below the final TIN down to which a point is ground (m, >= 0).
     double final_below = 5.0;
     /// Allowance per unit of the final TIN's gradient (m, >= 0).
-    double final_slope = 1.0;
+    double final_slope = 2.0;
     /// Rounds of the final pass (>= 1; used when final_cell > 0): each round after the
     /// first builds its TIN from the previous round's ground, whose lowest point per cell
     /// may be a ground point the growth missed where the growth's was an object point.
-    std::int64_t final_passes = 3;
+    std::int64_t final_passes = 2;
 };
 
 /// Throws std::invalid_argument naming the parameter when a value is out of range.
