@@ -172,8 +172,9 @@ class GridGroundParams:
         follows the point spacing (unset: at most 2 spacings,
         :attr:`SPACING_MULTIPLES`; 1.5 fitted ISPRS a little better but split
         the ground of the dense synthetic scene, so the search starts at 2),
-        the final pass's 4 m cell and the 30 m blocks stay in metres. Among the rules for the lengths (every one in
-        metres, every one in spacings, only the cell) it has the lowest
+        the final pass's 4 m cell and the 30 m blocks stay in metres. Among the
+        rules for the lengths (every one in metres, every one in spacings, only
+        the cell) it has the lowest
         leave-one-sample-out error on the seven ISPRS samples: 4.43 % fitted,
         4.45 % cross-validated (kappa 0.859), against 5.48 % for the same
         search with 3 m cells, 5.15 % for the preset before low outliers, final
