@@ -134,6 +134,7 @@ def former_grid_default() -> Any:
         cell_size=3.0,
         height_tolerance=0.3,
         min_seed_component=30,
+        outlier_depth=0.0,
         filter_passes=3,
         filter_slope=1.0,
         filter_tolerance=0.3,

@@ -67,6 +67,13 @@ TIN_RESOLUTION = Scaled(
     (("near_vertex_distance", 1.0), ("stop_edge", 3.0)),
 )
 GRID_FORMER = former_grid_default()
+# grid_ground's preset before issue 14's options (ground_isprs.FORMER_PRESET).
+FORMER_PRESET = Scaled(
+    pcl_rg.GridGroundParams(
+        outlier_depth=0.0, final_above=0.8, final_below=1.0, final_slope=1.0, final_passes=1
+    ),
+    (("cell_size", 2.0),),
+)
 
 METHODS: list[tuple[str, Callable[[np.ndarray], np.ndarray]]] = [
     ("tin_ground (defaults: isprs preset)", lambda points: pcl_rg.tin_ground(points)),
@@ -79,6 +86,10 @@ METHODS: list[tuple[str, Callable[[np.ndarray], np.ndarray]]] = [
         lambda points: TIN_RESOLUTION.run(pcl_rg.tin_ground, points),
     ),
     ("grid_ground (defaults: isprs preset)", lambda points: pcl_rg.grid_ground(points)),
+    (
+        "grid_ground (the preset before issue 14's options)",
+        lambda points: FORMER_PRESET.run(pcl_rg.grid_ground, points),
+    ),
     (
         "grid_ground (preset, 3 m cells)",
         lambda points: pcl_rg.grid_ground(points, params=GRID_FIXED),

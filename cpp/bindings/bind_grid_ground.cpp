@@ -30,6 +30,7 @@ void bind_grid_ground(py::module_& m) {
         .def_readwrite("slope", &GridGroundParams::slope)
         .def_readwrite("height_tolerance", &GridGroundParams::height_tolerance)
         .def_readwrite("min_seed_component", &GridGroundParams::min_seed_component)
+        .def_readwrite("outlier_depth", &GridGroundParams::outlier_depth)
         .def_readwrite("grow_across_blocks", &GridGroundParams::grow_across_blocks)
         .def_readwrite("filter_passes", &GridGroundParams::filter_passes)
         .def_readwrite("filter_slope", &GridGroundParams::filter_slope)
@@ -37,7 +38,8 @@ void bind_grid_ground(py::module_& m) {
         .def_readwrite("final_cell", &GridGroundParams::final_cell)
         .def_readwrite("final_above", &GridGroundParams::final_above)
         .def_readwrite("final_below", &GridGroundParams::final_below)
-        .def_readwrite("final_slope", &GridGroundParams::final_slope);
+        .def_readwrite("final_slope", &GridGroundParams::final_slope)
+        .def_readwrite("final_passes", &GridGroundParams::final_passes);
 
     m.def(
         "grid_ground",

@@ -14,7 +14,11 @@
 // definition: a robust seed (the lowest point whose component is large enough, against
 // low outliers), growth across block borders, and Vosselman's slope filter as a
 // pre-filter (a point far above a neighbour is an object point and never links),
-// repeated against the previous pass's ground so low outliers stop masking terrain.
+// repeated against the previous pass's ground so low outliers stop masking terrain; and
+// the final pass (final_pass.hpp) repeated on its own ground (final_passes), as
+// TerraScan's ground routines are run again on their result: where the growth took an
+// object point as the lowest ground point of a final cell, the first round may have
+// found a lower ground point there, and the next round's TIN runs under the object.
 //
 // Exactness: links are symmetric, so the components do not depend on the visiting order
 // and the NumPy reference (scipy connected_components) agrees point for point. Both
@@ -70,10 +74,12 @@ void validate(const GridGroundParams& params) {
     check::real("slope", params.slope, check::non_negative());
     check::real("height_tolerance", params.height_tolerance, check::non_negative());
     check::integer("min_seed_component", params.min_seed_component, check::at_least(1));
+    check::real("outlier_depth", params.outlier_depth, check::non_negative());
     check::integer("filter_passes", params.filter_passes, check::at_least(0));
     check::real("filter_slope", params.filter_slope, check::non_negative());
     check::real("filter_tolerance", params.filter_tolerance, check::non_negative());
     validate(final_pass_params(params));
+    check::integer("final_passes", params.final_passes, check::at_least(1));
 }
 
 namespace {
@@ -170,6 +176,37 @@ void slope_filter(const CellGrid& grid, const GridGroundParams& params,
                 }
             }
             candidate[s] = keep ? 1 : 0;
+        }
+    }
+    interruption.check();
+}
+
+// Low outliers: outlier[s] = 1 when some point q at another position lies in the 3 x 3
+// cells of s and every such q has z_q - z_s > depth (the reference's test, in the same
+// arithmetic). Copies of s are not counted, so that duplicating a cloud changes nothing.
+void low_outliers(const CellGrid& grid, double depth, std::vector<unsigned char>& outlier) {
+    const bool parallel = grid.p.size() >= kGridParallelMin;
+    const auto cells = static_cast<std::ptrdiff_t>(grid.cells());
+    const Interruption interruption;
+#pragma omp parallel for schedule(dynamic, 256) if (parallel) firstprivate(interruption)
+    for (std::ptrdiff_t c = 0; c < cells; ++c) {
+        if (interruption.requested()) continue;
+        std::ptrdiff_t around[9];
+        const int k = grid.neighbours(static_cast<std::size_t>(c), around);
+        for (std::size_t s = grid.start[c]; s < grid.start[c + 1]; ++s) {
+            bool alone = true, near = false;
+            for (int a = 0; a < k && !near; ++a)
+                for (std::size_t q = grid.start[around[a]]; q < grid.start[around[a] + 1]; ++q) {
+                    const Local& other = grid.p[q];
+                    const Local& self = grid.p[s];
+                    if (other.x == self.x && other.y == self.y && other.z == self.z) continue;
+                    alone = false;
+                    if (!(grid.p[q].z - grid.p[s].z > depth)) {
+                        near = true;
+                        break;
+                    }
+                }
+            outlier[s] = !alone && !near ? 1 : 0;
         }
     }
     interruption.check();
@@ -417,6 +454,11 @@ void grid_ground(PointsView points, const GridGroundParams& given, bool* ground,
     poll_interrupt();
     const CellGrid grid = build_grid(points, params, origin, extent);
     std::vector<unsigned char> candidate(n, 1), against(n, 1), result(n, 0), kept_by_all;
+    std::vector<unsigned char> outlier(n, 0);
+    if (params.outlier_depth > 0.0) {
+        low_outliers(grid, params.outlier_depth, outlier);
+        for (std::size_t s = 0; s < n; ++s) candidate[s] = against[s] = !outlier[s];
+    }
     ConcurrentDisjointSets sets(n);
     const std::int64_t passes = std::max<std::int64_t>(params.filter_passes, 1);
     for (std::int64_t pass = 0; pass < passes; ++pass) {
@@ -424,6 +466,7 @@ void grid_ground(PointsView points, const GridGroundParams& given, bool* ground,
         if (params.filter_passes > 0) {
             if (pass > 0) against.swap(result);  // test only against the last ground
             slope_filter(grid, params, against, pass > 0 ? &kept_by_all : nullptr, candidate);
+            for (std::size_t s = 0; s < n; ++s) candidate[s] = candidate[s] && !outlier[s];
             if (pass == 0 && passes > 1) kept_by_all = candidate;
         }
         grow(grid, params, candidate, sets, result);
@@ -432,7 +475,13 @@ void grid_ground(PointsView points, const GridGroundParams& given, bool* ground,
 #pragma omp parallel for schedule(guided) if (parallel)
     for (std::ptrdiff_t s = 0; s < count; ++s) ground[grid.id[s]] = result[s] != 0;
     if (params.final_cell > 0.0)
-        final_pass(points, final_pass_params(params), lower, upper, ground);
+        for (std::int64_t round = 0; round < params.final_passes; ++round) {
+            poll_interrupt();
+            final_pass(points, final_pass_params(params), lower, upper, ground);
+            if (params.outlier_depth > 0.0)  // the final pass sees every point: not these
+                for (std::ptrdiff_t s = 0; s < count; ++s)
+                    if (outlier[s]) ground[grid.id[s]] = false;
+        }
 }
 
 }  // namespace pcl_rg

@@ -28,6 +28,7 @@ class GridGroundParams:
     slope: float
     height_tolerance: float
     min_seed_component: int
+    outlier_depth: float
     grow_across_blocks: bool
     filter_passes: int
     filter_slope: float
@@ -36,6 +37,7 @@ class GridGroundParams:
     final_above: float
     final_below: float
     final_slope: float
+    final_passes: int
     def __init__(self) -> None: ...
 
 def grid_ground(

@@ -14,7 +14,8 @@ namespace pcl_rg {
 /// --search --rule resolution over the seven ISPRS samples (mean total error; chosen
 /// among the rules by leave-one-sample-out error, ground_isprs_cv.py). The definition of
 /// algorithms.md section 3 is min_seed_component = 1, grow_across_blocks = false,
-/// filter_passes = 0, final_cell = 0, and its pure slope rule height_tolerance = 0.
+/// outlier_depth = 0, filter_passes = 0, final_cell = 0 (final_passes then does nothing),
+/// and its pure slope rule height_tolerance = 0.
 /// The multiple of the point spacing an unset cell_size is at most (see cell_size);
 /// chosen with the other defaults on the seven ISPRS samples (benchmarks/studies/
 /// ground_isprs.py --search, cross-validated by ground_isprs_cv.py). Python mirror:
@@ -42,6 +43,11 @@ struct GridGroundParams {
     /// component holds at least this many points (1: the lowest point, the seed's rule).
     /// When no component is that large the lowest point's component is ground.
     std::int64_t min_seed_component = 10;
+    /// Low outliers (m, >= 0; 0: off): a point with a point at another position in its
+    /// 3 x 3 cells (any block) and every such point more than this above it (copies of it
+    /// do not count) is never ground: not a seed,
+    /// not linked, not tested against by the pre-filter, not a final-pass TIN vertex.
+    double outlier_depth = 2.0;
     /// Links also join points of different blocks (cells still 3 x 3); the seeds stay
     /// one per block and ground is the union of their components.
     bool grow_across_blocks = true;
@@ -59,11 +65,15 @@ struct GridGroundParams {
     /// final_slope * |grad z_TIN| (final_pass.hpp; TerraScan, Zhao et al. 2016).
     double final_cell = 4.0;
     /// Height above the final TIN up to which a point is ground on flat terrain (m, >= 0).
-    double final_above = 0.8;
+    double final_above = 0.5;
     /// Depth below the final TIN down to which a point is ground (m, >= 0).
-    double final_below = 1.0;
+    double final_below = 5.0;
     /// Allowance per unit of the final TIN's gradient (m, >= 0).
-    double final_slope = 1.0;
+    double final_slope = 2.0;
+    /// Rounds of the final pass (>= 1; used when final_cell > 0): each round after the
+    /// first builds its TIN from the previous round's ground, whose lowest point per cell
+    /// may be a ground point the growth missed where the growth's was an object point.
+    std::int64_t final_passes = 2;
 };
 
 /// Throws std::invalid_argument naming the parameter when a value is out of range.

@@ -97,6 +97,20 @@ def _slope_filter(nb: GridNeighbours, p: GridGroundParams, against: np.ndarray) 
     return candidate
 
 
+def _low_outliers(nb: GridNeighbours, xyz: np.ndarray, depth: float) -> np.ndarray:
+    """Points with a neighbour elsewhere, every such neighbour more than `depth` above.
+
+    Copies (equal local coordinates) do not count, so duplicating a cloud changes nothing.
+    """
+    local = xyz - nb.origin
+    other = (local[nb.i] != local[nb.j]).any(axis=1)
+    i, j, dz = nb.i[other], nb.j[other], nb.dz[other]
+    above = np.full(len(nb.z), np.inf)  # least z_q - z_p over the neighbours q of p
+    np.minimum.at(above, i, -dz)
+    np.minimum.at(above, j, dz)
+    return np.isfinite(above) & (above > depth)
+
+
 def _grow(nb: GridNeighbours, p: GridGroundParams, candidate: np.ndarray) -> np.ndarray:
     """Union of the components of the blocks' seeds, among the candidates."""
     n = len(nb.z)
@@ -137,6 +151,7 @@ def grid_ground(
     slope: float | None = None,
     height_tolerance: float | None = None,
     min_seed_component: int | None = None,
+    outlier_depth: float | None = None,
     grow_across_blocks: bool | None = None,
     filter_passes: int | None = None,
     filter_slope: float | None = None,
@@ -145,6 +160,7 @@ def grid_ground(
     final_above: float | None = None,
     final_below: float | None = None,
     final_slope: float | None = None,
+    final_passes: int | None = None,
     params: GridGroundParams | None = None,
 ) -> np.ndarray:
     """Reference grid ground filter: same signature and result as :func:`pcl_rg.grid_ground`.
@@ -152,8 +168,10 @@ def grid_ground(
     Builds the whole neighbour graph (candidate pairs from a k-d tree,
     filtered by cell), applies the pre-filter and the link rule to it, labels
     the connected components with SciPy and takes per block the component of
-    the seed. With ``final_cell > 0`` the final pass of
-    :func:`pcl_rg.reference._final_pass.final_pass` follows.
+    the seed; low outliers (``outlier_depth > 0``) from the same pairs. With
+    ``final_cell > 0`` the final pass of
+    :func:`pcl_rg.reference._final_pass.final_pass` follows, ``final_passes``
+    times, each round on the ground of the one before.
 
     Examples
     --------
@@ -171,12 +189,16 @@ def grid_ground(
         return np.empty(0, dtype=bool)
     p = with_spacing_lengths(p, lambda: point_spacing(xyz))
     nb = grid_neighbours(xyz, p)
-    candidate = np.ones(n, dtype=bool)
-    ground = np.ones(n, dtype=bool)  # pass 1 tests against every point
+    kept = ~_low_outliers(nb, xyz, p.outlier_depth) if p.outlier_depth > 0 else np.ones(n, bool)
+    candidate = kept.copy()
+    ground = kept.copy()  # pass 1 tests against every point but the low outliers
     for _ in range(max(p.filter_passes, 1)):
         if p.filter_passes > 0:
-            candidate = _slope_filter(nb, p, against=ground)
+            candidate = _slope_filter(nb, p, against=ground) & kept
         ground = _grow(nb, p, candidate)
     if p.final_cell > 0:
-        ground = final_pass(xyz, ground, p.final_cell, p.final_above, p.final_below, p.final_slope)
+        for _ in range(p.final_passes):
+            ground = kept & final_pass(
+                xyz, ground, p.final_cell, p.final_above, p.final_below, p.final_slope
+            )
     return ground

@@ -1,0 +1,119 @@
+"""grid_ground's improvements of issue 14: low outliers and final-pass rounds.
+
+Each option: core == reference, the rule on a hand-made cloud, and its effect.
+(tests/test_grid_ground.py holds the definition and the older options.)
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+import pcl_rg
+from pcl_rg import GridGroundParams, reference
+from pcl_rg.datasets import synthetic_scene
+from pcl_rg.reference._final_pass import final_pass
+
+
+def assert_core_equals_reference(points, params):
+    core = pcl_rg.grid_ground(points, params=params)
+    np.testing.assert_array_equal(core, reference.grid_ground(points, params=params))
+    return core
+
+
+@pytest.fixture(scope="module")
+def scene():
+    """The small synthetic scene of tests/test_grid_ground.py."""
+    return synthetic_scene(seed=3, size=70.0, density=2.5, n_buildings=2, n_trees=6)
+
+
+def test_low_outliers_are_never_ground():
+    """A point 3 m under a plane: the lowest of its block, so the plain rule's seed and,
+    with a 5 m final_below, within the final pass's reach. As a low outlier (every
+    point of its 3 x 3 cells more than 1 m above it) it is never ground, and the plane
+    is, also with every point doubled. Two such points side by side have each other
+    within the depth: kept, as the rule says; a lone point with no neighbour in its
+    cells is no outlier either."""
+    rng = np.random.default_rng(7)
+    plane = np.c_[rng.uniform(0, 20, (400, 2)), np.zeros(400)]
+    low = [[10.0, 10.0, -3.0]]
+    points = np.vstack([plane, low])
+    plain = GridGroundParams.definition(block_size=40, cell_size=2, slope=0.3)
+    deep = dataclasses.replace(plain, final_cell=4.0, final_below=5.0)
+    np.testing.assert_array_equal(assert_core_equals_reference(points, plain)[-1], True)
+    assert assert_core_equals_reference(points, deep)[-1]
+    for params in (plain, deep, dataclasses.replace(deep, filter_passes=2)):
+        ground = assert_core_equals_reference(
+            points, dataclasses.replace(params, outlier_depth=1.0)
+        )
+        np.testing.assert_array_equal(ground, np.r_[np.ones(400, bool), False])
+        # Copies of a point do not count as its neighbours: a doubled cloud, doubled labels.
+        doubled = assert_core_equals_reference(
+            np.vstack([points, points]), dataclasses.replace(params, outlier_depth=1.0)
+        )
+        np.testing.assert_array_equal(doubled, np.r_[ground, ground])
+    # Deeper than the point lies: not an outlier.
+    assert pcl_rg.grid_ground(points, params=dataclasses.replace(deep, outlier_depth=3.5))[-1]
+    pair = np.vstack([plane, low, [[10.2, 10.0, -3.0]]])
+    ground = assert_core_equals_reference(pair, dataclasses.replace(deep, outlier_depth=1.0))
+    assert ground[-2:].all()
+    lone = np.array([[0.0, 0.0, 0.0], [50.0, 50.0, -5.0]])  # two blocks, no neighbours
+    assert pcl_rg.grid_ground(lone, params=dataclasses.replace(plain, outlier_depth=1.0)).all()
+
+
+def test_final_passes_rerun_the_final_pass_on_its_own_ground(scene):
+    """Round r + 1 is the final pass (the reference's) on round r's ground (without low
+    outliers, which each round would mask afterwards)."""
+    p = GridGroundParams(outlier_depth=0.0)
+    once = pcl_rg.grid_ground(scene.points, params=dataclasses.replace(p, final_passes=1))
+    twice = assert_core_equals_reference(scene.points, dataclasses.replace(p, final_passes=2))
+    again = final_pass(
+        scene.points, once, p.final_cell, p.final_above, p.final_below, p.final_slope
+    )
+    np.testing.assert_array_equal(twice, again)
+    # Without the final pass there is nothing to repeat.
+    off = GridGroundParams(final_cell=0.0)
+    np.testing.assert_array_equal(
+        pcl_rg.grid_ground(scene.points, params=off),
+        pcl_rg.grid_ground(scene.points, params=dataclasses.replace(off, final_passes=3)),
+    )
+
+
+def test_second_final_round_runs_under_a_platform_the_growth_took():
+    """A 0.6 m platform filling the 4 m final cells x in [8, 12) is climbed by the growth
+    (slope 3); a terrain point seen through a hole in it (0.05 m, no platform point in
+    its 3 x 3 cells, too small a component to seed) is not grown. Round 1's TIN has a
+    platform point as that cell's vertex, yet takes the terrain point (0.55 m below
+    the platform, within final_below); round 2's TIN has the terrain point as vertex
+    and drops more of the platform. A third round changes nothing more."""
+    axis_x, axis_y = np.arange(0, 24, 0.25), np.arange(0, 8, 0.25)
+    x, y = (a.ravel() for a in np.meshgrid(axis_x, axis_y, indexing="ij"))
+    platform = (x >= 8) & (x < 12)
+    seen_through = (x == 10) & (y == 2)
+    keep = ~(platform & (np.hypot(x - 10, y - 2) <= 0.7)) | seen_through
+    z = np.where(seen_through, 0.05, np.where(platform, 0.6, 0.0))
+    points = np.c_[x, y, z][keep]
+    platform, seen_through = (platform & ~seen_through)[keep], seen_through[keep]
+    params = GridGroundParams.definition(
+        block_size=24,
+        cell_size=0.25,
+        slope=3.0,
+        min_seed_component=5,
+        final_cell=4.0,
+        final_above=0.3,
+        final_below=1.0,
+        final_slope=0.0,
+    )
+    grown = pcl_rg.grid_ground(points, params=dataclasses.replace(params, final_cell=0.0))
+    assert grown[platform].all() and not grown[seen_through].any()
+    rounds = [
+        assert_core_equals_reference(points, dataclasses.replace(params, final_passes=r))
+        for r in (1, 2, 3)
+    ]
+    for ground in rounds:
+        assert ground[seen_through].all() and ground[~platform].all()
+    assert rounds[1][platform].sum() < rounds[0][platform].sum()
+    assert not (rounds[1] & ~rounds[0]).any()
+    np.testing.assert_array_equal(rounds[2], rounds[1])
