@@ -474,14 +474,15 @@ void grid_ground(PointsView points, const GridGroundParams& given, bool* ground,
     const auto count = static_cast<std::ptrdiff_t>(n);
 #pragma omp parallel for schedule(guided) if (parallel)
     for (std::ptrdiff_t s = 0; s < count; ++s) ground[grid.id[s]] = result[s] != 0;
-    if (params.final_cell > 0.0)
-        for (std::int64_t round = 0; round < params.final_passes; ++round) {
-            poll_interrupt();
-            final_pass(points, final_pass_params(params), lower, upper, ground);
-            if (params.outlier_depth > 0.0)  // the final pass sees every point: not these
-                for (std::ptrdiff_t s = 0; s < count; ++s)
-                    if (outlier[s]) ground[grid.id[s]] = false;
-        }
+    if (params.final_cell <= 0.0) return;
+    const SnappedPoints snapped = snap_for_final_pass(points, lower, upper);  // once for all
+    for (std::int64_t round = 0; round < params.final_passes; ++round) {
+        poll_interrupt();
+        final_pass(points, final_pass_params(params), snapped, ground);
+        if (params.outlier_depth > 0.0)  // the final pass sees every point: not these
+            for (std::ptrdiff_t s = 0; s < count; ++s)
+                if (outlier[s]) ground[grid.id[s]] = false;
+    }
 }
 
 }  // namespace pcl_rg

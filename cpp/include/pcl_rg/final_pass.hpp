@@ -50,13 +50,12 @@ void validate(const FinalPassParams& params);
 /// threads; see final_pass.cpp for the exact formulas.
 void final_pass(PointsView points, const FinalPassParams& params, bool* ground);
 
-/// The same, on the points' bounding box `origin` (local_origin) and `upper`
-/// (upper_corner) when the caller has them: throws std::invalid_argument when the
-/// extent is not finite.
-void final_pass(PointsView points, const FinalPassParams& params,
-                const std::array<double, 3>& origin, const std::array<double, 3>& upper,
-                bool* ground);
 
+/// The points snapped and sorted for final_pass on their bounding box `origin` and
+/// `upper`, for callers that run the pass more than once (grid_ground's rounds); throws
+/// std::invalid_argument when the extent is not finite.
+SnappedPoints snap_for_final_pass(PointsView points, const std::array<double, 3>& origin,
+                                  const std::array<double, 3>& upper);
 /// The same, on the points already snapped and sorted by snap_points (as tin_ground
 /// has them), so that nothing is computed twice; their extent is finite.
 void final_pass(PointsView points, const FinalPassParams& params, const SnappedPoints& snapped,
