@@ -134,6 +134,23 @@ class ConcurrentDisjointSets {
     std::vector<std::atomic<std::uint32_t>> parent_;
 };
 
+// Calls visit(s, around, k) for every point s, in parallel over cells, with the k cells
+// of the 3 x 3 block around s's cell (its own included); polls for interruption.
+template <class Visit>
+void for_each_point_and_cells_around(const CellGrid& grid, Visit visit) {
+    const bool parallel = grid.p.size() >= kGridParallelMin;
+    const auto cells = static_cast<std::ptrdiff_t>(grid.cells());
+    const Interruption interruption;
+#pragma omp parallel for schedule(dynamic, 256) if (parallel) firstprivate(interruption)
+    for (std::ptrdiff_t c = 0; c < cells; ++c) {
+        if (interruption.requested()) continue;
+        std::ptrdiff_t around[9];
+        const int k = grid.neighbours(static_cast<std::size_t>(c), around);
+        for (std::size_t s = grid.start[c]; s < grid.start[c + 1]; ++s) visit(s, around, k);
+    }
+    interruption.check();
+}
+
 // Pre-filter: candidate[s] = 0 when s lies higher than a point q of its 3 x 3 cells with
 // against[q] set by more than filter_slope * d + filter_tolerance. Points with
 // kept_by_all[s] set passed against every point, so they pass against any subset too and
@@ -143,73 +160,53 @@ void slope_filter(const CellGrid& grid, const GridGroundParams& params,
                   const std::vector<unsigned char>* kept_by_all,
                   std::vector<unsigned char>& candidate) {
     const double slope = params.filter_slope, tolerance = params.filter_tolerance;
-    const bool parallel = grid.p.size() >= kGridParallelMin;
-    const auto cells = static_cast<std::ptrdiff_t>(grid.cells());
-    const Interruption interruption;
-#pragma omp parallel for schedule(dynamic, 256) if (parallel) firstprivate(interruption)
-    for (std::ptrdiff_t c = 0; c < cells; ++c) {
-        if (interruption.requested()) continue;
-        std::ptrdiff_t around[9];
-        const int k = grid.neighbours(static_cast<std::size_t>(c), around);
-        for (std::size_t s = grid.start[c]; s < grid.start[c + 1]; ++s) {
-            if (kept_by_all && (*kept_by_all)[s]) {
-                candidate[s] = 1;
-                continue;
-            }
-            const double sx = grid.p[s].x, sy = grid.p[s].y, sz = grid.p[s].z;
-            bool keep = true;
-            for (int a = 0; a < k && keep; ++a) {
-                const std::ptrdiff_t other = around[a];
-                // A cell's points rise (grid_cells.cpp sorts them whenever the filter
-                // runs), and a test can fail only when sz - z_q > tolerance, as
-                // slope * d + tolerance >= tolerance holds after rounding too (rounding
-                // is monotone): past the first q with sz - z_q <= tolerance none can fail.
-                for (std::size_t q = grid.start[other]; q < grid.start[other + 1]; ++q) {
-                    if (!(sz - grid.p[q].z > tolerance)) break;
-                    if (!against[q]) continue;
-                    const double dx = sx - grid.p[q].x, dy = sy - grid.p[q].y;
-                    const double d = std::sqrt(dx * dx + dy * dy);
-                    if (sz - grid.p[q].z > slope * d + tolerance) {
-                        keep = false;
-                        break;
-                    }
+    for_each_point_and_cells_around(grid, [&](std::size_t s, const std::ptrdiff_t* around, int k) {
+        if (kept_by_all && (*kept_by_all)[s]) {
+            candidate[s] = 1;
+            return;
+        }
+        const double sx = grid.p[s].x, sy = grid.p[s].y, sz = grid.p[s].z;
+        bool keep = true;
+        for (int a = 0; a < k && keep; ++a) {
+            const std::ptrdiff_t other = around[a];
+            // A cell's points rise (grid_cells.cpp sorts them whenever the filter
+            // runs), and a test can fail only when sz - z_q > tolerance, as
+            // slope * d + tolerance >= tolerance holds after rounding too (rounding
+            // is monotone): past the first q with sz - z_q <= tolerance none can fail.
+            for (std::size_t q = grid.start[other]; q < grid.start[other + 1]; ++q) {
+                if (!(sz - grid.p[q].z > tolerance)) break;
+                if (!against[q]) continue;
+                const double dx = sx - grid.p[q].x, dy = sy - grid.p[q].y;
+                const double d = std::sqrt(dx * dx + dy * dy);
+                if (sz - grid.p[q].z > slope * d + tolerance) {
+                    keep = false;
+                    break;
                 }
             }
-            candidate[s] = keep ? 1 : 0;
         }
-    }
-    interruption.check();
+        candidate[s] = keep ? 1 : 0;
+    });
 }
 
 // Low outliers: outlier[s] = 1 when some point q at another position lies in the 3 x 3
 // cells of s and every such q has z_q - z_s > depth (the reference's test, in the same
 // arithmetic). Copies of s are not counted, so that duplicating a cloud changes nothing.
 void low_outliers(const CellGrid& grid, double depth, std::vector<unsigned char>& outlier) {
-    const bool parallel = grid.p.size() >= kGridParallelMin;
-    const auto cells = static_cast<std::ptrdiff_t>(grid.cells());
-    const Interruption interruption;
-#pragma omp parallel for schedule(dynamic, 256) if (parallel) firstprivate(interruption)
-    for (std::ptrdiff_t c = 0; c < cells; ++c) {
-        if (interruption.requested()) continue;
-        std::ptrdiff_t around[9];
-        const int k = grid.neighbours(static_cast<std::size_t>(c), around);
-        for (std::size_t s = grid.start[c]; s < grid.start[c + 1]; ++s) {
-            bool alone = true, near = false;
-            for (int a = 0; a < k && !near; ++a)
-                for (std::size_t q = grid.start[around[a]]; q < grid.start[around[a] + 1]; ++q) {
-                    const Local& other = grid.p[q];
-                    const Local& self = grid.p[s];
-                    if (other.x == self.x && other.y == self.y && other.z == self.z) continue;
-                    alone = false;
-                    if (!(grid.p[q].z - grid.p[s].z > depth)) {
-                        near = true;
-                        break;
-                    }
+    for_each_point_and_cells_around(grid, [&](std::size_t s, const std::ptrdiff_t* around, int k) {
+        bool alone = true, near = false;
+        for (int a = 0; a < k && !near; ++a)
+            for (std::size_t q = grid.start[around[a]]; q < grid.start[around[a] + 1]; ++q) {
+                const Local& other = grid.p[q];
+                const Local& self = grid.p[s];
+                if (other.x == self.x && other.y == self.y && other.z == self.z) continue;
+                alone = false;
+                if (!(grid.p[q].z - grid.p[s].z > depth)) {
+                    near = true;
+                    break;
                 }
-            outlier[s] = !alone && !near ? 1 : 0;
-        }
-    }
-    interruption.check();
+            }
+        outlier[s] = !alone && !near ? 1 : 0;
+    });
 }
 
 // The link test, as in the reference: same operations, same order (symmetric in s, q).
