@@ -15,6 +15,7 @@ import math
 from typing import Any
 
 import pcl_rg
+from pcl_rg.evaluation import ground_errors
 
 #: Suffix of a grid key that sets a length as a multiple of the point spacing.
 PER_SPACING = "/spacing"
@@ -73,3 +74,27 @@ class Scaled:
             if preset is None or name in other or getattr(preset.params, name) != value:
                 parts.append(f"{name}={value}")
         return ", ".join(parts) or "= preset"
+
+
+# (filter, sample, params used) -> errors, and sample -> spacing: a search meets the
+# same set many times, and the cross-validation scores the searches' picks again.
+_ERRORS: dict = {}
+_SPACINGS: dict = {}
+
+
+def sample_errors(function, samples: dict, setting) -> list:
+    """Ground errors of `function` (pcl_rg.tin_ground or grid_ground) with `setting` (a
+    Scaled, or params run as given) on each of `samples` (name -> (points, truth)),
+    computed once per sample and resolved params."""
+    if not isinstance(setting, Scaled):
+        setting = Scaled(setting)
+    out = []
+    for name, (points, truth) in samples.items():
+        if name not in _SPACINGS:
+            _SPACINGS[name] = pcl_rg.point_spacing(points)
+        params = setting.resolve(_SPACINGS[name])
+        key = (function.__name__, name, params)
+        if key not in _ERRORS:
+            _ERRORS[key] = ground_errors(truth, function(points, params=params))
+        out.append(_ERRORS[key])
+    return out

@@ -47,7 +47,7 @@ from _common import (  # noqa: E402
     markdown_table,
     publish,
 )
-from _scaled import PER_SPACING, Scaled  # noqa: E402
+from _scaled import PER_SPACING, Scaled, sample_errors  # noqa: E402
 
 import pcl_rg
 import pcl_rg.pcl
@@ -127,24 +127,9 @@ def score(samples, methods) -> list[list[str]]:
 
 
 
-# (sample, params used) -> errors: the descent meets the same set many times.
-_ERRORS: dict = {}
-_SPACINGS: dict = {}
-
-
 def mean_total(samples, setting) -> float:
     """Mean total error of `setting` (a Scaled, or params run as given)."""
-    if not isinstance(setting, Scaled):
-        setting = Scaled(setting)
-    totals = []
-    for name, (points, truth) in samples.items():
-        if name not in _SPACINGS:
-            _SPACINGS[name] = pcl_rg.point_spacing(points)
-        params = setting.resolve(_SPACINGS[name])
-        if (name, params) not in _ERRORS:
-            _ERRORS[name, params] = ground_errors(truth, pcl_rg.grid_ground(points, params=params))
-        totals.append(_ERRORS[name, params].total)
-    return float(np.mean(totals))
+    return float(np.mean([e.total for e in sample_errors(pcl_rg.grid_ground, samples, setting)]))
 
 
 # The start of --search: the definition with every option on at a middle value (the

@@ -33,9 +33,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))  # the two search studi
 import ground_isprs  # noqa: E402
 import tin_isprs_params  # noqa: E402
 from _common import machine, markdown_table, publish  # noqa: E402
+from _scaled import sample_errors  # noqa: E402
 
 import pcl_rg  # noqa: E402
-from pcl_rg.evaluation import ground_errors  # noqa: E402
 
 SECTION = "## Ground filters on ISPRS: cross-validated presets"
 # With --selections: the tin search's selection procedures side by side, own section.
@@ -89,8 +89,8 @@ def cross_validate(
     for held_out, (points, truth) in samples.items():
         training = {s: v for s, v in samples.items() if s != held_out}
         chosen = search(training, rule)
-        fit = ground_errors(truth, fitted_pick.run(function, points))
-        out = ground_errors(truth, chosen.run(function, points))
+        (fit,) = sample_errors(function, {held_out: (points, truth)}, fitted_pick)
+        (out,) = sample_errors(function, {held_out: (points, truth)}, chosen)
         fitted.append(fit)
         unseen.append(out)
         rows.append(

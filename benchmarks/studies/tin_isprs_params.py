@@ -35,7 +35,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/_common.py
 from _common import coordinate_descent, error_cells, machine, markdown_table, publish  # noqa: E402
-from _scaled import PER_SPACING, Scaled  # noqa: E402
+from _scaled import PER_SPACING, Scaled, sample_errors  # noqa: E402
 from ground_isprs import METHODS, load_samples  # noqa: E402  (same folder)
 
 import pcl_rg
@@ -130,25 +130,9 @@ IMPROVEMENTS = {
     "final_cell": 0.0,
 }
 
-# (sample, params used) -> errors: the descent meets the same set many times.
-_ERRORS: dict = {}
-_SPACINGS: dict = {}
-
-
 def errors(samples, setting) -> list:
     """Errors per sample of `setting` (a Scaled, or params run as given)."""
-    if not isinstance(setting, Scaled):
-        setting = Scaled(setting)
-    out = []
-    for name, (points, truth) in samples.items():
-        if name not in _SPACINGS:
-            _SPACINGS[name] = pcl_rg.point_spacing(points)
-        params = setting.resolve(_SPACINGS[name])
-        if (name, params) not in _ERRORS:
-            ground = pcl_rg.tin_ground(points, params=params)
-            _ERRORS[name, params] = ground_errors(truth, ground)
-        out.append(_ERRORS[name, params])
-    return out
+    return sample_errors(pcl_rg.tin_ground, samples, setting)
 
 
 def mean_total(samples, setting) -> float:
