@@ -50,7 +50,6 @@ void validate(const FinalPassParams& params);
 /// threads; see final_pass.cpp for the exact formulas.
 void final_pass(PointsView points, const FinalPassParams& params, bool* ground);
 
-
 /// The points snapped and sorted for final_pass on their bounding box `origin` and
 /// `upper`, for callers that run the pass more than once (grid_ground's rounds); throws
 /// std::invalid_argument when the extent is not finite.
