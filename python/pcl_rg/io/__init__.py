@@ -23,7 +23,8 @@ Every reader returns one container, :class:`PointFile`:
 
 Every writer goes through a temporary file in the destination folder, renamed
 over the target when complete. The formats live in private modules (``_las``,
-``_pcd``, ``_ply``, ``_xyz``), which this module dispatches to.
+``_pcd``, ``_ply``, ``_xyz``), which this module dispatches to; ``_formats`` tells
+which format a file is.
 """
 
 from __future__ import annotations
@@ -38,8 +39,8 @@ from numpy.typing import ArrayLike
 from . import _las, _pcd, _ply, _xyz
 from ._columns import check_columns, check_path, check_xyz
 from ._extent import Extent, read_extent
+from ._formats import EXTENSIONS, check_magic, format_of
 from ._pcd import write_pcd
-from ._pcd_header import KEYWORDS as _PCD_KEYWORDS
 
 __all__ = [
     "EXTENSIONS",
@@ -54,17 +55,6 @@ __all__ = [
     "write_points",
 ]
 
-#: File extension -> format name understood by :func:`read_points`/:func:`write_points`.
-EXTENSIONS: dict[str, str] = {
-    ".las": "las",
-    ".laz": "laz",
-    ".ply": "ply",
-    ".pcd": "pcd",
-    ".xyz": "xyz",
-    ".txt": "xyz",
-    ".pts": "xyz",
-}
-_FORMAT_NAMES = {"las": "LAS", "laz": "LAZ", "ply": "PLY", "pcd": "PCD", "xyz": "XYZ text"}
 
 
 class PcdLayout(NamedTuple):
@@ -163,74 +153,6 @@ class PointFile:
         )
 
 
-def _format_of(path: str, format: str | None) -> str:
-    if format is not None:
-        if format not in _FORMAT_NAMES:
-            raise ValueError(f"format must be one of {', '.join(_FORMAT_NAMES)}, got {format!r}")
-        return format
-    ext = os.path.splitext(path)[1].lower()
-    if ext not in EXTENSIONS:
-        raise ValueError(
-            f"{path!r}: unknown file extension {ext or '(none)'!r}; supported: "
-            f"{', '.join(EXTENSIONS)}"
-        )
-    return EXTENSIONS[ext]
-
-
-def _sniff(head: bytes) -> str:
-    """What the first bytes of a file look like: las, ply, pcd, text, empty or binary."""
-    if not head:
-        return "empty"
-    if head.startswith(b"LASF"):
-        return "las"
-    if head.startswith((b"ply\n", b"ply\r\n")):
-        return "ply"
-    try:
-        text = head.decode("ascii")
-    except UnicodeDecodeError:
-        # PCD headers are ASCII, binary data follows them; a head cut mid-way can
-        # hold binary bytes after the DATA line.
-        text = head.split(b"\nDATA", 1)[0].decode("ascii", errors="replace")
-        if "\ufffd" in text:
-            return "binary"
-    for line in text.splitlines():
-        line = line.strip()
-        if not line:
-            continue
-        if line.startswith("# .PCD"):
-            return "pcd"
-        if line.startswith("#"):  # a comment of PCD or XYZ text: look further
-            continue
-        if line.split()[0] in _PCD_KEYWORDS:
-            return "pcd"
-        break
-    printable = all(c.isprintable() or c in "\r\n\t\f\v" for c in text)
-    return "text" if printable else "binary"
-
-
-_KIND_NAMES = {
-    "las": "a LAS/LAZ file",
-    "ply": "a PLY file",
-    "pcd": "a PCD file",
-    "text": "a text file",
-    "binary": "binary data of an unknown format",
-}
-_EXPECTED_KIND = {"las": "las", "laz": "las", "ply": "ply", "pcd": "pcd", "xyz": "text"}
-
-
-def _check_magic(path: str, format: str) -> None:
-    with open(path, "rb") as stream:
-        head = stream.read(4096)
-    kind = _sniff(head)
-    if kind == "empty":
-        raise ValueError(f"{path!r}: file is empty (0 bytes), not a {_FORMAT_NAMES[format]} file")
-    if kind != _EXPECTED_KIND[format]:
-        raise ValueError(
-            f"{path!r}: not a {_FORMAT_NAMES[format]} file: its first bytes "
-            f"({head[:8]!r}) look like {_KIND_NAMES[kind]}; check the file extension"
-        )
-
-
 def read_points(path: str | os.PathLike[str], *, format: str | None = None) -> PointFile:
     """Read a LAS/LAZ, PLY, PCD or XYZ text file into float64 points and fields.
 
@@ -297,8 +219,8 @@ def read_points(path: str | os.PathLike[str], *, format: str | None = None) -> P
     [2, 1]
     """
     name = check_path(path)
-    fmt = _format_of(name, format)
-    _check_magic(name, fmt)
+    fmt = format_of(name, format)
+    check_magic(name, fmt)
     return _read(name, fmt)
 
 
@@ -485,7 +407,7 @@ def write_points(
     (1, 6, [2])
     """
     name = check_path(path)
-    fmt = _format_of(name, format)
+    fmt = format_of(name, format)
     xyz = check_xyz(points)
     columns = check_columns(fields, classification, len(xyz))
     if template is not None and not isinstance(template, PointFile):

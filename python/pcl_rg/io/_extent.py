@@ -7,6 +7,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ._formats import check_magic, format_of
 from ._las import _bad_las, _laspy
 from ._las_header import check_las_header
 
@@ -67,12 +68,12 @@ def read_extent(path: str | os.PathLike[str], *, format: str | None = None) -> E
     >>> extent.xmin, extent.ymax, extent.points, extent.from_header
     (10.0, 21.0, 2, True)
     """
-    from . import _check_magic, _format_of, read_points  # the package imports this module
+    from . import read_points  # the package imports this module
 
     name = os.fspath(path)
-    fmt = _format_of(name, format)
+    fmt = format_of(name, format)
     if fmt in ("las", "laz"):
-        _check_magic(name, fmt)
+        check_magic(name, fmt)
         return _las_extent(name)
     cloud = read_points(name, format=format)
     finite = cloud.points[np.isfinite(cloud.points).all(axis=1)]

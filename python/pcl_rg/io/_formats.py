@@ -1,0 +1,92 @@
+"""Which format a point-cloud file is: by its extension, checked against its first
+bytes."""
+
+from __future__ import annotations
+
+import os
+
+from ._pcd_header import KEYWORDS as _PCD_KEYWORDS
+
+__all__ = ["EXTENSIONS", "FORMAT_NAMES", "check_magic", "format_of", "sniff"]
+
+#: File extension -> format name understood by :func:`read_points`/:func:`write_points`.
+EXTENSIONS: dict[str, str] = {
+    ".las": "las",
+    ".laz": "laz",
+    ".ply": "ply",
+    ".pcd": "pcd",
+    ".xyz": "xyz",
+    ".txt": "xyz",
+    ".pts": "xyz",
+}
+FORMAT_NAMES = {"las": "LAS", "laz": "LAZ", "ply": "PLY", "pcd": "PCD", "xyz": "XYZ text"}
+
+
+def format_of(path: str, format: str | None) -> str:
+    """The format of `path`: `format` when given (checked), else from its extension."""
+    if format is not None:
+        if format not in FORMAT_NAMES:
+            raise ValueError(f"format must be one of {', '.join(FORMAT_NAMES)}, got {format!r}")
+        return format
+    ext = os.path.splitext(path)[1].lower()
+    if ext not in EXTENSIONS:
+        raise ValueError(
+            f"{path!r}: unknown file extension {ext or '(none)'!r}; supported: "
+            f"{', '.join(EXTENSIONS)}"
+        )
+    return EXTENSIONS[ext]
+
+
+def sniff(head: bytes) -> str:
+    """What the first bytes of a file look like: las, ply, pcd, text, empty or binary."""
+    if not head:
+        return "empty"
+    if head.startswith(b"LASF"):
+        return "las"
+    if head.startswith((b"ply\n", b"ply\r\n")):
+        return "ply"
+    try:
+        text = head.decode("ascii")
+    except UnicodeDecodeError:
+        # PCD headers are ASCII, binary data follows them; a head cut mid-way can
+        # hold binary bytes after the DATA line.
+        text = head.split(b"\nDATA", 1)[0].decode("ascii", errors="replace")
+        if "\ufffd" in text:
+            return "binary"
+    for line in text.splitlines():
+        line = line.strip()
+        if not line:
+            continue
+        if line.startswith("# .PCD"):
+            return "pcd"
+        if line.startswith("#"):  # a comment of PCD or XYZ text: look further
+            continue
+        if line.split()[0] in _PCD_KEYWORDS:
+            return "pcd"
+        break
+    printable = all(c.isprintable() or c in "\r\n\t\f\v" for c in text)
+    return "text" if printable else "binary"
+
+
+_KIND_NAMES = {
+    "las": "a LAS/LAZ file",
+    "ply": "a PLY file",
+    "pcd": "a PCD file",
+    "text": "a text file",
+    "binary": "binary data of an unknown format",
+}
+_EXPECTED_KIND = {"las": "las", "laz": "las", "ply": "ply", "pcd": "pcd", "xyz": "text"}
+
+
+def check_magic(path: str, format: str) -> None:
+    """Raise ValueError when the first bytes of `path` are not those of `format`."""
+    with open(path, "rb") as stream:
+        head = stream.read(4096)
+    kind = sniff(head)
+    if kind == "empty":
+        raise ValueError(f"{path!r}: file is empty (0 bytes), not a {FORMAT_NAMES[format]} file")
+    if kind != _EXPECTED_KIND[format]:
+        raise ValueError(
+            f"{path!r}: not a {FORMAT_NAMES[format]} file: its first bytes "
+            f"({head[:8]!r}) look like {_KIND_NAMES[kind]}; check the file extension"
+        )
