@@ -8,6 +8,7 @@ import sys
 import threading
 from pathlib import Path
 
+import laspy
 import numpy as np
 import pytest
 from hypothesis import settings
@@ -15,6 +16,7 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 import pcl_rg.io._atomic
+from pcl_rg import datasets
 
 # Hypothesis profiles. "ci" (the default, `make test`) derandomizes: every run draws
 # the same examples, so a red CI is reproducible and a green one is not luck.
@@ -166,3 +168,28 @@ CLI_WITH_SIGINT = [
     "import runpy, signal; signal.signal(signal.SIGINT, signal.default_int_handler); "
     "runpy.run_module('pcl_rg', run_name='__main__', alter_sys=True)",
 ]
+
+
+@pytest.fixture(scope="session")
+def scene_las(tmp_path_factory) -> Path:
+    """The synthetic scene as LAS 1.2 point format 3 with every dimension filled."""
+    scene = datasets.synthetic_scene(seed=5, size=80.0, offset=(500_000.0, 5_000_000.0, 0.0))
+    n = len(scene.points)
+    rng = np.random.default_rng(8)
+    header = laspy.LasHeader(version="1.2", point_format=3)
+    header.scales = [0.01, 0.01, 0.01]
+    header.offsets = [500_000.0, 5_000_000.0, 0.0]
+    las = laspy.LasData(header)
+    las.x, las.y, las.z = scene.points.T
+    las.classification = scene.labels
+    las.intensity = rng.integers(0, 65536, n)
+    las.return_number = rng.integers(1, 4, n)
+    las.number_of_returns = np.full(n, 3)
+    las.gps_time = np.sort(rng.uniform(0, 1000, n))
+    las.red, las.green, las.blue = rng.integers(0, 65536, (3, n))
+    las.point_source_id = rng.integers(0, 10, n)
+    las.user_data = rng.integers(0, 256, n)
+    las.scan_angle_rank = rng.integers(-90, 91, n)
+    path = tmp_path_factory.mktemp("scene") / "scene.las"
+    las.write(path)
+    return path

@@ -1,0 +1,141 @@
+"""pcl-rg on bad files and bad parameters: one error line, exit status 2, no partial or
+overwritten file, also on a full disk or an interrupt."""
+
+from __future__ import annotations
+
+import errno
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+from cli_helpers import assert_one_error_line, run
+from conftest import fail_writes
+
+import pcl_rg
+import pcl_rg._grid_ground
+from pcl_rg.io import write_pcd
+
+# ------------------------------------------------------------------- failures
+
+
+def bad_files(folder: Path, scene_las: Path) -> dict[str, tuple[Path, str]]:
+    """Broken inputs and a fragment of the message each must give."""
+    files = {}
+    (folder / "text.las").write_text("1 2 3\n4 5 6\n")
+    files["a .las that is text"] = (folder / "text.las", "not a LAS file")
+    xyz = np.random.default_rng(0).uniform(0, 1, (50, 3))
+    write_pcd(folder / "ok.pcd", xyz, encoding="binary")
+    lying = (folder / "ok.pcd").read_bytes().replace(b"POINTS 50", b"POINTS 80")
+    (folder / "lying.pcd").write_bytes(lying.replace(b"WIDTH 50", b"WIDTH 80"))
+    files["a PCD whose header lies"] = (folder / "lying.pcd", "truncated")
+    (folder / "bad.ply").write_bytes(b"ply\nformat ascii 1.0\nelement vertex two\nend_header\n")
+    files["a PLY with a bad header"] = (folder / "bad.ply", "invalid PLY file")
+    (folder / "empty.laz").write_bytes(b"")
+    files["an empty file"] = (folder / "empty.laz", "file is empty")
+    data = scene_las.read_bytes()
+    (folder / "cut.las").write_bytes(data[: len(data) // 2])
+    files["a truncated LAS"] = (folder / "cut.las", "invalid LAS/LAZ file")
+    (folder / "cloud.obj").write_text("v 1 2 3\n")
+    files["an unknown extension"] = (folder / "cloud.obj", "unknown extension")
+    files["a missing file"] = (folder / "missing.las", "does not exist")
+    (folder / "binary.xyz").write_bytes(bytes(range(200, 256)) * 10)
+    files["binary data as .xyz"] = (folder / "binary.xyz", "not a XYZ text file")
+    return files
+
+
+@pytest.mark.parametrize("command", ["info", "ground", "denoise"])
+def test_bad_files_give_one_error_line(capsys, tmp_path, scene_las, command):
+    for what, (path, fragment) in bad_files(tmp_path, scene_las).items():
+        argv = [command, path] + ([] if command == "info" else [tmp_path / "out.las"])
+        code, out, err = run(capsys, *argv)
+        assert code == 2, what
+        assert_one_error_line(err, fragment)
+        assert not (tmp_path / "out.las").exists(), what
+
+
+@pytest.mark.parametrize(
+    "argv, fragment",
+    [
+        (["denoise", "--mean-k", "0"], "argument --mean-k: mean_k must be >= 1, got 0"),
+        (["denoise", "--mean-k", "1.5"], "argument --mean-k: invalid integer"),
+        (["denoise", "--std-mul", "-1"], "std_mul must be >= 0"),
+        (["downsample", "--leaf-size", "-1"], "leaf_size must be > 0"),
+        (["downsample", "--leaf-size", "1,2"], "expected 1 or 3"),
+        (["downsample"], "required: --leaf-size"),
+        (["ground", "--slope", "steep"], "argument --slope: invalid number"),
+        (["ground", "--slope", "nan"], "argument --slope: invalid number"),
+        (["ground", "--method", "magic"], "invalid choice: 'magic'"),
+        (["ground", "--cell-size", "50", "--block-size", "10"], "cell_size must be <= block_size"),
+        (["segment", "--k", "2"], "argument --k: k must be >= 6"),
+        (["segment", "--method", "curvature", "--k", "2"], "argument --k: k must be >= 3"),
+        (["segment", "--smoothness-deg", "200"], "smoothness_deg must be in (0, 180)"),
+        (
+            ["segment", "--method", "curvature", "--seed-measure", "bogus"],
+            "seed_measure must be one of",
+        ),
+        (["segment", "--method", "pcl", "--seed-measure", "mean"], "does not apply"),
+        (["segment", "--k", "100000"], "k must be < the number of points"),
+        (["denoise", "--unknown-flag"], "unrecognized arguments: --unknown-flag"),
+    ],
+)
+def test_bad_parameters(capsys, tmp_path, scene_las, argv, fragment):
+    command, *flags = argv
+    code, out, err = run(capsys, command, scene_las, tmp_path / "out.las", *flags)
+    assert code == 2
+    assert_one_error_line(err, fragment)
+    assert not (tmp_path / "out.las").exists()
+
+
+def test_never_overwrites_the_input(capsys, tmp_path, scene_las):
+    source = tmp_path / "in.las"
+    source.write_bytes(scene_las.read_bytes())
+    original = source.read_bytes()
+    (tmp_path / "sym.las").symlink_to(source)
+    os.link(source, tmp_path / "hard.las")
+    os.mkdir(tmp_path / "sub")
+    targets = [
+        source,
+        tmp_path / "sym.las",
+        tmp_path / "hard.las",
+        tmp_path / "sub" / ".." / "in.las",
+    ]
+    for target in targets:
+        code, _, err = run(capsys, "ground", source, target)
+        assert code == 2, target
+        assert_one_error_line(err, "is the INPUT file")
+    code, _, err = run(capsys, "ground", tmp_path / "sym.las", source)
+    assert code == 2
+    assert source.read_bytes() == original
+    code, _, err = run(capsys, "ground", source, tmp_path / "nofolder" / "out.las")
+    assert_one_error_line(err, "folder of OUTPUT")
+    code, _, err = run(capsys, "ground", source, tmp_path / "sub")
+    assert_one_error_line(err, "unknown extension")
+
+
+@pytest.mark.parametrize("ext", ["las", "laz", "pcd", "ply", "xyz"])
+def test_disk_full_leaves_no_partial_file(capsys, tmp_path, scene_las, monkeypatch, ext):
+    target = tmp_path / f"out.{ext}"
+    target.write_bytes(b"an older result")
+    fail_writes(monkeypatch, 1000, OSError(errno.ENOSPC, os.strerror(errno.ENOSPC)))
+    code, out, err = run(capsys, "ground", scene_las, target)
+    assert code == 1
+    assert_one_error_line(err, "cannot write", "No space left on device")
+    assert target.read_bytes() == b"an older result"
+    assert sorted(p.name for p in tmp_path.iterdir()) == [f"out.{ext}"]
+
+
+def test_interrupt_leaves_no_partial_file(capsys, tmp_path, scene_las, monkeypatch):
+    fail_writes(monkeypatch, 1000, KeyboardInterrupt())
+    code, _, err = run(capsys, "denoise", scene_las, tmp_path / "out.laz")
+    assert code == 130
+    assert_one_error_line(err, "interrupted")
+    assert list(tmp_path.iterdir()) == []
+    monkeypatch.undo()
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(pcl_rg, "grid_ground", interrupted)
+    code, _, err = run(capsys, "ground", scene_las, tmp_path / "out.laz")
+    assert code == 130 and list(tmp_path.iterdir()) == []
