@@ -8,9 +8,6 @@ import os
 import re
 from pathlib import Path
 
-import laspy
-import numpy as np
-
 import pcl_rg.cli as cli
 
 
@@ -40,8 +37,3 @@ def assert_one_error_line(err: str, *fragments: str) -> None:
     assert "Traceback" not in err
     for fragment in fragments:
         assert fragment in lines[0], lines[0]
-
-
-def raw(path) -> np.ndarray:
-    with open(path, "rb") as stream:
-        return laspy.read(stream, closefd=False).points.array

@@ -10,8 +10,9 @@ import sys
 
 import numpy as np
 import pytest
-from cli_helpers import assert_one_error_line, raw, run, run_json
+from cli_helpers import assert_one_error_line, run, run_json
 from conftest import run_command, shared_data
+from las_helpers import raw_points
 
 import pcl_rg
 import pcl_rg._grid_ground
@@ -38,7 +39,7 @@ def test_ground_classifies_and_keeps_every_dimension(capsys, tmp_path, scene_las
     np.testing.assert_array_equal(written.classification, expected)
     assert result["ground"] == expected_ground.sum() and result["points_out"] == len(source)
     assert result["skipped_noise"] == noise.sum()
-    before, after = raw(scene_las), raw(out)
+    before, after = raw_points(scene_las), raw_points(out)
     for name in before.dtype.names:
         if name != "raw_classification":
             np.testing.assert_array_equal(after[name], before[name], err_msg=name)
@@ -46,7 +47,7 @@ def test_ground_classifies_and_keeps_every_dimension(capsys, tmp_path, scene_las
     # --drop writes exactly the ground points.
     run_json(capsys, "ground", scene_las, tmp_path / "only.las", *flags, "--drop")
     kept = np.flatnonzero(expected == 2)
-    assert raw(tmp_path / "only.las").tobytes() == after[kept].tobytes()
+    assert raw_points(tmp_path / "only.las").tobytes() == after[kept].tobytes()
 
 
 def test_ground_tin_and_method_flags(capsys, tmp_path, scene_las):
@@ -192,7 +193,7 @@ def test_downsample_centroids_and_attributes(capsys, tmp_path, scene_las):
             assert written.fields[name][voxel] == pytest.approx(mean, rel=1e-12), name
     # One number or three: the same voxels.
     run_json(capsys, "downsample", scene_las, tmp_path / "w.las", "--leaf-size", "2,2,2")
-    assert raw(tmp_path / "w.las").tobytes() == raw(tmp_path / "v.las").tobytes()
+    assert raw_points(tmp_path / "w.las").tobytes() == raw_points(tmp_path / "v.las").tobytes()
     flags = "--leaf-size 4,4,1 --min-points-per-voxel 3".split()
     run_json(capsys, "downsample", scene_las, tmp_path / "a.xyz", *flags)
     grid = pcl_rg.voxel_grid(source.points, leaf_size=(4, 4, 1), min_points_per_voxel=3)

@@ -1,0 +1,196 @@
+"""pcl_rg.io.read_points / write_points on LAS and LAZ: every dimension, extra bytes and
+VLRs kept bit for bit, templates, scales, what LAS cannot store, and damaged files."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from las_helpers import random_las, raw_points
+
+from pcl_rg.io import read_points, write_points
+
+LAS_LAYOUTS = [("1.2", 0), ("1.2", 1), ("1.2", 3), ("1.3", 1), ("1.4", 6), ("1.4", 7), ("1.4", 8)]
+
+
+# ------------------------------------------------------------------ LAS / LAZ
+
+
+@pytest.mark.parametrize("ext", ["las", "laz"])
+@pytest.mark.parametrize("version, point_format", LAS_LAYOUTS)
+def test_las_round_trip_keeps_every_dimension_bit_for_bit(tmp_path, ext, version, point_format):
+    las = random_las(version, point_format, 500, seed=point_format)
+    source = tmp_path / f"in.{ext}"
+    las.write(source)
+    cloud = read_points(source)
+    assert cloud.format == ext
+    # Coordinates are the stored integers times the scale plus the offset, in float64.
+    raw = raw_points(source)
+    expected = np.column_stack(
+        [raw[axis] * las.header.scales[i] + las.header.offsets[i] for i, axis in enumerate("XYZ")]
+    )
+    np.testing.assert_array_equal(cloud.points, expected)
+    assert cloud.points.dtype == np.float64
+    # Every dimension, extra bytes included, is a field.
+    names = [d.name for d in las.point_format.dimensions if d.name not in ("X", "Y", "Z")]
+    assert list(cloud.fields) == names
+
+    target = tmp_path / f"out.{ext}"
+    write_points(target, cloud.points, cloud.fields, template=cloud)
+    assert raw_points(target).tobytes() == raw.tobytes()
+    back = read_points(target)
+    assert str(back.header.version) == version
+    assert back.header.point_format.id == point_format
+    np.testing.assert_array_equal(back.header.scales, las.header.scales)
+    np.testing.assert_array_equal(back.header.offsets, las.header.offsets)
+    vlr = [v for v in back.header.vlrs if getattr(v, "user_id", "") == "pcl_rg_test"]
+    assert len(vlr) == 1 and vlr[0].record_data == las.header.vlrs[-1].record_data
+    np.testing.assert_allclose(back.header.mins, cloud.points.min(axis=0))
+    np.testing.assert_allclose(back.header.maxs, cloud.points.max(axis=0))
+
+
+@pytest.mark.parametrize("other", ["ply", "pcd", "xyz"])
+def test_las_fields_survive_other_formats(tmp_path, other):
+    las = random_las("1.4", 7, 300, seed=3)
+    las.write(tmp_path / "in.las")
+    cloud = read_points(tmp_path / "in.las")
+    write_points(tmp_path / f"mid.{other}", cloud.points, cloud.fields)
+    middle = read_points(tmp_path / f"mid.{other}")
+    np.testing.assert_array_equal(middle.points, cloud.points)
+    # Back to LAS with the original as template: the very same records.
+    fields = dict(middle.fields)
+    if other in ("ply", "xyz"):  # (N, 3) fields come back as name_0, name_1, name_2
+        fields["normal"] = np.column_stack([fields.pop(f"normal_{i}") for i in range(3)])
+    write_points(tmp_path / "back.las", middle.points, fields, template=cloud)
+    assert raw_points(tmp_path / "back.las").tobytes() == raw_points(tmp_path / "in.las").tobytes()
+
+
+def test_las_subset_and_classification(tmp_path):
+    las = random_las("1.2", 3, 400, seed=5)
+    las.write(tmp_path / "in.laz")
+    cloud = read_points(tmp_path / "in.laz")
+    keep = np.random.default_rng(1).random(len(cloud)) < 0.3
+    part = cloud.take(keep)
+    codes = np.where(np.arange(len(part)) % 2 == 0, 2, 1)
+    write_points(
+        tmp_path / "part.laz", part.points, part.fields, classification=codes, template=cloud
+    )
+    raw = raw_points(tmp_path / "in.laz")[keep]
+    out = raw_points(tmp_path / "part.laz")
+    back = read_points(tmp_path / "part.laz")
+    np.testing.assert_array_equal(back.classification, codes)
+    # Everything but the class bits of the classification byte is untouched.
+    for name in raw.dtype.names:
+        if name != "raw_classification":
+            np.testing.assert_array_equal(out[name], raw[name], err_msg=name)
+    np.testing.assert_array_equal(
+        out["raw_classification"] & 0xE0, raw["raw_classification"] & 0xE0
+    )
+    assert back.header.point_count == keep.sum()
+
+
+def test_las_new_extra_dimension_on_a_template(tmp_path):
+    las = random_las("1.2", 1, 200, seed=7, extra=False)
+    las.write(tmp_path / "in.las")
+    cloud = read_points(tmp_path / "in.las")
+    segment = np.random.default_rng(2).integers(-1, 50, len(cloud)).astype(np.int32)
+    write_points(
+        tmp_path / "seg.las", cloud.points, dict(cloud.fields, segment_id=segment), template=cloud
+    )
+    back = read_points(tmp_path / "seg.las")
+    assert back.fields["segment_id"].dtype == np.int32
+    np.testing.assert_array_equal(back.fields["segment_id"], segment)
+    assert back.header.point_format.id == 1 and str(back.header.version) == "1.2"
+    for name, values in cloud.fields.items():
+        np.testing.assert_array_equal(back.fields[name], values, err_msg=name)
+
+
+def test_las_without_template(tmp_path):
+    rng = np.random.default_rng(11)
+    n = 1000
+    xyz = rng.uniform([4.5e5, 5.4e6, -20.0], [4.51e5, 5.401e6, 300.0], (n, 3))
+    fields = {
+        "intensity": rng.integers(0, 65536, n).astype(np.uint16),
+        "gps_time": rng.uniform(0, 1e6, n),
+        "label": rng.integers(0, 2**32, n, dtype=np.uint32),
+        "weight": rng.normal(size=n).astype(np.float32),
+        "flag": rng.random(n) < 0.5,
+        "normal": rng.normal(size=(n, 3)),
+    }
+    write_points(tmp_path / "a.laz", xyz, fields, classification=rng.integers(0, 256, n))
+    back = read_points(tmp_path / "a.laz")
+    assert back.header.point_format.id == 6 and str(back.header.version) == "1.4"
+    np.testing.assert_array_equal(back.header.scales, [0.001] * 3)
+    assert np.abs(back.points - xyz).max() <= 0.0005 + 1e-9
+    for name, values in fields.items():
+        np.testing.assert_array_equal(back.fields[name], values, err_msg=name)
+    assert back.fields["flag"].dtype == np.uint8
+    # Colour picks point format 7, colour and NIR 8.
+    colour = {c: rng.integers(0, 65536, n).astype(np.uint16) for c in ("red", "green", "blue")}
+    write_points(tmp_path / "c.las", xyz, colour)
+    assert read_points(tmp_path / "c.las").header.point_format.id == 7
+    write_points(tmp_path / "n.las", xyz, dict(colour, nir=colour["red"]))
+    assert read_points(tmp_path / "n.las").header.point_format.id == 8
+
+
+def test_las_scale_grows_with_the_extent(tmp_path):
+    xyz = np.array([[0.0, 0.0, 0.0], [5e6, 1.0, 2.0]])  # 5000 km: more than int32 at 1 mm
+    write_points(tmp_path / "wide.las", xyz)
+    back = read_points(tmp_path / "wide.las")
+    assert back.header.scales[0] == pytest.approx(0.01)
+    assert np.abs(back.points - xyz).max() <= 0.005
+
+
+def test_las_rejects_what_it_cannot_store(tmp_path):
+    las = random_las("1.2", 3, 50, seed=9)
+    las.write(tmp_path / "in.las")
+    cloud = read_points(tmp_path / "in.las")
+    with pytest.raises(ValueError, match="classification.*outside the range"):
+        write_points(
+            tmp_path / "x.las",
+            cloud.points,
+            cloud.fields,
+            classification=np.full(50, 40),
+            template=cloud,
+        )
+    with pytest.raises(ValueError, match="intensity.*outside the range"):
+        write_points(
+            tmp_path / "x.las",
+            cloud.points,
+            dict(cloud.fields, intensity=np.full(50, -1)),
+            template=cloud,
+        )
+    with pytest.raises(ValueError, match="fractional"):
+        write_points(
+            tmp_path / "x.las",
+            cloud.points,
+            dict(cloud.fields, user_data=np.full(50, 1.5)),
+            template=cloud,
+        )
+    far = cloud.points + [1e8, 0, 0]  # beyond int32 at 1 cm from the template's offset
+    with pytest.raises(ValueError, match="do not fit"):
+        write_points(tmp_path / "x.las", far, cloud.fields, template=cloud)
+    nan = cloud.points.copy()
+    nan[3] = np.nan
+    with pytest.raises(ValueError, match="1 row.*NaN"):
+        write_points(tmp_path / "x.las", nan)
+    assert not (tmp_path / "x.las").exists()
+
+
+@pytest.mark.parametrize("ext", ["las", "laz"])
+@pytest.mark.parametrize("cut", [0.5, 0.99, "header"])
+def test_truncated_las(tmp_path, ext, cut):
+    random_las("1.4", 6, 2000, seed=1).write(tmp_path / f"full.{ext}")
+    data = (tmp_path / f"full.{ext}").read_bytes()
+    keep = 120 if cut == "header" else int(len(data) * cut)
+    (tmp_path / f"cut.{ext}").write_bytes(data[:keep])
+    with pytest.raises(ValueError, match="invalid LAS/LAZ file"):
+        read_points(tmp_path / f"cut.{ext}")
+
+
+def test_corrupt_las_header(tmp_path):
+    random_las("1.2", 3, 100, seed=1).write(tmp_path / "a.las")
+    data = bytearray((tmp_path / "a.las").read_bytes())
+    data[24:26] = b"\x09\x09"  # version 9.9
+    (tmp_path / "b.las").write_bytes(bytes(data))
+    with pytest.raises(ValueError, match="invalid LAS/LAZ file"):
+        read_points(tmp_path / "b.las")
