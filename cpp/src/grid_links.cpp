@@ -150,11 +150,16 @@ void label_components(const CellGrid& grid, const GridGroundParams& params,
             // heights. (The cells in a fixed order made every point link into its
             // lower-left cell's lowest points: diagonal strips, a small giant.)
             int links = 0;
-            const std::size_t hash = (s * std::size_t{2654435761u}) >> 8;
+            // 32-bit remainders: a cell holds far fewer than 2^32 points, and they divide
+            // faster than 64-bit ones.
+            const auto hash = static_cast<std::uint32_t>((s * std::size_t{2654435761u}) >> 8);
             for (int j = 0; j < k && links < 2; ++j) {
-                const std::ptrdiff_t cell = around[(static_cast<std::size_t>(j) + hash) % k];
+                const std::ptrdiff_t cell =
+                    around[(static_cast<std::uint32_t>(j) + hash) % static_cast<std::uint32_t>(k)];
                 const std::size_t first = grid.start[cell], size = grid.start[cell + 1] - first;
-                const std::size_t offset = hash % size;
+                const std::size_t offset = size <= 0xffffffffu
+                                               ? hash % static_cast<std::uint32_t>(size)
+                                               : std::size_t{hash} % size;
                 for (std::size_t i = 0; i < size; ++i) {
                     const std::size_t q =
                         first + (offset + i < size ? offset + i : offset + i - size);
