@@ -5,20 +5,26 @@
 #include <cmath>
 
 #include "pcl_rg/interrupt.hpp"
+#include "pcl_rg/spatial_order.hpp"
 
 namespace pcl_rg {
 
 namespace {
 
+// floor(local / size) as an integer, without a call into libm: the quotient is below
+// 2^40 in magnitude (grid_ground checks the extent), so the conversion is exact.
 std::int64_t grid_index(double local, double size) {
-    return static_cast<std::int64_t>(std::floor(local / size));
+    const double quotient = local / size;
+    const auto truncated = static_cast<std::int64_t>(quotient);
+    return truncated - (quotient < static_cast<double>(truncated) ? 1 : 0);
 }
 
 }  // namespace
 
 // Steps 1 and 2: block and cell of every point, and the counting sorts.
 CellGrid build_grid(PointsView points, const GridGroundParams& params,
-                    const std::array<double, 3>& origin, const std::array<double, 2>& extent) {
+                    const std::array<double, 3>& origin, const std::array<double, 2>& extent,
+                    const SnapFrame* snap) {
     const std::size_t n = points.size;
     const auto count = static_cast<std::ptrdiff_t>(n);
     const bool parallel = n >= kGridParallelMin;
@@ -58,71 +64,129 @@ CellGrid build_grid(PointsView points, const GridGroundParams& params,
                 grid.occupied.begin());
     }
 
-    // Stable counting sort by cell: within a cell, input order (for now). Serial sweeps that miss
-    // the cache: polled every few thousand points.
+    // The points by cell and, with the pre-filter, within a cell by height (ties: input
+    // index): the pre-filter then meets a cell's low points first and stops at the first
+    // one it cannot fail against, and the links look only at heights within reach.
+    // Nothing else depends on the order within a cell (grid_ground.cpp); without the
+    // pre-filter it is the input order. Two steps that each touch memory in order, not
+    // a gather from the input (whose order may be random): (1) every point's record
+    // moves, in input order, to its band of consecutive cells, a stable counting sort
+    // per chunk of the input as spatial_order.cpp's radix pass (counts per chunk,
+    // offsets band-major, chunk-minor); (2) each band, small enough for the cache, is
+    // sorted into its cells on its own. The chunk count depends on n only, and every
+    // step is a stable sort or a sort under a total order: the layout does not depend
+    // on the threads.
+    grid.by_height = params.filter_passes > 0;
+    struct Record {
+        Local p;
+        std::uint32_t id, cell;
+        std::int32_t snap_x, snap_y;
+    };
+    const int band_shift = std::max(0, bit_width(cells - 1) - 11);
+    const std::size_t bands = ((cells - 1) >> band_shift) + 1;
+    const auto chunks =
+        static_cast<std::ptrdiff_t>(parallel ? std::min<std::size_t>(64, n / 65536 + 1) : 1);
+    const auto chunk_begin = [&](std::ptrdiff_t c) {
+        return static_cast<std::ptrdiff_t>(n * static_cast<std::size_t>(c) /
+                                           static_cast<std::size_t>(chunks));
+    };
+    std::vector<std::size_t> offsets(static_cast<std::size_t>(chunks) * bands, 0);
+    std::vector<std::size_t> band_start(bands + 1);
+    std::vector<Record> record(n);
     const Interruption interruption;
     interruption.check_now();
-    grid.start.assign(cells + 1, 0);
-    for (std::size_t i = 0; i < n; ++i) {
-        if (i % 4096 == 0) interruption.check();
-        ++grid.start[key[i] + 1];
-    }
-    for (std::size_t c = 0; c < cells; ++c) grid.start[c + 1] += grid.start[c];
-    grid.id.resize(n);
+#pragma omp parallel if (parallel) firstprivate(interruption)
     {
-        std::vector<std::size_t> fill(grid.start.begin(), grid.start.end() - 1);
-        for (std::size_t i = 0; i < n; ++i) {
-            if (i % 4096 == 0) interruption.check();
-            grid.id[fill[key[i]]++] = static_cast<std::uint32_t>(i);
+#pragma omp for schedule(static)
+        for (std::ptrdiff_t c = 0; c < chunks; ++c) {
+            std::size_t* counts = &offsets[static_cast<std::size_t>(c) * bands];
+            for (std::ptrdiff_t i = chunk_begin(c); i < chunk_begin(c + 1); ++i)
+                ++counts[key[i] >> band_shift];
         }
-    }
-    grid.p.resize(n);
-    grid.cell.resize(n);
-    // The gathers miss the cache too: in blocks of points, polled once each.
-    constexpr std::ptrdiff_t kBlock = 4096;
-#pragma omp parallel for schedule(guided) if (parallel) firstprivate(interruption)
-    for (std::ptrdiff_t b = 0; b < (count + kBlock - 1) / kBlock; ++b) {
-        if (interruption.requested()) continue;
-        for (std::ptrdiff_t s = b * kBlock; s < std::min(count, (b + 1) * kBlock); ++s) {
-            const std::size_t i = grid.id[s];
-            grid.p[s] = {points.coord(i, 0) - origin[0], points.coord(i, 1) - origin[1],
-                         points.coord(i, 2) - origin[2]};
-            grid.cell[s] = key[i];
+#pragma omp single
+        {
+            std::size_t running = 0;
+            for (std::size_t band = 0; band < bands; ++band) {
+                band_start[band] = running;
+                for (std::ptrdiff_t c = 0; c < chunks; ++c) {
+                    std::size_t& slot = offsets[static_cast<std::size_t>(c) * bands + band];
+                    const std::size_t size = slot;
+                    slot = running;
+                    running += size;
+                }
+            }
+            band_start[bands] = running;
         }
-    }
-    interruption.check();
-
-    // Within a cell, by height (ties: input index), for the slope pre-filter: it then
-    // meets a cell's low points first and stops at the first one it cannot fail against
-    // (and the links look only at heights within reach). Nothing else depends on the
-    // order within a cell (grid_ground.cpp). Sorted on the gathered copies, which lie
-    // together; without the pre-filter the sort costs more than it saves.
-    grid.by_height = params.filter_passes > 0;
-    const auto cell_count = static_cast<std::ptrdiff_t>(grid.by_height ? cells : 0);
-#pragma omp parallel if (parallel && grid.by_height)
-    {
-        std::vector<std::uint32_t> rank;
-        std::vector<Local> p;
-        std::vector<std::uint32_t> id;
-#pragma omp for schedule(dynamic, 1024)
-        for (std::ptrdiff_t c = 0; c < cell_count; ++c) {
-            const std::size_t begin = grid.start[c], size = grid.start[c + 1] - begin;
-            if (size < 2) continue;
-            rank.resize(size);
-            for (std::size_t k = 0; k < size; ++k) rank[k] = static_cast<std::uint32_t>(k);
-            const Local* local = grid.p.data() + begin;
-            const std::uint32_t* index = grid.id.data() + begin;
-            std::sort(rank.begin(), rank.end(), [&](std::uint32_t a, std::uint32_t b) {
-                return local[a].z < local[b].z || (local[a].z == local[b].z && index[a] < index[b]);
-            });
-            p.assign(local, local + size);
-            id.assign(index, index + size);
-            for (std::size_t k = 0; k < size; ++k) {
-                grid.p[begin + k] = p[rank[k]];
-                grid.id[begin + k] = id[rank[k]];
+#pragma omp for schedule(static)
+        for (std::ptrdiff_t c = 0; c < chunks; ++c) {
+            std::size_t* next = &offsets[static_cast<std::size_t>(c) * bands];
+            for (std::ptrdiff_t i = chunk_begin(c); i < chunk_begin(c + 1); ++i) {
+                if (i % 4096 == 0 && interruption.requested()) break;
+                Record& r = record[next[key[i] >> band_shift]++];
+                r.p = {points.coord(i, 0) - origin[0], points.coord(i, 1) - origin[1],
+                       points.coord(i, 2) - origin[2]};
+                r.id = static_cast<std::uint32_t>(i);
+                r.cell = key[i];
+                if (snap) {
+                    r.snap_x = snap->frame.grid_x(points.coord(i, 0) - snap->x0);
+                    r.snap_y = snap->frame.grid_y(points.coord(i, 1) - snap->y0);
+                }
             }
         }
     }
+    interruption.check();
+    key = {};
+    grid.start.resize(cells + 1);
+    grid.start[cells] = n;
+    grid.id.resize(n);
+    grid.p.resize(n);
+    grid.cell.resize(n);
+    if (snap) {
+        grid.snap_x.resize(n);
+        grid.snap_y.resize(n);
+    }
+#pragma omp parallel if (parallel) firstprivate(interruption)
+    {
+        std::vector<std::size_t> fill;
+        std::vector<Record> sorted;
+#pragma omp for schedule(dynamic, 4)
+        for (std::ptrdiff_t band = 0; band < static_cast<std::ptrdiff_t>(bands); ++band) {
+            if (interruption.requested()) continue;
+            const std::size_t first_cell = static_cast<std::size_t>(band) << band_shift;
+            const std::size_t band_cells =
+                std::min(cells, static_cast<std::size_t>(band + 1) << band_shift) - first_cell;
+            const std::size_t begin = band_start[band], end = band_start[band + 1];
+            fill.assign(band_cells + 1, 0);
+            for (std::size_t r = begin; r < end; ++r) ++fill[record[r].cell - first_cell + 1];
+            for (std::size_t k = 0; k < band_cells; ++k) {
+                fill[k + 1] += fill[k];
+                grid.start[first_cell + k] = begin + fill[k];
+            }
+            sorted.resize(end - begin);
+            for (std::size_t r = begin; r < end; ++r)
+                sorted[fill[record[r].cell - first_cell]++] = record[r];
+            if (grid.by_height)
+                for (std::size_t k = 0, from = 0; k < band_cells; from = fill[k++])
+                    if (fill[k] - from > 1)
+                        std::sort(sorted.begin() + static_cast<std::ptrdiff_t>(from),
+                                  sorted.begin() + static_cast<std::ptrdiff_t>(fill[k]),
+                                  [](const Record& a, const Record& b) {
+                                      return a.p.z < b.p.z || (a.p.z == b.p.z && a.id < b.id);
+                                  });
+            for (std::size_t k = 0; k < end - begin; ++k) {
+                const Record& r = sorted[k];
+                grid.p[begin + k] = r.p;
+                grid.id[begin + k] = r.id;
+                grid.cell[begin + k] = r.cell;
+                if (snap) {
+                    grid.snap_x[begin + k] = r.snap_x;
+                    grid.snap_y[begin + k] = r.snap_y;
+                }
+            }
+        }
+    }
+    interruption.check();
+    record = {};
 
     // Blocks, numbered densely unless the block grid is far larger than the cloud.
     const std::int64_t nbx = grid_index(extent[0], params.block_size[0]) + 1;
@@ -150,21 +214,50 @@ CellGrid build_grid(PointsView points, const GridGroundParams& params,
             grid.block[s] = static_cast<std::uint32_t>(
                 std::lower_bound(occupied.begin(), occupied.end(), block[s]) - occupied.begin());
     }
+    // Members of each block in position order: a stable counting sort as above, per
+    // chunk of positions (fewer chunks when there are many blocks, to bound the counts).
     interruption.check_now();
+    const auto block_chunks = static_cast<std::ptrdiff_t>(
+        parallel ? std::max<std::size_t>(
+                       1, std::min({std::size_t{64}, n / 65536 + 1, 2 * n / (grid.blocks + 1)}))
+                 : 1);
+    const auto block_chunk_begin = [&](std::ptrdiff_t c) {
+        return static_cast<std::ptrdiff_t>(n * static_cast<std::size_t>(c) /
+                                           static_cast<std::size_t>(block_chunks));
+    };
+    offsets.assign(static_cast<std::size_t>(block_chunks) * grid.blocks, 0);
     grid.block_start.assign(grid.blocks + 1, 0);
-    for (std::size_t s = 0; s < n; ++s) {
-        if (s % 4096 == 0) interruption.check();
-        ++grid.block_start[grid.block[s] + 1];
-    }
-    for (std::size_t b = 0; b < grid.blocks; ++b) grid.block_start[b + 1] += grid.block_start[b];
     grid.block_member.resize(n);
+#pragma omp parallel if (parallel) firstprivate(interruption)
     {
-        std::vector<std::size_t> fill(grid.block_start.begin(), grid.block_start.end() - 1);
-        for (std::size_t s = 0; s < n; ++s) {
-            if (s % 4096 == 0) interruption.check();
-            grid.block_member[fill[grid.block[s]]++] = static_cast<std::uint32_t>(s);
+#pragma omp for schedule(static)
+        for (std::ptrdiff_t c = 0; c < block_chunks; ++c) {
+            std::size_t* counts = &offsets[static_cast<std::size_t>(c) * grid.blocks];
+            for (std::ptrdiff_t s = block_chunk_begin(c); s < block_chunk_begin(c + 1); ++s)
+                ++counts[grid.block[s]];
+        }
+#pragma omp single
+        {
+            std::size_t running = 0;
+            for (std::size_t block = 0; block < grid.blocks; ++block) {
+                grid.block_start[block] = running;
+                for (std::ptrdiff_t c = 0; c < block_chunks; ++c) {
+                    std::size_t& slot = offsets[static_cast<std::size_t>(c) * grid.blocks + block];
+                    const std::size_t size = slot;
+                    slot = running;
+                    running += size;
+                }
+            }
+            grid.block_start[grid.blocks] = running;
+        }
+#pragma omp for schedule(static)
+        for (std::ptrdiff_t c = 0; c < block_chunks; ++c) {
+            std::size_t* next = &offsets[static_cast<std::size_t>(c) * grid.blocks];
+            for (std::ptrdiff_t s = block_chunk_begin(c); s < block_chunk_begin(c + 1); ++s)
+                grid.block_member[next[grid.block[s]]++] = static_cast<std::uint32_t>(s);
         }
     }
+    interruption.check();
     return grid;
 }
 

@@ -29,15 +29,19 @@
 // the origin by whole blocks, so their indices of a point differ by one constant, except
 // where float64 rounding of l / size decides (a point within a few ulps of a boundary).
 //
-// Speed: one stable counting sort of the points into a flat CSR cell grid (dense, or
-// sorted occupied cells when the extent is far larger than the cloud), so a point's
-// 3 x 3 cells are found in O(1), each cell's points rising in height; then the
-// pre-filter in parallel over cells (it reads a cell's points from the lowest up and
-// stops at the first within the tolerance of the point, which is exact: no later test
-// in that cell can fail), and the link tests in parallel over blocks feeding a
-// lock-free union-find (Afforest: most pairs are never tested); seeds are picked per
-// block in parallel. The components, not a BFS from each seed, are computed because the
-// robust seed needs their sizes and growth across blocks merges them.
+// Speed: the points sorted into a flat CSR cell grid (dense, or sorted occupied cells
+// when the extent is far larger than the cloud) by a parallel two-step counting sort
+// (grid_cells.cpp), so a point's 3 x 3 cells are found in O(1), each cell's points
+// rising in height; then the pre-filter in parallel over cells (it reads a cell's points
+// from the lowest up and stops at the first within the tolerance of the point, which is
+// exact: no later test in that cell can fail), and the link tests in parallel over
+// blocks feeding a lock-free union-find (Afforest: most pairs are never tested); seeds
+// are picked per block in parallel. The components, not a BFS from each seed, are
+// computed because the robust seed needs their sizes and growth across blocks merges
+// them. A pre-filter pass that only adds candidates (pass 2 always: pass 1 tested
+// against every point) adds their links to the last pass's components instead of
+// labelling anew. The final pass classifies the points in the grid's order, snapped
+// while the grid is built, instead of sorting them once more.
 #include "pcl_rg/grid_ground.hpp"
 
 #include <algorithm>
@@ -51,8 +55,10 @@
 #include <vector>
 
 #include "pcl_rg/check.hpp"
+#include "pcl_rg/delaunay.hpp"
 #include "pcl_rg/final_pass.hpp"
 #include "pcl_rg/grid_cells.hpp"
+#include "pcl_rg/grid_links.hpp"
 #include "pcl_rg/interrupt.hpp"
 #include "pcl_rg/point_spacing.hpp"
 
@@ -88,51 +94,6 @@ namespace {
 // integers and neighbour arithmetic cannot overflow.
 constexpr double kMaxIndex = 0x1p40;
 constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
-
-// Disjoint sets that many threads may unite at once (lock-free): a root is only ever
-// linked, by compare-and-swap, under a smaller root, and path halving only shortens
-// paths, so every pointer ever seen joins two members of one set. The partition at the
-// end is the same whatever the interleaving; only the representatives may differ.
-class ConcurrentDisjointSets {
-   public:
-    explicit ConcurrentDisjointSets(std::size_t n) : parent_(n) {}
-
-    void reset() {
-        const auto n = static_cast<std::ptrdiff_t>(parent_.size());
-        const bool parallel = parent_.size() >= kGridParallelMin;
-#pragma omp parallel for schedule(guided) if (parallel)
-        for (std::ptrdiff_t i = 0; i < n; ++i)
-            parent_[i].store(static_cast<std::uint32_t>(i), std::memory_order_relaxed);
-    }
-
-    std::uint32_t find(std::uint32_t x) {
-        for (;;) {
-            std::uint32_t p = parent_[x].load(std::memory_order_acquire);
-            if (p == x) return x;
-            const std::uint32_t grand = parent_[p].load(std::memory_order_acquire);
-            if (grand != p)
-                parent_[x].compare_exchange_weak(p, grand, std::memory_order_acq_rel,
-                                                 std::memory_order_relaxed);
-            x = grand;
-        }
-    }
-
-    void unite(std::uint32_t a, std::uint32_t b) {
-        for (;;) {
-            a = find(a);
-            b = find(b);
-            if (a == b) return;
-            if (a < b) std::swap(a, b);
-            std::uint32_t expected = a;  // a must still be a root to be linked under b
-            if (parent_[a].compare_exchange_strong(expected, b, std::memory_order_acq_rel,
-                                                   std::memory_order_relaxed))
-                return;
-        }
-    }
-
-   private:
-    std::vector<std::atomic<std::uint32_t>> parent_;
-};
 
 // Calls visit(s, around, k) for every point s, in parallel over cells, with the k cells
 // of the 3 x 3 block around s's cell (its own included); polls for interruption.
@@ -209,171 +170,43 @@ void low_outliers(const CellGrid& grid, double depth, std::vector<unsigned char>
     });
 }
 
-// The link test, as in the reference: same operations, same order (symmetric in s, q).
-inline bool linked(const CellGrid& grid, std::size_t s, std::size_t q, double slope,
-                   double tolerance) {
-    const double dx = grid.p[s].x - grid.p[q].x, dy = grid.p[s].y - grid.p[q].y;
-    const double d = std::sqrt(dx * dx + dy * dy);
-    return std::abs(grid.p[s].z - grid.p[q].z) <= slope * d + tolerance;
-}
-
-// Positions [first, last) of cell c whose height lies within `reach` of z (all of them
-// unless the cell's points rise, grid_cells.cpp): both ends by bisection on tests that are monotone
-// along the cell, z - z_q > reach for those below and z_q - z > reach for those above, in the
-// floating-point arithmetic of linked(), so that every q outside fails that test.
-inline std::pair<std::size_t, std::size_t> within_reach(const CellGrid& grid, std::ptrdiff_t c,
-                                                        double z, double reach) {
-    const auto begin = grid.p.begin() + static_cast<std::ptrdiff_t>(grid.start[c]);
-    const auto end = grid.p.begin() + static_cast<std::ptrdiff_t>(grid.start[c + 1]);
-    if (begin == end || !grid.by_height) return {grid.start[c], grid.start[c + 1]};
-    // Mostly the whole cell is within reach: two tests instead of two bisections.
-    const auto first =
-        !(z - begin->z > reach)
-            ? begin
-            : std::partition_point(begin, end, [&](const Local& q) { return z - q.z > reach; });
-    const auto last =
-        !((end - 1)->z - z > reach)
-            ? end
-            : std::partition_point(first, end, [&](const Local& q) { return !(q.z - z > reach); });
-    return {static_cast<std::size_t>(first - grid.p.begin()),
-            static_cast<std::size_t>(last - grid.p.begin())};
-}
-
-// Calls visit(s, around, k) for every candidate position s with the k occupied cells of
-// its 3 x 3 neighbourhood, block by block in parallel: threads then mostly work on
-// disjoint trees of the union-find instead of contending for the same roots.
-template <class Visit>
-void for_each_candidate(const CellGrid& grid, const std::vector<unsigned char>& candidate,
-                        bool parallel, Visit visit) {
-    const auto blocks = static_cast<std::ptrdiff_t>(grid.blocks);
-    const Interruption interruption;
-#pragma omp parallel for schedule(dynamic, 1) if (parallel) firstprivate(interruption)
-    for (std::ptrdiff_t b = 0; b < blocks; ++b) {
-        std::ptrdiff_t around[9];
-        int k = 0;
-        std::uint32_t current = kNone;
-        for (std::size_t m = grid.block_start[b]; m < grid.block_start[b + 1]; ++m) {
-            const std::uint32_t s = grid.block_member[m];
-            if (!candidate[s]) continue;
-            if (grid.cell[s] != current) {  // members come in cell order: few recomputes
-                // Polled per cell, not per block: one block may hold the whole cloud.
-                if (interruption.requested()) break;
-                current = grid.cell[s];
-                k = grid.neighbours(current, around);
-            }
-            visit(s, around, k);
-        }
-    }
-    interruption.check();
-}
-
-// Components of the link graph among the candidates, in `sets`, after Afforest (Sutton,
-// Ben-Nun and Barak, "Optimizing parallel graph connectivity computation via subgraph
-// sampling", IPDPS 2018): (1) each candidate unites with two linked neighbours, sought
-// from a pseudo-random cell and place, which already joins most of every large
-// component; (2) a snapshot of the roots lets
-// the full pass skip, without a test, every pair already joined; (3) across blocks the
-// terrain is mostly one giant component, the most frequent root of a sample, and points
-// in it are skipped altogether, which is exact: an edge between the giant and another
-// point is tested from that point, whose pass visits all its neighbours.
-void label_components(const CellGrid& grid, const GridGroundParams& params,
-                      const std::vector<unsigned char>& candidate, ConcurrentDisjointSets& sets) {
-    const std::size_t n = grid.p.size();
-    const double slope = params.slope, tolerance = params.height_tolerance;
-    const bool across = params.grow_across_blocks;
-    const bool parallel = n >= kGridParallelMin;
-    // Points of a 3 x 3 block of cells lie less than 3 cells apart on each axis (up to
-    // rounding of the cell index, relatively 2^-12 at 2^40 cells), so every computed
-    // d is below 4 * (cell_x + cell_y) and a linked q has |z_s - z_q| <= slope * that
-    // + tolerance (rounding is monotone): only heights within this reach are visited.
-    const double reach =
-        slope * (4.0 * ((*params.cell_size)[0] + (*params.cell_size)[1])) + tolerance;
-    const auto joinable = [&](std::size_t s, std::size_t q) {
-        return candidate[q] && (across || grid.block[q] == grid.block[s]) &&
-               linked(grid, s, q, slope, tolerance);
-    };
-    sets.reset();
-    for_each_candidate(
-        grid, candidate, parallel, [&](std::size_t s, const std::ptrdiff_t* around, int k) {
-            // From a pseudo-random one of the cells and place in it, round the lists:
-            // the sampled links then run in every direction and join points of all
-            // heights. (The cells in a fixed order made every point link into its
-            // lower-left cell's lowest points: diagonal strips, a small giant.)
-            int links = 0;
-            const std::size_t hash = (s * std::size_t{2654435761u}) >> 8;
-            for (int j = 0; j < k && links < 2; ++j) {
-                const std::ptrdiff_t cell = around[(static_cast<std::size_t>(j) + hash) % k];
-                const std::size_t first = grid.start[cell], size = grid.start[cell + 1] - first;
-                const std::size_t offset = hash % size;
-                for (std::size_t i = 0; i < size; ++i) {
-                    const std::size_t q =
-                        first + (offset + i < size ? offset + i : offset + i - size);
-                    if (q != s && joinable(s, q)) {
-                        sets.unite(static_cast<std::uint32_t>(s), static_cast<std::uint32_t>(q));
-                        if (++links == 2) break;
-                    }
-                }
-            }
-        });
-    std::vector<std::uint32_t> root(n);
-    const auto count = static_cast<std::ptrdiff_t>(n);
-#pragma omp parallel for schedule(guided) if (parallel)
-    for (std::ptrdiff_t s = 0; s < count; ++s) root[s] = sets.find(static_cast<std::uint32_t>(s));
-    if (!across) {
-        // Many mid-sized components, one or more per block: every unordered pair once,
-        // from its smaller position.
-        for_each_candidate(
-            grid, candidate, parallel, [&](std::size_t s, const std::ptrdiff_t* around, int k) {
-                for (int a = 0; a < k; ++a) {
-                    const auto [first, last] = within_reach(grid, around[a], grid.p[s].z, reach);
-                    for (std::size_t q = std::max(first, s + 1); q < last; ++q)
-                        if (root[q] != root[s] && joinable(s, q))
-                            sets.unite(static_cast<std::uint32_t>(s),
-                                       static_cast<std::uint32_t>(q));
-                }
-            });
-        return;
-    }
-    std::vector<std::uint32_t> sample;
-    const std::size_t step = std::max<std::size_t>(1, n / 4096);
-    for (std::size_t s = 0; s < n; s += step)
-        if (candidate[s]) sample.push_back(root[s]);
-    std::sort(sample.begin(), sample.end());
-    std::uint32_t giant = kNone;
-    std::size_t best = 0;
-    for (std::size_t i = 0, j; i < sample.size(); i = j) {
-        for (j = i; j < sample.size() && sample[j] == sample[i]; ++j) {
-        }
-        if (j - i > best) best = j - i, giant = sample[i];
-    }
-    for_each_candidate(
-        grid, candidate, parallel, [&](std::size_t s, const std::ptrdiff_t* around, int k) {
-            if (root[s] == giant) return;
-            for (int a = 0; a < k; ++a) {
-                const auto [first, last] = within_reach(grid, around[a], grid.p[s].z, reach);
-                for (std::size_t q = first; q < last; ++q)
-                    if (root[q] != root[s] && joinable(s, q))
-                        sets.unite(static_cast<std::uint32_t>(s), static_cast<std::uint32_t>(q));
-            }
-        });
-}
-
 // Steps 3 and 4 on the candidates: components of the link graph, one seed per block,
-// ground[s] = 1 for the members of the seeds' components.
+// ground[s] = 1 for the members of the seeds' components. `before` (or null): the
+// candidates whose components `sets` already holds (add_to_components).
 void grow(const CellGrid& grid, const GridGroundParams& params,
-          const std::vector<unsigned char>& candidate, ConcurrentDisjointSets& sets,
-          std::vector<unsigned char>& ground) {
+          const std::vector<unsigned char>& candidate, const std::vector<unsigned char>* before,
+          ConcurrentDisjointSets& sets, std::vector<unsigned char>& ground) {
     const std::size_t n = grid.p.size();
     const auto count = static_cast<std::ptrdiff_t>(n);
     const bool parallel = n >= kGridParallelMin;
-    label_components(grid, params, candidate, sets);
+    if (before)
+        add_to_components(grid, params, candidate, *before, sets);
+    else
+        label_components(grid, params, candidate, sets);
     poll_interrupt();
     std::vector<std::uint32_t> root(n);
-#pragma omp parallel for schedule(guided) if (parallel)
-    for (std::ptrdiff_t s = 0; s < count; ++s) root[s] = sets.find(static_cast<std::uint32_t>(s));
-    std::vector<std::uint32_t> size(n, 0);
-    for (std::size_t s = 0; s < n; ++s)
-        if (candidate[s]) ++size[root[s]];
+    // Component sizes: neighbouring positions mostly share a root, so each thread adds
+    // runs of one root at a time (integer sums: the same whatever the sharing).
+    std::vector<std::atomic<std::uint32_t>> size(n);
+#pragma omp parallel if (parallel)
+    {
+#pragma omp for schedule(static)
+        for (std::ptrdiff_t s = 0; s < count; ++s) {
+            root[s] = sets.find(static_cast<std::uint32_t>(s));
+            size[s].store(0, std::memory_order_relaxed);
+        }
+        std::uint32_t run_root = kNone, run = 0;
+#pragma omp for schedule(static)
+        for (std::ptrdiff_t s = 0; s < count; ++s) {
+            if (!candidate[s]) continue;
+            if (root[s] != run_root) {
+                if (run) size[run_root].fetch_add(run, std::memory_order_relaxed);
+                run_root = root[s], run = 0;
+            }
+            ++run;
+        }
+        if (run) size[run_root].fetch_add(run, std::memory_order_relaxed);
+    }
 
     // Step 3, robust: the lowest candidate (ties: lowest input index) whose component
     // is large enough, else the lowest candidate.
@@ -390,7 +223,8 @@ void grow(const CellGrid& grid, const GridGroundParams& params,
             const std::uint32_t s = grid.block_member[m];
             if (!candidate[s]) continue;
             if (lower(s, lowest)) lowest = s;
-            if (size[root[s]] >= min_size && lower(s, lowest_large)) lowest_large = s;
+            if (size[root[s]].load(std::memory_order_relaxed) >= min_size && lower(s, lowest_large))
+                lowest_large = s;
         }
         seed[b] = lowest_large != kNone ? lowest_large : lowest;
     }
@@ -448,13 +282,27 @@ void grid_ground(PointsView points, const GridGroundParams& given, bool* ground,
                 "cell_size is too small for the extent of points: more than 2^40 cells on " +
                 std::string(a == 0 ? "x" : "y"));
 
+    // The final pass's frame (snap_for_final_pass's), so that build_grid snaps the points
+    // for it: the pass then classifies them in the grid's order, whose neighbours lie
+    // close together as in a Morton order, instead of sorting them once more.
+    const bool final_pass_runs = params.final_cell > 0.0;
+    SnapFrame snap;
+    if (final_pass_runs) {
+        if (!std::isfinite(upper[2] - lower[2]) || !std::isfinite(upper[0] - lower[0]) ||
+            !std::isfinite(upper[1] - lower[1]))
+            throw std::invalid_argument("points: the extent is too large (not finite in float64)");
+        snap = {make_grid_frame(0.0, 0.0, upper[0] - lower[0], upper[1] - lower[1]), lower[0],
+                lower[1]};
+    }
     poll_interrupt();
-    const CellGrid grid = build_grid(points, params, origin, extent);
-    std::vector<unsigned char> candidate(n, 1), against(n, 1), result(n, 0), kept_by_all;
+    CellGrid grid = build_grid(points, params, origin, extent, final_pass_runs ? &snap : nullptr);
+    std::vector<unsigned char> candidate(n, 1), against(n, 1), result(n, 0), kept_by_all, before;
     std::vector<unsigned char> outlier(n, 0);
+    const auto count = static_cast<std::ptrdiff_t>(n);
     if (params.outlier_depth > 0.0) {
         low_outliers(grid, params.outlier_depth, outlier);
-        for (std::size_t s = 0; s < n; ++s) candidate[s] = against[s] = !outlier[s];
+#pragma omp parallel for schedule(static) if (parallel)
+        for (std::ptrdiff_t s = 0; s < count; ++s) candidate[s] = against[s] = !outlier[s];
     }
     ConcurrentDisjointSets sets(n);
     const std::int64_t passes = std::max<std::int64_t>(params.filter_passes, 1);
@@ -463,22 +311,45 @@ void grid_ground(PointsView points, const GridGroundParams& given, bool* ground,
         if (params.filter_passes > 0) {
             if (pass > 0) against.swap(result);  // test only against the last ground
             slope_filter(grid, params, against, pass > 0 ? &kept_by_all : nullptr, candidate);
-            for (std::size_t s = 0; s < n; ++s) candidate[s] = candidate[s] && !outlier[s];
+#pragma omp parallel for schedule(static) if (parallel)
+            for (std::ptrdiff_t s = 0; s < count; ++s) candidate[s] = candidate[s] && !outlier[s];
             if (pass == 0 && passes > 1) kept_by_all = candidate;
         }
-        grow(grid, params, candidate, sets, result);
+        // The last pass's candidates among these (always after pass 1, whose filter
+        // tested against every point): its components grow instead of being redone.
+        bool grows = pass > 0;
+        if (grows) {
+#pragma omp parallel for schedule(static) reduction(&& : grows) if (parallel)
+            for (std::ptrdiff_t s = 0; s < count; ++s)
+                grows = grows && (!before[s] || candidate[s]);
+        }
+        grow(grid, params, candidate, grows ? &before : nullptr, sets, result);
+        if (pass + 1 < passes) before = candidate;
     }
-    const auto count = static_cast<std::ptrdiff_t>(n);
 #pragma omp parallel for schedule(guided) if (parallel)
     for (std::ptrdiff_t s = 0; s < count; ++s) ground[grid.id[s]] = result[s] != 0;
-    if (params.final_cell <= 0.0) return;
-    const SnappedPoints snapped = snap_for_final_pass(points, lower, upper);  // once for all
+    if (!final_pass_runs) return;
+    // The points as snap_points leaves them, but in the grid's order: z - lower[2] is
+    // grid.p's z (the grid's origin has the same z).
+    std::vector<std::uint32_t> outliers;  // input indices
+    for (std::ptrdiff_t s = 0; s < count; ++s)
+        if (outlier[s]) outliers.push_back(grid.id[s]);
+    SnappedPoints snapped;
+    snapped.origin = lower;
+    snapped.upper = upper;
+    snapped.frame = snap.frame;
+    snapped.z.resize(n);
+#pragma omp parallel for schedule(static) if (parallel)
+    for (std::ptrdiff_t s = 0; s < count; ++s) snapped.z[s] = grid.p[s].z;
+    snapped.order = std::move(grid.id);
+    snapped.x = std::move(grid.snap_x);
+    snapped.y = std::move(grid.snap_y);
+    grid = CellGrid{};
     for (std::int64_t round = 0; round < params.final_passes; ++round) {
         poll_interrupt();
         final_pass(points, final_pass_params(params), snapped, ground);
-        if (params.outlier_depth > 0.0)  // the final pass sees every point: not these
-            for (std::ptrdiff_t s = 0; s < count; ++s)
-                if (outlier[s]) ground[grid.id[s]] = false;
+        // The final pass sees every point: not these.
+        for (const std::uint32_t i : outliers) ground[i] = false;
     }
 }
 

@@ -3,7 +3,9 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
 #include <limits>
 #include <vector>
@@ -36,12 +38,24 @@ double point_spacing(PointsView points, const std::array<double, 3>& lower,
     };
     std::uint64_t occupied = 0;
     if (nx * ny <= 64 * static_cast<std::uint64_t>(n) + 4096) {
-        // The usual case (about N / 9 cells): one flag per cell.
-        std::vector<std::uint8_t> seen(nx * ny, 0);
-        for (std::size_t i = 0; i < n; ++i) {
-            std::uint8_t& flag = seen[key(i)];
-            occupied += flag == 0;
-            flag = 1;
+        // The usual case (about N / 9 cells): one flag per cell, set in parallel (the
+        // same flags whatever the threads), then counted.
+        const std::size_t cells = nx * ny;
+        std::vector<std::atomic<std::uint8_t>> seen(cells);
+        const auto points_count = static_cast<std::ptrdiff_t>(n);
+        const auto cell_count = static_cast<std::ptrdiff_t>(cells);
+        const bool parallel = n > 65536;
+#pragma omp parallel if (parallel)
+        {
+#pragma omp for schedule(static)
+            for (std::ptrdiff_t c = 0; c < cell_count; ++c)
+                seen[c].store(0, std::memory_order_relaxed);
+#pragma omp for schedule(static)
+            for (std::ptrdiff_t i = 0; i < points_count; ++i)
+                seen[key(static_cast<std::size_t>(i))].store(1, std::memory_order_relaxed);
+#pragma omp for schedule(static) reduction(+ : occupied)
+            for (std::ptrdiff_t c = 0; c < cell_count; ++c)
+                occupied += seen[c].load(std::memory_order_relaxed);
         }
     } else {
         // A slim or very uneven cloud: sort the keys instead.

@@ -9,6 +9,7 @@
 #include <utility>
 #include <vector>
 
+#include "pcl_rg/delaunay.hpp"
 #include "pcl_rg/grid_ground.hpp"
 #include "pcl_rg/points.hpp"
 
@@ -26,12 +27,13 @@ struct Local {
 
 // The points in cell order (a CSR grid) with everything the passes read.
 struct CellGrid {
-    std::vector<Local> p;              // local coordinates, by sorted position
-    std::vector<std::uint32_t> id;     // input index of each position
-    std::vector<std::uint32_t> block;  // block number of each position
-    std::vector<std::uint32_t> cell;   // cell number of each position
-    std::vector<std::size_t> start;    // positions of cell c: [start[c], start[c + 1])
-    bool by_height = false;            // a cell's points by height (else input order)
+    std::vector<Local> p;                      // local coordinates, by sorted position
+    std::vector<std::uint32_t> id;             // input index of each position
+    std::vector<std::uint32_t> block;          // block number of each position
+    std::vector<std::uint32_t> cell;           // cell number of each position
+    std::vector<std::int32_t> snap_x, snap_y;  // XY on the final pass's grid (if asked)
+    std::vector<std::size_t> start;            // positions of cell c: [start[c], start[c + 1])
+    bool by_height = false;                    // a cell's points by height (else input order)
     std::size_t blocks = 0;
     std::vector<std::size_t> block_start;     // members of block b: block_member[
     std::vector<std::uint32_t> block_member;  //   block_start[b] .. block_start[b + 1])
@@ -74,10 +76,18 @@ struct CellGrid {
     }
 };
 
+/// Where the final pass snaps the points: frame.grid_x(x - x0), frame.grid_y(y - y0).
+struct SnapFrame {
+    GridFrame frame;
+    double x0 = 0.0, y0 = 0.0;
+};
+
 /// Steps 1 and 2: block and cell of every point (local coordinates l = p - origin),
 /// and the counting sorts. `extent` is the largest l in x and y; `params` must have
-/// cell_size set (grid_ground passes with_spacing(...)).
+/// cell_size set (grid_ground passes with_spacing(...)). With `snap`, also each
+/// position's snapped XY (snap_x, snap_y), so that the final pass needs no sort of its own.
 CellGrid build_grid(PointsView points, const GridGroundParams& params,
-                    const std::array<double, 3>& origin, const std::array<double, 2>& extent);
+                    const std::array<double, 3>& origin, const std::array<double, 2>& extent,
+                    const SnapFrame* snap = nullptr);
 
 }  // namespace pcl_rg

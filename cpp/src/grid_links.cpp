@@ -1,0 +1,216 @@
+// The components of the grid ground filter's link graph (see grid_links.hpp).
+#include "pcl_rg/grid_links.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "pcl_rg/interrupt.hpp"
+
+namespace pcl_rg {
+
+namespace {
+
+constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
+
+// The link test, as in the reference: same operations, same order (symmetric in s, q).
+inline bool linked(const CellGrid& grid, std::size_t s, std::size_t q, double slope,
+                   double tolerance) {
+    const double dx = grid.p[s].x - grid.p[q].x, dy = grid.p[s].y - grid.p[q].y;
+    const double d = std::sqrt(dx * dx + dy * dy);
+    return std::abs(grid.p[s].z - grid.p[q].z) <= slope * d + tolerance;
+}
+
+// Positions [first, last) of cell c whose height lies within `reach` of z (all of them
+// unless the cell's points rise, grid_cells.cpp): both ends by bisection on tests that are monotone
+// along the cell, z - z_q > reach for those below and z_q - z > reach for those above, in the
+// floating-point arithmetic of linked(), so that every q outside fails that test.
+inline std::pair<std::size_t, std::size_t> within_reach(const CellGrid& grid, std::ptrdiff_t c,
+                                                        double z, double reach) {
+    const auto begin = grid.p.begin() + static_cast<std::ptrdiff_t>(grid.start[c]);
+    const auto end = grid.p.begin() + static_cast<std::ptrdiff_t>(grid.start[c + 1]);
+    if (begin == end || !grid.by_height) return {grid.start[c], grid.start[c + 1]};
+    // Mostly the whole cell is within reach: two tests instead of two bisections.
+    const auto first =
+        !(z - begin->z > reach)
+            ? begin
+            : std::partition_point(begin, end, [&](const Local& q) { return z - q.z > reach; });
+    const auto last =
+        !((end - 1)->z - z > reach)
+            ? end
+            : std::partition_point(first, end, [&](const Local& q) { return !(q.z - z > reach); });
+    return {static_cast<std::size_t>(first - grid.p.begin()),
+            static_cast<std::size_t>(last - grid.p.begin())};
+}
+
+// Calls visit(s, around, k) for every candidate position s with the k occupied cells of
+// its 3 x 3 neighbourhood, block by block in parallel: threads then mostly work on
+// disjoint trees of the union-find instead of contending for the same roots.
+template <class Visit>
+void for_each_candidate(const CellGrid& grid, const std::vector<unsigned char>& candidate,
+                        bool parallel, Visit visit) {
+    const auto blocks = static_cast<std::ptrdiff_t>(grid.blocks);
+    const Interruption interruption;
+#pragma omp parallel for schedule(dynamic, 1) if (parallel) firstprivate(interruption)
+    for (std::ptrdiff_t b = 0; b < blocks; ++b) {
+        std::ptrdiff_t around[9];
+        int k = 0;
+        std::uint32_t current = kNone;
+        for (std::size_t m = grid.block_start[b]; m < grid.block_start[b + 1]; ++m) {
+            const std::uint32_t s = grid.block_member[m];
+            if (!candidate[s]) continue;
+            if (grid.cell[s] != current) {  // members come in cell order: few recomputes
+                // Polled per cell, not per block: one block may hold the whole cloud.
+                if (interruption.requested()) break;
+                current = grid.cell[s];
+                k = grid.neighbours(current, around);
+            }
+            visit(s, around, k);
+        }
+    }
+    interruption.check();
+}
+
+// Who links with whom among the candidates (the reference's test, restricted as the
+// options say), and how far in height a link can reach.
+struct Links {
+    const CellGrid& grid;
+    const std::vector<unsigned char>& candidate;
+    double slope, tolerance;
+    bool across;
+    // Points of a 3 x 3 block of cells lie less than 3 cells apart on each axis (up to
+    // rounding of the cell index, relatively 2^-12 at 2^40 cells), so every computed
+    // d is below 4 * (cell_x + cell_y) and a linked q has |z_s - z_q| <= slope * that
+    // + tolerance (rounding is monotone): only heights within this reach are visited.
+    double reach;
+
+    Links(const CellGrid& grid, const GridGroundParams& params,
+          const std::vector<unsigned char>& candidate)
+        : grid(grid),
+          candidate(candidate),
+          slope(params.slope),
+          tolerance(params.height_tolerance),
+          across(params.grow_across_blocks),
+          reach(params.slope * (4.0 * ((*params.cell_size)[0] + (*params.cell_size)[1])) +
+                params.height_tolerance) {}
+
+    // s (a candidate) and q are linked.
+    bool joinable(std::size_t s, std::size_t q) const {
+        return candidate[q] && (across || grid.block[q] == grid.block[s]) &&
+               linked(grid, s, q, slope, tolerance);
+    }
+};
+
+}  // namespace
+
+void add_to_components(const CellGrid& grid, const GridGroundParams& params,
+                       const std::vector<unsigned char>& candidate,
+                       const std::vector<unsigned char>& before, ConcurrentDisjointSets& sets) {
+    const Links links(grid, params, candidate);
+    const auto count = static_cast<std::ptrdiff_t>(grid.p.size());
+    const bool parallel = grid.p.size() >= kGridParallelMin;
+    constexpr std::ptrdiff_t kChunk = 16384;
+    const Interruption interruption;
+#pragma omp parallel for schedule(dynamic, 1) if (parallel) firstprivate(interruption)
+    for (std::ptrdiff_t chunk = 0; chunk < (count + kChunk - 1) / kChunk; ++chunk) {
+        if (interruption.requested()) continue;
+        std::ptrdiff_t around[9];
+        int k = 0;
+        std::uint32_t current = kNone;
+        for (std::ptrdiff_t s = chunk * kChunk; s < std::min(count, (chunk + 1) * kChunk); ++s) {
+            if (!candidate[s] || before[s]) continue;
+            if (grid.cell[s] != current) {
+                current = grid.cell[s];
+                k = grid.neighbours(current, around);
+            }
+            for (int a = 0; a < k; ++a) {
+                const auto [first, last] = within_reach(grid, around[a], grid.p[s].z, links.reach);
+                for (std::size_t q = first; q < last; ++q)
+                    if (q != static_cast<std::size_t>(s) && links.joinable(s, q))
+                        sets.unite(static_cast<std::uint32_t>(s), static_cast<std::uint32_t>(q));
+            }
+        }
+    }
+    interruption.check();
+}
+
+void label_components(const CellGrid& grid, const GridGroundParams& params,
+                      const std::vector<unsigned char>& candidate, ConcurrentDisjointSets& sets) {
+    const std::size_t n = grid.p.size();
+    const bool across = params.grow_across_blocks;
+    const bool parallel = n >= kGridParallelMin;
+    const Links links(grid, params, candidate);
+    const double reach = links.reach;
+    const auto joinable = [&](std::size_t s, std::size_t q) { return links.joinable(s, q); };
+    sets.reset();
+    for_each_candidate(
+        grid, candidate, parallel, [&](std::size_t s, const std::ptrdiff_t* around, int k) {
+            // From a pseudo-random one of the cells and place in it, round the lists:
+            // the sampled links then run in every direction and join points of all
+            // heights. (The cells in a fixed order made every point link into its
+            // lower-left cell's lowest points: diagonal strips, a small giant.)
+            int links = 0;
+            // 32-bit remainders: a cell holds far fewer than 2^32 points, and they divide
+            // faster than 64-bit ones.
+            const auto hash = static_cast<std::uint32_t>((s * std::size_t{2654435761u}) >> 8);
+            for (int j = 0; j < k && links < 2; ++j) {
+                const std::ptrdiff_t cell =
+                    around[(static_cast<std::uint32_t>(j) + hash) % static_cast<std::uint32_t>(k)];
+                const std::size_t first = grid.start[cell], size = grid.start[cell + 1] - first;
+                const std::size_t offset = size <= 0xffffffffu
+                                               ? hash % static_cast<std::uint32_t>(size)
+                                               : std::size_t{hash} % size;
+                for (std::size_t i = 0; i < size; ++i) {
+                    const std::size_t q =
+                        first + (offset + i < size ? offset + i : offset + i - size);
+                    if (q != s && joinable(s, q)) {
+                        sets.unite(static_cast<std::uint32_t>(s), static_cast<std::uint32_t>(q));
+                        if (++links == 2) break;
+                    }
+                }
+            }
+        });
+    std::vector<std::uint32_t> root(n);
+    const auto count = static_cast<std::ptrdiff_t>(n);
+#pragma omp parallel for schedule(guided) if (parallel)
+    for (std::ptrdiff_t s = 0; s < count; ++s) root[s] = sets.find(static_cast<std::uint32_t>(s));
+    if (!across) {
+        // Many mid-sized components, one or more per block: every unordered pair once,
+        // from its smaller position.
+        for_each_candidate(
+            grid, candidate, parallel, [&](std::size_t s, const std::ptrdiff_t* around, int k) {
+                for (int a = 0; a < k; ++a) {
+                    const auto [first, last] = within_reach(grid, around[a], grid.p[s].z, reach);
+                    for (std::size_t q = std::max(first, s + 1); q < last; ++q)
+                        if (root[q] != root[s] && joinable(s, q))
+                            sets.unite(static_cast<std::uint32_t>(s),
+                                       static_cast<std::uint32_t>(q));
+                }
+            });
+        return;
+    }
+    std::vector<std::uint32_t> sample;
+    const std::size_t step = std::max<std::size_t>(1, n / 4096);
+    for (std::size_t s = 0; s < n; s += step)
+        if (candidate[s]) sample.push_back(root[s]);
+    std::sort(sample.begin(), sample.end());
+    std::uint32_t giant = kNone;
+    std::size_t best = 0;
+    for (std::size_t i = 0, j; i < sample.size(); i = j) {
+        for (j = i; j < sample.size() && sample[j] == sample[i]; ++j) {
+        }
+        if (j - i > best) best = j - i, giant = sample[i];
+    }
+    for_each_candidate(
+        grid, candidate, parallel, [&](std::size_t s, const std::ptrdiff_t* around, int k) {
+            if (root[s] == giant) return;
+            for (int a = 0; a < k; ++a) {
+                const auto [first, last] = within_reach(grid, around[a], grid.p[s].z, reach);
+                for (std::size_t q = first; q < last; ++q)
+                    if (root[q] != root[s] && joinable(s, q))
+                        sets.unite(static_cast<std::uint32_t>(s), static_cast<std::uint32_t>(q));
+            }
+        });
+}
+
+}  // namespace pcl_rg
