@@ -10,23 +10,16 @@ import dataclasses
 
 import numpy as np
 import pytest
+from grid_ground_helpers import assert_core_equals_reference, small_scene
 
 import pcl_rg
-from pcl_rg import GridGroundParams, reference
-from pcl_rg.datasets import synthetic_scene
+from pcl_rg import GridGroundParams
 from pcl_rg.reference._final_pass import final_pass
-
-
-def assert_core_equals_reference(points, params):
-    core = pcl_rg.grid_ground(points, params=params)
-    np.testing.assert_array_equal(core, reference.grid_ground(points, params=params))
-    return core
 
 
 @pytest.fixture(scope="module")
 def scene():
-    """The small synthetic scene of tests/test_grid_ground.py."""
-    return synthetic_scene(seed=3, size=70.0, density=2.5, n_buildings=2, n_trees=6)
+    return small_scene()
 
 
 def test_low_outliers_are_never_ground():
