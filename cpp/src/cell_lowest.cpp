@@ -3,7 +3,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <utility>
+
+#ifdef _OPENMP
+#include <omp.h>
+#endif
 
 #include "pcl_rg/interrupt.hpp"
 
@@ -43,21 +48,48 @@ std::vector<std::int64_t> lowest_in_cells(PointsView points, const CellLattice& 
     };
     const auto n = static_cast<std::int64_t>(points.size);
     const Interruption interruption;
-#pragma omp parallel if (cells <= points.size / 8 && n > 65536) firstprivate(interruption)
-    {
-        std::vector<Lowest> mine(cells, Lowest{0.0, -1});
-        bool stop = false;
-#pragma omp for schedule(static) nowait
+    auto cell_index = [&](std::int64_t i) {
+        const auto [cx, cy] = cell_of(points, lattice, static_cast<std::size_t>(i));
+        return cx * lattice.rows + cy;
+    };
+    constexpr std::uint32_t kSkipped = std::numeric_limits<std::uint32_t>::max();
+    if (n <= 65536 || cells >= kSkipped) {
         for (std::int64_t i = 0; i < n; ++i) {
-            if (i % 4096 == 0) stop = interruption.requested();
-            if (stop || (take && !take[i])) continue;
-            const auto [cx, cy] = cell_of(points, lattice, static_cast<std::size_t>(i));
-            keep_lower(mine[static_cast<std::size_t>(cx * lattice.rows + cy)],
+            if (i % 4096 == 0) interruption.check();
+            if (take && !take[i]) continue;
+            keep_lower(lowest[static_cast<std::size_t>(cell_index(i))],
                        Lowest{points.coord(static_cast<std::size_t>(i), 2) - lattice.z0, i});
         }
-#pragma omp critical(pcl_rg_lowest_in_cells)
-        for (std::size_t k = 0; k < cells; ++k)
-            if (mine[k].i >= 0) keep_lower(lowest[k], mine[k]);
+    } else {
+        // First every point's cell, in parallel; then each thread scans them all for the
+        // points of its own range of cells: no grid per thread and no merge, whatever the
+        // number of cells. The lowest under a total order does not depend on the sharing.
+        std::vector<std::uint32_t> cell(static_cast<std::size_t>(n));
+#pragma omp parallel firstprivate(interruption)
+        {
+#pragma omp for schedule(static)
+            for (std::int64_t i = 0; i < n; ++i) {
+                if (i % 4096 == 0 && interruption.requested()) continue;
+                cell[i] = take && !take[i] ? kSkipped : static_cast<std::uint32_t>(cell_index(i));
+            }
+#ifdef _OPENMP
+            const auto threads = static_cast<std::size_t>(omp_get_num_threads());
+            const auto thread = static_cast<std::size_t>(omp_get_thread_num());
+#else
+            const std::size_t threads = 1, thread = 0;
+#endif
+            const auto first = static_cast<std::uint32_t>(cells * thread / threads);
+            const auto last = static_cast<std::uint32_t>(cells * (thread + 1) / threads);
+            bool stop = false;
+            for (std::int64_t i = 0; i < n && !stop; ++i) {
+                if (i % 65536 == 0) stop = interruption.requested();
+                const std::uint32_t c = cell[i];
+                if (c >= first && c < last)  // kSkipped is never inside [first, last)
+                    keep_lower(
+                        lowest[c],
+                        Lowest{points.coord(static_cast<std::size_t>(i), 2) - lattice.z0, i});
+            }
+        }
     }
     interruption.check();
     std::vector<std::int64_t> index(cells);
@@ -85,8 +117,21 @@ std::vector<std::uint32_t> lowest_points(PointsView points, const CellLattice& l
         for (std::size_t k = 0; k < keyed.size(); ++k)
             if (k == 0 || keyed[k].first != keyed[k - 1].first) lowest.push_back(keyed[k].second);
     }
-    std::sort(lowest.begin(), lowest.end());
-    return lowest;
+    return in_index_order(std::move(lowest), points.size);
+}
+
+std::vector<std::uint32_t> in_index_order(std::vector<std::uint32_t> indices, std::size_t n) {
+    if (indices.size() < n / 1024) {
+        std::sort(indices.begin(), indices.end());
+        return indices;
+    }
+    std::vector<std::uint64_t> bits((n + 63) / 64, 0);
+    for (const std::uint32_t i : indices) bits[i >> 6] |= std::uint64_t{1} << (i & 63);
+    indices.clear();
+    for (std::size_t w = 0; w < bits.size(); ++w)
+        for (std::uint64_t word = bits[w]; word != 0; word &= word - 1)
+            indices.push_back(static_cast<std::uint32_t>(w * 64 + __builtin_ctzll(word)));
+    return indices;
 }
 
 }  // namespace pcl_rg

@@ -26,6 +26,9 @@ struct Limits {
     double near_vertex_distance;
     double sin_angle;    // sin(iteration_angle)
     double cos_terrain;  // cos(max_terrain_angle)
+    // cos_terrain rounded up by far more than the rounding errors of terrain_test's
+    // shortcut (see there).
+    double cos_terrain_up = cos_terrain * (1.0 + 1e-14);
 };
 
 struct Verdict {
@@ -69,6 +72,9 @@ inline bool plane_test(const Facet& f, const Limits& lim, double px, double py, 
     *d_out = d;
     if (!(d <= lim.iteration_distance)) return false;
     const double sin_limit = f.sin_limit;
+    // r >= near_vertex_distance, and rounding is monotone: then every vertex passes, and
+    // the three square roots are not needed (most ground points, close to their facet).
+    if (d <= sin_limit * lim.near_vertex_distance) return true;
     for (int k = 0; k < 3; ++k) {
         const double dx = px - f.x[k], dy = py - f.y[k], dz = pz - f.z[k];
         const double r = std::max(std::sqrt(dx * dx + dy * dy + dz * dz), lim.near_vertex_distance);
@@ -90,7 +96,15 @@ inline bool terrain_test(const Delaunay& tin, const Facet& f, const Limits& lim,
         const double mx = ay * bz - az * by;
         const double my = az * bx - ax * bz;
         const double mz = ax * by - ay * bx;
-        if (std::fabs(mz) < lim.cos_terrain * std::sqrt(mx * mx + my * my + mz * mz)) return false;
+        // Shortcut without the square root: |m| <= |mx| + |my| + |mz|, and cos_terrain_up
+        // exceeds cos_terrain by far more than the relative rounding of either side (a few
+        // units in the last place), so a triangle that passes it passes the test below.
+        // Only where no square below can underflow or overflow, so those bounds hold.
+        const double az_abs = std::fabs(mz);
+        const double manhattan = std::fabs(mx) + std::fabs(my) + az_abs;
+        if (az_abs > 0x1p-500 && manhattan < 0x1p500 && az_abs > lim.cos_terrain_up * manhattan)
+            continue;
+        if (az_abs < lim.cos_terrain * std::sqrt(mx * mx + my * my + mz * mz)) return false;
     }
     return true;
 }

@@ -87,7 +87,6 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
-#include <utility>
 #include <vector>
 
 #include "ground_tin.hpp"
@@ -210,25 +209,15 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
     interruption.check_now();
     stats.seeds = static_cast<std::int64_t>(seeds.size());
     for (const std::uint32_t s : seeds) ground[s] = true;
+    // Per sorted position: whether the point is ground (so far: a seed).
+    const auto count = static_cast<std::ptrdiff_t>(n);
+    std::vector<std::uint8_t> is_ground(n, 0);
+#pragma omp parallel for schedule(static) if (count > 65536)
+    for (std::ptrdiff_t s = 0; s < count; ++s) is_ground[s] = ground[order[s]];
     std::vector<std::int32_t> seed_x(seeds.size()), seed_y(seeds.size());
     for (std::size_t k = 0; k < seeds.size(); ++k) {
         seed_x[k] = snapped.grid_x(points, seeds[k]);
         seed_y[k] = snapped.grid_y(points, seeds[k]);
-    }
-
-    // Of seeds sharing an XY position only the smallest index becomes a vertex.
-    std::vector<std::uint8_t> vertex_seed(n, 0);
-    {
-        // One 64-bit key per seed (x above y, both >= 0) sorted with its index: no
-        // indirection in the comparisons.
-        std::vector<std::pair<std::uint64_t, std::uint32_t>> by_xy(seeds.size());
-        for (std::size_t k = 0; k < by_xy.size(); ++k)
-            by_xy[k] = {
-                static_cast<std::uint64_t>(seed_x[k]) << 32 | static_cast<std::uint32_t>(seed_y[k]),
-                seeds[k]};
-        std::sort(by_xy.begin(), by_xy.end());
-        for (std::size_t k = 0; k < by_xy.size(); ++k)
-            if (k == 0 || by_xy[k].first != by_xy[k - 1].first) vertex_seed[by_xy[k].second] = 1;
     }
 
     // Virtual corners one grid step outside the extent, at the height of the nearest
@@ -249,9 +238,12 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
     std::vector<double> vz(corner_z.begin(), corner_z.end());
     vz.reserve(n + 4);
     {
+        // In sorted order, which keeps points of one grid XY in index order (a stable
+        // sort by position): of seeds sharing an XY the smallest index becomes the vertex,
+        // the others are found on it and not inserted.
         std::int32_t last = 0;
         for (std::size_t s = 0; s < n; ++s) {
-            if (!vertex_seed[order[s]]) continue;
+            if (!is_ground[s]) continue;
             interruption.check();
             bool inserted = false;
             const std::int32_t v = tin.insert(sx[s], sy[s], last, &inserted);
@@ -259,7 +251,6 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
             last = tin.vertex_triangle(v);
         }
     }
-    std::vector<std::uint8_t>().swap(vertex_seed);
     stats.triangulation_seconds += seconds_since(clock);
 
     // --- 4. densification -------------------------------------------------------------
@@ -278,7 +269,7 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
     // a triangle that is still there would fail again. The points to test are gathered
     // through a bitmap, so they stay in sorted (Morton) order: consecutive tests read
     // neighbouring points and triangles, and the chosen points come out sorted.
-    std::vector<std::uint8_t> is_ground(n, 0), accepted(n, 0), stop(n, 0);
+    std::vector<std::uint8_t> accepted(n, 0), stop(n, 0);
     std::vector<std::int32_t> tri(n, -1), next(n, -1);
     std::vector<double> dist(n, 0.0);
     std::vector<std::uint64_t> retest((n + 63) / 64, 0);       // bit s: test point s again
@@ -286,10 +277,8 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
     std::vector<std::int32_t> head;     // per triangle slot: first unclassified point
     std::vector<std::int32_t> best_of;  // per triangle slot: chosen point
     std::vector<std::uint32_t> work, chosen;
-    for (std::size_t s = 0; s < n; ++s) {
-        is_ground[s] = ground[order[s]];
+    for (std::size_t s = 0; s < n; ++s)
         if (!is_ground[s]) work.push_back(static_cast<std::uint32_t>(s));
-    }
     // Point a before point b as the choice of a triangle: smallest d, then smallest index.
     auto better = [&](std::int32_t a, std::int32_t b) {
         return dist[a] < dist[b] || (dist[a] == dist[b] && order[a] < order[b]);
@@ -411,7 +400,6 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
         stats.classification_seconds += seconds_since(clock);
     }
     // Scattered writes of distinct entries: in parallel, the result is the same.
-    const auto count = static_cast<std::ptrdiff_t>(n);
 #pragma omp parallel for schedule(static) if (count > 65536)
     for (std::ptrdiff_t s = 0; s < count; ++s) ground[order[s]] = is_ground[s] != 0;
     stats.tin_vertices = static_cast<std::int64_t>(tin.vertex_count());

@@ -6,6 +6,7 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 #include "pcl_rg/cell_lowest.hpp"
 #include "pcl_rg/check.hpp"
@@ -188,8 +189,7 @@ std::vector<std::uint32_t> morphological_seeds(PointsView points,
     for (std::size_t k = 0; k < height.size(); ++k)
         if (height[k] != none && height[k] - opened[k] <= params.seed_tolerance)
             seeds.push_back(static_cast<std::uint32_t>(lowest[k]));
-    std::sort(seeds.begin(), seeds.end());
-    return seeds;
+    return in_index_order(std::move(seeds), points.size);
 }
 
 }  // namespace

@@ -21,9 +21,9 @@ struct CellLattice {
 
 /// Lowest point (then smallest index) of every cell, row-major by column then row
 /// (cell cx * rows + cy); -1 for a cell with no point. Only the points i with take[i]
-/// count (all when take is null). In parallel when the grid is small next to the cloud:
-/// each thread scans a share into its own grid, then the grids are merged; the lowest
-/// under a total order does not depend on the sharing. Polls for interruption.
+/// count (all when take is null). In parallel (beyond 65536 points): every point's cell
+/// first, then each thread keeps the lowest of its own range of cells; the lowest under
+/// a total order does not depend on the sharing. Polls for interruption.
 std::vector<std::int64_t> lowest_in_cells(PointsView points, const CellLattice& lattice,
                                           const bool* take = nullptr);
 
@@ -32,5 +32,9 @@ std::vector<std::int64_t> lowest_in_cells(PointsView points, const CellLattice& 
 /// (cell, height, index), so that any cell size works.
 std::vector<std::uint32_t> lowest_points(PointsView points, const CellLattice& lattice,
                                          const bool* take = nullptr);
+
+/// The distinct point indices `indices` (each < n) in increasing order: through a bitmap
+/// of the n points when they are not very few (linear), else by sorting.
+std::vector<std::uint32_t> in_index_order(std::vector<std::uint32_t> indices, std::size_t n);
 
 }  // namespace pcl_rg
