@@ -1,4 +1,6 @@
-"""Tests of pcl_rg.tin_ground: progressive TIN densification (seed 002, LiDAR360)."""
+"""Tests of pcl_rg.tin_ground: progressive TIN densification (seed 002, LiDAR360): core vs
+reference, invariants, the ISPRS samples, errors (each parameter's effect:
+test_tin_ground_parameters.py)."""
 
 from __future__ import annotations
 
@@ -11,40 +13,17 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import pytest
-from conftest import ISPRS_SAMPLES, examples, shared_data
+from conftest import ISPRS_SAMPLES, examples
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
+from tin_ground_helpers import ISPRS, ISPRS_FIXED, LIDAR360, isprs, run_core, scene
 
 import pcl_rg
 from pcl_rg import _core, reference
-from pcl_rg.datasets import GROUND, load_isprs, synthetic_scene
+from pcl_rg.datasets import GROUND, synthetic_scene
 from pcl_rg.evaluation import ground_errors
 from pcl_rg.reference.tin_ground import seeds
-
-LIDAR360 = pcl_rg.TinGroundParams.lidar360()
-ISPRS = pcl_rg.TinGroundParams.isprs()
-# The preset with the lengths fixed (those it had before they followed the spacing), for
-# the tests of the world lattice: a subset or a moved cloud keeps them.
-ISPRS_FIXED = dataclasses.replace(
-    ISPRS, stop_edge=2.0, near_vertex_distance=1.0, seed_cell=2.0, final_cell=3.0
-)
-
-
-def scene(seed: int, size: float = 70.0, density: float = 1.0):
-    return synthetic_scene(seed=seed, size=size, density=density, n_buildings=1, n_trees=6)
-
-
-def run_core(points: np.ndarray, params: pcl_rg.TinGroundParams) -> tuple[np.ndarray, dict]:
-    """The mask and the run statistics of the C++ core."""
-    return _core.tin_ground(np.ascontiguousarray(points, dtype=np.float64), params.to_core())
-
-
-def isprs(sample: str) -> tuple[np.ndarray, np.ndarray]:
-    return load_isprs(
-        shared_data("isprs", f"{sample}-utm.pcd"), shared_data("isprs", f"{sample}-utm-ground.pcd")
-    )
-
 
 # --------------------------------------------------------------------------
 # core vs reference
@@ -97,159 +76,6 @@ def test_core_agrees_with_reference_on_isprs(sample: str, params) -> None:
     core = pcl_rg.tin_ground(points, params=params)
     ref = reference.tin_ground(points, params=params)
     assert np.count_nonzero(core != ref) <= len(points) // 1000
-
-
-# --------------------------------------------------------------------------
-# each parameter's effect, on a lattice with probes whose outcome the definition fixes
-#
-# Ground: the integer lattice [0, 10]^2 at z = 0; with max_building_size = 1 every
-# lattice point is the lowest of its cell, so all are seeds and the TIN is the
-# lattice, each unit square cut by one diagonal. Probes at the square centres, at
-# heights h, lie on that diagonal, at XY distance sqrt(0.5) from three vertices of
-# either triangle: d = h, every angle is asin(h / sqrt(0.5 + h^2)), the longest edge
-# is sqrt(2), and each probe is alone in its triangle, so it is accepted exactly when
-# the test passes, whatever happens to the other probes.
-
-LATTICE = np.array([(x, y, 0.0) for x in range(11) for y in range(11)], dtype=np.float64)
-HEIGHTS = np.linspace(0.03, 0.97, 100)
-PROBES = np.array(
-    [(i % 10 + 0.5, i // 10 + 0.5, h) for i, h in enumerate(HEIGHTS)], dtype=np.float64
-)
-PROBE_CLOUD = np.vstack([LATTICE, PROBES])
-ON_LATTICE = pcl_rg.TinGroundParams.lidar360(
-    max_building_size=1.0,
-    iteration_angle=89.0,
-    iteration_distance=10.0,
-    reduce_angle_edge=0.01,
-    stop_edge=0.01,
-)
-
-
-def probes_accepted(**changes) -> np.ndarray:
-    ground = pcl_rg.tin_ground(PROBE_CLOUD, params=dataclasses.replace(ON_LATTICE, **changes))
-    assert ground[: len(LATTICE)].all()
-    return ground[len(LATTICE) :]
-
-
-def angle(h: np.ndarray) -> np.ndarray:
-    return np.degrees(np.arcsin(h / np.sqrt(0.5 + h * h)))
-
-
-@pytest.mark.parametrize("distance", [0.2, 0.5, 0.8])
-def test_iteration_distance_bounds_the_distance_to_the_plane(distance: float) -> None:
-    np.testing.assert_array_equal(probes_accepted(iteration_distance=distance), HEIGHTS <= distance)
-
-
-@pytest.mark.parametrize("limit", [10.0, 25.0, 40.0])
-def test_iteration_angle_bounds_the_angle_to_the_vertices(limit: float) -> None:
-    np.testing.assert_array_equal(probes_accepted(iteration_angle=limit), angle(HEIGHTS) <= limit)
-
-
-def test_acceptance_grows_with_distance_and_angle() -> None:
-    counts = [probes_accepted(iteration_distance=d).sum() for d in (0.1, 0.3, 0.6, 0.9)]
-    assert counts == sorted(counts) and counts[0] < counts[-1]
-    counts = [probes_accepted(iteration_angle=a).sum() for a in (5.0, 15.0, 30.0, 45.0)]
-    assert counts == sorted(counts) and counts[0] < counts[-1]
-
-
-@pytest.mark.parametrize("edge", [1.0, 3.0, 6.0])
-def test_reduce_angle_edge_scales_the_angle_by_the_longest_edge(edge: float) -> None:
-    # Longest edge sqrt(2): the limit is 40 deg, times sqrt(2) / edge when edge > sqrt(2).
-    limit = 40.0 * min(1.0, math.sqrt(2.0) / edge)
-    np.testing.assert_array_equal(
-        probes_accepted(iteration_angle=40.0, reduce_angle_edge=edge), angle(HEIGHTS) <= limit
-    )
-
-
-@pytest.mark.parametrize("steepest", [20.0, 45.0, 70.0])
-def test_max_terrain_angle_rejects_points_forming_steep_triangles(steepest: float) -> None:
-    # A probe forms triangles with two corners of its square side, h over 0.5 m.
-    steep = np.degrees(np.arctan(HEIGHTS / 0.5)) > steepest
-    np.testing.assert_array_equal(probes_accepted(max_terrain_angle=steepest), ~steep)
-
-
-def test_stop_edge_accepts_without_inserting() -> None:
-    accepted = int(probes_accepted(iteration_angle=40.0).sum())
-    base = dataclasses.replace(ON_LATTICE, iteration_angle=40.0)
-    dense = run_core(PROBE_CLOUD, dataclasses.replace(base, stop_edge=1.0))
-    sparse = run_core(PROBE_CLOUD, dataclasses.replace(base, stop_edge=2.0))
-    # Same ground either way; only triangles with a longest edge >= stop_edge grow.
-    np.testing.assert_array_equal(dense[0], sparse[0])
-    assert dense[1]["tin_vertices"] == 4 + len(LATTICE) + accepted
-    assert sparse[1]["tin_vertices"] == 4 + len(LATTICE)
-
-
-def test_stop_edge_bounds_the_density_of_the_tin() -> None:
-    points = scene(3).points
-    params = dataclasses.replace(ISPRS, stop_edge=0.01)
-    vertices = [
-        run_core(points, dataclasses.replace(params, stop_edge=e))[1]["tin_vertices"]
-        for e in (0.01, 1.0, 2.0, 4.0)
-    ]
-    assert vertices == sorted(vertices, reverse=True) and vertices[-1] < vertices[0] / 2
-
-
-def test_near_vertex_distance_judges_points_above_a_vertex_by_distance() -> None:
-    # 5 cm above a lattice point: the angle to that vertex is 90 deg by definition.
-    cloud = np.vstack([LATTICE, [[4.0, 6.0, 0.05], [7.0, 2.0, 0.9]]])
-    params = dataclasses.replace(ON_LATTICE, iteration_angle=30.0)
-    assert not pcl_rg.tin_ground(cloud, params=params)[-2:].any()
-    ground = pcl_rg.tin_ground(cloud, params=dataclasses.replace(params, near_vertex_distance=1.0))
-    # d <= sin(30 deg) * 1 m for the first, not for the second (0.9 m).
-    assert ground[-2] and not ground[-1]
-
-
-def flat_with_roof(roof_side: float) -> tuple[np.ndarray, np.ndarray]:
-    """Flat ground 100 m square at z = 0 with a flat roof at 6 m, both noise-free."""
-    rng = np.random.default_rng(11)
-    xy = rng.uniform(0.0, 100.0, (20000, 2))
-    lo, hi = 50.0 - roof_side / 2, 50.0 + roof_side / 2
-    roof = ((xy >= lo) & (xy <= hi)).all(axis=1)
-    return np.c_[xy, np.where(roof, 6.0, 0.0)], roof
-
-
-def test_max_building_size_keeps_roofs_larger_than_it_off_the_ground() -> None:
-    points, roof = flat_with_roof(30.0)
-    params = pcl_rg.TinGroundParams.lidar360(
-        iteration_angle=30.0, reduce_angle_edge=0.01, stop_edge=0.01
-    )
-    small_cells = pcl_rg.tin_ground(points, params=params, max_building_size=10.0)
-    large_cells = pcl_rg.tin_ground(points, params=params, max_building_size=50.0)
-    # Cells of 10 m inside the 30 m roof have roof seeds, and much of the roof becomes
-    # ground (LiDAR360: "If this parameter is set too small, the flat roof of the
-    # building may be mistaken for the terrain"); its rim stays off, as triangles
-    # reaching down to the ground around it fail the angle test.
-    assert small_cells[roof].mean() > 0.25
-    assert not large_cells[roof].any()
-    assert large_cells[~roof].mean() > 0.9  # flat, noise-free ground is all accepted
-    # With LiDAR360's 8 deg angle, reduced below 5 m edges, less of the roof follows
-    # its seeds, but still some.
-    assert pcl_rg.tin_ground(points, params=LIDAR360, max_building_size=10.0)[roof].any()
-    assert not pcl_rg.tin_ground(points, params=LIDAR360, max_building_size=50.0)[roof].any()
-
-
-def test_seed_cell_seeds_open_ground_and_skips_roofs() -> None:
-    points, roof = flat_with_roof(30.0)
-    seeded = run_core(
-        points, pcl_rg.TinGroundParams.lidar360(max_building_size=40.0, seed_cell=4.0)
-    )
-    plain = run_core(points, pcl_rg.TinGroundParams.lidar360(max_building_size=40.0))
-    assert seeded[1]["seeds"] > 10 * plain[1]["seeds"]
-    assert not seeded[0][roof].any()
-
-
-def test_outlier_depth_keeps_low_outlier_clusters_out_of_the_seeds() -> None:
-    rng = np.random.default_rng(12)
-    ground = np.c_[rng.uniform(0.0, 60.0, (6000, 2)), rng.normal(0.0, 0.02, 6000)]
-    pit = np.c_[rng.uniform(28.0, 32.0, (12, 2)), rng.uniform(-12.0, -10.0, 12)]
-    points = np.vstack([ground, pit])
-    params = dataclasses.replace(ISPRS, outlier_depth=0.0)
-    without = pcl_rg.tin_ground(points, params=params)
-    with_option = pcl_rg.tin_ground(points, params=dataclasses.replace(params, outlier_depth=3.0))
-    assert without[-12:].any()  # the pit's lowest points are seeds
-    assert not with_option[-12:].any()
-    around = np.hypot(ground[:, 0] - 30.0, ground[:, 1] - 30.0) < 8.0
-    assert with_option[: len(ground)][around].mean() > without[: len(ground)][around].mean()
 
 
 # --------------------------------------------------------------------------
