@@ -60,10 +60,29 @@ std::vector<std::int64_t> lowest_in_cells(PointsView points, const CellLattice& 
             keep_lower(lowest[static_cast<std::size_t>(cell_index(i))],
                        Lowest{points.coord(static_cast<std::size_t>(i), 2) - lattice.z0, i});
         }
+    } else if (cells <= points.size / 8) {
+        // Few cells: each thread keeps the lowest of its share of the points in a grid of
+        // its own, merged at the end (the merge costs little next to the points).
+#pragma omp parallel firstprivate(interruption)
+        {
+            std::vector<Lowest> mine(cells, Lowest{0.0, -1});
+            bool stop = false;
+#pragma omp for schedule(static) nowait
+            for (std::int64_t i = 0; i < n; ++i) {
+                if (i % 4096 == 0) stop = interruption.requested();
+                if (stop || (take && !take[i])) continue;
+                keep_lower(mine[static_cast<std::size_t>(cell_index(i))],
+                           Lowest{points.coord(static_cast<std::size_t>(i), 2) - lattice.z0, i});
+            }
+#pragma omp critical(pcl_rg_lowest_in_cells)
+            for (std::size_t k = 0; k < cells; ++k)
+                if (mine[k].i >= 0) keep_lower(lowest[k], mine[k]);
+        }
     } else {
-        // First every point's cell, in parallel; then each thread scans them all for the
-        // points of its own range of cells: no grid per thread and no merge, whatever the
-        // number of cells. The lowest under a total order does not depend on the sharing.
+        // Many cells, where a grid per thread would cost more than the points: first
+        // every point's cell, in parallel; then each thread scans them all for the points
+        // of its own range of cells (no merge). Either way the lowest under a total order
+        // does not depend on how the work is shared.
         std::vector<std::uint32_t> cell(static_cast<std::size_t>(n));
 #pragma omp parallel firstprivate(interruption)
         {
