@@ -323,7 +323,11 @@ def isprs():
 @pytest.mark.parametrize("sample", ISPRS_SAMPLES)
 def test_isprs_core_equals_reference(isprs, sample):
     points, _ = isprs[sample]
-    for params in (GridGroundParams(final_cell=0.0), DEFINITION):
+    # Three pre-filter passes: on samp11, samp31, samp41 and samp52 the third pass's
+    # candidates are not a superset of the second's, so the core labels its components
+    # anew there instead of adding the new candidates' links (grid_ground.cpp).
+    three_passes = GridGroundParams(final_cell=0.0, filter_passes=3)
+    for params in (GridGroundParams(final_cell=0.0), three_passes, DEFINITION):
         assert_core_equals_reference(points, params)
     # The final pass triangulates the cells' lowest points; on this gridded XY (y in
     # 0.5 m steps) four of them may be co-circular, and qhull and the core's TIN may then
