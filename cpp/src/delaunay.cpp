@@ -85,13 +85,18 @@ void snap_to_grid(PointsView points, const std::array<double, 3>& origin, const 
     }
 }
 
-SnappedPoints snap_points(PointsView points, const std::array<double, 3>& origin,
-                          const std::array<double, 3>& upper) {
-    const std::size_t n = points.size;
+SnappedPoints snap_frame(const std::array<double, 3>& origin, const std::array<double, 3>& upper) {
     SnappedPoints out;
     out.origin = origin;
     out.upper = upper;
     out.frame = make_grid_frame(0.0, 0.0, upper[0] - origin[0], upper[1] - origin[1]);
+    return out;
+}
+
+SnappedPoints snap_points(PointsView points, const std::array<double, 3>& origin,
+                          const std::array<double, 3>& upper) {
+    const std::size_t n = points.size;
+    SnappedPoints out = snap_frame(origin, upper);
     const Interruption interruption;
     {
         std::vector<std::int32_t> gx, gy;

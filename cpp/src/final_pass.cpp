@@ -59,16 +59,16 @@ void validate(const FinalPassParams& params) {
 void final_pass(PointsView points, const FinalPassParams& params, bool* ground) {
     if (points.size == 0) return;
     const std::array<double, 3> origin = local_origin(points);
-    final_pass(points, params, snap_for_final_pass(points, origin, upper_corner(points, origin)),
-               ground);
+    const std::array<double, 3> upper = upper_corner(points, origin);
+    check_final_pass_extent(origin, upper);
+    final_pass(points, params, snap_points(points, origin, upper), ground);
 }
 
-SnappedPoints snap_for_final_pass(PointsView points, const std::array<double, 3>& origin,
-                                  const std::array<double, 3>& upper) {
+void check_final_pass_extent(const std::array<double, 3>& origin,
+                             const std::array<double, 3>& upper) {
     if (!std::isfinite(upper[0] - origin[0]) || !std::isfinite(upper[1] - origin[1]) ||
         !std::isfinite(upper[2] - origin[2]))
         throw std::invalid_argument("points: the extent is too large (not finite in float64)");
-    return snap_points(points, origin, upper);
 }
 
 void final_pass(PointsView points, const FinalPassParams& params, const SnappedPoints& snapped,

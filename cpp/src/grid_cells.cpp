@@ -24,7 +24,7 @@ std::int64_t grid_index(double local, double size) {
 // Steps 1 and 2: block and cell of every point, and the counting sorts.
 CellGrid build_grid(PointsView points, const GridGroundParams& params,
                     const std::array<double, 3>& origin, const std::array<double, 2>& extent,
-                    const SnapFrame* snap) {
+                    const SnappedPoints* snap) {
     const std::size_t n = points.size;
     const auto count = static_cast<std::ptrdiff_t>(n);
     const bool parallel = n >= kGridParallelMin;
@@ -128,8 +128,8 @@ CellGrid build_grid(PointsView points, const GridGroundParams& params,
                 r.id = static_cast<std::uint32_t>(i);
                 r.cell = key[i];
                 if (snap) {
-                    r.snap_x = snap->frame.grid_x(points.coord(i, 0) - snap->x0);
-                    r.snap_y = snap->frame.grid_y(points.coord(i, 1) - snap->y0);
+                    r.snap_x = snap->grid_x(points, static_cast<std::size_t>(i));
+                    r.snap_y = snap->grid_y(points, static_cast<std::size_t>(i));
                 }
             }
         }

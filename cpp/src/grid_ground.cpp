@@ -282,20 +282,18 @@ void grid_ground(PointsView points, const GridGroundParams& given, bool* ground,
                 "cell_size is too small for the extent of points: more than 2^40 cells on " +
                 std::string(a == 0 ? "x" : "y"));
 
-    // The final pass's frame (snap_for_final_pass's), so that build_grid snaps the points
-    // for it: the pass then classifies them in the grid's order, whose neighbours lie
-    // close together as in a Morton order, instead of sorting them once more.
+    // The final pass's frame (snap_frame), so that build_grid snaps the points for it:
+    // the pass then classifies them in the grid's order, whose neighbours lie close
+    // together as in a Morton order, instead of sorting them once more.
     const bool final_pass_runs = params.final_cell > 0.0;
-    SnapFrame snap;
+    SnappedPoints snapped;
     if (final_pass_runs) {
-        if (!std::isfinite(upper[2] - lower[2]) || !std::isfinite(upper[0] - lower[0]) ||
-            !std::isfinite(upper[1] - lower[1]))
-            throw std::invalid_argument("points: the extent is too large (not finite in float64)");
-        snap = {make_grid_frame(0.0, 0.0, upper[0] - lower[0], upper[1] - lower[1]), lower[0],
-                lower[1]};
+        check_final_pass_extent(lower, upper);
+        snapped = snap_frame(lower, upper);
     }
     poll_interrupt();
-    CellGrid grid = build_grid(points, params, origin, extent, final_pass_runs ? &snap : nullptr);
+    CellGrid grid =
+        build_grid(points, params, origin, extent, final_pass_runs ? &snapped : nullptr);
     std::vector<unsigned char> candidate(n, 1), against(n, 1), result(n, 0), kept_by_all, before;
     std::vector<unsigned char> outlier(n, 0);
     const auto count = static_cast<std::ptrdiff_t>(n);
@@ -332,12 +330,9 @@ void grid_ground(PointsView points, const GridGroundParams& given, bool* ground,
     // The points as snap_points leaves them, but in the grid's order: z - lower[2] is
     // grid.p's z (the grid's origin has the same z).
     std::vector<std::uint32_t> outliers;  // input indices
-    for (std::ptrdiff_t s = 0; s < count; ++s)
-        if (outlier[s]) outliers.push_back(grid.id[s]);
-    SnappedPoints snapped;
-    snapped.origin = lower;
-    snapped.upper = upper;
-    snapped.frame = snap.frame;
+    if (params.outlier_depth > 0.0)
+        for (std::ptrdiff_t s = 0; s < count; ++s)
+            if (outlier[s]) outliers.push_back(grid.id[s]);
     snapped.z.resize(n);
 #pragma omp parallel for schedule(static) if (parallel)
     for (std::ptrdiff_t s = 0; s < count; ++s) snapped.z[s] = grid.p[s].z;

@@ -21,9 +21,11 @@ struct CellLattice {
 
 /// Lowest point (then smallest index) of every cell, row-major by column then row
 /// (cell cx * rows + cy); -1 for a cell with no point. Only the points i with take[i]
-/// count (all when take is null). In parallel (beyond 65536 points): every point's cell
-/// first, then each thread keeps the lowest of its own range of cells; the lowest under
-/// a total order does not depend on the sharing. Polls for interruption.
+/// count (all when take is null). In parallel beyond 65536 points: with at most N / 8
+/// cells each thread keeps the lowest of its share of the points in a grid of its own,
+/// merged at the end; with more, every point's cell first, then each thread keeps the
+/// lowest of its own range of cells. The lowest under a total order does not depend on
+/// the sharing. Polls for interruption.
 std::vector<std::int64_t> lowest_in_cells(PointsView points, const CellLattice& lattice,
                                           const bool* take = nullptr);
 

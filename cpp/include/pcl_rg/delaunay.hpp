@@ -58,6 +58,11 @@ struct SnappedPoints {
     }
 };
 
+/// The frame snap_points snaps points to on the bounding box `origin`, `upper` (upper -
+/// origin finite): origin, upper and frame set, no points yet (for a caller that snaps
+/// them in an order of its own, as grid_ground while building its grid).
+SnappedPoints snap_frame(const std::array<double, 3>& origin, const std::array<double, 3>& upper);
+
 /// The points (N > 0) snapped and sorted, `origin` and `upper` being their bounding box
 /// (upper - origin finite). In parallel; polls for interruption.
 SnappedPoints snap_points(PointsView points, const std::array<double, 3>& origin,

@@ -50,13 +50,14 @@ void validate(const FinalPassParams& params);
 /// threads; see final_pass.cpp for the exact formulas.
 void final_pass(PointsView points, const FinalPassParams& params, bool* ground);
 
-/// The points snapped and sorted for final_pass on their bounding box `origin` and
-/// `upper`, for callers that run the pass more than once (grid_ground's rounds); throws
-/// std::invalid_argument when the extent is not finite.
-SnappedPoints snap_for_final_pass(PointsView points, const std::array<double, 3>& origin,
-                                  const std::array<double, 3>& upper);
-/// The same, on the points already snapped and sorted by snap_points (as tin_ground
-/// has them), so that nothing is computed twice; their extent is finite.
+/// Throws std::invalid_argument when the bounding box `origin`, `upper` has an extent
+/// that is not finite in float64: the final pass cannot snap such points. For callers
+/// that snap the points themselves (snap_frame, snap_points).
+void check_final_pass_extent(const std::array<double, 3>& origin,
+                             const std::array<double, 3>& upper);
+/// The same pass on points already snapped and sorted (by snap_points, as tin_ground
+/// has them, or in grid_ground's own order on snap_frame's frame), so that nothing is
+/// computed twice; their extent is finite.
 void final_pass(PointsView points, const FinalPassParams& params, const SnappedPoints& snapped,
                 bool* ground);
 

@@ -76,18 +76,13 @@ struct CellGrid {
     }
 };
 
-/// Where the final pass snaps the points: frame.grid_x(x - x0), frame.grid_y(y - y0).
-struct SnapFrame {
-    GridFrame frame;
-    double x0 = 0.0, y0 = 0.0;
-};
-
 /// Steps 1 and 2: block and cell of every point (local coordinates l = p - origin),
 /// and the counting sorts. `extent` is the largest l in x and y; `params` must have
-/// cell_size set (grid_ground passes with_spacing(...)). With `snap`, also each
-/// position's snapped XY (snap_x, snap_y), so that the final pass needs no sort of its own.
+/// cell_size set (grid_ground passes with_spacing(...)). With `snap` (the final pass's
+/// frame, snap_frame), also each position's snapped XY (snap_x, snap_y, as
+/// snap->grid_x and grid_y give them), so that the final pass needs no sort of its own.
 CellGrid build_grid(PointsView points, const GridGroundParams& params,
                     const std::array<double, 3>& origin, const std::array<double, 2>& extent,
-                    const SnapFrame* snap = nullptr);
+                    const SnappedPoints* snap = nullptr);
 
 }  // namespace pcl_rg
