@@ -167,11 +167,15 @@ def test_at_isprs_spacing_and_sparser_the_unset_lengths_are_the_isprs_ones(
     spacing: float,
 ) -> None:
     # The ISPRS samples have 0.99-2.41 m: the caps bind, so the defaults are the fixed
-    # lengths chosen and cross-validated there; below 0.95 m they shrink with the spacing.
+    # lengths chosen and cross-validated there; below 0.95 m they shrink with the spacing,
+    # the stop edge (multiple of a 4 m edge) only below 0.475 m.
     assert TinGroundParams().at_spacing(spacing) == TinGroundParams(**ISPRS_LENGTHS)
     denser = TinGroundParams().at_spacing(0.9 * 0.95)
     for name, length in ISPRS_LENGTHS.items():
-        assert getattr(denser, name) == pytest.approx(0.9 * length)
+        expected = length if name == "stop_edge" else 0.9 * length
+        assert getattr(denser, name) == pytest.approx(expected), name
+    for factor, stop_edge in ((1.01, 2.0), (0.9, 0.9 * 2.0)):
+        assert TinGroundParams().at_spacing(factor * 0.475).stop_edge == pytest.approx(stop_edge)
 
 
 def test_the_defaults_give_the_fixed_length_preset_on_isprs() -> None:
@@ -239,10 +243,11 @@ def test_without_an_xy_area_the_lengths_take_one_metre() -> None:
 
 
 def test_the_lengths_scale_with_the_density() -> None:
-    # The same objects at 2 and 8 pts/m^2: half the spacing, half the lengths (up to the
-    # Poisson counts), where fixed lengths would stay.
+    # The same objects at 8 and 32 pts/m^2: half the spacing, half the lengths (up to the
+    # Poisson counts), where fixed lengths would stay. (At 2 pts/m^2 the stop edge would
+    # still be at its cap.)
     used = []
-    for density in (2.0, 8.0):
+    for density in (8.0, 32.0):
         points = synthetic_scene(seed=4, size=60.0, density=density, n_buildings=1).points
         with pcl_rg.collect_diagnostics() as diagnostics:
             pcl_rg.tin_ground(points)

@@ -48,8 +48,11 @@ class TinGroundParams:
     undefined). The caps are the lengths chosen on the ISPRS samples (2, 1, 2 and
     3 m) and each multiple is its cap / 0.95 m, so data as sparse as those
     samples (spacing 0.99-2.41 m) gets exactly the ISPRS lengths, and denser
-    data gets them in proportion to its spacing (0.5 m spacing: 1.05, 0.53, 1.05
-    and 1.58 m). A number fixes the length; 0 still switches
+    data gets them in proportion to its spacing. The stop edge's multiple is
+    that of a 4 m stop edge (4 / 0.95): on ISPRS every stop edge of 2-6 m
+    scores the same, and a shorter one inserts far more points into the TIN
+    on dense data, so it stays 2 m down to a spacing of 0.475 m (0.5 m spacing:
+    2, 0.53, 1.05 and 1.58 m). A number fixes the length; 0 still switches
     ``near_vertex_distance``, ``seed_cell`` and ``final_cell`` off. The spacing
     and the lengths a call used are in :func:`pcl_rg.collect_diagnostics`;
     :meth:`at_spacing` fixes them ahead (for example once for all tiles of a
@@ -61,10 +64,11 @@ class TinGroundParams:
     )
     """The unset lengths' largest values, m: the ISPRS preset's (C++: kTin*Cap)."""
     SPACING_MULTIPLES: ClassVar[Mapping[str, float]] = MappingProxyType(
-        {name: cap / 0.95 for name, cap in SPACING_CAPS.items()}
+        {name: cap / 0.95 for name, cap in SPACING_CAPS.items()} | {"stop_edge": 4.0 / 0.95}
     )
     """Multiples of the point spacing the unset lengths take below their caps (C++:
-    kTin*PerSpacing, each cap / kTinFullLengthSpacing = 0.95 m)."""
+    kTin*PerSpacing, each cap / kTinFullLengthSpacing = 0.95 m, the stop edge's
+    4 m / 0.95 m)."""
 
     max_building_size: float = param(
         40.0,
@@ -106,7 +110,7 @@ class TinGroundParams:
     stop_edge: float | None = spacing_length(
         above=0.0,
         help="triangles whose longest edge is shorter accept ground points without inserting "
-        "them (LiDAR360 Stop Triangulation When Edge Length <); unset: min(2 m, 2.1 x the point "
+        "them (LiDAR360 Stop Triangulation When Edge Length <); unset: min(2 m, 4.2 x the point "
         "spacing)",
     )
     near_vertex_distance: float | None = spacing_length(
@@ -169,7 +173,7 @@ class TinGroundParams:
         True
         >>> dense = TinGroundParams().at_spacing(0.25)  # 16 points per m^2
         >>> [round(v, 3) for v in (dense.stop_edge, dense.seed_cell, dense.final_cell)]
-        [0.526, 0.526, 0.789]
+        [1.053, 0.526, 0.789]
         """
         spacing = check_number("spacing", spacing, float, above=0.0)
         unset = {
@@ -194,7 +198,8 @@ class TinGroundParams:
         follow the point spacing did no better there (every length in spacings
         5.63 %, stop edge and near-vertex distance only 4.28 %), so the lengths
         are those fitted on ISPRS wherever the data are as sparse (spacing of
-        at least 0.95 m) and shrink in proportion to the spacing on denser data
+        at least 0.95 m) and shrink in proportion to the spacing on denser data,
+        the stop edge only below 0.475 m
         (:attr:`SPACING_CAPS`, :attr:`SPACING_MULTIPLES`; the four are unset
         here). `overrides` replace single fields.
 
@@ -285,7 +290,7 @@ def tin_ground(
         Metres (default 0.01; LiDAR360 5): in a triangle whose longest XY edge L is shorter, the
         angle limit is ``iteration_angle * L / reduce_angle_edge``.
     stop_edge : float, optional
-        Metres (default: unset, min(2 m, 2.1 x the point spacing); LiDAR360 2): a
+        Metres (default: unset, min(2 m, 4.2 x the point spacing); LiDAR360 2): a
         triangle whose longest XY edge is shorter accepts ground points but does
         not get them inserted, which bounds the TIN's density.
     near_vertex_distance : float, optional
@@ -378,7 +383,8 @@ def tin_ground(
     each call takes the ISPRS preset's lengths (2, 1, 2, 3 m) where the mean
     spacing of its points (:func:`pcl_rg.point_spacing`, 2-D, airborne; 1 m
     where undefined) is at least 0.95 m, and shorter ones in proportion to the
-    spacing on denser data (:class:`TinGroundParams`), so the preset keeps its
+    spacing on denser data (the stop edge only below 0.475 m:
+    :class:`TinGroundParams`), so the preset keeps its
     ISPRS results and works at 20 points per m^2 too.
     ``collect_diagnostics()`` reports the spacing (``point_spacing``, NaN when
     every length was given) and the four lengths used.
