@@ -2,7 +2,6 @@
 #include "pcl_rg/cell_lowest.hpp"
 
 #include <algorithm>
-#include <cmath>
 #include <limits>
 #include <utility>
 
@@ -19,9 +18,8 @@ namespace {
 // Column and row of point i's cell.
 std::pair<std::int64_t, std::int64_t> cell_of(PointsView points, const CellLattice& lattice,
                                               std::size_t i) {
-    return {
-        static_cast<std::int64_t>(std::floor((points.coord(i, 0) - lattice.x0) / lattice.size)),
-        static_cast<std::int64_t>(std::floor((points.coord(i, 1) - lattice.y0) / lattice.size))};
+    return {floor_to_int((points.coord(i, 0) - lattice.x0) / lattice.size),
+            floor_to_int((points.coord(i, 1) - lattice.y0) / lattice.size)};
 }
 
 // Point a comes before point b: lower z - z0, then smaller index. z0 is subtracted, not
