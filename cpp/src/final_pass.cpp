@@ -148,25 +148,38 @@ void final_pass(PointsView points, const FinalPassParams& params, const SnappedP
     const auto m = static_cast<std::ptrdiff_t>(n);
 #pragma omp parallel firstprivate(interruption)
     {
-        // The last triangle this thread located, its plane and gradient: the next point
-        // in Morton order often lies in it, and a point's triangle is unique
-        // (Delaunay::locate), so it is checked first and its plane reused.
-        std::int32_t last = 0, cached = -1;
-        ground_tin::Plane f{};
-        double gradient = 0.0;
+        // The last two triangles this thread located, with their planes and gradients:
+        // the next point often lies in one of them (in Morton order, or in a cell of
+        // grid_ground's grid that straddles an edge, whose points come by height, not
+        // place), and a point's triangle is unique (Delaunay::locate), so they are
+        // checked first and their planes reused.
+        struct Located {
+            std::int32_t t = -1;
+            ground_tin::Plane f{};
+            double gradient = 0.0;
+        };
+        Located recent[2];
+        int newest = 0;  // recent[newest]: the last one; the other is replaced on a miss
 #pragma omp for schedule(dynamic, 1)
         for (std::ptrdiff_t chunk = 0; chunk < (m + kChunk - 1) / kChunk; ++chunk) {
             if (interruption.requested()) continue;
             for (std::ptrdiff_t s = chunk * kChunk; s < std::min(m, (chunk + 1) * kChunk); ++s) {
                 const std::int32_t gx = snapped.x[s], gy = snapped.y[s];
-                const std::int32_t t =
-                    cached >= 0 && tin.holds(cached, gx, gy) ? cached : tin.locate(gx, gy, last);
-                if (t != cached) {
-                    f = ground_tin::plane_of(tin, vz, q, t);
-                    gradient = std::sqrt(f.nx * f.nx + f.ny * f.ny) / f.nz;
-                    cached = t;
+                if (!(recent[newest].t >= 0 && tin.holds(recent[newest].t, gx, gy))) {
+                    Located& other = recent[1 - newest];
+                    if (!(other.t >= 0 && tin.holds(other.t, gx, gy))) {
+                        // Walk from the last triangle: the closer one in the usual order.
+                        const std::int32_t start = recent[newest].t >= 0 ? recent[newest].t : 0;
+                        other.t = tin.locate(gx, gy, start);
+                        other.f = ground_tin::plane_of(tin, vz, q, other.t);
+                        other.gradient =
+                            std::sqrt(other.f.nx * other.f.nx + other.f.ny * other.f.ny) /
+                            other.f.nz;
+                    }
+                    newest = 1 - newest;
                 }
-                last = t;
+                const ground_tin::Plane& f = recent[newest].f;
+                const double gradient = recent[newest].gradient;
                 const double px = static_cast<double>(gx - 1) * q;
                 const double py = static_cast<double>(gy - 1) * q;
                 const double surface =
