@@ -2,7 +2,6 @@
 #include "pcl_rg/cell_lowest.hpp"
 
 #include <algorithm>
-#include <cmath>
 #include <limits>
 #include <utility>
 
@@ -19,9 +18,8 @@ namespace {
 // Column and row of point i's cell.
 std::pair<std::int64_t, std::int64_t> cell_of(PointsView points, const CellLattice& lattice,
                                               std::size_t i) {
-    return {
-        static_cast<std::int64_t>(std::floor((points.coord(i, 0) - lattice.x0) / lattice.size)),
-        static_cast<std::int64_t>(std::floor((points.coord(i, 1) - lattice.y0) / lattice.size))};
+    return {floor_to_int((points.coord(i, 0) - lattice.x0) / lattice.size),
+            floor_to_int((points.coord(i, 1) - lattice.y0) / lattice.size)};
 }
 
 // Point a comes before point b: lower z - z0, then smaller index. z0 is subtracted, not
@@ -67,12 +65,25 @@ std::vector<std::int64_t> lowest_in_cells(PointsView points, const CellLattice& 
         {
             std::vector<Lowest> mine(cells, Lowest{0.0, -1});
             bool stop = false;
+            // By batches: the cells of a batch first, each prefetched, then the updates, so
+            // that the cache misses of scattered points overlap instead of queueing.
+            constexpr std::int64_t kBatch = 64;
 #pragma omp for schedule(static) nowait
-            for (std::int64_t i = 0; i < n; ++i) {
-                if (i % 4096 == 0) stop = interruption.requested();
-                if (stop || (take && !take[i])) continue;
-                keep_lower(mine[static_cast<std::size_t>(cell_index(i))],
-                           Lowest{points.coord(static_cast<std::size_t>(i), 2) - lattice.z0, i});
+            for (std::int64_t batch = 0; batch < (n + kBatch - 1) / kBatch; ++batch) {
+                const std::int64_t first = batch * kBatch, last = std::min(n, first + kBatch);
+                if (first % 4096 == 0) stop = interruption.requested();
+                if (stop) continue;
+                std::uint32_t cell[kBatch];  // cells < kSkipped here
+                for (std::int64_t i = first; i < last; ++i)
+                    if (!take || take[i]) {
+                        cell[i - first] = static_cast<std::uint32_t>(cell_index(i));
+                        __builtin_prefetch(&mine[cell[i - first]], 1);
+                    }
+                for (std::int64_t i = first; i < last; ++i)
+                    if (!take || take[i])
+                        keep_lower(
+                            mine[cell[i - first]],
+                            Lowest{points.coord(static_cast<std::size_t>(i), 2) - lattice.z0, i});
             }
 #pragma omp critical(pcl_rg_lowest_in_cells)
             for (std::size_t k = 0; k < cells; ++k)

@@ -36,6 +36,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
 #include <limits>
 #include <stdexcept>
 #include <utility>
@@ -143,30 +144,70 @@ void final_pass(PointsView points, const FinalPassParams& params, const SnappedP
     }
 
     // --- 4. classify every point, in Morton order so that walks are short -------------
+    // Where to start a walk far from the last triangle (a thread's next chunk, a new row
+    // of grid_ground's cells): a triangle at a vertex in the same square of a coarse
+    // lattice, about one vertex per square. Only the walk's length depends on it.
+    int hint_shift = 0;
+    const auto hint_side = [&](std::int32_t extent) {
+        return static_cast<std::size_t>(extent >> hint_shift) + 1;
+    };
+    while (hint_side(frame.width) * hint_side(frame.height) > tin.vertex_count()) ++hint_shift;
+    const std::size_t hint_columns = hint_side(frame.width);
+    const auto hint_of = [&](std::int32_t x, std::int32_t y) {
+        return static_cast<std::size_t>(y >> hint_shift) * hint_columns +
+               static_cast<std::size_t>(x >> hint_shift);
+    };
+    std::vector<std::int32_t> hint(hint_columns * hint_side(frame.height), -1);
+    for (std::int32_t t = 0; t < static_cast<std::int32_t>(tin.triangle_count()); ++t)
+        for (int k = 0; k < 3; ++k) {
+            const std::int32_t v = tin.triangle_vertex(t, k);
+            if (v >= 4) hint[hint_of(tin.vertex_x(v), tin.vertex_y(v))] = t;  // not a corner
+        }
+    const std::int64_t near = std::int64_t{2} << hint_shift;
     const double q = frame.quantum;
     constexpr std::ptrdiff_t kChunk = 4096;
     const auto m = static_cast<std::ptrdiff_t>(n);
 #pragma omp parallel firstprivate(interruption)
     {
-        // The last triangle this thread located, its plane and gradient: the next point
-        // in Morton order often lies in it, and a point's triangle is unique
-        // (Delaunay::locate), so it is checked first and its plane reused.
-        std::int32_t last = 0, cached = -1;
-        ground_tin::Plane f{};
-        double gradient = 0.0;
+        // The last two triangles this thread located, with their planes and gradients:
+        // the next point often lies in one of them (in Morton order, or in a cell of
+        // grid_ground's grid that straddles an edge, whose points come by height, not
+        // place), and a point's triangle is unique (Delaunay::locate), so they are
+        // checked first and their planes reused.
+        struct Located {
+            std::int32_t t = -1;
+            ground_tin::Plane f{};
+            double gradient = 0.0;
+        };
+        Located recent[2];
+        int newest = 0;  // recent[newest]: the last one; the other is replaced on a miss
 #pragma omp for schedule(dynamic, 1)
         for (std::ptrdiff_t chunk = 0; chunk < (m + kChunk - 1) / kChunk; ++chunk) {
             if (interruption.requested()) continue;
             for (std::ptrdiff_t s = chunk * kChunk; s < std::min(m, (chunk + 1) * kChunk); ++s) {
                 const std::int32_t gx = snapped.x[s], gy = snapped.y[s];
-                const std::int32_t t =
-                    cached >= 0 && tin.holds(cached, gx, gy) ? cached : tin.locate(gx, gy, last);
-                if (t != cached) {
-                    f = ground_tin::plane_of(tin, vz, q, t);
-                    gradient = std::sqrt(f.nx * f.nx + f.ny * f.ny) / f.nz;
-                    cached = t;
+                if (!(recent[newest].t >= 0 && tin.holds(recent[newest].t, gx, gy))) {
+                    Located& other = recent[1 - newest];
+                    if (!(other.t >= 0 && tin.holds(other.t, gx, gy))) {
+                        // Walk from the last triangle, or from the hint when that is far.
+                        std::int32_t start = recent[newest].t;
+                        const std::int32_t corner =
+                            start >= 0 ? tin.triangle_vertex(start, 0) : std::int32_t{0};
+                        if (start < 0 || std::abs(std::int64_t{tin.vertex_x(corner)} - gx) > near ||
+                            std::abs(std::int64_t{tin.vertex_y(corner)} - gy) > near) {
+                            const std::int32_t h = hint[hint_of(gx, gy)];
+                            start = h >= 0 ? h : std::max(start, std::int32_t{0});
+                        }
+                        other.t = tin.locate(gx, gy, start);
+                        other.f = ground_tin::plane_of(tin, vz, q, other.t);
+                        other.gradient =
+                            std::sqrt(other.f.nx * other.f.nx + other.f.ny * other.f.ny) /
+                            other.f.nz;
+                    }
+                    newest = 1 - newest;
                 }
-                last = t;
+                const ground_tin::Plane& f = recent[newest].f;
+                const double gradient = recent[newest].gradient;
                 const double px = static_cast<double>(gx - 1) * q;
                 const double py = static_cast<double>(gy - 1) * q;
                 const double surface =

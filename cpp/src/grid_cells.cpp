@@ -69,19 +69,15 @@ CellGrid build_grid(PointsView points, const GridGroundParams& params,
     // one it cannot fail against, and the links look only at heights within reach.
     // Nothing else depends on the order within a cell (grid_ground.cpp); without the
     // pre-filter it is the input order. Two steps that each touch memory in order, not
-    // a gather from the input (whose order may be random): (1) every point's record
-    // moves, in input order, to its band of consecutive cells, a stable counting sort
-    // per chunk of the input as spatial_order.cpp's radix pass (counts per chunk,
-    // offsets band-major, chunk-minor); (2) each band, small enough for the cache, is
-    // sorted into its cells on its own. The chunk count depends on n only, and every
-    // step is a stable sort or a sort under a total order: the layout does not depend
-    // on the threads.
+    // a gather from the input (whose order may be random): (1) every point moves, in
+    // input order, straight into the grid's arrays at its band of consecutive cells, a
+    // stable counting sort per chunk of the input as spatial_order.cpp's radix pass
+    // (counts per chunk, offsets band-major, chunk-minor); (2) each band, small enough
+    // for the cache, is sorted into its cells on its own through a per-thread buffer.
+    // No copy of the cloud beside the grid's arrays: the buffer holds one band. The
+    // chunk count depends on n only, and every step is a stable sort or a sort under a
+    // total order: the layout does not depend on the threads.
     grid.by_height = params.filter_passes > 0;
-    struct Record {
-        Local p;
-        std::uint32_t id, cell;
-        std::int32_t snap_x, snap_y;
-    };
     const int band_shift = std::max(0, bit_width(cells - 1) - 11);
     const std::size_t bands = ((cells - 1) >> band_shift) + 1;
     const auto chunks =
@@ -92,7 +88,15 @@ CellGrid build_grid(PointsView points, const GridGroundParams& params,
     };
     std::vector<std::size_t> offsets(static_cast<std::size_t>(chunks) * bands, 0);
     std::vector<std::size_t> band_start(bands + 1);
-    std::vector<Record> record(n);
+    grid.start.resize(cells + 1);
+    grid.start[cells] = n;
+    grid.id.resize(n);
+    grid.p.resize(n);
+    grid.cell.resize(n);
+    if (snap) {
+        grid.snap_x.resize(n);
+        grid.snap_y.resize(n);
+    }
     const Interruption interruption;
     interruption.check_now();
 #pragma omp parallel if (parallel) firstprivate(interruption)
@@ -122,31 +126,27 @@ CellGrid build_grid(PointsView points, const GridGroundParams& params,
             std::size_t* next = &offsets[static_cast<std::size_t>(c) * bands];
             for (std::ptrdiff_t i = chunk_begin(c); i < chunk_begin(c + 1); ++i) {
                 if (i % 4096 == 0 && interruption.requested()) break;
-                Record& r = record[next[key[i] >> band_shift]++];
-                r.p = {points.coord(i, 0) - origin[0], points.coord(i, 1) - origin[1],
-                       points.coord(i, 2) - origin[2]};
-                r.id = static_cast<std::uint32_t>(i);
-                r.cell = key[i];
+                const std::size_t s = next[key[i] >> band_shift]++;
+                grid.p[s] = {points.coord(i, 0) - origin[0], points.coord(i, 1) - origin[1],
+                             points.coord(i, 2) - origin[2]};
+                grid.id[s] = static_cast<std::uint32_t>(i);
+                grid.cell[s] = key[i];
                 if (snap) {
-                    r.snap_x = snap->grid_x(points, static_cast<std::size_t>(i));
-                    r.snap_y = snap->grid_y(points, static_cast<std::size_t>(i));
+                    grid.snap_x[s] = snap->grid_x(points, static_cast<std::size_t>(i));
+                    grid.snap_y[s] = snap->grid_y(points, static_cast<std::size_t>(i));
                 }
             }
         }
     }
     interruption.check();
     key = {};
-    grid.start.resize(cells + 1);
-    grid.start[cells] = n;
-    grid.id.resize(n);
-    grid.p.resize(n);
-    grid.cell.resize(n);
-    if (snap) {
-        grid.snap_x.resize(n);
-        grid.snap_y.resize(n);
-    }
 #pragma omp parallel if (parallel) firstprivate(interruption)
     {
+        struct Record {
+            Local p;
+            std::uint32_t id, cell;
+            std::int32_t snap_x, snap_y;
+        };
         std::vector<std::size_t> fill;
         std::vector<Record> sorted;
 #pragma omp for schedule(dynamic, 4)
@@ -157,14 +157,19 @@ CellGrid build_grid(PointsView points, const GridGroundParams& params,
                 std::min(cells, static_cast<std::size_t>(band + 1) << band_shift) - first_cell;
             const std::size_t begin = band_start[band], end = band_start[band + 1];
             fill.assign(band_cells + 1, 0);
-            for (std::size_t r = begin; r < end; ++r) ++fill[record[r].cell - first_cell + 1];
+            for (std::size_t s = begin; s < end; ++s) ++fill[grid.cell[s] - first_cell + 1];
             for (std::size_t k = 0; k < band_cells; ++k) {
                 fill[k + 1] += fill[k];
                 grid.start[first_cell + k] = begin + fill[k];
             }
             sorted.resize(end - begin);
-            for (std::size_t r = begin; r < end; ++r)
-                sorted[fill[record[r].cell - first_cell]++] = record[r];
+            for (std::size_t s = begin; s < end; ++s) {
+                Record& r = sorted[fill[grid.cell[s] - first_cell]++];
+                r.p = grid.p[s];
+                r.id = grid.id[s];
+                r.cell = grid.cell[s];
+                if (snap) r.snap_x = grid.snap_x[s], r.snap_y = grid.snap_y[s];
+            }
             if (grid.by_height)
                 for (std::size_t k = 0, from = 0; k < band_cells; from = fill[k++])
                     if (fill[k] - from > 1)
@@ -186,7 +191,6 @@ CellGrid build_grid(PointsView points, const GridGroundParams& params,
         }
     }
     interruption.check();
-    record = {};
 
     // Blocks, numbered densely unless the block grid is far larger than the cloud.
     const std::int64_t nbx = grid_index(extent[0], params.block_size[0]) + 1;

@@ -32,8 +32,8 @@ double point_spacing(PointsView points, const std::array<double, 3>& lower,
     const auto nx = static_cast<std::uint64_t>(std::floor(w / c)) + 1;
     const auto ny = static_cast<std::uint64_t>(std::floor(h / c)) + 1;
     const auto key = [&](std::size_t i) {
-        const auto ix = static_cast<std::uint64_t>(std::floor((points.coord(i, 0) - xmin) / c));
-        const auto iy = static_cast<std::uint64_t>(std::floor((points.coord(i, 1) - ymin) / c));
+        const auto ix = static_cast<std::uint64_t>(floor_to_int((points.coord(i, 0) - xmin) / c));
+        const auto iy = static_cast<std::uint64_t>(floor_to_int((points.coord(i, 1) - ymin) / c));
         return ix * ny + iy;
     };
     std::uint64_t occupied = 0;

@@ -4,6 +4,7 @@
 
 #include <array>
 #include <cstddef>
+#include <cstdint>
 #include <vector>
 
 namespace pcl_rg {
@@ -31,6 +32,14 @@ std::array<double, 3> upper_corner(PointsView points, const std::array<double, 3
 /// when |low / size| >= 2^52, where whole numbers k are no longer all representable (a
 /// lattice that fine has no use). NumPy twin: pcl_rg.reference.lattice_floor.
 double lattice_floor(double low, double size);
+
+/// floor(q) as an integer, equal to static_cast<std::int64_t>(std::floor(q)) for every
+/// |q| < 2^63 (truncation is exact there, and from 2^52 on q is whole), but without a call
+/// into libm, which the x86-64 baseline (no SSE4.1 rounding) makes for std::floor.
+inline std::int64_t floor_to_int(double q) {
+    const auto truncated = static_cast<std::int64_t>(q);
+    return truncated - (q < static_cast<double>(truncated) ? 1 : 0);
+}
 
 /// The points minus `origin`, as row-major float32 x, y, z: the local frame in which
 /// distances are computed exactly as PCL computes them on its float clouds.
