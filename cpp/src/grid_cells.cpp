@@ -11,13 +11,9 @@ namespace pcl_rg {
 
 namespace {
 
-// floor(local / size) as an integer, without a call into libm: the quotient is below
-// 2^40 in magnitude (grid_ground checks the extent), so the conversion is exact.
-std::int64_t grid_index(double local, double size) {
-    const double quotient = local / size;
-    const auto truncated = static_cast<std::int64_t>(quotient);
-    return truncated - (quotient < static_cast<double>(truncated) ? 1 : 0);
-}
+// floor(local / size) as an integer: the quotient is below 2^40 in magnitude
+// (grid_ground checks the extent), where floor_to_int is exact.
+std::int64_t grid_index(double local, double size) { return floor_to_int(local / size); }
 
 }  // namespace
 
