@@ -5,7 +5,8 @@ Usage: python benchmarks/studies/batch_seams.py [--write] [--buffers 0 10 20 40 
 For a synthetic survey of 5 x 5 tiles (datasets.synthetic_survey, objects across
 tile borders) and for each ISPRS sample of ../shared/data cut into four quadrant
 tiles, both ground filters run tiled (pcl_rg.batch.ground, each buffer size) and
-merged (one call on the concatenated tiles). The table gives the share of labels
+merged (one call on the concatenated tiles, with the lengths of the survey's spacing
+that the tiles use, batch.survey_spacing). The table gives the share of labels
 that differ, over all points and over the points within 5 m of a tile border (the
 seams). Denoise and downsample are exact by construction; their rows check it.
 """
@@ -66,9 +67,13 @@ def ground_rows(name, paths, xs, ys, buffers, scheduler, folder) -> list[list[st
     # left out and keep their class (the synthetic tiles carry their true classes).
     work = ~np.isin(classes, (7, 18))
     rows = []
+    # The tiles take their unset lengths from the survey's nominal spacing (headers); a
+    # call on the merged cloud would measure point_spacing instead: give it the same.
+    spacing = batch.survey_spacing(paths)
     for method, function in (("grid", pcl_rg.grid_ground), ("tin", pcl_rg.tin_ground)):
+        params = pcl_rg.GridGroundParams() if method == "grid" else pcl_rg.TinGroundParams()
         merged = classes.copy()
-        merged[work] = np.where(function(points[work]), 2, 1)
+        merged[work] = np.where(function(points[work], params=params.at_spacing(spacing)), 2, 1)
         cells = []
         for buffer in buffers:
             report = batch.ground(
@@ -82,7 +87,6 @@ def ground_rows(name, paths, xs, ys, buffers, scheduler, folder) -> list[list[st
             tiled = np.concatenate([read_points(t.output).classification for t in report.tiles])
             differ = tiled != merged
             cells.append(f"{100 * differ.mean():.3f} / {100 * differ[seam].mean():.2f}")
-        params = pcl_rg.GridGroundParams() if method == "grid" else pcl_rg.TinGroundParams()
         default = batch.default_buffer("ground", params)
         rows.append(
             [name, method, f"{len(points):,}", f"{seam.mean() * 100:.1f}", f"{default:g}", *cells]
@@ -124,7 +128,9 @@ def main(argv: list[str] | None = None) -> int:
         "Labels of `pcl_rg.batch.ground` (2 local "
         "workers) against one call on the merged cloud, per buffer size: "
         '"all / seam" is the % of labels that differ over all points and over the points '
-        f"within {SEAM:g} m of a tile border. Grids are anchored in world coordinates."
+        f"within {SEAM:g} m of a tile border. Grids are anchored in world coordinates. The "
+        "merged run takes the lengths of the spacing the tiles use "
+        "(`params.at_spacing(batch.survey_spacing(paths))`)."
     )
     command = "python benchmarks/studies/batch_seams.py"
     publish_report(SECTION, command, about, header, rows, exact, write=args.write)

@@ -101,9 +101,9 @@ def default_buffer(operation: str, params: Any) -> float:
     """The buffer, in metres, that `operation` with `params` uses by default.
 
     * ground, grid: 3 x the larger block side. A block's seed depends on the size of
-      its component, and growth runs across blocks; 2 blocks left 0.14 % of the
-      labels of one ISPRS sample (samp61, in quadrants) unlike the merged run, 3
-      blocks none on any sample (benchmarks/studies/batch_seams.py).
+      its component, and growth runs across blocks; at 3 blocks at most 0.004 % of
+      the labels (one point of samp52, in quadrants) differ from the merged run's
+      on any ISPRS sample or the synthetic survey (benchmarks/studies/batch_seams.py).
     * ground, tin: 2 x ``max_building_size``. Seeds come from openings of that
       window, and the TIN reaches across a building's width.
     * denoise: 10 m to start with. It grows until every point's k nearest
