@@ -9,6 +9,7 @@
 #include <omp.h>
 #endif
 
+#include "pcl_rg/index_bitmap.hpp"
 #include "pcl_rg/interrupt.hpp"
 
 namespace pcl_rg {
@@ -148,20 +149,6 @@ std::vector<std::uint32_t> lowest_points(PointsView points, const CellLattice& l
             if (k == 0 || keyed[k].first != keyed[k - 1].first) lowest.push_back(keyed[k].second);
     }
     return in_index_order(std::move(lowest), points.size);
-}
-
-std::vector<std::uint32_t> in_index_order(std::vector<std::uint32_t> indices, std::size_t n) {
-    if (indices.size() < n / 1024) {
-        std::sort(indices.begin(), indices.end());
-        return indices;
-    }
-    std::vector<std::uint64_t> bits((n + 63) / 64, 0);
-    for (const std::uint32_t i : indices) bits[i >> 6] |= std::uint64_t{1} << (i & 63);
-    indices.clear();
-    for (std::size_t w = 0; w < bits.size(); ++w)
-        for (std::uint64_t word = bits[w]; word != 0; word &= word - 1)
-            indices.push_back(static_cast<std::uint32_t>(w * 64 + __builtin_ctzll(word)));
-    return indices;
 }
 
 }  // namespace pcl_rg

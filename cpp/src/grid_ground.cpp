@@ -94,9 +94,6 @@ namespace {
 // integers and neighbour arithmetic cannot overflow.
 constexpr double kMaxIndex = 0x1p40;
 constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
-// Above this many cell-mates (points in the 3 x 3 cells) per point of the cloud, summed
-// over the points a pre-filter pass adds, its components are labelled anew, not grown.
-constexpr std::int64_t kGrowCellMatesPerPoint = 32;
 
 // Calls visit(s, around, k) for every point s, in parallel over cells, with the k cells
 // of the 3 x 3 block around s's cell (its own included); polls for interruption.
@@ -171,6 +168,39 @@ void low_outliers(const CellGrid& grid, double depth, std::vector<unsigned char>
             }
         outlier[s] = !alone && !near ? 1 : 0;
     });
+}
+
+// Whether a pre-filter pass grows the last pass's components (`before`: its candidates)
+// by the links of the points it adds (add_to_components) instead of labelling anew; both
+// give the same components. Only when it loses none of them (always after pass
+// 1, whose filter tested against every point), and while the added points have few
+// cell-mates (points in their 3 x 3 cells): growth tests each added point against every
+// cell-mate within reach, where labelling anew samples two links per point and tests
+// all neighbours only outside the giant component. The two break even near 40
+// cell-mates per point of the cloud (isprs_like_scene at 20 points per m^2, cells of
+// 0.75-3 m; 3 m cells: 1.5 s anew, 3.4 s growing).
+bool worth_growing(const CellGrid& grid, const std::vector<unsigned char>& candidate,
+                   const std::vector<unsigned char>& before, bool parallel) {
+    constexpr std::int64_t kCellMatesPerPoint = 32;
+    const auto cells = static_cast<std::ptrdiff_t>(grid.cells());
+    bool superset = true;
+    std::int64_t cell_mates = 0;  // summed over the added points
+#pragma omp parallel for schedule(static) reduction(&& : superset) reduction(+ : cell_mates) \
+    if (parallel)
+    for (std::ptrdiff_t c = 0; c < cells; ++c) {
+        std::int64_t added = 0;
+        for (std::size_t s = grid.start[c]; s < grid.start[c + 1]; ++s) {
+            superset = superset && (!before[s] || candidate[s]);
+            added += candidate[s] && !before[s];
+        }
+        if (added == 0) continue;
+        std::ptrdiff_t around[9];
+        const int k = grid.neighbours(static_cast<std::size_t>(c), around);
+        for (int a = 0; a < k; ++a)
+            cell_mates += added * static_cast<std::int64_t>(grid.start[around[a] + 1] -
+                                                            grid.start[around[a]]);
+    }
+    return superset && cell_mates <= kCellMatesPerPoint * static_cast<std::int64_t>(grid.p.size());
 }
 
 // Steps 3 and 4 on the candidates: components of the link graph, one seed per block,
@@ -316,33 +346,7 @@ void grid_ground(PointsView points, const GridGroundParams& given, bool* ground,
             for (std::ptrdiff_t s = 0; s < count; ++s) candidate[s] = candidate[s] && !outlier[s];
             if (pass == 0 && passes > 1) kept_by_all = candidate;
         }
-        // The last pass's candidates among these (always after pass 1, whose filter
-        // tested against every point): its components grow instead of being redone.
-        bool grows = pass > 0;
-        if (grows) {
-#pragma omp parallel for schedule(static) reduction(&& : grows) if (parallel)
-            for (std::ptrdiff_t s = 0; s < count; ++s)
-                grows = grows && (!before[s] || candidate[s]);
-        }
-        // Growth tests each added point against every point of its 3 x 3 cells within
-        // reach; labelling anew samples two links per point and tests all neighbours only
-        // outside the giant component. With many points per cell growth costs more: the
-        // two break even near 40 cell-mates per point of the cloud (isprs_like_scene at 20
-        // points per m^2, cells of 0.75-3 m; 3 m cells: 1.5 s anew, 3.4 s growing). Both
-        // give the same components.
-        if (grows) {
-            std::int64_t cell_mates = 0;
-#pragma omp parallel for schedule(static) reduction(+ : cell_mates) if (parallel)
-            for (std::ptrdiff_t s = 0; s < count; ++s) {
-                if (!candidate[s] || before[s]) continue;
-                std::ptrdiff_t around[9];
-                const int k = grid.neighbours(grid.cell[s], around);
-                for (int a = 0; a < k; ++a)
-                    cell_mates += static_cast<std::int64_t>(grid.start[around[a] + 1] -
-                                                            grid.start[around[a]]);
-            }
-            grows = cell_mates <= kGrowCellMatesPerPoint * count;
-        }
+        const bool grows = pass > 0 && worth_growing(grid, candidate, before, parallel);
         grow(grid, params, candidate, grows ? &before : nullptr, sets, result);
         if (pass + 1 < passes) before = candidate;
     }

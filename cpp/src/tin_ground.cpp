@@ -93,6 +93,7 @@
 #include "pcl_rg/check.hpp"
 #include "pcl_rg/delaunay.hpp"
 #include "pcl_rg/final_pass.hpp"
+#include "pcl_rg/index_bitmap.hpp"
 #include "pcl_rg/interrupt.hpp"
 #include "pcl_rg/point_spacing.hpp"
 #include "pcl_rg/timer.hpp"
@@ -104,20 +105,6 @@ namespace pcl_rg {
 namespace {
 
 using namespace tin_acceptance;  // Limits, Facet, Verdict, facet, evaluate, kDegToRad
-
-// Sets bit s of a bitmap; atomic, as neighbouring points may be marked by two threads.
-void mark(std::vector<std::uint64_t>& bits, std::uint32_t s) {
-    __atomic_fetch_or(&bits[s >> 6], std::uint64_t{1} << (s & 63), __ATOMIC_RELAXED);
-}
-
-// Appends the set bits' positions to `out`, in increasing order, and clears them.
-void take_marked(std::vector<std::uint64_t>& bits, std::vector<std::uint32_t>& out) {
-    for (std::size_t w = 0; w < bits.size(); ++w) {
-        for (std::uint64_t word = bits[w]; word != 0; word &= word - 1)
-            out.push_back(static_cast<std::uint32_t>(w * 64 + __builtin_ctzll(word)));
-        bits[w] = 0;
-    }
-}
 
 }  // namespace
 

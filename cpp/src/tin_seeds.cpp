@@ -10,6 +10,7 @@
 
 #include "pcl_rg/cell_lowest.hpp"
 #include "pcl_rg/check.hpp"
+#include "pcl_rg/index_bitmap.hpp"
 #include "pcl_rg/interrupt.hpp"
 #include "pcl_rg/points.hpp"
 

@@ -35,8 +35,4 @@ std::vector<std::int64_t> lowest_in_cells(PointsView points, const CellLattice& 
 std::vector<std::uint32_t> lowest_points(PointsView points, const CellLattice& lattice,
                                          const bool* take = nullptr);
 
-/// The distinct point indices `indices` (each < n) in increasing order: through a bitmap
-/// of the n points when they are not very few (linear), else by sorting.
-std::vector<std::uint32_t> in_index_order(std::vector<std::uint32_t> indices, std::size_t n);
-
 }  // namespace pcl_rg
