@@ -141,13 +141,17 @@ int orient_perturbed(std::int64_t ax, std::int64_t ay, std::int64_t bx, std::int
 
 }  // namespace
 
+int morton_cell_shift(std::int32_t width, std::int32_t height) {
+    int shift = 0;
+    while ((std::max(width, height) >> shift) >= (1 << kMortonAxisBits)) ++shift;
+    return shift;
+}
+
 std::vector<std::uint32_t> morton_order_2d(const std::int32_t* gx, const std::int32_t* gy,
                                            std::size_t n, std::int32_t width, std::int32_t height) {
-    // 10 bits per axis (a 1024^2 grid over the box) is plenty for locality; the point
-    // index rides below the 20-bit code in one 64-bit word (radix_sort_bits).
-    constexpr int kAxisBits = 10;
-    int shift = 0;
-    while ((std::max(width, height) >> shift) >= (1 << kAxisBits)) ++shift;
+    // The point index rides below the 20-bit code in one 64-bit word (radix_sort_bits).
+    constexpr int kAxisBits = kMortonAxisBits;
+    const int shift = morton_cell_shift(width, height);
     const int id_bits = std::max(1, bit_width(n));
     std::vector<std::uint64_t> packed(n);
 #pragma omp parallel for schedule(static)

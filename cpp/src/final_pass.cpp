@@ -101,46 +101,68 @@ void final_pass(PointsView points, const FinalPassParams& params, const SnappedP
         double z;
         std::uint32_t i;
     };
-    std::vector<Vertex> vertices;
-    for (const std::uint32_t i : lowest_points(points, cells, ground))
-        vertices.push_back({snapped.grid_x(points, i), snapped.grid_y(points, i), z_of(i), i});
+    const std::vector<std::uint32_t> lowest = lowest_points(points, cells, ground);
     std::fill(ground, ground + n, false);
-    if (vertices.empty()) return;
-    // Of vertices on one snapped XY, the lowest (ties: smallest index).
-    std::sort(vertices.begin(), vertices.end(), [](const Vertex& a, const Vertex& b) {
-        return a.x < b.x ||
-               (a.x == b.x &&
-                (a.y < b.y || (a.y == b.y && (a.z < b.z || (a.z == b.z && a.i < b.i)))));
-    });
-    vertices.erase(
-        std::unique(vertices.begin(), vertices.end(),
-                    [](const Vertex& a, const Vertex& b) { return a.x == b.x && a.y == b.y; }),
-        vertices.end());
+    if (lowest.empty()) return;
+    std::vector<Vertex> candidates(lowest.size());
+    const auto candidate_count = static_cast<std::ptrdiff_t>(lowest.size());
+#pragma omp parallel for schedule(static) if (candidate_count > 65536)
+    for (std::ptrdiff_t k = 0; k < candidate_count; ++k) {
+        const std::uint32_t i = lowest[k];
+        candidates[k] = {snapped.grid_x(points, i), snapped.grid_y(points, i), z_of(i), i};
+    }
+    // The insertion order: along the Morton curve of the TIN's box (short walks), and
+    // within one of the curve's cells by (x, y), not by index, so that where co-circular
+    // vertices make the order matter the TIN does not follow the points' order in the
+    // input. Of vertices on one snapped XY (always in one cell), the lowest stays, ties by
+    // the smallest index. The curve's sort is stable, so each cell's vertices come
+    // together and only those few are sorted, by (x, y, z, index).
+    std::vector<Vertex> vertices;
+    vertices.reserve(candidates.size());
+    {
+        std::vector<std::int32_t> cx(candidates.size()), cy(candidates.size());
+        for (std::size_t k = 0; k < candidates.size(); ++k)
+            cx[k] = candidates[k].x, cy[k] = candidates[k].y;
+        const std::vector<std::uint32_t> curve =
+            morton_order_2d(cx.data(), cy.data(), candidates.size(), frame.width, frame.height);
+        const int shift = morton_cell_shift(frame.width, frame.height);
+        const auto same_cell = [shift](const Vertex& a, const Vertex& b) {
+            return a.x >> shift == b.x >> shift && a.y >> shift == b.y >> shift;
+        };
+        const auto by_xy_z_index = [](const Vertex& a, const Vertex& b) {
+            return a.x < b.x ||
+                   (a.x == b.x &&
+                    (a.y < b.y || (a.y == b.y && (a.z < b.z || (a.z == b.z && a.i < b.i)))));
+        };
+        std::vector<Vertex> cell;
+        for (std::size_t k = 0; k < curve.size();) {
+            cell.clear();
+            do cell.push_back(candidates[curve[k++]]);
+            while (k < curve.size() && same_cell(candidates[curve[k]], cell.front()));
+            std::sort(cell.begin(), cell.end(), by_xy_z_index);
+            for (std::size_t c = 0; c < cell.size(); ++c)
+                if (c == 0 || cell[c].x != cell[c - 1].x || cell[c].y != cell[c - 1].y)
+                    vertices.push_back(cell[c]);
+        }
+    }
     interruption.check_now();
 
-    // --- 3. the TIN: virtual corners, then the vertices in Morton order --------------
+    // --- 3. the TIN: virtual corners, then the vertices in that order ----------------
     const std::array<std::size_t, 4> nearest = ground_tin::nearest_to_corners(
         frame, vertices.size(), [&](std::size_t k) { return vertices[k].x; },
         [&](std::size_t k) { return vertices[k].y; }, [&](std::size_t k) { return vertices[k].i; });
     Delaunay tin(frame.width, frame.height);
     std::vector<double> vz;
     for (const std::size_t k : nearest) vz.push_back(vertices[k].z);
-    {
-        std::vector<std::int32_t> vx(vertices.size()), vy(vertices.size());
-        for (std::size_t k = 0; k < vertices.size(); ++k)
-            vx[k] = vertices[k].x, vy[k] = vertices[k].y;
-        const std::vector<std::uint32_t> order =
-            morton_order_2d(vx.data(), vy.data(), vertices.size(), frame.width, frame.height);
-        tin.reserve(vertices.size() + 4);
-        vz.reserve(vertices.size() + 4);
-        std::int32_t last = 0;
-        for (const std::uint32_t k : order) {
-            interruption.check();
-            bool inserted = false;
-            const std::int32_t v = tin.insert(vx[k], vy[k], last, &inserted);
-            if (inserted) vz.push_back(vertices[k].z);  // distinct XY: always inserted
-            last = tin.vertex_triangle(v);
-        }
+    tin.reserve(vertices.size() + 4);
+    vz.reserve(vertices.size() + 4);
+    std::int32_t last = 0;
+    for (const Vertex& vertex : vertices) {
+        interruption.check();
+        bool inserted = false;
+        const std::int32_t v = tin.insert(vertex.x, vertex.y, last, &inserted);
+        if (inserted) vz.push_back(vertex.z);  // distinct XY: always inserted
+        last = tin.vertex_triangle(v);
     }
 
     // --- 4. classify every point, in Morton order so that walks are short -------------

@@ -91,9 +91,18 @@ inline int incircle(std::int64_t ax, std::int64_t ay, std::int64_t bx, std::int6
     return det > 0 ? 1 : (det < 0 ? -1 : 0);
 }
 
-/// Point order along a 2-D Morton (Z-order) curve of grid coordinates in the box
-/// [0, width] x [0, height], stable: neighbours in XY end up close in memory and in
-/// walking distance.
+/// Bits per axis of morton_order_2d's curve: a 1024 x 1024 lattice of cells over the box
+/// is plenty for memory locality.
+inline constexpr int kMortonAxisBits = 10;
+
+/// The cells of morton_order_2d's curve in the box [0, width] x [0, height]: grid points
+/// (x, y) and (x', y') share a cell when x >> shift == x' >> shift and y >> shift ==
+/// y' >> shift, for the returned shift.
+int morton_cell_shift(std::int32_t width, std::int32_t height);
+
+/// Point order along a 2-D Morton (Z-order) curve of the cells (morton_cell_shift) of
+/// grid coordinates in the box [0, width] x [0, height], stable (points of one cell stay
+/// in index order): neighbours in XY end up close in memory and in walking distance.
 std::vector<std::uint32_t> morton_order_2d(const std::int32_t* gx, const std::int32_t* gy,
                                            std::size_t n, std::int32_t width, std::int32_t height);
 
