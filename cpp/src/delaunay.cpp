@@ -139,6 +139,16 @@ int orient_perturbed(std::int64_t ax, std::int64_t ay, std::int64_t bx, std::int
     return bx > ax ? 1 : -1;
 }
 
+// The 16 low bits of v moved to the even bit positions 0, 2, ..., 30 (a Morton code's x).
+std::uint64_t spread_bits_2d(std::uint32_t v) {
+    std::uint64_t w = v & 0xffffu;
+    w = (w | w << 8) & 0x00ff00ffu;
+    w = (w | w << 4) & 0x0f0f0f0fu;
+    w = (w | w << 2) & 0x33333333u;
+    w = (w | w << 1) & 0x55555555u;
+    return w;
+}
+
 }  // namespace
 
 int morton_cell_shift(std::int32_t width, std::int32_t height) {
@@ -149,24 +159,25 @@ int morton_cell_shift(std::int32_t width, std::int32_t height) {
 
 std::vector<std::uint32_t> morton_order_2d(const std::int32_t* gx, const std::int32_t* gy,
                                            std::size_t n, std::int32_t width, std::int32_t height) {
-    // The point index rides below the 20-bit code in one 64-bit word (radix_sort_bits).
+    // The point index rides below the 32-bit code in one 64-bit word (radix_sort_bits).
     constexpr int kAxisBits = kMortonAxisBits;
+    static_assert(kAxisBits == 16 && 2 * kAxisBits + 32 <= 64,
+                  "spread_bits_2d spreads 16 bits; the code and a 32-bit index fill one word");
     const int shift = morton_cell_shift(width, height);
     const int id_bits = std::max(1, bit_width(n));
     std::vector<std::uint64_t> packed(n);
 #pragma omp parallel for schedule(static)
     for (std::int64_t i = 0; i < static_cast<std::int64_t>(n); ++i) {
-        std::uint64_t code = 0;
-        const auto x = static_cast<std::uint32_t>(gx[i] >> shift);
-        const auto y = static_cast<std::uint32_t>(gy[i] >> shift);
-        for (int b = 0; b < kAxisBits; ++b)
-            code |= static_cast<std::uint64_t>((x >> b & 1u) | (y >> b & 1u) << 1) << (2 * b);
+        const std::uint64_t code = spread_bits_2d(static_cast<std::uint32_t>(gx[i] >> shift)) |
+                                   spread_bits_2d(static_cast<std::uint32_t>(gy[i] >> shift)) << 1;
         packed[i] = code << id_bits | static_cast<std::uint64_t>(i);
     }
     radix_sort_bits(packed, id_bits, id_bits + 2 * kAxisBits);
     std::vector<std::uint32_t> order(n);
     const std::uint64_t id_mask = (std::uint64_t{1} << id_bits) - 1;
-    for (std::size_t k = 0; k < n; ++k) order[k] = static_cast<std::uint32_t>(packed[k] & id_mask);
+#pragma omp parallel for schedule(static)
+    for (std::int64_t k = 0; k < static_cast<std::int64_t>(n); ++k)
+        order[k] = static_cast<std::uint32_t>(packed[k] & id_mask);
     return order;
 }
 
