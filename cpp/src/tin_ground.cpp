@@ -290,11 +290,16 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
         head.resize(tin.triangle_count(), -1);
 #pragma omp parallel if (m > kParallelTests) firstprivate(interruption)
         {
-            // The last triangle this thread located and its facet: the next point in
-            // Morton order often lies in it, and a triangle's location is unique
-            // (Delaunay::locate), so it is checked first and its facet reused.
-            std::int32_t last = 0, cached = -1;
-            Facet f{};
+            // The last two triangles this thread located, with their facets: the next
+            // point in Morton order often lies in one of them (the curve crosses edges
+            // back and forth), and a triangle's location is unique (Delaunay::locate), so
+            // they are checked first and their facets reused.
+            std::int32_t last = 0;
+            struct Cached {
+                std::int32_t t = -1;
+                Facet f{};
+            } cached[2];
+            int newest = 0;  // cached[newest]: the last one; the other is replaced on a miss
 #pragma omp for schedule(dynamic, 1)
             for (std::ptrdiff_t chunk = 0; chunk < (m + kChunk - 1) / kChunk; ++chunk) {
                 // Polled per chunk, not per test: a test costs only a few hundred cycles.
@@ -303,12 +308,17 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
                      ++k) {
                     const std::uint32_t s = work[k];
                     try {
-                        const std::int32_t t =
-                            cached >= 0 && tin.holds(cached, sx[s], sy[s])
-                                ? cached
-                                : tin.locate(sx[s], sy[s], tri[s] >= 0 ? tri[s] : last);
-                        if (t != cached) f = facet(tin, vz, lim, t), cached = t;
-                        const Verdict verdict = evaluate(tin, f, lim, sx[s], sy[s], sz[s]);
+                        if (!(cached[newest].t >= 0 && tin.holds(cached[newest].t, sx[s], sy[s]))) {
+                            Cached& other = cached[1 - newest];
+                            if (!(other.t >= 0 && tin.holds(other.t, sx[s], sy[s]))) {
+                                other.t = tin.locate(sx[s], sy[s], tri[s] >= 0 ? tri[s] : last);
+                                other.f = facet(tin, vz, lim, other.t);
+                            }
+                            newest = 1 - newest;
+                        }
+                        const std::int32_t t = cached[newest].t;
+                        const Verdict verdict =
+                            evaluate(tin, cached[newest].f, lim, sx[s], sy[s], sz[s]);
                         last = tri[s] = t;
                         accepted[s] = verdict.accepted;
                         stop[s] = verdict.stop;
