@@ -73,17 +73,51 @@ GridFrame make_grid_frame(double lower_x, double lower_y, double upper_x, double
     return frame;
 }
 
-void snap_to_grid(PointsView points, const std::array<double, 3>& origin, const GridFrame& frame,
-                  std::vector<std::int32_t>& gx, std::vector<std::int32_t>& gy) {
-    const auto n = static_cast<std::ptrdiff_t>(points.size);
-    gx.resize(points.size);
-    gy.resize(points.size);
-#pragma omp parallel for schedule(static)
-    for (std::ptrdiff_t i = 0; i < n; ++i) {
-        gx[i] = frame.grid_x(points.coord(i, 0) - origin[0]);
-        gy[i] = frame.grid_y(points.coord(i, 1) - origin[1]);
-    }
+int morton_cell_shift(std::int32_t width, std::int32_t height) {
+    int shift = 0;
+    while ((std::max(width, height) >> shift) >= (1 << kMortonAxisBits)) ++shift;
+    return shift;
 }
+
+namespace {
+
+// The 16 low bits of v moved to the even bit positions 0, 2, ..., 30 (a Morton code's x).
+std::uint64_t spread_bits_2d(std::uint32_t v) {
+    std::uint64_t w = v & 0xffffu;
+    w = (w | w << 8) & 0x00ff00ffu;
+    w = (w | w << 4) & 0x0f0f0f0fu;
+    w = (w | w << 2) & 0x33333333u;
+    w = (w | w << 1) & 0x55555555u;
+    return w;
+}
+
+// Bits of the index under a curve key of n points.
+int curve_id_bits(std::size_t n) { return std::max(1, bit_width(n)); }
+
+// Each point's key, its curve cell's Morton code above its index, sorted: the order of
+// morton_order_2d. grid_xy(i) gives point i's grid (x, y) in the box [0, width] x
+// [0, height]. The sort is stable, so points of one cell stay in index order.
+template <class GridXY>
+std::vector<std::uint64_t> sorted_curve_keys(std::size_t n, std::int32_t width, std::int32_t height,
+                                             GridXY grid_xy) {
+    constexpr int kAxisBits = kMortonAxisBits;
+    static_assert(kAxisBits == 16 && 2 * kAxisBits + 32 <= 64,
+                  "spread_bits_2d spreads 16 bits; the code and a 32-bit index fill one word");
+    const int shift = morton_cell_shift(width, height);
+    const int id_bits = curve_id_bits(n);
+    std::vector<std::uint64_t> keys(n);
+#pragma omp parallel for schedule(static)
+    for (std::int64_t i = 0; i < static_cast<std::int64_t>(n); ++i) {
+        const auto [x, y] = grid_xy(static_cast<std::size_t>(i));
+        const std::uint64_t code = spread_bits_2d(static_cast<std::uint32_t>(x >> shift)) |
+                                   spread_bits_2d(static_cast<std::uint32_t>(y >> shift)) << 1;
+        keys[i] = code << id_bits | static_cast<std::uint64_t>(i);
+    }
+    radix_sort_bits(keys, id_bits, id_bits + 2 * kAxisBits);
+    return keys;
+}
+
+}  // namespace
 
 SnappedPoints snap_frame(const std::array<double, 3>& origin, const std::array<double, 3>& upper) {
     SnappedPoints out;
@@ -98,27 +132,39 @@ SnappedPoints snap_points(PointsView points, const std::array<double, 3>& origin
     const std::size_t n = points.size;
     SnappedPoints out = snap_frame(origin, upper);
     const Interruption interruption;
+    const GridFrame& frame = out.frame;
+    // The curve's keys straight from the coordinates, and after the sort each point's
+    // record read once (one scattered read per point, not one per array).
+    const std::vector<std::uint64_t> keys =
+        sorted_curve_keys(n, frame.width, frame.height, [&](std::size_t i) {
+            return std::pair{out.grid_x(points, i), out.grid_y(points, i)};
+        });
+    interruption.check_now();
+    // Sized side by side: each resize writes zeros over fresh pages, serially.
+#pragma omp parallel sections
     {
-        std::vector<std::int32_t> gx, gy;
-        snap_to_grid(points, origin, out.frame, gx, gy);
-        out.order = morton_order_2d(gx.data(), gy.data(), n, out.frame.width, out.frame.height);
-        interruption.check_now();
-        out.x.resize(n);
-        out.y.resize(n);
+#pragma omp section
+        out.order.resize(n);
+#pragma omp section
+        out.x.resize(n), out.y.resize(n);
+#pragma omp section
         out.z.resize(n);
-        // In blocks polled once each: the gathers miss the cache, the sweep takes a while.
-        constexpr std::size_t kBlock = 4096;
-        const auto blocks = static_cast<std::ptrdiff_t>((n + kBlock - 1) / kBlock);
+    }
+    const int id_bits = curve_id_bits(n);
+    const std::uint64_t id_mask = (std::uint64_t{1} << id_bits) - 1;
+    // In blocks polled once each: the reads miss the cache, the sweep takes a while.
+    constexpr std::size_t kBlock = 4096;
+    const auto blocks = static_cast<std::ptrdiff_t>((n + kBlock - 1) / kBlock);
 #pragma omp parallel for schedule(static) firstprivate(interruption)
-        for (std::ptrdiff_t b = 0; b < blocks; ++b) {
-            if (interruption.requested()) continue;
-            const std::size_t begin = static_cast<std::size_t>(b) * kBlock;
-            for (std::size_t s = begin; s < std::min(n, begin + kBlock); ++s) {
-                const std::uint32_t i = out.order[s];
-                out.x[s] = gx[i];
-                out.y[s] = gy[i];
-                out.z[s] = points.coord(i, 2) - origin[2];
-            }
+    for (std::ptrdiff_t b = 0; b < blocks; ++b) {
+        if (interruption.requested()) continue;
+        const std::size_t begin = static_cast<std::size_t>(b) * kBlock;
+        for (std::size_t s = begin; s < std::min(n, begin + kBlock); ++s) {
+            const auto i = static_cast<std::uint32_t>(keys[s] & id_mask);
+            out.order[s] = i;
+            out.x[s] = out.grid_x(points, i);
+            out.y[s] = out.grid_y(points, i);
+            out.z[s] = points.coord(i, 2) - origin[2];
         }
     }
     interruption.check();
@@ -139,45 +185,18 @@ int orient_perturbed(std::int64_t ax, std::int64_t ay, std::int64_t bx, std::int
     return bx > ax ? 1 : -1;
 }
 
-// The 16 low bits of v moved to the even bit positions 0, 2, ..., 30 (a Morton code's x).
-std::uint64_t spread_bits_2d(std::uint32_t v) {
-    std::uint64_t w = v & 0xffffu;
-    w = (w | w << 8) & 0x00ff00ffu;
-    w = (w | w << 4) & 0x0f0f0f0fu;
-    w = (w | w << 2) & 0x33333333u;
-    w = (w | w << 1) & 0x55555555u;
-    return w;
-}
-
 }  // namespace
-
-int morton_cell_shift(std::int32_t width, std::int32_t height) {
-    int shift = 0;
-    while ((std::max(width, height) >> shift) >= (1 << kMortonAxisBits)) ++shift;
-    return shift;
-}
 
 std::vector<std::uint32_t> morton_order_2d(const std::int32_t* gx, const std::int32_t* gy,
                                            std::size_t n, std::int32_t width, std::int32_t height) {
-    // The point index rides below the 32-bit code in one 64-bit word (radix_sort_bits).
-    constexpr int kAxisBits = kMortonAxisBits;
-    static_assert(kAxisBits == 16 && 2 * kAxisBits + 32 <= 64,
-                  "spread_bits_2d spreads 16 bits; the code and a 32-bit index fill one word");
-    const int shift = morton_cell_shift(width, height);
-    const int id_bits = std::max(1, bit_width(n));
-    std::vector<std::uint64_t> packed(n);
-#pragma omp parallel for schedule(static)
-    for (std::int64_t i = 0; i < static_cast<std::int64_t>(n); ++i) {
-        const std::uint64_t code = spread_bits_2d(static_cast<std::uint32_t>(gx[i] >> shift)) |
-                                   spread_bits_2d(static_cast<std::uint32_t>(gy[i] >> shift)) << 1;
-        packed[i] = code << id_bits | static_cast<std::uint64_t>(i);
-    }
-    radix_sort_bits(packed, id_bits, id_bits + 2 * kAxisBits);
+    const std::vector<std::uint64_t> keys = sorted_curve_keys(n, width, height, [&](std::size_t i) {
+        return std::pair{gx[i], gy[i]};
+    });
     std::vector<std::uint32_t> order(n);
-    const std::uint64_t id_mask = (std::uint64_t{1} << id_bits) - 1;
+    const std::uint64_t id_mask = (std::uint64_t{1} << curve_id_bits(n)) - 1;
 #pragma omp parallel for schedule(static)
     for (std::int64_t k = 0; k < static_cast<std::int64_t>(n); ++k)
-        order[k] = static_cast<std::uint32_t>(packed[k] & id_mask);
+        order[k] = static_cast<std::uint32_t>(keys[k] & id_mask);
     return order;
 }
 

@@ -34,11 +34,6 @@ struct GridFrame {
 /// std::invalid_argument when the bounds are not finite or not ordered.
 GridFrame make_grid_frame(double lower_x, double lower_y, double upper_x, double upper_y);
 
-/// Each point's XY on `frame`'s grid, after subtracting `origin` (in parallel): gx, gy
-/// are resized to the number of points.
-void snap_to_grid(PointsView points, const std::array<double, 3>& origin, const GridFrame& frame,
-                  std::vector<std::int32_t>& gx, std::vector<std::int32_t>& gy);
-
 /// Points on the grid of a frame over their extent, in Morton order: what the ground
 /// filters build their TINs from (tin_ground.cpp, final_pass.cpp), prepared once.
 struct SnappedPoints {
@@ -49,7 +44,7 @@ struct SnappedPoints {
     std::vector<std::int32_t> x, y;    ///< grid XY of point order[s], by sorted position s
     std::vector<double> z;             ///< z - origin[2] of point order[s]
 
-    /// Point i's grid x or y, as snap_to_grid computes it.
+    /// Point i's grid x or y on `frame` (as snap_points snaps it).
     std::int32_t grid_x(PointsView points, std::size_t i) const {
         return frame.grid_x(points.coord(i, 0) - origin[0]);
     }
