@@ -256,14 +256,25 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
     // a triangle that is still there would fail again. The points to test are gathered
     // through a bitmap, so they stay in sorted (Morton) order: consecutive tests read
     // neighbouring points and triangles, and the chosen points come out sorted.
-    std::vector<std::uint8_t> accepted(n, 0), stop(n, 0);
-    std::vector<std::int32_t> tri(n, -1), next(n, -1);
-    std::vector<double> dist(n, 0.0);
+    std::vector<std::uint8_t> accepted, stop;
+    std::vector<std::int32_t> tri, next;
+    std::vector<double> dist;
+    // Filled side by side: each fill writes over fresh pages, serially.
+#pragma omp parallel sections
+    {
+#pragma omp section
+        accepted.assign(n, 0), stop.assign(n, 0), next.assign(n, -1);
+#pragma omp section
+        tri.assign(n, -1);
+#pragma omp section
+        dist.assign(n, 0.0);
+    }
     std::vector<std::uint64_t> retest((n + 63) / 64, 0);       // bit s: test point s again
     std::vector<std::uint64_t> chosen_bits((n + 63) / 64, 0);  // bit s: insert point s
     std::vector<std::int32_t> head;     // per triangle slot: first unclassified point
     std::vector<std::int32_t> best_of;  // per triangle slot: chosen point
     std::vector<std::uint32_t> work, chosen;
+    work.reserve(n - seeds.size());  // at least the points that are not seeds
     for (std::size_t s = 0; s < n; ++s)
         if (!is_ground[s]) work.push_back(static_cast<std::uint32_t>(s));
     // Point a before point b as the choice of a triangle: smallest d, then smallest index.
