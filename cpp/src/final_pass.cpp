@@ -101,38 +101,51 @@ void final_pass(PointsView points, const FinalPassParams& params, const SnappedP
         double z;
         std::uint32_t i;
     };
-    // The vertices, gathered in the order of the snapped points (sequential reads; for
-    // tin_ground's points that is already the order of insertion below).
+    // The vertices with their snapped XY and height. Many (tin_ground's dense cells): by
+    // a scan of the snapped points, sequential reads, for tin_ground already in curve
+    // order; few (grid_ground's): read from the input, one scattered read each, cheaper
+    // than the scan. The order below does not depend on which.
     std::vector<Vertex> candidates;
     {
-        std::vector<std::uint64_t> is_vertex((n + 63) / 64, 0);
-        for (const std::uint32_t i : lowest_points(points, cells, ground))
-            is_vertex[i >> 6] |= std::uint64_t{1} << (i & 63);
+        const std::vector<std::uint32_t> lowest = lowest_points(points, cells, ground);
         std::fill(ground, ground + n, false);
-        const auto taken = [&](std::size_t s) {
-            const std::uint32_t i = snapped.order[s];
-            return (is_vertex[i >> 6] >> (i & 63) & 1u) != 0;
-        };
-        // Fixed blocks, counted, then filled at their offsets: the same list whatever
-        // the threads.
-        constexpr std::size_t kBlock = 65536;
-        const auto blocks = static_cast<std::ptrdiff_t>((n + kBlock - 1) / kBlock);
-        std::vector<std::size_t> offset(static_cast<std::size_t>(blocks) + 1, 0);
+        const auto count = static_cast<std::ptrdiff_t>(lowest.size());
+        if (lowest.size() < n / 16) {
+            candidates.resize(lowest.size());
+#pragma omp parallel for schedule(static) if (count > 65536)
+            for (std::ptrdiff_t k = 0; k < count; ++k) {
+                const std::uint32_t i = lowest[k];
+                candidates[k] = {snapped.grid_x(points, i), snapped.grid_y(points, i), z_of(i), i};
+            }
+        } else {
+            std::vector<std::uint64_t> is_vertex((n + 63) / 64, 0);
+            for (const std::uint32_t i : lowest) is_vertex[i >> 6] |= std::uint64_t{1} << (i & 63);
+            const auto taken = [&](std::size_t s) {
+                const std::uint32_t i = snapped.order[s];
+                return (is_vertex[i >> 6] >> (i & 63) & 1u) != 0;
+            };
+            // Fixed blocks, counted, then filled at their offsets: the same list whatever
+            // the threads.
+            constexpr std::size_t kBlock = 65536;
+            const auto blocks = static_cast<std::ptrdiff_t>((n + kBlock - 1) / kBlock);
+            std::vector<std::size_t> offset(static_cast<std::size_t>(blocks) + 1, 0);
 #pragma omp parallel for schedule(static)
-        for (std::ptrdiff_t b = 0; b < blocks; ++b) {
-            std::size_t count = 0;
-            for (std::size_t s = b * kBlock; s < std::min(n, (b + 1) * kBlock); ++s)
-                count += taken(s);
-            offset[b + 1] = count;
-        }
-        for (std::ptrdiff_t b = 0; b < blocks; ++b) offset[b + 1] += offset[b];
-        candidates.resize(offset[blocks]);
+            for (std::ptrdiff_t b = 0; b < blocks; ++b) {
+                std::size_t found = 0;
+                for (std::size_t s = b * kBlock; s < std::min(n, (b + 1) * kBlock); ++s)
+                    found += taken(s);
+                offset[b + 1] = found;
+            }
+            for (std::ptrdiff_t b = 0; b < blocks; ++b) offset[b + 1] += offset[b];
+            candidates.resize(offset[blocks]);
 #pragma omp parallel for schedule(static)
-        for (std::ptrdiff_t b = 0; b < blocks; ++b) {
-            std::size_t k = offset[b];
-            for (std::size_t s = b * kBlock; s < std::min(n, (b + 1) * kBlock); ++s)
-                if (taken(s))
-                    candidates[k++] = {snapped.x[s], snapped.y[s], snapped.z[s], snapped.order[s]};
+            for (std::ptrdiff_t b = 0; b < blocks; ++b) {
+                std::size_t k = offset[b];
+                for (std::size_t s = b * kBlock; s < std::min(n, (b + 1) * kBlock); ++s)
+                    if (taken(s))
+                        candidates[k++] = {snapped.x[s], snapped.y[s], snapped.z[s],
+                                           snapped.order[s]};
+            }
         }
     }
     if (candidates.empty()) return;
