@@ -33,6 +33,7 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 #include "pcl_rg/interrupt.hpp"
 #include "pcl_rg/spatial_order.hpp"

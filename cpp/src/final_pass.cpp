@@ -46,6 +46,7 @@
 #include "pcl_rg/cell_lowest.hpp"
 #include "pcl_rg/check.hpp"
 #include "pcl_rg/delaunay.hpp"
+#include "pcl_rg/index_bitmap.hpp"
 #include "pcl_rg/interrupt.hpp"
 
 namespace pcl_rg {
@@ -119,11 +120,8 @@ void final_pass(PointsView points, const FinalPassParams& params, const SnappedP
             }
         } else {
             std::vector<std::uint64_t> is_vertex((n + 63) / 64, 0);
-            for (const std::uint32_t i : lowest) is_vertex[i >> 6] |= std::uint64_t{1} << (i & 63);
-            const auto taken = [&](std::size_t s) {
-                const std::uint32_t i = snapped.order[s];
-                return (is_vertex[i >> 6] >> (i & 63) & 1u) != 0;
-            };
+            for (const std::uint32_t i : lowest) mark(is_vertex, i);
+            const auto taken = [&](std::size_t s) { return marked(is_vertex, snapped.order[s]); };
             // Fixed blocks, counted, then filled at their offsets: the same list whatever
             // the threads.
             constexpr std::size_t kBlock = 65536;
@@ -229,45 +227,38 @@ void final_pass(PointsView points, const FinalPassParams& params, const SnappedP
     const auto m = static_cast<std::ptrdiff_t>(n);
 #pragma omp parallel firstprivate(interruption)
     {
-        // The last two triangles this thread located, with their planes and gradients:
-        // the next point often lies in one of them (in Morton order, or in a cell of
-        // grid_ground's grid that straddles an edge, whose points come by height, not
-        // place), and a point's triangle is unique (Delaunay::locate), so they are
-        // checked first and their planes reused.
-        struct Located {
-            std::int32_t t = -1;
-            ground_tin::Plane f{};
-            double gradient = 0.0;
+        // The last two triangles this thread located, with their planes and gradients
+        // (in Morton order, or in a cell of grid_ground's grid that straddles an edge,
+        // whose points come by height, not place, the next point often lies in one).
+        struct Surface {
+            ground_tin::Plane f;
+            double gradient;
         };
-        Located recent[2];
-        int newest = 0;  // recent[newest]: the last one; the other is replaced on a miss
+        ground_tin::RecentTriangles<Surface> recent;
 #pragma omp for schedule(dynamic, 1)
         for (std::ptrdiff_t chunk = 0; chunk < (m + kChunk - 1) / kChunk; ++chunk) {
             if (interruption.requested()) continue;
             for (std::ptrdiff_t s = chunk * kChunk; s < std::min(m, (chunk + 1) * kChunk); ++s) {
                 const std::int32_t gx = snapped.x[s], gy = snapped.y[s];
-                if (!(recent[newest].t >= 0 && tin.holds(recent[newest].t, gx, gy))) {
-                    Located& other = recent[1 - newest];
-                    if (!(other.t >= 0 && tin.holds(other.t, gx, gy))) {
-                        // Walk from the last triangle, or from the hint when that is far.
-                        std::int32_t start = recent[newest].t;
-                        const std::int32_t corner =
-                            start >= 0 ? tin.triangle_vertex(start, 0) : std::int32_t{0};
-                        if (start < 0 || std::abs(std::int64_t{tin.vertex_x(corner)} - gx) > near ||
-                            std::abs(std::int64_t{tin.vertex_y(corner)} - gy) > near) {
-                            const std::int32_t h = hint[hint_of(gx, gy)];
-                            start = h >= 0 ? h : std::max(start, std::int32_t{0});
-                        }
-                        other.t = tin.locate(gx, gy, start);
-                        other.f = ground_tin::plane_of(tin, vz, q, other.t);
-                        other.gradient =
-                            std::sqrt(other.f.nx * other.f.nx + other.f.ny * other.f.ny) /
-                            other.f.nz;
+                // Walk from the last triangle, or from the hint when that is far.
+                const auto locate = [&](std::int32_t start) {
+                    const std::int32_t corner =
+                        start >= 0 ? tin.triangle_vertex(start, 0) : std::int32_t{0};
+                    if (start < 0 || std::abs(std::int64_t{tin.vertex_x(corner)} - gx) > near ||
+                        std::abs(std::int64_t{tin.vertex_y(corner)} - gy) > near) {
+                        const std::int32_t h = hint[hint_of(gx, gy)];
+                        start = h >= 0 ? h : std::max(start, std::int32_t{0});
                     }
-                    newest = 1 - newest;
-                }
-                const ground_tin::Plane& f = recent[newest].f;
-                const double gradient = recent[newest].gradient;
+                    return tin.locate(gx, gy, start);
+                };
+                const auto surface_of = [&](std::int32_t t) {
+                    const ground_tin::Plane plane = ground_tin::plane_of(tin, vz, q, t);
+                    return Surface{plane,
+                                   std::sqrt(plane.nx * plane.nx + plane.ny * plane.ny) / plane.nz};
+                };
+                const Surface& found = recent.find(tin, gx, gy, locate, surface_of).data;
+                const ground_tin::Plane& f = found.f;
+                const double gradient = found.gradient;
                 const double px = static_cast<double>(gx - 1) * q;
                 const double py = static_cast<double>(gy - 1) * q;
                 const double surface =

@@ -1,7 +1,7 @@
 // Pieces shared by the TINs of the ground filters, the densification's
 // (tin_ground.cpp, tin_acceptance.hpp) and the final pass's (final_pass.cpp): the plane
-// of a triangle, and the heights of the four virtual box corners. Inline, in a header
-// private to cpp/src, as they run in the hot loops.
+// of a triangle, the heights of the four virtual box corners, and the last two triangles
+// a thread located. Inline, in a header private to cpp/src, as they run in the hot loops.
 #pragma once
 
 #include <algorithm>
@@ -69,5 +69,42 @@ std::array<std::size_t, 4> nearest_to_corners(const GridFrame& frame, std::size_
     }
     return nearest;
 }
+
+// The last two triangles a thread located, each with what the thread derived from it
+// (a facet, a plane): the next point in curve order often lies in one of them (the curve
+// crosses edges back and forth), and a point's triangle is unique (Delaunay::locate), so
+// they are checked first and their data reused.
+template <class Data>
+class RecentTriangles {
+   public:
+    struct Entry {
+        std::int32_t t = -1;  // -1: none yet
+        Data data{};
+    };
+
+    /// The triangle holding grid point (x, y) with its data: one of the two when it holds
+    /// the point, else t = locate(the newest triangle, or -1) and data = derive(t), in
+    /// place of the older one.
+    template <class Locate, class Derive>
+    const Entry& find(const Delaunay& tin, std::int32_t x, std::int32_t y, Locate locate,
+                      Derive derive) {
+        if (holds(tin, entry_[newest_], x, y)) return entry_[newest_];
+        Entry& other = entry_[1 - newest_];
+        if (!holds(tin, other, x, y)) {
+            other.t = locate(entry_[newest_].t);
+            other.data = derive(other.t);
+        }
+        newest_ = 1 - newest_;
+        return other;
+    }
+
+   private:
+    static bool holds(const Delaunay& tin, const Entry& e, std::int32_t x, std::int32_t y) {
+        return e.t >= 0 && tin.holds(e.t, x, y);
+    }
+
+    Entry entry_[2];
+    int newest_ = 0;  // entry_[newest_]: the last one found
+};
 
 }  // namespace pcl_rg::ground_tin

@@ -301,16 +301,9 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
         head.resize(tin.triangle_count(), -1);
 #pragma omp parallel if (m > kParallelTests) firstprivate(interruption)
         {
-            // The last two triangles this thread located, with their facets: the next
-            // point in Morton order often lies in one of them (the curve crosses edges
-            // back and forth), and a triangle's location is unique (Delaunay::locate), so
-            // they are checked first and their facets reused.
+            // The last two triangles this thread located, with their facets.
             std::int32_t last = 0;
-            struct Cached {
-                std::int32_t t = -1;
-                Facet f{};
-            } cached[2];
-            int newest = 0;  // cached[newest]: the last one; the other is replaced on a miss
+            ground_tin::RecentTriangles<Facet> recent;
 #pragma omp for schedule(dynamic, 1)
             for (std::ptrdiff_t chunk = 0; chunk < (m + kChunk - 1) / kChunk; ++chunk) {
                 // Polled per chunk, not per test: a test costs only a few hundred cycles.
@@ -319,17 +312,14 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
                      ++k) {
                     const std::uint32_t s = work[k];
                     try {
-                        if (!(cached[newest].t >= 0 && tin.holds(cached[newest].t, sx[s], sy[s]))) {
-                            Cached& other = cached[1 - newest];
-                            if (!(other.t >= 0 && tin.holds(other.t, sx[s], sy[s]))) {
-                                other.t = tin.locate(sx[s], sy[s], tri[s] >= 0 ? tri[s] : last);
-                                other.f = facet(tin, vz, lim, other.t);
-                            }
-                            newest = 1 - newest;
-                        }
-                        const std::int32_t t = cached[newest].t;
-                        const Verdict verdict =
-                            evaluate(tin, cached[newest].f, lim, sx[s], sy[s], sz[s]);
+                        const auto& found = recent.find(
+                            tin, sx[s], sy[s],
+                            [&](std::int32_t) {
+                                return tin.locate(sx[s], sy[s], tri[s] >= 0 ? tri[s] : last);
+                            },
+                            [&](std::int32_t t) { return facet(tin, vz, lim, t); });
+                        const std::int32_t t = found.t;
+                        const Verdict verdict = evaluate(tin, found.data, lim, sx[s], sy[s], sz[s]);
                         last = tri[s] = t;
                         accepted[s] = verdict.accepted;
                         stop[s] = verdict.stop;

@@ -14,6 +14,11 @@ inline void mark(std::vector<std::uint64_t>& bits, std::uint32_t s) {
     __atomic_fetch_or(&bits[s >> 6], std::uint64_t{1} << (s & 63), __ATOMIC_RELAXED);
 }
 
+/// Whether bit s of a bitmap is set.
+inline bool marked(const std::vector<std::uint64_t>& bits, std::uint32_t s) {
+    return (bits[s >> 6] >> (s & 63) & 1u) != 0;
+}
+
 /// Appends the set bits' positions to `out`, in increasing order, and clears them.
 inline void take_marked(std::vector<std::uint64_t>& bits, std::vector<std::uint32_t>& out) {
     for (std::size_t w = 0; w < bits.size(); ++w) {
