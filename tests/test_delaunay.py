@@ -52,7 +52,9 @@ def check_triangulation(tin: _core.DelaunayTin) -> None:
                 p, q = (v[i] for i in edge)
                 assert p[0] == q[0] in (0, width) or p[1] == q[1] in (0, height)
             else:
-                assert t in nbr[u] and edge <= set(tri[u])
+                # u links back across the same edge: opposite its vertex not on it.
+                (j,) = (i for i in range(3) if tri[u][i] not in edge)
+                assert nbr[u][j] == t and edge == set(tri[u]) - {tri[u][j]}
     assert twice_area == 2 * width * height
     # Global Delaunay property: no vertex strictly inside any circumcircle.
     for a, b, c in tri:

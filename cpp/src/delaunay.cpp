@@ -99,14 +99,14 @@ int curve_id_bits(std::size_t n) { return std::max(1, bit_width(n)); }
 // morton_order_2d. grid_xy(i) gives point i's grid (x, y) in the box [0, width] x
 // [0, height]. The sort is stable, so points of one cell stay in index order.
 template <class GridXY>
-std::vector<std::uint64_t> sorted_curve_keys(std::size_t n, std::int32_t width, std::int32_t height,
-                                             GridXY grid_xy) {
+UnfilledVector<std::uint64_t> sorted_curve_keys(std::size_t n, std::int32_t width,
+                                                std::int32_t height, GridXY grid_xy) {
     constexpr int kAxisBits = kMortonAxisBits;
     static_assert(kAxisBits == 16 && 2 * kAxisBits + 32 <= 64,
                   "spread_bits_2d spreads 16 bits; the code and a 32-bit index fill one word");
     const int shift = morton_cell_shift(width, height);
     const int id_bits = curve_id_bits(n);
-    std::vector<std::uint64_t> keys(n);
+    UnfilledVector<std::uint64_t> keys(n);  // written in full below
 #pragma omp parallel for schedule(static)
     for (std::int64_t i = 0; i < static_cast<std::int64_t>(n); ++i) {
         const auto [x, y] = grid_xy(static_cast<std::size_t>(i));
@@ -136,7 +136,7 @@ SnappedPoints snap_points(PointsView points, const std::array<double, 3>& origin
     const GridFrame& frame = out.frame;
     // The curve's keys straight from the coordinates, and after the sort each point's
     // record read once (one scattered read per point, not one per array).
-    const std::vector<std::uint64_t> keys =
+    const UnfilledVector<std::uint64_t> keys =
         sorted_curve_keys(n, frame.width, frame.height, [&](std::size_t i) {
             return std::pair{out.grid_x(points, i), out.grid_y(points, i)};
         });
@@ -190,9 +190,10 @@ int orient_perturbed(std::int64_t ax, std::int64_t ay, std::int64_t bx, std::int
 
 std::vector<std::uint32_t> morton_order_2d(const std::int32_t* gx, const std::int32_t* gy,
                                            std::size_t n, std::int32_t width, std::int32_t height) {
-    const std::vector<std::uint64_t> keys = sorted_curve_keys(n, width, height, [&](std::size_t i) {
-        return std::pair{gx[i], gy[i]};
-    });
+    const UnfilledVector<std::uint64_t> keys =
+        sorted_curve_keys(n, width, height, [&](std::size_t i) {
+            return std::pair{gx[i], gy[i]};
+        });
     std::vector<std::uint32_t> order(n);
     const std::uint64_t id_mask = (std::uint64_t{1} << curve_id_bits(n)) - 1;
 #pragma omp parallel for schedule(static)

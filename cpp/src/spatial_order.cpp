@@ -97,7 +97,7 @@ void radix_sort_pairs(std::vector<std::uint64_t>& keys, std::vector<std::uint32_
     }
 }
 
-void radix_sort_bits(std::vector<std::uint64_t>& values, int first_bit, int last_bit) {
+void radix_sort_bits(UnfilledVector<std::uint64_t>& values, int first_bit, int last_bit) {
     const std::size_t n = values.size();
     const int bits = last_bit - first_bit;
     if (n < 2 || bits <= 0) return;
@@ -105,7 +105,7 @@ void radix_sort_bits(std::vector<std::uint64_t>& values, int first_bit, int last
     const std::size_t buckets = std::size_t{1} << width, mask = buckets - 1;
     const std::ptrdiff_t chunks = chunk_count(n);
     std::vector<std::size_t> offsets(static_cast<std::size_t>(chunks) * buckets);
-    std::vector<std::uint64_t> tmp(n);
+    UnfilledVector<std::uint64_t> tmp(n);  // each pass writes every entry
     const Interruption interruption;
     for (int shift = first_bit; shift < last_bit; shift += width) {
         radix_pass(
@@ -150,7 +150,7 @@ std::vector<std::uint32_t> morton_order(const float* xyz, std::uint32_t size) {
     const float extent = std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2], 1e-30f});
     const double scale = static_cast<double>((1u << kAxisBits) - 1) / extent;
     const int id_bits = std::max(1, bit_width(size));
-    std::vector<std::uint64_t> packed(size);
+    UnfilledVector<std::uint64_t> packed(size);  // written in full below
 #pragma omp parallel for schedule(static)
     for (std::int64_t i = 0; i < static_cast<std::int64_t>(size); ++i) {
         std::uint64_t code = 0;

@@ -202,7 +202,9 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
 #pragma omp parallel for schedule(static) if (count > 65536)
     for (std::ptrdiff_t s = 0; s < count; ++s) is_ground[s] = ground[order[s]];
     std::vector<std::int32_t> seed_x(seeds.size()), seed_y(seeds.size());
-    for (std::size_t k = 0; k < seeds.size(); ++k) {
+    const auto seed_count = static_cast<std::ptrdiff_t>(seeds.size());
+#pragma omp parallel for schedule(static) if (seed_count > 65536)
+    for (std::ptrdiff_t k = 0; k < seed_count; ++k) {  // scattered reads, distinct writes
         seed_x[k] = snapped.grid_x(points, seeds[k]);
         seed_y[k] = snapped.grid_y(points, seeds[k]);
     }
@@ -274,9 +276,17 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
     std::vector<std::int32_t> head;     // per triangle slot: first unclassified point
     std::vector<std::int32_t> best_of;  // per triangle slot: chosen point
     std::vector<std::uint32_t> work, chosen;
-    work.reserve(n - seeds.size());  // at least the points that are not seeds
-    for (std::size_t s = 0; s < n; ++s)
-        if (!is_ground[s]) work.push_back(static_cast<std::uint32_t>(s));
+    // The first work: every point that is not a seed, marked word by word (each word
+    // written by one thread) and taken in sorted order.
+    const auto retest_words = static_cast<std::ptrdiff_t>(retest.size());
+#pragma omp parallel for schedule(static) if (count > 65536)
+    for (std::ptrdiff_t w = 0; w < retest_words; ++w) {
+        std::uint64_t word = 0;
+        for (std::ptrdiff_t s = 64 * w; s < std::min(count, 64 * w + 64); ++s)
+            if (!is_ground[s]) word |= std::uint64_t{1} << (s - 64 * w);
+        retest[w] = word;
+    }
+    take_marked(retest, work);
     // Point a before point b as the choice of a triangle: smallest d, then smallest index.
     auto better = [&](std::int32_t a, std::int32_t b) {
         return dist[a] < dist[b] || (dist[a] == dist[b] && order[a] < order[b]);

@@ -110,7 +110,7 @@ VoxelGridResult voxel_grid(PointsView points, const VoxelGridParams& params,
     if (key_bits + id_bits <= 64) {
         // The common case: key above index in one word, sorted on the key bits only
         // (stable, so each voxel's points stay in index order).
-        std::vector<std::uint64_t> packed(n);
+        UnfilledVector<std::uint64_t> packed(n);  // written in full below
 #pragma omp parallel for schedule(static)
         for (std::ptrdiff_t i = 0; i < static_cast<std::ptrdiff_t>(n); ++i)
             packed[i] = key_of(i) << id_bits | static_cast<std::uint64_t>(i);
