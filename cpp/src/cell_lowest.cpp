@@ -11,6 +11,7 @@
 
 #include "pcl_rg/index_bitmap.hpp"
 #include "pcl_rg/interrupt.hpp"
+#include "pcl_rg/spatial_order.hpp"
 
 namespace pcl_rg {
 
@@ -95,7 +96,9 @@ std::vector<std::int64_t> lowest_in_cells(PointsView points, const CellLattice& 
         // every point's cell, in parallel; then each thread scans them all for the points
         // of its own range of cells (no merge). Either way the lowest under a total order
         // does not depend on how the work is shared.
-        std::vector<std::uint32_t> cell(static_cast<std::size_t>(n));
+        // Not zero-filled: written in full below (a skipped block stops every thread
+        // before the scan reads it).
+        UnfilledVector<std::uint32_t> cell(static_cast<std::size_t>(n));
 #pragma omp parallel firstprivate(interruption)
         {
 #pragma omp for schedule(static)
@@ -124,7 +127,9 @@ std::vector<std::int64_t> lowest_in_cells(PointsView points, const CellLattice& 
     }
     interruption.check();
     std::vector<std::int64_t> index(cells);
-    for (std::size_t k = 0; k < cells; ++k) index[k] = lowest[k].i;
+    const auto cell_count = static_cast<std::ptrdiff_t>(cells);
+#pragma omp parallel for schedule(static) if (cell_count > 65536)
+    for (std::ptrdiff_t k = 0; k < cell_count; ++k) index[k] = lowest[k].i;
     return index;
 }
 

@@ -57,16 +57,34 @@ std::array<std::size_t, 4> nearest_to_corners(const GridFrame& frame, std::size_
                                               GridY gy, Index index) {
     const std::int64_t corner_x[4] = {0, frame.width, frame.width, 0};
     const std::int64_t corner_y[4] = {0, 0, frame.height, frame.height};
-    std::array<std::size_t, 4> nearest{};
-    for (int c = 0; c < 4; ++c) {
-        std::int64_t best_d2 = std::numeric_limits<std::int64_t>::max();
-        for (std::size_t k = 0; k < count; ++k) {
-            const std::int64_t dx = gx(k) - corner_x[c], dy = gy(k) - corner_y[c];
-            const std::int64_t d2 = dx * dx + dy * dy;
-            if (d2 < best_d2 || (d2 == best_d2 && index(k) < index(nearest[c])))
-                best_d2 = d2, nearest[c] = k;
-        }
+    const auto d2 = [&](int c, std::size_t k) {
+        const std::int64_t dx = gx(k) - corner_x[c], dy = gy(k) - corner_y[c];
+        return dx * dx + dy * dy;
+    };
+    // k before j for corner c: nearer, then smaller index (a total order).
+    const auto before = [&](int c, std::size_t k, std::size_t j) {
+        const std::int64_t dk = d2(c, k), dj = d2(c, j);
+        return dk < dj || (dk == dj && index(k) < index(j));
+    };
+    // Each fixed block's nearest, in parallel, then the nearest of those: the minimum
+    // under a total order, whatever the threads.
+    constexpr std::size_t kBlock = 65536;
+    const auto blocks = static_cast<std::ptrdiff_t>((count + kBlock - 1) / kBlock);
+    std::vector<std::array<std::size_t, 4>> block_nearest(static_cast<std::size_t>(blocks));
+#pragma omp parallel for schedule(static) if (blocks > 1)
+    for (std::ptrdiff_t b = 0; b < blocks; ++b) {
+        const std::size_t first = static_cast<std::size_t>(b) * kBlock;
+        std::array<std::size_t, 4>& best = block_nearest[b];
+        best.fill(first);
+        for (std::size_t k = first + 1; k < std::min(count, first + kBlock); ++k)
+            for (int c = 0; c < 4; ++c)
+                if (before(c, k, best[c])) best[c] = k;
     }
+    std::array<std::size_t, 4> nearest{};
+    for (std::ptrdiff_t b = 0; b < blocks; ++b)
+        for (int c = 0; c < 4; ++c)
+            if (b == 0 || before(c, block_nearest[b][c], nearest[c]))
+                nearest[c] = block_nearest[b][c];
     return nearest;
 }
 

@@ -96,6 +96,7 @@
 #include "pcl_rg/index_bitmap.hpp"
 #include "pcl_rg/interrupt.hpp"
 #include "pcl_rg/point_spacing.hpp"
+#include "pcl_rg/spatial_order.hpp"
 #include "pcl_rg/timer.hpp"
 #include "pcl_rg/tin_seeds.hpp"
 #include "tin_acceptance.hpp"
@@ -273,9 +274,9 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
     }
     std::vector<std::uint64_t> retest((n + 63) / 64, 0);       // bit s: test point s again
     std::vector<std::uint64_t> chosen_bits((n + 63) / 64, 0);  // bit s: insert point s
-    std::vector<std::int32_t> head;     // per triangle slot: first unclassified point
-    std::vector<std::int32_t> best_of;  // per triangle slot: chosen point
-    std::vector<std::uint32_t> work, chosen;
+    std::vector<std::int32_t> head;              // per triangle slot: first unclassified point
+    std::vector<std::int32_t> best_of;           // per triangle slot: chosen point
+    UnfilledVector<std::uint32_t> work, chosen;  // filled by take_marked: not zeroed first
     // The first work: every point that is not a seed, marked word by word (each word
     // written by one thread) and taken in sorted order.
     const auto retest_words = static_cast<std::ptrdiff_t>(retest.size());

@@ -173,10 +173,13 @@ std::vector<std::uint32_t> morphological_seeds(PointsView points,
     const std::vector<std::int64_t> lowest =
         lowest_in_cells(points, CellLattice{origin[0], origin[1], 0.0, cell, ncx, ncy});
     const double none = std::numeric_limits<double>::infinity();
-    std::vector<double> height(lowest.size(), none);
-    for (std::size_t k = 0; k < lowest.size(); ++k)
-        if (lowest[k] >= 0)
-            height[k] = points.coord(static_cast<std::size_t>(lowest[k]), 2) - origin[2];
+    std::vector<double> height(lowest.size());
+    const auto cells = static_cast<std::ptrdiff_t>(lowest.size());
+#pragma omp parallel for schedule(static) if (cells > 65536)
+    for (std::ptrdiff_t k = 0; k < cells; ++k)  // scattered reads, distinct writes
+        height[k] = lowest[k] >= 0
+                        ? points.coord(static_cast<std::size_t>(lowest[k]), 2) - origin[2]
+                        : none;
     if (params.outlier_depth > 0.0) {
         // Low outliers: a cell more than outlier_depth below the 9th lowest of the 25
         // cells of its 5 x 5 window (empty ones counting as +inf) loses its seed; repeat

@@ -19,11 +19,13 @@ inline bool marked(const std::vector<std::uint64_t>& bits, std::uint32_t s) {
     return (bits[s >> 6] >> (s & 63) & 1u) != 0;
 }
 
-/// Appends the set bits' positions to `out`, in increasing order, and clears them.
-/// Blocks of words are counted first (a cheap serial popcount), so that many positions
-/// (the first work lists of tin_ground, millions) are written in parallel, each block at
-/// its own offset: the result is the serial one.
-inline void take_marked(std::vector<std::uint64_t>& bits, std::vector<std::uint32_t>& out) {
+/// Appends the set bits' positions to `out` (a vector of std::uint32_t), in increasing
+/// order, and clears them. Blocks of words are counted first (a cheap serial popcount of
+/// the non-zero words), so that many positions (the first work lists of tin_ground,
+/// millions) are written in parallel, each block at its own offset: the result is the
+/// serial one.
+template <class Indices>
+void take_marked(std::vector<std::uint64_t>& bits, Indices& out) {
     constexpr std::size_t kBlockWords = 2048;      // 131072 positions per block
     constexpr std::size_t kParallelMarks = 65536;  // fewer: one thread, no region to wait for
     const std::size_t words = bits.size();
@@ -33,7 +35,8 @@ inline void take_marked(std::vector<std::uint64_t>& bits, std::vector<std::uint3
         std::size_t marks = 0;
         const std::size_t end = std::min(words, (b + 1) * kBlockWords);
         for (std::size_t w = b * kBlockWords; w < end; ++w)
-            marks += static_cast<std::size_t>(__builtin_popcountll(bits[w]));
+            if (bits[w] != 0)  // late bitmaps are sparse; the popcount is a libgcc call
+                marks += static_cast<std::size_t>(__builtin_popcountll(bits[w]));
         offset[b + 1] = offset[b] + marks;
     }
     out.resize(offset[blocks]);
