@@ -141,16 +141,9 @@ SnappedPoints snap_points(PointsView points, const std::array<double, 3>& origin
             return std::pair{out.grid_x(points, i), out.grid_y(points, i)};
         });
     interruption.check_now();
-    // Sized side by side: each resize writes zeros over fresh pages, serially.
-#pragma omp parallel sections
-    {
-#pragma omp section
-        out.order.resize(n);
-#pragma omp section
-        out.x.resize(n), out.y.resize(n);
-#pragma omp section
-        out.z.resize(n);
-    }
+    // Not zero-filled (UnfilledVector): the parallel loop below writes every entry, and
+    // the first writes of fresh pages are shared by the threads.
+    out.order.resize(n), out.x.resize(n), out.y.resize(n), out.z.resize(n);
     const int id_bits = curve_id_bits(n);
     const std::uint64_t id_mask = (std::uint64_t{1} << id_bits) - 1;
     // In blocks polled once each: the reads miss the cache, the sweep takes a while.

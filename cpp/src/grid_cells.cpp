@@ -32,7 +32,8 @@ CellGrid build_grid(PointsView points, const GridGroundParams& params,
     const double limit = std::max(4.0 * static_cast<double>(n), 1048576.0);
     grid.dense = static_cast<double>(grid.width) * static_cast<double>(grid.height) <= limit;
 
-    std::vector<std::uint32_t> key(n);  // cell number, then block number, per input point
+    // Cell number, then block number, per input point (written in full before any read).
+    UnfilledVector<std::uint32_t> key(n);
     std::size_t cells;
     if (grid.dense) {
         cells = static_cast<std::size_t>(grid.width * grid.height);

@@ -217,10 +217,11 @@ void grow(const CellGrid& grid, const GridGroundParams& params,
     else
         label_components(grid, params, candidate, sets);
     poll_interrupt();
-    std::vector<std::uint32_t> root(n);
+    // Both written in full by the first loop below, so not zero-filled first.
+    UnfilledVector<std::uint32_t> root(n);
     // Component sizes: neighbouring positions mostly share a root, so each thread adds
     // runs of one root at a time (integer sums: the same whatever the sharing).
-    std::vector<std::atomic<std::uint32_t>> size(n);
+    UnfilledVector<std::atomic<std::uint32_t>> size(n);
 #pragma omp parallel if (parallel)
     {
 #pragma omp for schedule(static)
@@ -261,7 +262,9 @@ void grow(const CellGrid& grid, const GridGroundParams& params,
         }
         seed[b] = lowest_large != kNone ? lowest_large : lowest;
     }
-    std::vector<unsigned char> seeded(n, 0);
+    UnfilledVector<unsigned char> seeded(n);  // zeroed by the threads, not by one
+#pragma omp parallel for schedule(static) if (parallel)
+    for (std::ptrdiff_t s = 0; s < count; ++s) seeded[s] = 0;
     for (const std::uint32_t s : seed)
         if (s != kNone) seeded[root[s]] = 1;
 #pragma omp parallel for schedule(guided) if (parallel)

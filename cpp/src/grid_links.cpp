@@ -170,7 +170,7 @@ void label_components(const CellGrid& grid, const GridGroundParams& params,
                 }
             }
         });
-    std::vector<std::uint32_t> root(n);
+    UnfilledVector<std::uint32_t> root(n);  // written in full below
     const auto count = static_cast<std::ptrdiff_t>(n);
 #pragma omp parallel for schedule(guided) if (parallel)
     for (std::ptrdiff_t s = 0; s < count; ++s) root[s] = sets.find(static_cast<std::uint32_t>(s));

@@ -174,9 +174,9 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
     // them): neighbours in XY are neighbours in memory.
     const SnappedPoints snapped = snap_points(points, origin, upper);
     const GridFrame& frame = snapped.frame;
-    const std::vector<std::uint32_t>& order = snapped.order;
-    const std::vector<std::int32_t>&sx = snapped.x, &sy = snapped.y;
-    const std::vector<double>& sz = snapped.z;
+    const UnfilledVector<std::uint32_t>& order = snapped.order;
+    const UnfilledVector<std::int32_t>&sx = snapped.x, &sy = snapped.y;
+    const UnfilledVector<double>& sz = snapped.z;
 
     // A TIN needs three points not on one line (exact test on the grid).
     {

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "pcl_rg/points.hpp"
+#include "pcl_rg/spatial_order.hpp"
 
 namespace pcl_rg {
 
@@ -37,12 +38,13 @@ GridFrame make_grid_frame(double lower_x, double lower_y, double upper_x, double
 /// Points on the grid of a frame over their extent, in Morton order: what the ground
 /// filters build their TINs from (tin_ground.cpp, final_pass.cpp), prepared once.
 struct SnappedPoints {
-    std::array<double, 3> origin{};    ///< local_origin(points), the minimum corner
-    std::array<double, 3> upper{};     ///< upper_corner(points, origin)
-    GridFrame frame;                   ///< make_grid_frame(0, 0, upper - origin) in XY
-    std::vector<std::uint32_t> order;  ///< morton_order_2d of the grid XY (index order)
-    std::vector<std::int32_t> x, y;    ///< grid XY of point order[s], by sorted position s
-    std::vector<double> z;             ///< z - origin[2] of point order[s]
+    std::array<double, 3> origin{};  ///< local_origin(points), the minimum corner
+    std::array<double, 3> upper{};   ///< upper_corner(points, origin)
+    GridFrame frame;                 ///< make_grid_frame(0, 0, upper - origin) in XY
+    // Not zero-filled when sized (UnfilledVector): whoever sizes them writes every entry.
+    UnfilledVector<std::uint32_t> order;  ///< morton_order_2d of the grid XY (index order)
+    UnfilledVector<std::int32_t> x, y;    ///< grid XY of point order[s], by sorted position s
+    UnfilledVector<double> z;             ///< z - origin[2] of point order[s]
 
     /// Point i's grid x or y on `frame` (as snap_points snaps it).
     std::int32_t grid_x(PointsView points, std::size_t i) const {

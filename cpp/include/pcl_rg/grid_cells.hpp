@@ -27,13 +27,15 @@ struct Local {
 
 // The points in cell order (a CSR grid) with everything the passes read.
 struct CellGrid {
-    std::vector<Local> p;                      // local coordinates, by sorted position
-    std::vector<std::uint32_t> id;             // input index of each position
-    std::vector<std::uint32_t> block;          // block number of each position
-    std::vector<std::uint32_t> cell;           // cell number of each position
-    std::vector<std::int32_t> snap_x, snap_y;  // XY on the final pass's grid (if asked)
-    std::vector<std::size_t> start;            // positions of cell c: [start[c], start[c + 1])
-    bool by_height = false;                    // a cell's points by height (else input order)
+    // The per-position arrays that build_grid's scatter writes in full are not zero-filled
+    // when sized (UnfilledVector): hundreds of MiB at 10M points, a serial pass otherwise.
+    UnfilledVector<Local> p;                      // local coordinates, by sorted position
+    UnfilledVector<std::uint32_t> id;             // input index of each position
+    UnfilledVector<std::uint32_t> block;          // block number of each position
+    UnfilledVector<std::uint32_t> cell;           // cell number of each position
+    UnfilledVector<std::int32_t> snap_x, snap_y;  // XY on the final pass's grid (if asked)
+    std::vector<std::size_t> start;               // positions of cell c: [start[c], start[c + 1])
+    bool by_height = false;                       // a cell's points by height (else input order)
     std::size_t blocks = 0;
     std::vector<std::size_t> block_start;     // members of block b: block_member[
     std::vector<std::uint32_t> block_member;  //   block_start[b] .. block_start[b + 1])

@@ -20,7 +20,8 @@ namespace pcl_rg {
 // end is the same whatever the interleaving; only the representatives may differ.
 class ConcurrentDisjointSets {
    public:
-    explicit ConcurrentDisjointSets(std::size_t n) : parent_(n) {}
+    // Not zero-filled first (UnfilledVector): reset() sets every entry, in parallel.
+    explicit ConcurrentDisjointSets(std::size_t n) : parent_(n) { reset(); }
 
     void reset() {
         const auto n = static_cast<std::ptrdiff_t>(parent_.size());
@@ -56,7 +57,7 @@ class ConcurrentDisjointSets {
     }
 
    private:
-    std::vector<std::atomic<std::uint32_t>> parent_;
+    UnfilledVector<std::atomic<std::uint32_t>> parent_;
 };
 
 /// Components of the link graph among the candidates, in `sets`, after Afforest (Sutton,
