@@ -307,7 +307,8 @@ std::int32_t Delaunay::insert(std::int32_t x, std::int32_t y, std::int32_t start
         write(c, p, v2, v0, n1, a, b);
         relink(n0, t, b);
         relink(n1, t, c);
-        stack_ = {a, b, c};
+        stack_.clear();  // pushed one by one: assigning a list calls memmove
+        stack_.push_back(a), stack_.push_back(b), stack_.push_back(c);
     } else {  // on the edge opposite vertex k of t: split t and its neighbour u
         const int k = o[0] == 0 ? 0 : (o[1] == 0 ? 1 : 2);
         const std::int32_t w0 = tr.v[k], w1 = tr.v[(k + 1) % 3], w2 = tr.v[(k + 2) % 3];
@@ -331,7 +332,8 @@ std::int32_t Delaunay::insert(std::int32_t x, std::int32_t y, std::int32_t start
         write(u2, p, w1, d, m2, u1, t1);
         relink(n1, t, t2);
         relink(m2, u, u2);
-        stack_ = {t1, t2, u1, u2};
+        stack_.clear();
+        stack_.push_back(t1), stack_.push_back(t2), stack_.push_back(u1), stack_.push_back(u2);
     }
     legalize(p);
     return p;

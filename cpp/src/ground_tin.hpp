@@ -27,15 +27,17 @@ struct Plane {
 inline Plane plane_of(const Delaunay& tin, const std::vector<double>& vz, double quantum,
                       std::int32_t t) {
     Plane f;
-    f.v = {tin.triangle_vertex(t, 0), tin.triangle_vertex(t, 1), tin.triangle_vertex(t, 2)};
+    const std::int32_t stored[3] = {tin.triangle_vertex(t, 0), tin.triangle_vertex(t, 1),
+                                    tin.triangle_vertex(t, 2)};
     int first = 0;
     for (int k = 1; k < 3; ++k) {
-        const std::int32_t a = f.v[k], b = f.v[first];
+        const std::int32_t a = stored[k], b = stored[first];
         if (tin.vertex_x(a) < tin.vertex_x(b) ||
             (tin.vertex_x(a) == tin.vertex_x(b) && tin.vertex_y(a) < tin.vertex_y(b)))
             first = k;
     }
-    std::rotate(f.v.begin(), f.v.begin() + first, f.v.end());
+    // Rotated by hand: std::rotate on three ints calls memmove, once per facet.
+    f.v = {stored[first], stored[(first + 1) % 3], stored[(first + 2) % 3]};
     for (int k = 0; k < 3; ++k) {
         f.x[k] = static_cast<double>(tin.vertex_x(f.v[k]) - 1) * quantum;
         f.y[k] = static_cast<double>(tin.vertex_y(f.v[k]) - 1) * quantum;
