@@ -202,6 +202,7 @@ Delaunay::Delaunay(std::int32_t width, std::int32_t height) {
     xy_ = {{0, 0}, {width, 0}, {width, height}, {0, height}};
     // (0, 1, 2) and (0, 2, 3), both counter-clockwise, sharing the diagonal 0-2.
     tri_ = {{{0, 1, 2}, {-1, 1, -1}, stamp_, 0}, {{0, 2, 3}, {-1, -1, 0}, stamp_, 0}};
+    triangles_ = 2;
     vt_ = {0, 0, 0, 1};
 }
 
@@ -210,6 +211,17 @@ void Delaunay::reserve(std::size_t vertices) {
     xy_.reserve(vertices);
     vt_.reserve(vertices);
     tri_.reserve(2 * vertices);
+}
+
+void Delaunay::prepare_insertions(std::size_t points) {
+    // Every insertion adds two triangle slots. Written here once, side by side, they are
+    // not faulted in one page at a time by the serial insertions that follow.
+    const std::size_t first = tri_.size(), last = triangles_ + 2 * points;
+    if (last <= first) return;
+    tri_.resize(last);  // not zero-filled (UnfilledVector)
+    const auto count = static_cast<std::ptrdiff_t>(last - first);
+#pragma omp parallel for schedule(static) if (count > 65536)
+    for (std::ptrdiff_t k = 0; k < count; ++k) tri_[first + k] = Triangle{};
 }
 
 void Delaunay::write(std::int32_t t, std::int32_t a, std::int32_t b, std::int32_t c,
@@ -233,16 +245,21 @@ void Delaunay::relink(std::int32_t t, std::int32_t from, std::int32_t to) {
 }
 
 std::int32_t Delaunay::new_slot() {
-    if (tri_.size() >= static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max()))
+    if (triangles_ >= static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max()))
         throw std::length_error("Delaunay: too many triangles for 32-bit ids");
-    const auto t = static_cast<std::int32_t>(tri_.size());
+    const auto t = static_cast<std::int32_t>(triangles_);
     // Stamped stamp_ - 1, so that write() lists it as touched.
-    tri_.push_back(Triangle{{-1, -1, -1}, {-1, -1, -1}, stamp_ - 1, 0});
+    const Triangle fresh{{-1, -1, -1}, {-1, -1, -1}, stamp_ - 1, 0};
+    if (triangles_ < tri_.size())
+        tri_[triangles_] = fresh;  // a slot prepare_insertions made
+    else
+        tri_.push_back(fresh);
+    ++triangles_;
     return t;
 }
 
 std::int32_t Delaunay::locate(std::int32_t x, std::int32_t y, std::int32_t start) const {
-    const auto triangles = static_cast<std::int32_t>(tri_.size());
+    const auto triangles = static_cast<std::int32_t>(triangles_);
     std::int32_t t = (start >= 0 && start < triangles) ? start : 0;
     std::int32_t previous = -1;
     // Visibility walk: cross any edge that has the point strictly on its far side. On a

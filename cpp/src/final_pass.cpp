@@ -193,6 +193,7 @@ void final_pass(PointsView points, const FinalPassParams& params, const SnappedP
     tin.reserve(vertices.size() + 4);
     vz.reserve(vertices.size() + 4);
     std::int32_t last = 0;
+    tin.prepare_insertions(vertices.size());
     for (const Vertex& vertex : vertices) {
         interruption.check();
         bool inserted = false;

@@ -232,6 +232,7 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
         // sort by position): of seeds sharing an XY the smallest index becomes the vertex,
         // the others are found on it and not inserted.
         std::int32_t last = 0;
+        tin.prepare_insertions(seeds.size());
         for (std::size_t s = 0; s < n; ++s) {
             if (!is_ground[s]) continue;
             interruption.check();
@@ -384,6 +385,7 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
         // Insert the chosen points in Morton order, each walking from its own triangle.
         clock = std::chrono::steady_clock::now();
         tin.set_stamp(iteration + 1);
+        tin.prepare_insertions(chosen.size());
         for (const std::uint32_t s : chosen) {
             interruption.check();
             bool inserted = false;

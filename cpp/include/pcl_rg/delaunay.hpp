@@ -138,8 +138,13 @@ class Delaunay {
     /// triangles, so that the arrays are not copied while the triangulation grows.
     void reserve(std::size_t vertices);
 
+    /// Readies the triangle slots of the next `points` insertions, writing their memory
+    /// in parallel: for a serial run of insertions, which would otherwise fault the fresh
+    /// pages in one at a time. Changes no result.
+    void prepare_insertions(std::size_t points);
+
     std::size_t vertex_count() const { return xy_.size(); }
-    std::size_t triangle_count() const { return tri_.size(); }
+    std::size_t triangle_count() const { return triangles_; }
     std::int32_t vertex_x(std::int32_t v) const { return xy_[v].x; }
     std::int32_t vertex_y(std::int32_t v) const { return xy_[v].y; }
     /// Vertex k (0..2) of triangle t, counter-clockwise.
@@ -177,7 +182,10 @@ class Delaunay {
     // Interleaved so that a walk step touches one cache line per record.
     std::vector<Vertex> xy_;
     std::vector<std::int32_t> vt_;  // a nearby triangle per vertex (vertex_triangle)
-    std::vector<Triangle> tri_;
+    // Slots [0, triangles_) hold the triangles; beyond them, up to tri_.size(), slots that
+    // prepare_insertions wrote ahead for the coming insertions.
+    UnfilledVector<Triangle> tri_;
+    std::size_t triangles_ = 0;
     std::vector<std::int32_t> stack_;    // edges to legalize
     std::vector<std::int32_t> touched_;  // slots written under the current stamp
     std::int32_t stamp_ = 0;
