@@ -96,14 +96,17 @@ std::vector<std::int64_t> lowest_in_cells(PointsView points, const CellLattice& 
         // every point's cell, in parallel; then each thread scans them all for the points
         // of its own range of cells (no merge). Either way the lowest under a total order
         // does not depend on how the work is shared.
-        // Not zero-filled: written in full below (a skipped block stops every thread
-        // before the scan reads it).
+        // Not zero-filled: written in full below. A stop leaves entries unwritten, and
+        // then every thread sees it (the flag is sticky) and leaves the scan before
+        // reading any.
         UnfilledVector<std::uint32_t> cell(static_cast<std::size_t>(n));
 #pragma omp parallel firstprivate(interruption)
         {
+            bool stopped = false;
 #pragma omp for schedule(static)
             for (std::int64_t i = 0; i < n; ++i) {
-                if (i % 4096 == 0 && interruption.requested()) continue;
+                if (i % 4096 == 0) stopped = stopped || interruption.requested();
+                if (stopped) continue;
                 cell[i] = take && !take[i] ? kSkipped : static_cast<std::uint32_t>(cell_index(i));
             }
 #ifdef _OPENMP
@@ -116,7 +119,7 @@ std::vector<std::int64_t> lowest_in_cells(PointsView points, const CellLattice& 
             const auto last = static_cast<std::uint32_t>(cells * (thread + 1) / threads);
             bool stop = false;
             for (std::int64_t i = 0; i < n && !stop; ++i) {
-                if (i % 65536 == 0) stop = interruption.requested();
+                if (i % 65536 == 0 && (stop = interruption.requested())) break;
                 const std::uint32_t c = cell[i];
                 if (c >= first && c < last)  // kSkipped is never inside [first, last)
                     keep_lower(

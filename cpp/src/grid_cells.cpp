@@ -136,7 +136,7 @@ CellGrid build_grid(PointsView points, const GridGroundParams& params,
         }
     }
     interruption.check();
-    key = {};
+    UnfilledVector<std::uint32_t>().swap(key);  // freed (assigning {} keeps the capacity)
 #pragma omp parallel if (parallel) firstprivate(interruption)
     {
         struct Record {

@@ -114,8 +114,8 @@ std::vector<std::uint32_t> morton_order_2d(const std::int32_t* gx, const std::in
 /// Triangles are counter-clockwise vertex triples; neighbour i lies across the edge
 /// opposite vertex i (-1 on the box). Triangle slots are never freed: an insertion
 /// rewrites the slots it destroys and appends the rest, so a slot id stays a valid
-/// (and nearby) place to start a walk. Every slot written records the current stamp and
-/// is listed in touched().
+/// (and nearby) place to start a walk. Every slot an insertion writes records the current
+/// stamp and is listed in touched() (prepare_insertions' slots are neither, until then).
 class Delaunay {
    public:
     Delaunay(std::int32_t width, std::int32_t height);

@@ -12,6 +12,7 @@
 #include "pcl_rg/delaunay.hpp"
 #include "pcl_rg/grid_ground.hpp"
 #include "pcl_rg/points.hpp"
+#include "pcl_rg/spatial_order.hpp"
 
 namespace pcl_rg {
 
@@ -27,8 +28,9 @@ struct Local {
 
 // The points in cell order (a CSR grid) with everything the passes read.
 struct CellGrid {
-    // The per-position arrays that build_grid's scatter writes in full are not zero-filled
-    // when sized (UnfilledVector): hundreds of MiB at 10M points, a serial pass otherwise.
+    // The per-position arrays that build_grid writes in full (the scatter, then the block
+    // numbers) are not zero-filled when sized (UnfilledVector): hundreds of MiB at 10M
+    // points, a serial pass otherwise.
     UnfilledVector<Local> p;                      // local coordinates, by sorted position
     UnfilledVector<std::uint32_t> id;             // input index of each position
     UnfilledVector<std::uint32_t> block;          // block number of each position

@@ -11,10 +11,10 @@
 
 namespace pcl_rg {
 
-/// std::allocator, but resize() default-initializes new elements (leaves integers
-/// unwritten) instead of zeroing them: for large arrays that a parallel loop writes in
-/// full first, where a zero fill would be one more, serial, pass faulting in every
-/// fresh page (~10 ms per 10M 64-bit words on our 2-core machines).
+/// std::allocator, but resize() default-initializes new elements (leaves integers, plain
+/// structs and, in C++17, std::atomic unwritten) instead of zeroing them: for large
+/// arrays that a parallel loop writes in full first, where a zero fill would be one more
+/// serial pass, faulting in every fresh page on one core.
 template <class T>
 struct DefaultInitAllocator : std::allocator<T> {
     template <class U>
@@ -28,8 +28,9 @@ struct DefaultInitAllocator : std::allocator<T> {
     void construct(U* p) noexcept(std::is_nothrow_default_constructible_v<U>) {
         ::new (static_cast<void*>(p)) U;
     }
+    // noexcept when the construction is, so that a growing vector may move its elements.
     template <class U, class... Args>
-    void construct(U* p, Args&&... args) {
+    void construct(U* p, Args&&... args) noexcept(std::is_nothrow_constructible_v<U, Args...>) {
         ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
     }
 };
