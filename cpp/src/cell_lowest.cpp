@@ -11,7 +11,7 @@
 
 #include "pcl_rg/index_bitmap.hpp"
 #include "pcl_rg/interrupt.hpp"
-#include "pcl_rg/spatial_order.hpp"
+#include "pcl_rg/unfilled_vector.hpp"
 
 namespace pcl_rg {
 

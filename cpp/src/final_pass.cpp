@@ -121,29 +121,12 @@ void final_pass(PointsView points, const FinalPassParams& params, const SnappedP
         } else {
             std::vector<std::uint64_t> is_vertex((n + 63) / 64, 0);
             for (const std::uint32_t i : lowest) mark(is_vertex, i);
-            const auto taken = [&](std::size_t s) { return marked(is_vertex, snapped.order[s]); };
-            // Fixed blocks, counted, then filled at their offsets: the same list whatever
-            // the threads.
-            constexpr std::size_t kBlock = 65536;
-            const auto blocks = static_cast<std::ptrdiff_t>((n + kBlock - 1) / kBlock);
-            std::vector<std::size_t> offset(static_cast<std::size_t>(blocks) + 1, 0);
-#pragma omp parallel for schedule(static)
-            for (std::ptrdiff_t b = 0; b < blocks; ++b) {
-                std::size_t found = 0;
-                for (std::size_t s = b * kBlock; s < std::min(n, (b + 1) * kBlock); ++s)
-                    found += taken(s);
-                offset[b + 1] = found;
-            }
-            for (std::ptrdiff_t b = 0; b < blocks; ++b) offset[b + 1] += offset[b];
-            candidates.resize(offset[blocks]);
-#pragma omp parallel for schedule(static)
-            for (std::ptrdiff_t b = 0; b < blocks; ++b) {
-                std::size_t k = offset[b];
-                for (std::size_t s = b * kBlock; s < std::min(n, (b + 1) * kBlock); ++s)
-                    if (taken(s))
-                        candidates[k++] = {snapped.x[s], snapped.y[s], snapped.z[s],
-                                           snapped.order[s]};
-            }
+            keep_in_order(
+                n, [&](std::size_t s) { return marked(is_vertex, snapped.order[s]); },
+                [&](std::size_t m) { candidates.resize(m); },
+                [&](std::size_t k, std::size_t s) {
+                    candidates[k] = {snapped.x[s], snapped.y[s], snapped.z[s], snapped.order[s]};
+                });
         }
     }
     if (candidates.empty()) return;

@@ -338,7 +338,7 @@ void grid_ground(PointsView points, const GridGroundParams& given, bool* ground,
 #pragma omp parallel for schedule(static) if (parallel)
         for (std::ptrdiff_t s = 0; s < count; ++s) candidate[s] = against[s] = !outlier[s];
     }
-    ConcurrentDisjointSets sets(n);
+    ConcurrentDisjointSets sets;  // reset by the first labelling
     const std::int64_t passes = std::max<std::int64_t>(params.filter_passes, 1);
     for (std::int64_t pass = 0; pass < passes; ++pass) {
         poll_interrupt();

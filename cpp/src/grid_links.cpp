@@ -142,7 +142,7 @@ void label_components(const CellGrid& grid, const GridGroundParams& params,
     const Links links(grid, params, candidate);
     const double reach = links.reach;
     const auto joinable = [&](std::size_t s, std::size_t q) { return links.joinable(s, q); };
-    sets.reset();
+    sets.reset(grid.p.size());
     for_each_candidate(
         grid, candidate, parallel, [&](std::size_t s, const std::ptrdiff_t* around, int k) {
             // From a pseudo-random one of the cells and place in it, round the lists:

@@ -96,9 +96,9 @@
 #include "pcl_rg/index_bitmap.hpp"
 #include "pcl_rg/interrupt.hpp"
 #include "pcl_rg/point_spacing.hpp"
-#include "pcl_rg/spatial_order.hpp"
 #include "pcl_rg/timer.hpp"
 #include "pcl_rg/tin_seeds.hpp"
+#include "pcl_rg/unfilled_vector.hpp"
 #include "tin_acceptance.hpp"
 
 namespace pcl_rg {
@@ -277,18 +277,11 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
     std::vector<std::uint64_t> chosen_bits((n + 63) / 64, 0);  // bit s: insert point s
     std::vector<std::int32_t> head;              // per triangle slot: first unclassified point
     std::vector<std::int32_t> best_of;           // per triangle slot: chosen point
-    UnfilledVector<std::uint32_t> work, chosen;  // filled by take_marked: not zeroed first
-    // The first work: every point that is not a seed, marked word by word (each word
-    // written by one thread) and taken in sorted order.
-    const auto retest_words = static_cast<std::ptrdiff_t>(retest.size());
-#pragma omp parallel for schedule(static) if (count > 65536)
-    for (std::ptrdiff_t w = 0; w < retest_words; ++w) {
-        std::uint64_t word = 0;
-        for (std::ptrdiff_t s = 64 * w; s < std::min(count, 64 * w + 64); ++s)
-            if (!is_ground[s]) word |= std::uint64_t{1} << (s - 64 * w);
-        retest[w] = word;
-    }
-    take_marked(retest, work);
+    UnfilledVector<std::uint32_t> work, chosen;  // filled in full when sized: not zeroed first
+    // The first work: every point that is not a seed, in sorted order.
+    keep_in_order(
+        n, [&](std::size_t s) { return is_ground[s] == 0; }, [&](std::size_t m) { work.resize(m); },
+        [&](std::size_t k, std::size_t s) { work[k] = static_cast<std::uint32_t>(s); });
     // Point a before point b as the choice of a triangle: smallest d, then smallest index.
     auto better = [&](std::int32_t a, std::int32_t b) {
         return dist[a] < dist[b] || (dist[a] == dist[b] && order[a] < order[b]);

@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "pcl_rg/points.hpp"
-#include "pcl_rg/spatial_order.hpp"
+#include "pcl_rg/unfilled_vector.hpp"
 
 namespace pcl_rg {
 

@@ -12,7 +12,7 @@
 #include "pcl_rg/delaunay.hpp"
 #include "pcl_rg/grid_ground.hpp"
 #include "pcl_rg/points.hpp"
-#include "pcl_rg/spatial_order.hpp"
+#include "pcl_rg/unfilled_vector.hpp"
 
 namespace pcl_rg {
 

@@ -11,6 +11,7 @@
 
 #include "pcl_rg/grid_cells.hpp"
 #include "pcl_rg/grid_ground.hpp"
+#include "pcl_rg/unfilled_vector.hpp"
 
 namespace pcl_rg {
 
@@ -20,10 +21,11 @@ namespace pcl_rg {
 // end is the same whatever the interleaving; only the representatives may differ.
 class ConcurrentDisjointSets {
    public:
-    // Not zero-filled first (UnfilledVector): reset() sets every entry, in parallel.
-    explicit ConcurrentDisjointSets(std::size_t n) : parent_(n) { reset(); }
-
-    void reset() {
+    /// `size` singletons, every parent written in parallel (the array is an UnfilledVector,
+    /// not zero-filled first): before each labelling from scratch.
+    void reset(std::size_t size) {
+        // Atomics cannot be moved, so the array is made anew, not resized.
+        if (parent_.size() != size) parent_ = UnfilledVector<std::atomic<std::uint32_t>>(size);
         const auto n = static_cast<std::ptrdiff_t>(parent_.size());
         const bool parallel = parent_.size() >= kGridParallelMin;
 #pragma omp parallel for schedule(guided) if (parallel)

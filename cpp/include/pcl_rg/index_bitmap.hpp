@@ -52,6 +52,31 @@ void take_marked(std::vector<std::uint64_t>& bits, Indices& out) {
     }
 }
 
+/// The positions s in [0, n) with keep(s), in increasing order: size(m) is told how many
+/// there are, then put(k, s) receives the k-th. Fixed blocks of positions are counted,
+/// then each is filled at its offset, in parallel for large n: the same output whatever
+/// the threads.
+template <class Keep, class Size, class Put>
+void keep_in_order(std::size_t n, Keep keep, Size size, Put put) {
+    constexpr std::size_t kBlock = 65536;
+    const auto blocks = static_cast<std::ptrdiff_t>((n + kBlock - 1) / kBlock);
+    std::vector<std::size_t> offset(static_cast<std::size_t>(blocks) + 1, 0);
+#pragma omp parallel for schedule(static) if (blocks > 1)
+    for (std::ptrdiff_t b = 0; b < blocks; ++b) {
+        std::size_t kept = 0;
+        for (std::size_t s = b * kBlock; s < std::min(n, (b + 1) * kBlock); ++s) kept += keep(s);
+        offset[b + 1] = kept;
+    }
+    for (std::ptrdiff_t b = 0; b < blocks; ++b) offset[b + 1] += offset[b];
+    size(offset[blocks]);
+#pragma omp parallel for schedule(static) if (blocks > 1)
+    for (std::ptrdiff_t b = 0; b < blocks; ++b) {
+        std::size_t k = offset[b];
+        for (std::size_t s = b * kBlock; s < std::min(n, (b + 1) * kBlock); ++s)
+            if (keep(s)) put(k++, s);
+    }
+}
+
 /// The distinct point indices `indices` (each < n) in increasing order: through a bitmap
 /// of the n points when they are not very few (linear), else by sorting.
 inline std::vector<std::uint32_t> in_index_order(std::vector<std::uint32_t> indices,
