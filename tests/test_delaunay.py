@@ -102,6 +102,76 @@ def test_gridded_points_are_cocircular_everywhere() -> None:
     assert len(tin.vertices) == 4 + len(points)
 
 
+def triangles_by_position(tin: _core.DelaunayTin) -> np.ndarray:
+    """The triangles that hold one (T, 6): each row its vertices' grid x, y, from the
+    lexicographically smallest on, counter-clockwise; rows sorted. Equal for two TINs
+    exactly when they are the same triangulation, whatever the ids."""
+    corners = tin.vertices[tin.triangles[tin.live]]  # (T, 3, 2)
+    key = corners[..., 0] * (1 << 31) + corners[..., 1]
+    turn = (np.argmin(key, axis=1)[:, None] + np.arange(3)) % 3
+    rows = np.take_along_axis(corners, turn[..., None], axis=1).reshape(-1, 6)
+    return rows[np.lexsort(rows.T[::-1])]
+
+
+def cocircular_cloud(side: int, extra: int, seed: int) -> np.ndarray:
+    """A side x side lattice (every cell's corners co-circular), `extra` points on a
+    finer lattice, and repeats of some of both, shuffled."""
+    rng = np.random.default_rng(seed)
+    xs = np.arange(1.0, side + 1.0)
+    lattice = np.stack(np.meshgrid(xs, xs), axis=-1).reshape(-1, 2)
+    finer = np.round(rng.uniform(0.5, side + 0.5, (extra, 2)) * 2.0) / 2.0
+    cloud = np.vstack([lattice, finer, lattice[: side * 2], finer[:50]])
+    return np.ascontiguousarray(cloud[rng.permutation(len(cloud))])
+
+
+def test_cocircular_points_give_one_triangulation_whatever_the_order() -> None:
+    # The in-circle test breaks ties by the points' coordinates (a symbolic perturbation
+    # of the lifted heights), not by which diagonal came first.
+    cloud = cocircular_cloud(12, 60, seed=5)
+    upper = (13.0, 13.0)
+    first, _ = build(cloud, upper=upper)
+    check_triangulation(first)
+    for seed in (1, 2, 3):
+        again, ids = build(cloud[np.random.default_rng(seed).permutation(len(cloud))], upper=upper)
+        np.testing.assert_array_equal(triangles_by_position(again), triangles_by_position(first))
+
+
+def test_insert_batch_builds_the_triangulation_of_insert() -> None:
+    # Large enough for the parallel strips and the first sample (kBatchParallelMin);
+    # co-circular everywhere, with repeated points, so ties and dead ids occur.
+    cloud = cocircular_cloud(170, 8000, seed=6)
+    assert len(cloud) >= 32768
+    one_by_one = _core.DelaunayTin(0.0, 0.0, 171.0, 171.0)
+    one_by_one.insert(cloud)
+    batch = _core.DelaunayTin(0.0, 0.0, 171.0, 171.0)
+    ids = batch.insert(cloud, batch=True)
+    np.testing.assert_array_equal(triangles_by_position(batch), triangles_by_position(one_by_one))
+    # Each point on its vertex; points of one XY share it; dead ids hold no vertex.
+    grid = batch.to_grid(cloud)
+    np.testing.assert_array_equal(batch.vertices[ids], grid)
+    distinct = len(np.unique(grid, axis=0))
+    assert len(batch.vertices) - batch.dead_vertices == 4 + distinct
+    assert batch.dead_vertices > 0  # the repeats left some ids unused
+    alive = np.flatnonzero(batch.live)
+    assert len(alive) == 2 * (4 + distinct) - 6  # Euler, as in check_triangulation
+    # Links only between live triangles, and back across the same edge.
+    tri, nbr = batch.triangles, batch.neighbors
+    for t in alive[:: max(1, len(alive) // 3000)].tolist():
+        for k in range(3):
+            u = nbr[t, k]
+            if u < 0:
+                continue
+            assert batch.live[u]
+            edge = {tri[t, (k + 1) % 3], tri[t, (k + 2) % 3]}
+            (j,) = (i for i in range(3) if tri[u, i] not in edge)
+            assert nbr[u, j] == t
+    # Points located afterwards land in live triangles holding them.
+    sample = np.ascontiguousarray(cloud[:: len(cloud) // 400])
+    located = batch.locate(sample)
+    assert batch.live[located].all()
+    located_in_closure(batch, batch.to_grid(sample), located)
+
+
 def test_collinear_points_then_one_off_the_line() -> None:
     line = np.c_[np.linspace(1.0, 9.0, 40), np.linspace(1.0, 9.0, 40)]
     tin, ids = build(line)
@@ -181,6 +251,27 @@ def test_delaunay_triangulate_indexes_input_rows() -> None:
     for a, b, c in sample:
         assert all(incircle(g[a], g[b], g[c], p) <= 0 for p in g)
     assert _core.delaunay_triangulate(np.zeros((0, 2))).shape == (0, 3)
+
+
+def test_delaunay_triangulate_of_many_points_names_each_vertex_by_its_first_row() -> None:
+    # Enough rows for insert_batch's strips; repeats on a coarse lattice.
+    rng = np.random.default_rng(8)
+    xy = np.round(rng.uniform(0.0, 120.0, (40_000, 2)) * 2.0) / 2.0
+    tri = _core.delaunay_triangulate(xy)
+    tin = _core.DelaunayTin(*xy.min(axis=0), *xy.max(axis=0))
+    g = tin.to_grid(xy).astype(np.int64)
+    _, first_rows = np.unique(g, axis=0, return_index=True)
+    np.testing.assert_array_equal(np.unique(tri), np.sort(first_rows))
+    assert (orient(g[tri[:, 0]].T, g[tri[:, 1]].T, g[tri[:, 2]].T) > 0).all()
+    # The same triangles as one-by-one insertion, less those of the box corners.
+    tin.insert(np.ascontiguousarray(xy))
+    corner = (tin.triangles < 4).any(axis=1)
+    assert as_sets(g[tri]) == as_sets(tin.vertices[tin.triangles[~corner]])
+
+
+def as_sets(corners: np.ndarray) -> set:
+    """Triangles (T, 3, 2) as a set of vertex sets, whatever the rotation."""
+    return {frozenset(map(tuple, row.tolist())) for row in corners}
 
 
 def test_errors() -> None:

@@ -27,7 +27,7 @@ import numpy as np
 from conftest import run_in_threads  # this script runs from tests/
 
 import pcl_rg
-from pcl_rg import datasets
+from pcl_rg import _core, datasets
 
 
 def _digest(*arrays: np.ndarray) -> str:
@@ -60,6 +60,14 @@ def _jobs(c: dict[str, np.ndarray]) -> dict[str, Callable[[], str]]:
     def pcl_voxel() -> str:
         return _digest(*pcl_rg.pcl.voxel_grid(uni, leaf_size=1.0))
 
+    def delaunay_batch() -> str:
+        # Gridded XY: co-circular vertices everywhere, and repeated points; the batch's
+        # vertex ids and triangle slots, not only its triangles, must not change.
+        xy = np.ascontiguousarray(np.round(uni[:, :2] * 4.0) / 4.0)
+        tin = _core.DelaunayTin(0.0, 0.0, 100.0, 100.0)
+        ids = tin.insert(xy, batch=True)
+        return _digest(ids, tin.triangles, tin.neighbors, tin.live)
+
     def pcl_sor() -> str:
         return _digest(pcl_rg.pcl.statistical_outlier_removal(uni[:100_000], mean_k=8, std_mul=1.0))
 
@@ -68,6 +76,7 @@ def _jobs(c: dict[str, np.ndarray]) -> dict[str, Callable[[], str]]:
         "statistical_outlier_removal": lambda: _digest(
             pcl_rg.statistical_outlier_removal(uni[:200_000], mean_k=8, std_mul=1.0)
         ),
+        "delaunay_insert_batch": delaunay_batch,
         "grid_ground": lambda: _digest(pcl_rg.grid_ground(air)),
         "point_spacing": lambda: _digest(np.array([pcl_rg.point_spacing(air)])),
         "tin_ground": lambda: _digest(pcl_rg.tin_ground(air)),

@@ -28,6 +28,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import dataclasses
+import importlib.metadata
 import os
 import sys
 import time
@@ -78,6 +79,14 @@ def pcl_pmf(points: np.ndarray) -> np.ndarray:
     return pcl_rg.pcl.progressive_morphological_filter(points)
 
 
+def installed_version(distribution: str) -> str:
+    """The installed version of a peer (its figures move between releases)."""
+    try:
+        return importlib.metadata.version(distribution)
+    except importlib.metadata.PackageNotFoundError:
+        return "(not installed)"
+
+
 def csf(points: np.ndarray) -> np.ndarray:
     """Cloth simulation filter (PyPI cloth-simulation-filter) with its defaults."""
     import CSF
@@ -95,7 +104,7 @@ def csf(points: np.ndarray) -> np.ndarray:
 METHODS: list[tuple[str, Callable[[np.ndarray], np.ndarray]]] = [
     ("grid_ground (defaults)", lambda points: pcl_rg.grid_ground(points)),
     ("PCL ProgressiveMorphologicalFilter (tutorial)", pcl_pmf),
-    ("CSF 1.1 (defaults)", csf),
+    (f"CSF {installed_version('cloth-simulation-filter')} (defaults)", csf),
     (
         "tin_ground (LiDAR360 defaults)",
         lambda points: pcl_rg.tin_ground(points, params=pcl_rg.TinGroundParams.lidar360()),

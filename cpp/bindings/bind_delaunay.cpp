@@ -41,16 +41,31 @@ void bind_delaunay(py::module_& m) {
              py::arg("upper_x"), py::arg("upper_y"))
         .def(
             "insert",
-            [](DelaunayTin& self, const XYArray& xy) {
+            [](DelaunayTin& self, const XYArray& xy, bool batch) {
                 const std::vector<std::int32_t> g = grid_of(self, xy);
                 py::array_t<std::int32_t> vertex(static_cast<py::ssize_t>(g.size() / 2));
                 // The GIL stays held: it is what serialises writers of this object.
-                self.insert(g.data(), g.size() / 2, vertex.mutable_data());
+                (batch ? self.insert_batch(g.data(), g.size() / 2, vertex.mutable_data())
+                       : self.insert(g.data(), g.size() / 2, vertex.mutable_data()));
                 return vertex;
             },
-            py::arg("xy").noconvert(),
+            py::arg("xy").noconvert(), py::arg("batch") = false,
             "Insert rows of xy (M, 2) in order; the vertex id of each (an existing one for "
-            "a duplicate).")
+            "a duplicate). batch: through Delaunay::insert_batch, the same triangulation with "
+            "other ids, where the ids of points found on a vertex stay unused (dead_vertices), "
+            "as do their triangle rows (live).")
+        .def_property_readonly("dead_vertices",
+                               [](const DelaunayTin& self) { return self.tin.dead_vertex_count(); })
+        .def_property_readonly("live",
+                               [](const DelaunayTin& self) {
+                                   const Delaunay& tin = self.tin;
+                                   const auto t = static_cast<py::ssize_t>(tin.triangle_count());
+                                   py::array_t<bool> out(t);
+                                   bool* w = out.mutable_data();
+                                   for (py::ssize_t i = 0; i < t; ++i)
+                                       w[i] = tin.live(static_cast<std::int32_t>(i));
+                                   return out;
+                               })
         .def(
             "locate",
             [](const DelaunayTin& self, const XYArray& xy) {

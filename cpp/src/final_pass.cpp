@@ -27,8 +27,9 @@
 //        z_TIN = z0 - (nx * (px - x0) + ny * (py - y0)) / nz,
 //        grad  = sqrt(nx * nx + ny * ny) / nz,
 //      and p is ground when z_p - z_TIN >= -below and z_p - z_TIN <= above + slope * grad.
-// The result depends on the insertion order only where the Delaunay triangulation is
-// not unique (four or more co-circular vertices); the tests run in parallel and write
+// The TIN does not depend on the insertion order, co-circular vertices included (the
+// in-circle test breaks their ties by coordinates, delaunay.hpp), and it is built in
+// parallel strips (Delaunay::insert_batch); the tests run in parallel and write
 // only their own point's entry.
 #include "pcl_rg/final_pass.hpp"
 
@@ -130,12 +131,11 @@ void final_pass(PointsView points, const FinalPassParams& params, const SnappedP
         }
     }
     if (candidates.empty()) return;
-    // The insertion order: along the Morton curve of the TIN's box (short walks), and
-    // within one of the curve's cells by (x, y), not by index, so that where co-circular
-    // vertices make the order matter the TIN does not follow the points' order in the
-    // input. Of vertices on one snapped XY (always in one cell), the lowest stays, ties by
-    // the smallest index. The curve's sort is stable, so each cell's vertices come
-    // together and only those few are sorted, by (x, y, z, index).
+    // The insertion order: along the Morton curve of the TIN's box (short walks), within
+    // one of the curve's cells by (x, y). Of vertices on one snapped XY (always in one
+    // cell), the lowest stays, ties by the smallest index. The curve's sort is stable, so
+    // each cell's vertices come together and only those few are sorted, by (x, y, z,
+    // index).
     std::vector<Vertex> vertices;
     vertices.reserve(candidates.size());
     {
@@ -174,15 +174,13 @@ void final_pass(PointsView points, const FinalPassParams& params, const SnappedP
     std::vector<double> vz;
     for (const std::size_t k : nearest) vz.push_back(vertices[k].z);
     tin.reserve(vertices.size() + 4);
-    vz.reserve(vertices.size() + 4);
-    std::int32_t last = 0;
-    tin.prepare_insertions(vertices.size());
-    for (const Vertex& vertex : vertices) {
-        interruption.check();
-        bool inserted = false;
-        const std::int32_t v = tin.insert(vertex.x, vertex.y, last, &inserted);
-        if (inserted) vz.push_back(vertex.z);  // distinct XY: always inserted
-        last = tin.vertex_triangle(v);
+    {
+        const std::size_t m = vertices.size();
+        std::vector<std::int32_t> vx(m), vy(m), id(m);
+        for (std::size_t k = 0; k < m; ++k) vx[k] = vertices[k].x, vy[k] = vertices[k].y;
+        tin.insert_batch(vx.data(), vy.data(), nullptr, m, id.data());
+        vz.resize(tin.vertex_count(), 0.0);
+        for (std::size_t k = 0; k < m; ++k) vz[id[k]] = vertices[k].z;  // distinct XY
     }
 
     // --- 4. classify every point, in Morton order so that walks are short -------------
@@ -201,7 +199,7 @@ void final_pass(PointsView points, const FinalPassParams& params, const SnappedP
     };
     std::vector<std::int32_t> hint(hint_columns * hint_side(frame.height), -1);
     for (std::int32_t t = 0; t < static_cast<std::int32_t>(tin.triangle_count()); ++t)
-        for (int k = 0; k < 3; ++k) {
+        for (int k = 0; k < 3 && tin.live(t); ++k) {
             const std::int32_t v = tin.triangle_vertex(t, k);
             if (v >= 4) hint[hint_of(tin.vertex_x(v), tin.vertex_y(v))] = t;  // not a corner
         }

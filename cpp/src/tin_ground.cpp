@@ -60,8 +60,9 @@
 // 1, whose quantum depends on the extent, so no anchor could make a tile's the merged
 // cloud's (it moves a point by at most half a quantum, micrometres, and changes a
 // verdict only where that rounding decides it), and the Morton order built on it, which
-// speeds up point location and orders the insertions: it can change a result only where
-// the Delaunay triangulation is not unique (four or more co-circular vertices). The TIN
+// speeds up point location and orders the insertions, which changes no result: the
+// in-circle test breaks the ties of co-circular vertices by their coordinates
+// (incircle_perturbed, delaunay.hpp), so the TIN is the same in any order. The TIN
 // itself spans the whole input, so a tile's result differs from the merged cloud's near
 // the tile's border whatever the grids.
 //
@@ -227,20 +228,35 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
     tin.reserve(n + 4);  // every point may become a vertex: the arrays never move
     std::vector<double> vz(corner_z.begin(), corner_z.end());
     vz.reserve(n + 4);
-    {
-        // In sorted order, which keeps points of one grid XY in index order (a stable
-        // sort by position): of seeds sharing an XY the smallest index becomes the vertex,
-        // the others are found on it and not inserted.
-        std::int32_t last = 0;
-        tin.prepare_insertions(seeds.size());
-        for (std::size_t s = 0; s < n; ++s) {
-            if (!is_ground[s]) continue;
-            interruption.check();
-            bool inserted = false;
-            const std::int32_t v = tin.insert(sx[s], sy[s], last, &inserted);
-            if (inserted) vz.push_back(sz[s]);
-            last = tin.vertex_triangle(v);
+    // Inserts the points at sorted positions `batch` (in sorted order) into the TIN and
+    // gives each new vertex its point's height: of points of one grid XY, which share a
+    // vertex, the first in that order, which keeps them in index order (a stable sort by
+    // position), so the smallest index; a point on an older vertex adds nothing.
+    // start_of(sorted position): -1, or the triangle holding the point now (its test's,
+    // as Delaunay::insert_batch requires).
+    std::vector<std::int32_t> batch_x, batch_y, batch_start, batch_vertex;
+    const auto insert_points = [&](const auto& batch, const auto& start_of) {
+        const std::size_t m = batch.size();
+        batch_x.resize(m), batch_y.resize(m), batch_start.resize(m), batch_vertex.resize(m);
+        for (std::size_t k = 0; k < m; ++k) {
+            const std::uint32_t s = batch[k];
+            batch_x[k] = sx[s], batch_y[k] = sy[s];
+            batch_start[k] = start_of(s);
         }
+        const auto older = static_cast<std::int32_t>(tin.vertex_count());
+        tin.insert_batch(batch_x.data(), batch_y.data(), batch_start.data(), m,
+                         batch_vertex.data());
+        vz.resize(tin.vertex_count(), 0.0);
+        for (std::size_t k = m; k-- > 0;)  // backwards: the first point of a vertex wins
+            if (batch_vertex[k] >= older) vz[batch_vertex[k]] = sz[batch[k]];
+    };
+    {
+        UnfilledVector<std::uint32_t> seeded;
+        keep_in_order(
+            n, [&](std::size_t s) { return is_ground[s] != 0; },
+            [&](std::size_t m) { seeded.resize(m); },
+            [&](std::size_t k, std::size_t s) { seeded[k] = static_cast<std::uint32_t>(s); });
+        insert_points(seeded, [](std::uint32_t) { return std::int32_t{-1}; });
     }
     stats.triangulation_seconds += seconds_since(clock);
 
@@ -378,13 +394,7 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
         // Insert the chosen points in Morton order, each walking from its own triangle.
         clock = std::chrono::steady_clock::now();
         tin.set_stamp(iteration + 1);
-        tin.prepare_insertions(chosen.size());
-        for (const std::uint32_t s : chosen) {
-            interruption.check();
-            bool inserted = false;
-            tin.insert(sx[s], sy[s], tri[s], &inserted);
-            if (inserted) vz.push_back(sz[s]);
-        }
+        insert_points(chosen, [&](std::uint32_t s) { return tri[s]; });
         stats.triangulation_seconds += seconds_since(clock);
 
         // Next work, in sorted order: the points of rewritten slots, and the marked ones.

@@ -193,10 +193,12 @@ class TinGroundParams:
         :meth:`lidar360` it switches the angle reduction off (no ISPRS triangle
         has a longest edge under 1 cm), keeps its 2 m stop edge (the final pass
         completes the ground below it), and switches the four improvements on. On the seven ISPRS
-        samples it scores 3.33 % fitted and 4.25 % left one sample out
+        samples it scores 3.33 % fitted and 4.26 % left one sample out
         (``benchmarks/studies/ground_isprs_cv.py``). Searches whose lengths
-        follow the point spacing did no better there (every length in spacings
-        5.63 %, stop edge and near-vertex distance only 4.28 %), so the lengths
+        follow the point spacing did no clearly better there (every length in
+        spacings 5.63 %; stop edge and near-vertex distance only 4.20 %, less
+        than the 0.08 points that breaking co-circular ties another way moved
+        that figure by, and 3.39 % fitted), so the lengths
         are those fitted on ISPRS wherever the data are as sparse (spacing of
         at least 0.95 m) and shrink in proportion to the spacing on denser data,
         the stop edge only below 0.475 m
@@ -359,7 +361,11 @@ def tin_ground(
        nearest seed, make every point fall inside the TIN; they are not output.
     2. A 2-D Delaunay TIN of the seeds is built (the project's own incremental
        triangulation with exact integer predicates on XY snapped to a grid of at
-       most extent / 2^29, e.g. 2 micrometres for a 1 km tile).
+       most extent / 2^29, e.g. 2 micrometres for a 1 km tile). Where four or
+       more vertices are co-circular the tie is broken by their coordinates (a
+       symbolic perturbation, Edelsbrunner and Muecke 1990), so the TIN does not
+       depend on the order of insertion, and large sets of points are inserted
+       in parallel strips with the same result.
     3. Each iteration tests every unclassified point against the TIN as it was
        when the iteration began: with d its distance to its triangle's plane,
        it is accepted when ``d <= iteration_distance``, every angle

@@ -88,6 +88,36 @@ inline int incircle(std::int64_t ax, std::int64_t ay, std::int64_t bx, std::int6
     return det > 0 ? 1 : (det < 0 ? -1 : 0);
 }
 
+/// incircle with its ties broken by a symbolic perturbation (never 0 for a
+/// counter-clockwise (a, b, c) and d distinct from them): each point's lifted height
+/// x^2 + y^2 is raised by eps^r, r its rank in (x, y) lexicographic order, smallest
+/// first, eps -> 0+. Where four points are co-circular the sign is that of the
+/// coefficient of the lowest-ranked point's eps term: for a, b, c the orientation of
+/// the other three taken in the cyclic order (b, c, d), (c, a, d), (a, b, d); for d,
+/// -orient(a, b, c), never 0. A triangulation whose flips follow this test is the one
+/// Delaunay triangulation of the perturbed points, whatever the order of insertion
+/// (Edelsbrunner and Muecke, "Simulation of simplicity", ACM TOG 9(1), 1990).
+inline int incircle_perturbed(std::int64_t ax, std::int64_t ay, std::int64_t bx, std::int64_t by,
+                              std::int64_t cx, std::int64_t cy, std::int64_t dx, std::int64_t dy) {
+    const int exact = incircle(ax, ay, bx, by, cx, cy, dx, dy);
+    if (exact != 0) return exact;
+    struct Term {
+        std::int64_t x, y, coefficient;
+    };
+    const Term terms[4] = {{ax, ay, orient2d(bx, by, cx, cy, dx, dy)},
+                           {bx, by, orient2d(cx, cy, ax, ay, dx, dy)},
+                           {cx, cy, orient2d(ax, ay, bx, by, dx, dy)},
+                           {dx, dy, -orient2d(ax, ay, bx, by, cx, cy)}};
+    const auto before = [](const Term& u, const Term& v) {
+        return u.x < v.x || (u.x == v.x && u.y < v.y);
+    };
+    // The lowest-ranked point with a non-zero coefficient decides; d's never is zero.
+    const Term* decider = &terms[3];
+    for (const Term& term : terms)
+        if (term.coefficient != 0 && before(term, *decider)) decider = &term;
+    return decider->coefficient > 0 ? 1 : -1;
+}
+
 /// Bits per axis of morton_order_2d's curve: a 65536 x 65536 lattice of cells over the
 /// box, centimetres for kilometre tiles, so that a cell rarely holds two points of a
 /// survey (within a cell the order is the points', which spatial walks do not like:
@@ -134,6 +164,25 @@ class Delaunay {
     /// vertex's id is returned and *inserted is set to false.
     std::int32_t insert(std::int32_t x, std::int32_t y, std::int32_t start, bool* inserted);
 
+    /// Inserts the m grid points (x[k], y[k]), each strictly inside the box, and writes
+    /// each one's vertex id to vertex[k]: the triangulation insert() builds from them in
+    /// any order (incircle_perturbed makes it unique), with vertex ids and triangle slots
+    /// that depend neither on the threads nor on the timing. New vertices get ids from
+    /// vertex_count() before the call on; points of one XY share one vertex, the first
+    /// such point's in k order (or an existing vertex). start[k] (start may be null) is
+    /// -1 or the triangle holding point k before the call (as locate() gives it), where
+    /// its walk begins; the points in curve order walk least. Polls for interruption.
+    ///
+    /// How: a large batch is split into kBatchZones vertical strips of about equal counts,
+    /// inserted side by side, each strip changing only triangles whose three vertices lie
+    /// in it (a Bowyer-Watson insertion that checks its cavity before writing); a point
+    /// whose walk or cavity reaches further is inserted afterwards, serially. Into a TIN
+    /// much coarser than the batch, every kBatchSample-th point goes in first, serially,
+    /// so that the strips' cavities are small. The ids of points found on a vertex stay
+    /// unused (dead_vertex_count()), as do their slots (live()).
+    void insert_batch(const std::int32_t* x, const std::int32_t* y, const std::int32_t* start,
+                      std::size_t m, std::int32_t* vertex);
+
     /// Makes room for `vertices` vertices in all (the box corners included) and their
     /// triangles, so that the arrays are not copied while the triangulation grows.
     void reserve(std::size_t vertices);
@@ -143,7 +192,16 @@ class Delaunay {
     /// pages in one at a time. Changes no result.
     void prepare_insertions(std::size_t points);
 
+    /// Vertex ids in use, dead ones (insert_batch) included.
     std::size_t vertex_count() const { return xy_.size(); }
+    /// Whether an insert_batch was interrupted (or failed) midway, which leaves the
+    /// triangulation unusable: insert and insert_batch then throw std::logic_error.
+    bool broken() const { return broken_; }
+    /// Vertex ids that insert_batch left without a vertex (points on existing vertices).
+    std::size_t dead_vertex_count() const { return dead_vertices_; }
+    /// Whether slot t (< triangle_count()) holds a triangle; insert_batch's unused slots
+    /// do not, and no neighbour link leads to them.
+    bool live(std::int32_t t) const { return tri_[t].v[0] >= 0; }
     std::size_t triangle_count() const { return triangles_; }
     std::int32_t vertex_x(std::int32_t v) const { return xy_[v].x; }
     std::int32_t vertex_y(std::int32_t v) const { return xy_[v].y; }
@@ -162,7 +220,19 @@ class Delaunay {
     /// Slots given new vertices since the last set_stamp(), each once, in order.
     const std::vector<std::int32_t>& touched() const { return touched_; }
 
+    /// Batches from this size on are inserted in strips (insert_batch).
+    static constexpr std::size_t kBatchParallelMin = 32768;
+    /// The strips of a parallel batch: fixed, so the result does not depend on the threads.
+    static constexpr int kBatchZones = 4;
+    /// Every kBatchSample-th point of a batch goes in first when the TIN is coarser.
+    static constexpr std::size_t kBatchSample = 32;
+
    private:
+    struct BatchZone;  // a strip of insert_batch, with its ids and scratch (delaunay.cpp)
+    bool owned(std::int32_t t, const BatchZone& zone) const;
+    bool in_conflict(std::int32_t t, std::int32_t x, std::int32_t y) const;
+    int place(std::int32_t x, std::int32_t y, std::int32_t start, std::int32_t hint,
+              BatchZone& zone, std::int32_t* vertex);
     void write(std::int32_t t, std::int32_t a, std::int32_t b, std::int32_t c, std::int32_t na,
                std::int32_t nb, std::int32_t nc);
     void relink(std::int32_t t, std::int32_t from, std::int32_t to);
@@ -180,8 +250,9 @@ class Delaunay {
         std::int32_t unused;  // padding
     };
     // Interleaved so that a walk step touches one cache line per record.
-    std::vector<Vertex> xy_;
-    std::vector<std::int32_t> vt_;  // a nearby triangle per vertex (vertex_triangle)
+    // Not zero-filled when sized (UnfilledVector): insert_batch writes what it sizes.
+    UnfilledVector<Vertex> xy_;
+    UnfilledVector<std::int32_t> vt_;  // a nearby triangle per vertex (vertex_triangle)
     // Slots [0, triangles_) hold the triangles; beyond them, up to tri_.size(), slots that
     // prepare_insertions wrote ahead for the coming insertions.
     UnfilledVector<Triangle> tri_;
@@ -189,6 +260,8 @@ class Delaunay {
     std::vector<std::int32_t> stack_;    // edges to legalize
     std::vector<std::int32_t> touched_;  // slots written under the current stamp
     std::int32_t stamp_ = 0;
+    std::size_t dead_vertices_ = 0;
+    bool broken_ = false;  // an insert_batch threw midway (see broken())
 };
 
 /// A Delaunay TIN over the box [lower, upper] (metres) with the GridFrame that snaps to
@@ -208,6 +281,8 @@ struct DelaunayTin {
     /// Inserts the m grid points of `grid` in order; `vertex` (m) receives the vertex id
     /// of each (an existing one for a duplicate).
     void insert(const std::int32_t* grid, std::size_t m, std::int32_t* vertex);
+    /// As insert, through Delaunay::insert_batch (the same triangulation, other ids).
+    void insert_batch(const std::int32_t* grid, std::size_t m, std::int32_t* vertex);
     /// `triangle` (m) receives the triangle holding each grid point, perturbed by
     /// (eps, eps^2) (see Delaunay::locate). Polls for interruption.
     void locate(const std::int32_t* grid, std::size_t m, std::int32_t* triangle) const;
