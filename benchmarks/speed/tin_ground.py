@@ -8,9 +8,10 @@ the requested number of points. Each parameter set (LiDAR360's defaults and
 TinGroundParams.isprs()) runs `repeats` times; the table gives the median
 wall time of the whole call (input check plus C++ core) and, from the core's own
 clocks in that run, the split between preparation (snapping, Morton sort, seeds),
-triangulation (Delaunay insertions, serial) and classification (point location and
-acceptance tests, parallel), with the work done and the errors against the scene's
-labels. --write puts the table in benchmarks/RESULTS.md.
+triangulation (Delaunay insertions, in parallel strips for large batches) and
+classification (point location and acceptance tests, parallel; the final pass),
+with the work done and the errors against the scene's labels. --write puts
+the table in benchmarks/RESULTS.md.
 """
 
 from __future__ import annotations
@@ -105,8 +106,9 @@ def main(argv: list[str] | None = None) -> int:
     about = (
         f"{run_conditions(load_before)}. {scene_text}. Median of {args.repeats} runs of the "
         "whole call; the split comes from the core's clocks (prepare: local frame, snapping, "
-        "Morton sort, seeds; triangulation: Delaunay insertions, serial; classification: "
-        "point location and acceptance tests, in parallel). Tests per point: acceptance "
+        "Morton sort, seeds; triangulation: Delaunay insertions, large batches in parallel "
+        "strips; classification: point location and acceptance tests, in parallel, and the "
+        "final pass). Tests per point: acceptance "
         "tests evaluated, after skipping points whose triangle did not change. Peak memory "
         f"added by the runs: {peak:.0f} MiB."
     )
