@@ -172,6 +172,21 @@ def test_insert_batch_builds_the_triangulation_of_insert() -> None:
     located_in_closure(batch, batch.to_grid(sample), located)
 
 
+def test_insert_batch_into_a_tin_walks_from_hints() -> None:
+    # A second large batch into a TIN that is not much coarser (no sample goes first)
+    # and without starts: the strips start their walks from the old triangles.
+    cloud = cocircular_cloud(250, 20000, seed=7)
+    older, newer = cloud[:40000], cloud[40000:]
+    assert len(newer) >= 32768 and len(newer) < 32 * len(older)
+    one_by_one = _core.DelaunayTin(0.0, 0.0, 251.0, 251.0)
+    one_by_one.insert(cloud)
+    batch = _core.DelaunayTin(0.0, 0.0, 251.0, 251.0)
+    batch.insert(older, batch=True)
+    ids = batch.insert(newer, batch=True)
+    np.testing.assert_array_equal(triangles_by_position(batch), triangles_by_position(one_by_one))
+    np.testing.assert_array_equal(batch.vertices[ids], batch.to_grid(newer))
+
+
 def test_collinear_points_then_one_off_the_line() -> None:
     line = np.c_[np.linspace(1.0, 9.0, 40), np.linspace(1.0, 9.0, 40)]
     tin, ids = build(line)

@@ -7,7 +7,7 @@ The scene is pcl_rg.datasets.synthetic_scene at 4 points/m^2 (seed 0), sized for
 the requested number of points. Each parameter set (LiDAR360's defaults and
 TinGroundParams.isprs()) runs `repeats` times; the table gives the median
 wall time of the whole call (input check plus C++ core) and, from the core's own
-clocks in that run, the split between preparation (snapping, Morton sort, seeds),
+clocks in that run, the split between preparation (extent, spacing, snapping, Morton sort, seeds),
 triangulation (Delaunay insertions, in parallel strips for large batches) and
 classification (point location and acceptance tests, parallel; the final pass),
 with the work done and the errors against the scene's labels. --write puts
@@ -105,7 +105,7 @@ def main(argv: list[str] | None = None) -> int:
     ]
     about = (
         f"{run_conditions(load_before)}. {scene_text}. Median of {args.repeats} runs of the "
-        "whole call; the split comes from the core's clocks (prepare: local frame, snapping, "
+        "whole call; the split comes from the core's clocks (prepare: extent, spacing, snapping, "
         "Morton sort, seeds; triangulation: Delaunay insertions, large batches in parallel "
         "strips; classification: point location and acceptance tests, in parallel, and the "
         "final pass). Tests per point: acceptance "

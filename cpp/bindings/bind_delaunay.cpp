@@ -21,6 +21,12 @@ std::vector<std::int32_t> grid_of(const DelaunayTin& self, const XYArray& xy) {
     return self.to_grid(xy.data(), xy_rows(xy));
 }
 
+// The triangulation, if an interrupted batch did not leave records unwritten.
+const Delaunay& readable(const DelaunayTin& self) {
+    if (self.tin.broken()) throw std::logic_error("Delaunay: unusable after an interrupted batch");
+    return self.tin;
+}
+
 py::array_t<std::int32_t> triangle_table(const Delaunay& tin, bool neighbours) {
     const auto t = static_cast<py::ssize_t>(tin.triangle_count());
     py::array_t<std::int32_t> out({t, py::ssize_t{3}});
@@ -58,7 +64,7 @@ void bind_delaunay(py::module_& m) {
                                [](const DelaunayTin& self) { return self.tin.dead_vertex_count(); })
         .def_property_readonly("live",
                                [](const DelaunayTin& self) {
-                                   const Delaunay& tin = self.tin;
+                                   const Delaunay& tin = readable(self);
                                    const auto t = static_cast<py::ssize_t>(tin.triangle_count());
                                    py::array_t<bool> out(t);
                                    bool* w = out.mutable_data();
@@ -89,7 +95,7 @@ void bind_delaunay(py::module_& m) {
                                [](const DelaunayTin& self) { return self.frame.quantum; })
         .def_property_readonly("vertices",
                                [](const DelaunayTin& self) {
-                                   const Delaunay& tin = self.tin;
+                                   const Delaunay& tin = readable(self);
                                    const auto v = static_cast<py::ssize_t>(tin.vertex_count());
                                    py::array_t<std::int64_t> out({v, py::ssize_t{2}});
                                    auto w = out.mutable_unchecked<2>();
@@ -100,9 +106,11 @@ void bind_delaunay(py::module_& m) {
                                    return out;
                                })
         .def_property_readonly(
-            "triangles", [](const DelaunayTin& self) { return triangle_table(self.tin, false); })
-        .def_property_readonly(
-            "neighbors", [](const DelaunayTin& self) { return triangle_table(self.tin, true); });
+            "triangles",
+            [](const DelaunayTin& self) { return triangle_table(readable(self), false); })
+        .def_property_readonly("neighbors", [](const DelaunayTin& self) {
+            return triangle_table(readable(self), true);
+        });
 
     m.def(
         "delaunay_triangulate",

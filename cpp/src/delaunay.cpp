@@ -263,7 +263,8 @@ std::int32_t Delaunay::new_slot() {
 
 std::int32_t Delaunay::locate(std::int32_t x, std::int32_t y, std::int32_t start) const {
     const auto triangles = static_cast<std::int32_t>(triangles_);
-    std::int32_t t = (start >= 0 && start < triangles) ? start : 0;
+    // Slot 0 always holds a triangle; insert_batch's unused slots hold none.
+    std::int32_t t = (start >= 0 && start < triangles && live(start)) ? start : 0;
     std::int32_t previous = -1;
     // Visibility walk: cross any edge that has the point strictly on its far side. On a
     // Delaunay triangulation this cannot cycle (Edelsbrunner's acyclicity of the
@@ -296,6 +297,11 @@ bool Delaunay::holds(std::int32_t t, std::int32_t x, std::int32_t y) const {
 
 std::int32_t Delaunay::insert(std::int32_t x, std::int32_t y, std::int32_t start, bool* inserted) {
     if (broken_) throw std::logic_error("Delaunay: unusable after an interrupted batch");
+    return insert_point(x, y, start, inserted);
+}
+
+std::int32_t Delaunay::insert_point(std::int32_t x, std::int32_t y, std::int32_t start,
+                                    bool* inserted) {
     if (x <= 0 || y <= 0 || x >= xy_[2].x || y >= xy_[2].y)
         throw std::invalid_argument("Delaunay: a point must lie strictly inside the box");
     const std::int32_t t = locate(x, y, start);
@@ -561,18 +567,22 @@ void Delaunay::insert_batch(const std::int32_t* x, const std::int32_t* y, const 
     for (std::size_t k = 0; k < m; ++k)
         if (x[k] <= 0 || y[k] <= 0 || x[k] >= xy_[2].x || y[k] >= xy_[2].y)
             throw std::invalid_argument("Delaunay: a point must lie strictly inside the box");
+    // Until the end, an exception (an interruption, a failed allocation) leaves a part of
+    // the batch inserted, or ids and slots counted but unwritten: the TIN is unusable.
+    broken_ = true;
     const Interruption interruption;
     const auto start_of = [&](std::size_t k) { return start != nullptr ? start[k] : -1; };
     std::int32_t last = 0;
     const auto insert_serially = [&](std::size_t k, std::int32_t from) {
         interruption.check();
         bool inserted = false;
-        vertex[k] = insert(x[k], y[k], from >= 0 ? from : last, &inserted);
+        vertex[k] = insert_point(x[k], y[k], from >= 0 ? from : last, &inserted);
         last = vertex_triangle(vertex[k]);
     };
     if (m < kBatchParallelMin) {
         prepare_insertions(m);
         for (std::size_t k = 0; k < m; ++k) insert_serially(k, start_of(k));
+        broken_ = false;
         return;
     }
     // A sample first, serially, when the TIN is much coarser than the batch.
@@ -629,7 +639,8 @@ void Delaunay::insert_batch(const std::int32_t* x, const std::int32_t* y, const 
         next_vertex += count;
         next_slot += 2 * count;
     }
-    // Where walks may start (a sampled batch has no starts): per square of a coarse
+    // Where walks may start without a start (a sampled batch's starts are stale: the
+    // sample rewrote their slots, maybe into another zone's triangles): per square of a coarse
     // lattice, about one vertex each, a triangle at a vertex in it that one zone owns,
     // with that zone. A zone reads only its own hints: no other zone writes their slots.
     int hint_shift = 0;
@@ -646,7 +657,7 @@ void Delaunay::insert_batch(const std::int32_t* x, const std::int32_t* y, const 
                                          bounds.begin());
     };
     std::vector<std::array<std::int32_t, 2>> hints;  // (slot, zone)
-    if (sampled) {
+    if (sampled || start == nullptr) {
         hints.assign(hint_side(xy_[2].x) * hint_side(xy_[2].y), {-1, -1});
         for (std::size_t t = 0; t < first_slot; ++t) {
             const Triangle& tr = tri_[t];
@@ -661,9 +672,7 @@ void Delaunay::insert_batch(const std::int32_t* x, const std::int32_t* y, const 
         const auto [slot, owner] = hints[hint_of(x[k], y[k])];
         return zone < 0 || owner == zone ? slot : std::int32_t{-1};
     };
-    // The strips side by side; in any number of threads, the same insertions. From here
-    // until the end an exception leaves slots and ids unwritten: the TIN is unusable.
-    broken_ = true;
+    // The strips side by side; in any number of threads, the same insertions.
     std::exception_ptr failure;
     const auto zone_count = static_cast<std::ptrdiff_t>(zones.size());
 #pragma omp parallel for schedule(dynamic, 1) firstprivate(interruption)
@@ -672,8 +681,8 @@ void Delaunay::insert_batch(const std::int32_t* x, const std::int32_t* y, const 
         try {
             for (const std::uint32_t k : zone.points) {
                 if (interruption.requested()) break;  // then thrown below, outside
-                if (place(x[k], y[k], start_of(k), hint_for(k, static_cast<std::int32_t>(z)), zone,
-                          &vertex[k]) < 0)
+                if (place(x[k], y[k], sampled ? -1 : start_of(k),
+                          hint_for(k, static_cast<std::int32_t>(z)), zone, &vertex[k]) < 0)
                     zone.deferred.push_back(k);
             }
         } catch (...) {

@@ -143,6 +143,7 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
     TinGroundStats stats;
     const std::size_t n = points.size;
     if (n == 0) return stats;
+    auto clock = std::chrono::steady_clock::now();
     // The unset lengths from the spacing of these points (measured only when needed).
     // The bounding box, scanned once for the spacing, the frame and the final pass.
     const std::array<double, 3> origin = local_origin(points);
@@ -161,7 +162,6 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
     if (n > static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max()) - 8)
         throw std::invalid_argument("points: at most 2^31 - 9 points are supported, got " +
                                     std::to_string(n));
-    auto clock = std::chrono::steady_clock::now();
     std::fill(ground, ground + n, false);
     const Interruption interruption;  // polled between the steps and in the long loops
 
@@ -416,7 +416,7 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
     // Scattered writes of distinct entries: in parallel, the result is the same.
 #pragma omp parallel for schedule(static) if (count > 65536)
     for (std::ptrdiff_t s = 0; s < count; ++s) ground[order[s]] = is_ground[s] != 0;
-    stats.tin_vertices = static_cast<std::int64_t>(tin.vertex_count());
+    stats.tin_vertices = static_cast<std::int64_t>(tin.vertex_count() - tin.dead_vertex_count());
     if (*params.final_cell > 0.0) {
         clock = std::chrono::steady_clock::now();
         final_pass(points, final_pass_params(params), snapped, ground);

@@ -153,7 +153,7 @@ class Delaunay {
     /// The triangle containing p + (eps, eps^2) for an infinitesimal eps > 0: the one
     /// triangle holding p in its closure that is chosen the same way whatever the walk,
     /// so points on edges and vertices are located deterministically. Walks from
-    /// `start` (any triangle id). p must lie strictly inside the box.
+    /// `start` (any slot; from slot 0 if it holds no triangle). p must lie strictly inside the box.
     std::int32_t locate(std::int32_t x, std::int32_t y, std::int32_t start) const;
 
     /// Whether triangle t holds p + (eps, eps^2) (see locate): then locate returns t.
@@ -194,8 +194,8 @@ class Delaunay {
 
     /// Vertex ids in use, dead ones (insert_batch) included.
     std::size_t vertex_count() const { return xy_.size(); }
-    /// Whether an insert_batch was interrupted (or failed) midway, which leaves the
-    /// triangulation unusable: insert and insert_batch then throw std::logic_error.
+    /// Whether an insert_batch was interrupted (or failed) before it ended, which leaves
+    /// the triangulation unusable: insert and insert_batch then throw std::logic_error.
     bool broken() const { return broken_; }
     /// Vertex ids that insert_batch left without a vertex (points on existing vertices).
     std::size_t dead_vertex_count() const { return dead_vertices_; }
@@ -229,6 +229,8 @@ class Delaunay {
 
    private:
     struct BatchZone;  // a strip of insert_batch, with its ids and scratch (delaunay.cpp)
+    // insert() without its broken() check, for insert_batch, which sets broken_ while it runs.
+    std::int32_t insert_point(std::int32_t x, std::int32_t y, std::int32_t start, bool* inserted);
     bool owned(std::int32_t t, const BatchZone& zone) const;
     bool in_conflict(std::int32_t t, std::int32_t x, std::int32_t y) const;
     int place(std::int32_t x, std::int32_t y, std::int32_t start, std::int32_t hint,

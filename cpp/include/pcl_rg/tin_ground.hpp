@@ -103,7 +103,7 @@ struct TinGroundStats {
     std::int64_t iterations = 0;          ///< densification passes, the last adding nothing
     std::int64_t tin_vertices = 0;        ///< final TIN vertices, the 4 virtual corners included
     std::int64_t tests = 0;               ///< point-in-triangle tests evaluated (after skipping)
-    double prepare_seconds = 0.0;         ///< snapping, spatial sort, seeds
+    double prepare_seconds = 0.0;         ///< extent, spacing, snapping, spatial sort, seeds
     double triangulation_seconds = 0.0;   ///< Delaunay insertions
     double classification_seconds = 0.0;  ///< point location and acceptance tests
     double point_spacing = 0.0;         ///< spacing the unset lengths took (m; NaN: all were given)
