@@ -174,16 +174,30 @@ RESULTS = Path(__file__).resolve().parent / "RESULTS.md"
 SHARED_DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 
 
+# Notes written by hand into a generated section (history, analysis) go between these
+# lines; write_section carries them over when it replaces the section.
+KEPT_START, KEPT_END = "<!-- kept: written by hand -->", "<!-- /kept -->"
+_KEPT = re.compile(
+    rf"^{re.escape(KEPT_START)}\n.*?^{re.escape(KEPT_END)}$\n?", re.DOTALL | re.MULTILINE
+)
+
+
 def write_section(text: str, section: str, path: Path = RESULTS) -> None:
     """Put `text`, which starts with the "## " title `section`, into `path`.
 
     An older copy of the section is replaced, every other section kept; a new one
-    is appended.
+    is appended. The older copy's blocks between KEPT_START and KEPT_END lines
+    follow the new text, in their order.
     """
     old = path.read_text() if path.exists() else "# Benchmark results\n"
     pattern = re.compile(rf"^{re.escape(section)}\n.*?(?=^## |\Z)", re.DOTALL | re.MULTILINE)
-    if pattern.search(old):
-        new = pattern.sub(lambda _: text.rstrip("\n") + "\n\n", old, count=1)
+    found = pattern.search(old)
+    if found:
+        kept = "".join(
+            "\n" + block.group(0).rstrip("\n") + "\n" for block in _KEPT.finditer(found.group(0))
+        )
+        replacement = text.rstrip("\n") + "\n" + kept + "\n"
+        new = old[: found.start()] + replacement + old[found.end() :]
     else:
         new = old.rstrip("\n") + "\n\n" + text
     path.write_text(new)
