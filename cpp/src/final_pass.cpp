@@ -187,23 +187,14 @@ void final_pass(PointsView points, const FinalPassParams& params, const SnappedP
     // Where to start a walk far from the last triangle (a thread's next chunk, a new row
     // of grid_ground's cells): a triangle at a vertex in the same square of a coarse
     // lattice, about one vertex per square. Only the walk's length depends on it.
-    int hint_shift = 0;
-    const auto hint_side = [&](std::int32_t extent) {
-        return static_cast<std::size_t>(extent >> hint_shift) + 1;
-    };
-    while (hint_side(frame.width) * hint_side(frame.height) > tin.vertex_count()) ++hint_shift;
-    const std::size_t hint_columns = hint_side(frame.width);
-    const auto hint_of = [&](std::int32_t x, std::int32_t y) {
-        return static_cast<std::size_t>(y >> hint_shift) * hint_columns +
-               static_cast<std::size_t>(x >> hint_shift);
-    };
-    std::vector<std::int32_t> hint(hint_columns * hint_side(frame.height), -1);
+    const HintLattice lattice(frame.width, frame.height, tin.vertex_count());
+    std::vector<std::int32_t> hint(lattice.size(), -1);
     for (std::int32_t t = 0; t < static_cast<std::int32_t>(tin.triangle_count()); ++t)
         for (int k = 0; k < 3 && tin.live(t); ++k) {
             const std::int32_t v = tin.triangle_vertex(t, k);
-            if (v >= 4) hint[hint_of(tin.vertex_x(v), tin.vertex_y(v))] = t;  // not a corner
+            if (v >= 4) hint[lattice.of(tin.vertex_x(v), tin.vertex_y(v))] = t;  // not a corner
         }
-    const std::int64_t near = std::int64_t{2} << hint_shift;
+    const std::int64_t near = std::int64_t{2} << lattice.shift;
     const double q = frame.quantum;
     constexpr std::ptrdiff_t kChunk = 4096;
     const auto m = static_cast<std::ptrdiff_t>(n);
@@ -228,7 +219,7 @@ void final_pass(PointsView points, const FinalPassParams& params, const SnappedP
                         start >= 0 ? tin.triangle_vertex(start, 0) : std::int32_t{0};
                     if (start < 0 || std::abs(std::int64_t{tin.vertex_x(corner)} - gx) > near ||
                         std::abs(std::int64_t{tin.vertex_y(corner)} - gy) > near) {
-                        const std::int32_t h = hint[hint_of(gx, gy)];
+                        const std::int32_t h = hint[lattice.of(gx, gy)];
                         start = h >= 0 ? h : std::max(start, std::int32_t{0});
                     }
                     return tin.locate(gx, gy, start);

@@ -2,6 +2,7 @@
 // progressive TIN densification ground filter (tin_ground.hpp), usable on its own.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cstddef>
 #include <cstdint>
@@ -228,9 +229,12 @@ class Delaunay {
     static constexpr std::size_t kBatchSample = 32;
 
    private:
-    struct BatchZone;  // a strip of insert_batch, with its ids and scratch (delaunay.cpp)
+    struct BatchZone;  // a strip of insert_batch, with its ids and scratch (delaunay_batch.cpp)
     // insert() without its broken() check, for insert_batch, which sets broken_ while it runs.
     std::int32_t insert_point(std::int32_t x, std::int32_t y, std::int32_t start, bool* inserted);
+    // locate()'s walk from slot t; with a zone, only through the zone's triangles (-1
+    // where it would leave them).
+    std::int32_t walk(std::int32_t x, std::int32_t y, std::int32_t t, const BatchZone* zone) const;
     bool owned(std::int32_t t, const BatchZone& zone) const;
     bool in_conflict(std::int32_t t, std::int32_t x, std::int32_t y) const;
     int place(std::int32_t x, std::int32_t y, std::int32_t start, std::int32_t hint,
@@ -264,6 +268,28 @@ class Delaunay {
     std::int32_t stamp_ = 0;
     std::size_t dead_vertices_ = 0;
     bool broken_ = false;  // an insert_batch threw midway (see broken())
+};
+
+/// A coarse lattice over a width x height grid box, of squares 2^shift grid steps wide,
+/// as fine as at most `squares` squares allow. One triangle kept per square gives a walk
+/// that would start far away a start near its point (final_pass, Delaunay::insert_batch).
+struct HintLattice {
+    HintLattice(std::int32_t width, std::int32_t height, std::size_t squares) {
+        const auto side = [&](std::int32_t extent) {
+            return static_cast<std::size_t>(extent >> shift) + 1;
+        };
+        while (side(width) * side(height) > std::max<std::size_t>(squares, 1)) ++shift;
+        columns = side(width);
+        rows = side(height);
+    }
+    std::size_t size() const { return columns * rows; }
+    /// The square of grid point (x, y), both in [0, extent].
+    std::size_t of(std::int32_t x, std::int32_t y) const {
+        return static_cast<std::size_t>(y >> shift) * columns +
+               static_cast<std::size_t>(x >> shift);
+    }
+    int shift = 0;
+    std::size_t columns = 1, rows = 1;
 };
 
 /// A Delaunay TIN over the box [lower, upper] (metres) with the GridFrame that snaps to
