@@ -47,8 +47,11 @@ SELECTIONS_NOTE = (
     "in every fold and for the fitted pick: mean, the search of the preset (lowest mean "
     "total error over the training samples); gain, a change of one field is kept only "
     "when it lowers that mean by more than 0.1 percentage points; trimmed, the mean "
-    "without the worst training sample; trimmed-gain, both. These few candidates were "
-    "written after the CV results of mean were known; none was tuned on the CV figures."
+    "without the worst training sample; trimmed-gain, both; joint, one descent over the "
+    "densification's and the final pass's fields together, so that the densification is "
+    "scored after the final pass (mean's first stage scores it with the pass off). These "
+    "few candidates were written after the CV results of mean were known; none was tuned "
+    "on the CV figures."
 )
 
 
