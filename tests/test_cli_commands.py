@@ -427,6 +427,10 @@ def test_plots(capsys, tmp_path, scene_las):
             ["--profile", tmp_path / "a.png", "--profile-width", "0"],
             ["--profile-width: must be > 0"],
         ),
+        (  # one would silently replace the other
+            ["--plot", tmp_path / "a.png", "--profile", f"{tmp_path}/./a.png"],
+            ["are the same file"],
+        ),
     ]
     for flags, words in bad_plots:
         code, _, err = run(capsys, "ground", scene_las, tmp_path / "x.las", *flags)

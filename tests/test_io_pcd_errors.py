@@ -154,6 +154,8 @@ def test_ascii_values_out_of_range_or_not_ascii(tmp_path):
         (b"VERSION 0.7", b"VERSION 0.8", "unsupported VERSION"),
         (b"DATA ascii", b"DATA zip", "DATA must be one of"),
         (b"VIEWPOINT 0 0 0 1 0 0 0", b"VIEWPOINT 0 0 0 1", "7 numbers"),
+        (b"VIEWPOINT 0 0 0 1 0 0 0", b"VIEWPOINT nan 0 0 1 0 0 0", "VIEWPOINT has a value that"),
+        (b"VIEWPOINT 0 0 0 1 0 0 0", b"VIEWPOINT 0 0 0 1 0 0 inf", "not finite"),
         (b"WIDTH 50", b"WIDTH fifty", "not an integer"),
         (b"POINTS 50", b"POINTS -50", "must be >= 0"),
         (b"HEIGHT 1", b"HEIGHT 1\nHEIGHT 1", "HEIGHT twice"),

@@ -1,7 +1,8 @@
 """Inputs beyond the core's index types are refused up front, naming the limit.
 
 A zero-stride view of billions of rows costs no memory, so the refusal is tested
-for real: it must come before any copy or conversion of the input.
+for real: it must come before any copy or conversion of the input. Coordinates
+that the float32 local frame cannot hold are refused too, instead of becoming inf.
 """
 
 from __future__ import annotations
@@ -49,3 +50,30 @@ def test_the_message_names_the_index_type_and_the_count(limit) -> None:
     assert f"got {limit + 1:,}" in str(error.value)
     # At the limit itself the gate lets a (small) cloud through unchanged.
     assert as_points(np.ones((4, 3)), max_points=limit).shape == (4, 3)
+
+
+FLOAT32_STEPS = [
+    ("statistical_outlier_removal", pcl_rg.statistical_outlier_removal),
+    ("normals", pcl_rg.normals),
+    ("region_growing", pcl_rg.region_growing),
+    ("convex_segmentation", pcl_rg.convex_segmentation),
+    ("point_scale", pcl_rg.point_scale),
+    ("pcl.voxel_grid", lambda p: pcl_rg.pcl.voxel_grid(p, leaf_size=1.0)),
+    ("pcl.statistical_outlier_removal", pcl_rg.pcl.statistical_outlier_removal),
+    ("pcl.normals", pcl_rg.pcl.normals),
+    ("pcl.region_growing", pcl_rg.pcl.region_growing),
+    ("pcl.progressive_morphological_filter", pcl_rg.pcl.progressive_morphological_filter),
+]
+
+
+@pytest.mark.parametrize("far", [-1e39, 1e39, -1e300])
+@pytest.mark.parametrize(("name", "call"), FLOAT32_STEPS, ids=[c[0] for c in FLOAT32_STEPS])
+def test_an_extent_beyond_float32_is_refused_not_turned_into_inf(name, call, far) -> None:
+    # One far point below the rest makes the minimum corner far, and every other point
+    # minus it overflows float32 (silently all inf before; above the rest only the far
+    # point did).
+    points = np.random.default_rng(0).random((300, 3)) * [50.0, 50.0, 5.0]
+    points = np.r_[points, [[0.0, far, 0.0]]]
+    with pytest.raises(ValueError, match="beyond float32's range"):
+        call(points)
+    call(points[:-1])  # the same cloud without it runs

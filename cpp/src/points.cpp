@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
 
 namespace pcl_rg {
 
@@ -68,11 +69,23 @@ double lattice_floor(double low, double size) {
 std::vector<float> to_local_float(PointsView points, const std::array<double, 3>& origin) {
     std::vector<float> local(3 * points.size);
     const auto n = static_cast<std::ptrdiff_t>(points.size);
-#pragma omp parallel for schedule(static)
+    bool overflow = false;
+#pragma omp parallel for schedule(static) reduction(|| : overflow)
     for (std::ptrdiff_t i = 0; i < n; ++i)
-        for (int a = 0; a < 3; ++a)
-            local[3 * i + a] = static_cast<float>(points.coord(i, a) - origin[a]);
+        for (int a = 0; a < 3; ++a) {
+            const float value = static_cast<float>(points.coord(i, a) - origin[a]);
+            local[3 * i + a] = value;
+            overflow = overflow || std::isinf(value);
+        }
+    if (overflow) throw_float32_overflow();
     return local;
+}
+
+void throw_float32_overflow() {
+    throw std::invalid_argument(
+        "points: a coordinate minus the local origin is beyond "
+        "float32's range (about 3.4e38), which this float32 step cannot hold; the extent "
+        "of the points is too large (a stray point far from the rest?)");
 }
 
 }  // namespace pcl_rg

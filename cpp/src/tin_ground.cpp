@@ -188,8 +188,11 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
             spread = orient2d(sx[0], sy[0], sx[second], sy[second], sx[k], sy[k]) != 0;
         if (!spread)
             throw std::invalid_argument(
-                "points are all collinear in XY (or fewer than 3 distinct XY positions): "
-                "a TIN needs 3 points not on one line");
+                "points are all collinear in XY (or fewer than 3 distinct XY positions on "
+                "the TIN's grid, whose step is the XY extent / 2^29: " +
+                check::format_value(frame.quantum) +
+                " m here; points far from the rest coarsen it): a TIN needs 3 points not "
+                "on one line");
     }
     interruption.check_now();
 

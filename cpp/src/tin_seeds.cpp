@@ -165,9 +165,11 @@ std::vector<std::uint32_t> morphological_seeds(PointsView points,
     const double limit = 4.0 * static_cast<double>(points.size) + 4194304.0;
     if (!((std::floor(ex / cell) + 1.0) * (std::floor(ey / cell) + 1.0) <= limit))
         throw std::invalid_argument(
-            "seed_cell is too small for the XY extent (more than 4 cells "
-            "per point), got " +
-            check::format_value(cell));
+            "seed_cell is too small for the XY extent of the points (" + check::format_value(ex) +
+            " x " + check::format_value(ey) + " m: more than 4 cells per point), got " +
+            check::format_value(cell) +
+            "; points far from the rest make the extent this large (drop them), or set a "
+            "larger seed_cell");
     const auto ncx = static_cast<std::int64_t>(std::floor(ex / cell)) + 1;
     const auto ncy = static_cast<std::int64_t>(std::floor(ey / cell)) + 1;
     const std::vector<std::int64_t> lowest =

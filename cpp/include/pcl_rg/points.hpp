@@ -42,7 +42,13 @@ inline std::int64_t floor_to_int(double q) {
 }
 
 /// The points minus `origin`, as row-major float32 x, y, z: the local frame in which
-/// distances are computed exactly as PCL computes them on its float clouds.
+/// distances are computed exactly as PCL computes them on its float clouds. Throws
+/// std::invalid_argument when a coordinate does not fit (throw_float32_overflow).
 std::vector<float> to_local_float(PointsView points, const std::array<double, 3>& origin);
+
+/// Throws the error of a float32 frame that cannot hold the points: some point minus
+/// the origin is beyond float32's range (about 3.4e38), which would turn it, and
+/// with a far minimum corner every other point, into infinity.
+[[noreturn]] void throw_float32_overflow();
 
 }  // namespace pcl_rg

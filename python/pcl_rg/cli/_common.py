@@ -157,6 +157,11 @@ def check_plots(source: str, plots: Sequence[str | None]) -> None:
             raise CliError(f"the folder of plot file {plot!r} does not exist")
         if os.path.exists(plot) and os.path.samefile(source, plot):
             raise CliError(f"plot file {plot!r} is the INPUT file; refusing to overwrite it")
+    named = [plot for plot in plots if plot is not None]
+    for k, plot in enumerate(named):
+        for other in named[:k]:  # one would silently replace the other
+            if os.path.realpath(plot) == os.path.realpath(other):
+                raise CliError(f"plot files {other!r} and {plot!r} are the same file")
 
 
 def read(run: Run, path: str) -> PointFile:

@@ -9,6 +9,7 @@ those of :func:`pcl_rg.io.read_pcd`.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from typing import NamedTuple
 
@@ -225,6 +226,9 @@ def parse_header(path: str, head: bytes) -> PcdHeader:
             raise bad_pcd(
                 path, f"VIEWPOINT has a non-numeric value: {' '.join(tokens)!r}"
             ) from None
+        if not all(math.isfinite(v) for v in viewpoint):
+            # Refused here, not when the cloud is written back (write_pcd's check).
+            raise bad_pcd(path, f"VIEWPOINT has a value that is not finite: {' '.join(tokens)!r}")
 
     return PcdHeader(fields, width, height, n_points, viewpoint, data[0], data_offset)
 

@@ -166,7 +166,9 @@ def _morphological_seeds(
         <= 4.0 * len(xyz) + 4194304.0
     ):
         raise ValueError(
-            f"seed_cell is too small for the XY extent (more than 4 cells per point), got {cell:g}"
+            f"seed_cell is too small for the XY extent of the points ({ex:g} x {ey:g} m: more "
+            f"than 4 cells per point), got {cell:g}; points far from the rest make the extent "
+            "this large (drop them), or set a larger seed_cell"
         )
     ncx, ncy = math.floor(ex / cell) + 1, math.floor(ey / cell) + 1
     _, lowest, cells = _lowest_in_cells(xyz, local, cell, ncy)
@@ -346,8 +348,9 @@ def tin_ground(
     other = np.flatnonzero((gx != gx[0]) | (gy != gy[0]))
     if other.size == 0 or not _orient(gx[0], gy[0], gx[other[0]], gy[other[0]], gx, gy).any():
         raise ValueError(
-            "points are all collinear in XY (or fewer than 3 distinct XY positions): "
-            "a TIN needs 3 points not on one line"
+            "points are all collinear in XY (or fewer than 3 distinct XY positions on the "
+            f"TIN's grid, whose step is the XY extent / 2^29: {q:g} m here; points far from "
+            "the rest coarsen it): a TIN needs 3 points not on one line"
         )
 
     # 2. Seeds: lowest point (ties: index) of each max_building_size cell.
