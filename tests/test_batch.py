@@ -508,3 +508,70 @@ def test_a_damaged_manifest_redoes_the_tiles(survey, tmp_path, scheduler):
     (out / MANIFEST).write_text(json.dumps({os.path.basename(survey.paths[0]): 1}))
     report = batch.ground(survey.paths[:2], out, scheduler=scheduler)
     assert {t.status for t in report.tiles} == {"done"}
+
+
+def shift_header_min_xy(path, by):
+    """Move a LAS/LAZ header's min x and min y by `by` metres, leaving the points alone
+    (the header is stored uncompressed in LAZ too: doubles at bytes 187 and 203)."""
+    data = bytearray(Path(path).read_bytes())
+    for offset in (187, 203):
+        value = np.frombuffer(bytes(data[offset : offset + 8]), "<f8")[0] + by
+        data[offset : offset + 8] = np.float64(value).tobytes()
+    Path(path).write_bytes(bytes(data))
+
+
+@pytest.mark.parametrize("by", [-2000.0, 10.0])  # a box too wide, then one too small
+def test_a_header_box_unlike_its_points_fails_its_tile(by, tmp_path, scheduler):
+    # The run's plan (neighbours, the survey's spacing) comes from the headers: a box
+    # that lies must not pass silently.
+    source = synthetic_survey(tmp_path / "in", tiles=(1, 2), tile_size=40.0, seed=4)
+    bad = source.paths[0]
+    shift_header_min_xy(bad, by)
+    report = batch.ground(source.paths, tmp_path / "out", scheduler=scheduler)
+    assert [t.input for t in report.failed] == [bad]
+    assert "header's bounding box" in report.failed[0].error
+    assert [t.status for t in report.tiles] == ["failed", "done"]
+    assert not os.path.exists(report.failed[0].output)
+
+
+def add_crs_record(path, wkt):
+    import laspy
+
+    las = laspy.read(path)
+    las.vlrs.append(laspy.VLR("LASF_Projection", 2112, "wkt", wkt.encode() + b"\0"))
+    las.write(path)
+
+
+def test_tiles_in_two_coordinate_systems_are_refused(tmp_path, scheduler):
+    source = synthetic_survey(tmp_path / "in", tiles=(1, 2), tile_size=40.0, seed=4)
+    for path in source.paths:
+        add_crs_record(path, 'PROJCS["WGS 84 / UTM zone 32N"]')
+    assert {t.status for t in batch.ground(source.paths, tmp_path / "a").tiles} == {"done"}
+    add_crs_record(source.paths[1], 'PROJCS["WGS 84 / UTM zone 33N"]')
+    with pytest.raises(ValueError, match="not in one coordinate system"):
+        batch.ground(source.paths, tmp_path / "b", scheduler=scheduler)
+    assert not [name for name in os.listdir(tmp_path / "b") if not name.startswith(".")]
+
+
+def test_a_failed_rerun_removes_the_tiles_earlier_output(tmp_path, scheduler):
+    source = synthetic_survey(tmp_path / "in", tiles=(1, 2), tile_size=40.0, seed=4)
+    out = tmp_path / "out"
+    first = batch.ground(source.paths, out, scheduler=scheduler)
+    assert os.path.exists(first.tiles[0].output)
+    raw = Path(source.paths[0]).read_bytes()
+    Path(source.paths[0]).write_bytes(raw[:3000])  # the input is damaged since
+    again = batch.ground(source.paths, out, scheduler=scheduler)
+    assert [t.input for t in again.failed] == [source.paths[0]]
+    assert "earlier output" in again.failed[0].error
+    # No output left that does not come from its current input, nor a record of one.
+    assert not os.path.exists(again.tiles[0].output)
+    manifest = json.loads((out / MANIFEST).read_text())
+    assert os.path.basename(source.paths[0]) not in manifest
+    # Its neighbour ran without its buffer: done, and not recorded, so redone next time.
+    assert again.tiles[1].status == "done" and again.tiles[1].no_buffer_from
+
+
+def test_a_folder_in_place_of_the_manifest_is_refused(tmp_path, survey):
+    (tmp_path / "out" / MANIFEST).mkdir(parents=True)
+    with pytest.raises(ValueError, match="is not a file"):
+        batch.ground(survey.paths[:2], tmp_path / "out")

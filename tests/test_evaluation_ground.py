@@ -88,6 +88,14 @@ def test_empty_input():
 def test_lists_are_accepted():
     e = ground_errors([True, False, True], [True, True, False])
     np.testing.assert_array_equal(e.confusion, [[1, 1], [1, 0]])
+    empty = ground_errors([], [])  # [] is float64 to NumPy
+    assert empty.confusion.sum() == 0 and math.isnan(empty.total)
+
+
+def test_masked_arrays_are_refused_not_unmasked():
+    masked = np.ma.masked_array([True, False, True], mask=[0, 0, 1])
+    with pytest.raises(ValueError, match="masked"):
+        ground_errors(masked, np.ones(3, bool))
 
 
 @pytest.mark.parametrize(

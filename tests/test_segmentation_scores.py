@@ -140,3 +140,19 @@ def test_errors() -> None:
         segmentation_scores([[1, 2]], [[0, 0]])
     empty = segmentation_scores(np.empty(0, np.int32), np.empty(0, np.int32))
     assert math.isnan(empty.mean_iou) and empty.over_segmented == 0
+
+
+def test_unsigned_ids_beyond_int64_and_masked_arrays_are_refused():
+    big = np.array([2**64 - 1, 2**64 - 1, 5, 5], np.uint64)  # would wrap to -1
+    with pytest.raises(ValueError, match=r"ids above 2\*\*63 - 1"):
+        segmentation_scores(np.array([1, 1, 2, 2], np.uint64), big)
+    fine = np.array([2**63 - 1, 2**63 - 1, 5, 5], np.uint64)
+    assert segmentation_scores(np.array([1, 1, 2, 2]), fine).n_clusters == 2
+    masked = np.ma.masked_array([1, 1, 2, 2], mask=[0, 0, 1, 1])
+    with pytest.raises(ValueError, match="masked"):
+        segmentation_scores(masked, np.array([1, 1, 2, 2]))
+
+
+def test_empty_lists_are_empty_scores():
+    scores = segmentation_scores([], [])
+    assert scores.n_clusters == 0 and len(scores.segment_ids) == 0

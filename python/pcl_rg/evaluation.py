@@ -28,7 +28,11 @@ class GroundErrors(NamedTuple):
 
 
 def _labels(name: str, value: npt.ArrayLike) -> np.ndarray:
+    if np.ma.is_masked(value):  # np.asarray would drop the mask and score every point
+        raise ValueError(f"{name}: masked arrays are not scored; select the points first")
     array = np.asarray(value)
+    if array.size == 0 and array.dtype.kind == "f":  # [] and np.array([]) are float64
+        array = array.astype(np.bool_)
     if array.dtype != np.bool_:
         raise ValueError(f"{name} must be a boolean array, got dtype {array.dtype}")
     if array.ndim != 1:

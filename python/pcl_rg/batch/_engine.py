@@ -164,6 +164,38 @@ def _remove_partial_outputs(outputs: Sequence[str]) -> None:
                 os.unlink(stray)
 
 
+def _check_one_crs(paths: Sequence[str], extents: Sequence[dict[str, Any]]) -> None:
+    """Refuse, before any work, tiles whose coordinate system records differ: their
+    coordinates may overlap while the places do not (two UTM zones), and a tile would
+    buffer a stranger. Tiles without such records are not compared."""
+    first: dict[str, str] = {}
+    for path, extent in zip(paths, extents, strict=True):
+        digest = extent.get("crs", "") if extent["ok"] else ""
+        if digest:
+            first.setdefault(digest, path)
+    if len(first) > 1:
+        a, b = list(first.values())[:2]
+        raise ValueError(
+            f"the tiles are not in one coordinate system: {os.path.basename(a)!r} and "
+            f"{os.path.basename(b)!r} carry different CRS records (GeoTIFF keys or WKT); "
+            "run each coordinate system's tiles on their own"
+        )
+
+
+def _discard(manifest: Manifest, output: str) -> str:
+    """Forget a failed tile's output and remove an earlier run's file of it, so that the
+    folder holds no output that does not come from its current input; what to add to
+    the tile's error."""
+    manifest.forget(output)
+    if not os.path.exists(output):
+        return ""
+    try:
+        os.unlink(output)
+    except OSError as error:
+        return f" (its earlier output {os.path.basename(output)!r} is stale: {error.strerror})"
+    return f" (its earlier output {os.path.basename(output)!r} was removed)"
+
+
 def _plain(value: Any) -> Any:
     """`value` as it comes back from JSON, for comparing with the manifest."""
     return json.loads(json.dumps(value, default=str))
@@ -230,10 +262,11 @@ def _run_on(
     from distributed import as_completed
 
     extents = client.gather(client.map(_tasks.tile_extent, paths, pure=False))
+    _check_one_crs(paths, extents)
     boxes: list[Box | None] = []
-    for report, extent in zip(reports, extents, strict=True):
+    for i, (report, extent) in enumerate(zip(reports, extents, strict=True)):
         if not extent["ok"]:
-            report.error = extent["error"]
+            report.error = extent["error"] + _discard(manifest, outputs[i])
             boxes.append(None)
             continue
         e = Extent(*extent["extent"])
@@ -336,8 +369,8 @@ def _run_on(
                 else:
                     manifest.record(outputs[i], expected[i])
             else:
-                report.status, report.error = "failed", result["error"]
-                manifest.forget(outputs[i])
+                report.status = "failed"
+                report.error = result["error"] + _discard(manifest, outputs[i])
             bar.update(report.points)
     finally:
         bar.close()

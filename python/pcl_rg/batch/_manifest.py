@@ -30,6 +30,11 @@ class Manifest:
 
     def __init__(self, folder: str) -> None:
         self.path = os.path.join(folder, MANIFEST)
+        if os.path.lexists(self.path) and not os.path.isfile(self.path):
+            raise ValueError(
+                f"{self.path!r} is not a file: the batch keeps its record of finished tiles "
+                "there; remove or rename what is in its place"
+            )
         try:
             with open(self.path, encoding="utf-8") as stream:
                 entries = json.load(stream)
@@ -49,8 +54,13 @@ class Manifest:
     def record(self, output: str, inputs: dict[str, Any]) -> None:
         entry = {"inputs": inputs, "output": file_signature(output)}
         self.entries[os.path.basename(output)] = entry
-        text = json.dumps(self.entries, indent=1, sort_keys=True).encode()
-        atomic_write(self.path, lambda stream: stream.write(text))
+        self._save()
 
     def forget(self, output: str) -> None:
-        self.entries.pop(os.path.basename(output), None)
+        """Drop `output`'s entry, on disk too (a stale entry must not outlive the run)."""
+        if self.entries.pop(os.path.basename(output), None) is not None:
+            self._save()
+
+    def _save(self) -> None:
+        text = json.dumps(self.entries, indent=1, sort_keys=True).encode()
+        atomic_write(self.path, lambda stream: stream.write(text))

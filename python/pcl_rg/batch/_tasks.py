@@ -13,6 +13,7 @@ result, so its neighbours still run (without its buffer).
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import os
 import pickle
 import resource
@@ -94,8 +95,35 @@ def passed_on(result: dict[str, Any]) -> dict[str, Any]:
 
 
 def tile_extent(path: str) -> dict[str, Any]:
-    """Stage 0: the tile's box, from the header for LAS/LAZ."""
-    return _guarded(lambda: {"extent": tuple(read_extent(path))})
+    """Stage 0: the tile's box, from the header for LAS/LAZ, and its CRS records."""
+
+    def work() -> dict[str, Any]:
+        extent = read_extent(path)
+        return {"extent": tuple(extent), "crs": _crs_digest(path) if extent.from_header else ""}
+
+    return _guarded(work)
+
+
+def _crs_digest(path: str) -> str:
+    """A digest of a LAS/LAZ file's coordinate system records, "" when it has none.
+
+    The records are the VLRs and EVLRs of user ``LASF_Projection`` (GeoTIFF keys, OGC
+    WKT), compared as bytes: tiles whose digests differ describe different coordinate
+    systems, or one in other words, and a survey's tiles are expected to share one.
+    """
+    import laspy
+
+    with laspy.open(path) as reader:
+        header = reader.header
+        records = [*header.vlrs, *(header.evlrs or [])]
+    digest = hashlib.sha256()
+    found = False
+    for record in sorted(records, key=lambda r: (r.record_id, r.record_data_bytes())):
+        if record.user_id.rstrip("\0") == "LASF_Projection":
+            found = True
+            digest.update(record.record_id.to_bytes(2, "little"))
+            digest.update(record.record_data_bytes())
+    return digest.hexdigest() if found else ""
 
 
 # ---------------------------------------------------------------- stage 1
@@ -127,6 +155,7 @@ def cache_tile(job: Job, tile: Tile) -> dict[str, Any]:
 
     def work() -> dict[str, Any]:
         cloud = read_points(tile.path)
+        _check_header_box(tile, cloud)
         folder = _folder(job, tile)
         os.makedirs(folder, exist_ok=True)
         np.save(os.path.join(folder, "points.npy"), cloud.points)
@@ -149,6 +178,43 @@ def cache_tile(job: Job, tile: Tile) -> dict[str, Any]:
         return {"points": len(cloud)}
 
     return _guarded(work)
+
+
+# How far a LAS/LAZ header's box may lie from its points' before the plan made from the
+# headers is refused: writers round the bounds, and a few centimetres change no neighbour
+# list and no spacing. Coarser scales round more.
+HEADER_BOX_TOLERANCE = 0.01  # m
+
+
+def _check_header_box(tile: Tile, cloud: PointFile) -> None:
+    """Raise ValueError when the box stage 0 read from the header is not the points'.
+
+    The run's plan comes from the headers: which tiles give each other a buffer, and
+    the survey's point spacing, which sets every tile's unset lengths.
+    """
+    finite = cloud.points[np.isfinite(cloud.points).all(axis=1), :2]
+    if len(finite) == 0 or tile.box == Box(0.0, 0.0, 0.0, 0.0):
+        return  # no box to plan with: the tile is nobody's neighbour
+    low, high = finite.min(axis=0), finite.max(axis=0)
+    points_box = Box(float(low[0]), float(low[1]), float(high[0]), float(high[1]))
+    scales = getattr(cloud.header, "scales", None)
+    tolerance = (
+        max(HEADER_BOX_TOLERANCE, *(float(v) for v in scales[:2]))
+        if scales is not None
+        else HEADER_BOX_TOLERANCE
+    )
+    if any(abs(a - b) > tolerance for a, b in zip(points_box, tile.box, strict=True)):
+
+        def shown(box: Box) -> str:
+            return f"x {box.xmin:.3f} to {box.xmax:.3f}, y {box.ymin:.3f} to {box.ymax:.3f}"
+
+        raise ValueError(
+            f"{tile.path!r}: the header's bounding box ({shown(tile.box)}) is not that of "
+            f"its points ({shown(points_box)}); a batch plans the survey from the headers "
+            "(which tiles buffer each other, the point spacing of every tile's unset "
+            "lengths), so this run's other tiles may be off too: rewrite the file with "
+            "its true box (pcl_rg.io.read_points, then write_points) and run again"
+        )
 
 
 def _load(job: Job, tile: Tile, mmap: bool = False) -> PointFile:
