@@ -520,7 +520,7 @@ def shift_header_min_xy(path, by):
     Path(path).write_bytes(bytes(data))
 
 
-@pytest.mark.parametrize("by", [-2000.0, 10.0])  # a box too wide, then one too small
+@pytest.mark.parametrize("by", [-2000.0, 10.0, 0.02])  # far too wide, too small, a bit small
 def test_a_header_box_unlike_its_points_fails_its_tile(by, tmp_path, scheduler):
     # The run's plan (neighbours, the survey's spacing) comes from the headers: a box
     # that lies must not pass silently.
@@ -532,6 +532,14 @@ def test_a_header_box_unlike_its_points_fails_its_tile(by, tmp_path, scheduler):
     assert "header's bounding box" in report.failed[0].error
     assert [t.status for t in report.tiles] == ["failed", "done"]
     assert not os.path.exists(report.failed[0].output)
+
+
+def test_a_header_box_rounded_outwards_passes(tmp_path, scheduler):
+    # Some writers round the bounds outwards: harmless to the plan, so not refused.
+    source = synthetic_survey(tmp_path / "in", tiles=(1, 2), tile_size=40.0, seed=4)
+    shift_header_min_xy(source.paths[0], -0.3)
+    report = batch.ground(source.paths, tmp_path / "out", scheduler=scheduler)
+    assert [t.status for t in report.tiles] == ["done", "done"]
 
 
 def add_crs_record(path, wkt):

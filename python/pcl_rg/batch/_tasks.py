@@ -181,9 +181,12 @@ def cache_tile(job: Job, tile: Tile) -> dict[str, Any]:
 
 
 # How far a LAS/LAZ header's box may lie from its points' before the plan made from the
-# headers is refused: writers round the bounds, and a few centimetres change no neighbour
-# list and no spacing. Coarser scales round more.
-HEADER_BOX_TOLERANCE = 0.01  # m
+# headers is refused. Points outside it by more than a rounding (writers round the
+# bounds; coarser scales round more) would miss the tiles they should buffer. A box
+# wider than its points (some writers round it outwards) only adds a neighbour to read
+# and moves the survey's spacing a little, up to a metre or 1 % of the tile on a side.
+HEADER_BOX_ROUNDING = 0.01  # m
+HEADER_BOX_SLACK = (1.0, 0.01)  # m, fraction of the tile's width or height
 
 
 def _check_header_box(tile: Tile, cloud: PointFile) -> None:
@@ -198,12 +201,15 @@ def _check_header_box(tile: Tile, cloud: PointFile) -> None:
     low, high = finite.min(axis=0), finite.max(axis=0)
     points_box = Box(float(low[0]), float(low[1]), float(high[0]), float(high[1]))
     scales = getattr(cloud.header, "scales", None)
-    tolerance = (
-        max(HEADER_BOX_TOLERANCE, *(float(v) for v in scales[:2]))
-        if scales is not None
-        else HEADER_BOX_TOLERANCE
+    rounding = max(
+        [HEADER_BOX_ROUNDING, *(float(v) for v in (scales if scales is not None else [])[:2])]
     )
-    if any(abs(a - b) > tolerance for a, b in zip(points_box, tile.box, strict=True)):
+    size = max(points_box.xmax - points_box.xmin, points_box.ymax - points_box.ymin)
+    slack = max(HEADER_BOX_SLACK[0], HEADER_BOX_SLACK[1] * size)
+    h, p = tile.box, points_box
+    outside = max(h.xmin - p.xmin, h.ymin - p.ymin, p.xmax - h.xmax, p.ymax - h.ymax)
+    wider = max(p.xmin - h.xmin, p.ymin - h.ymin, h.xmax - p.xmax, h.ymax - p.ymax)
+    if outside > rounding or wider > slack:
 
         def shown(box: Box) -> str:
             return f"x {box.xmin:.3f} to {box.xmax:.3f}, y {box.ymin:.3f} to {box.ymax:.3f}"
