@@ -526,12 +526,13 @@ def test_a_header_box_unlike_its_points_fails_its_tile(by, tmp_path, scheduler):
     # that lies must not pass silently.
     source = synthetic_survey(tmp_path / "in", tiles=(1, 2), tile_size=40.0, seed=4)
     bad = source.paths[0]
+    batch.ground(source.paths, tmp_path / "out", scheduler=scheduler)  # an earlier output
     shift_header_min_xy(bad, by)
     report = batch.ground(source.paths, tmp_path / "out", scheduler=scheduler)
     assert [t.input for t in report.failed] == [bad]
     assert "header's bounding box" in report.failed[0].error
     assert [t.status for t in report.tiles] == ["failed", "done"]
-    assert not os.path.exists(report.failed[0].output)
+    assert not os.path.exists(report.failed[0].output)  # that output is gone
 
 
 def test_a_header_box_rounded_outwards_passes(tmp_path, scheduler):
@@ -545,29 +546,46 @@ def test_a_header_box_rounded_outwards_passes(tmp_path, scheduler):
 def add_crs_record(path, wkt):
     import laspy
 
-    las = laspy.read(path)
+    las = laspy.read(path)  # in place of any record it has
+    las.vlrs = [v for v in las.vlrs if v.user_id != "LASF_Projection"]
     las.vlrs.append(laspy.VLR("LASF_Projection", 2112, "wkt", wkt.encode() + b"\0"))
     las.write(path)
 
 
+UTM_32N_WKT1 = (
+    'PROJCS["WGS 84 / UTM zone 32N",GEOGCS["WGS 84",DATUM["WGS_1984",SPHEROID["WGS 84",'
+    '6378137,298.257223563,AUTHORITY["EPSG","7030"]],AUTHORITY["EPSG","6326"]],'
+    'AUTHORITY["EPSG","4326"]],PROJECTION["Transverse_Mercator"],UNIT["metre",1],'
+    'AUTHORITY["EPSG","32632"]]'
+)
+UTM_32N_WKT2 = (
+    'PROJCRS["WGS 84 / UTM zone 32N",BASEGEOGCRS["WGS 84",ID["EPSG",4326]],ID["EPSG",32632]]'
+)
+
+
 def test_tiles_in_two_coordinate_systems_are_refused(tmp_path, scheduler):
     source = synthetic_survey(tmp_path / "in", tiles=(1, 2), tile_size=40.0, seed=4)
-    for path in source.paths:
-        add_crs_record(path, 'PROJCS["WGS 84 / UTM zone 32N"]')
-    assert {t.status for t in batch.ground(source.paths, tmp_path / "a").tiles} == {"done"}
-    add_crs_record(source.paths[1], 'PROJCS["WGS 84 / UTM zone 33N"]')
-    with pytest.raises(ValueError, match="not in one coordinate system"):
+    # One system written two ways (WKT 1, WKT 2) is one system.
+    add_crs_record(source.paths[0], UTM_32N_WKT1)
+    add_crs_record(source.paths[1], UTM_32N_WKT2)
+    report = batch.ground(source.paths, tmp_path / "a", scheduler=scheduler)
+    assert {t.status for t in report.tiles} == {"done"}
+    add_crs_record(source.paths[1], UTM_32N_WKT2.replace("32632", "32633"))
+    with pytest.raises(ValueError, match="EPSG:32632 and .* in EPSG:32633"):
         batch.ground(source.paths, tmp_path / "b", scheduler=scheduler)
     assert not [name for name in os.listdir(tmp_path / "b") if not name.startswith(".")]
 
 
-def test_a_failed_rerun_removes_the_tiles_earlier_output(tmp_path, scheduler):
+@pytest.mark.parametrize("damage", ["header", "points"])  # found at stage 0, at stage 1
+def test_a_failed_rerun_removes_the_tiles_earlier_output(damage, tmp_path, scheduler):
     source = synthetic_survey(tmp_path / "in", tiles=(1, 2), tile_size=40.0, seed=4)
     out = tmp_path / "out"
     first = batch.ground(source.paths, out, scheduler=scheduler)
     assert os.path.exists(first.tiles[0].output)
-    raw = Path(source.paths[0]).read_bytes()
-    Path(source.paths[0]).write_bytes(raw[:3000])  # the input is damaged since
+    if damage == "header":  # the input is damaged since
+        Path(source.paths[0]).write_bytes(Path(source.paths[0]).read_bytes()[:3000])
+    else:
+        corrupt_points(source.paths[0])
     again = batch.ground(source.paths, out, scheduler=scheduler)
     assert [t.input for t in again.failed] == [source.paths[0]]
     assert "earlier output" in again.failed[0].error
@@ -577,6 +595,15 @@ def test_a_failed_rerun_removes_the_tiles_earlier_output(tmp_path, scheduler):
     assert os.path.basename(source.paths[0]) not in manifest
     # Its neighbour ran without its buffer: done, and not recorded, so redone next time.
     assert again.tiles[1].status == "done" and again.tiles[1].no_buffer_from
+
+
+def test_a_run_without_resuming_forgets_the_record_on_disk(tmp_path, scheduler):
+    source = synthetic_survey(tmp_path / "in", tiles=(1, 2), tile_size=40.0, seed=4)
+    out = tmp_path / "out"
+    batch.ground(source.paths, out, scheduler=scheduler)
+    corrupt_points(source.paths[0])
+    batch.ground(source.paths, out, resume=False, scheduler=scheduler)
+    assert os.path.basename(source.paths[0]) not in json.loads((out / MANIFEST).read_text())
 
 
 def test_a_folder_in_place_of_the_manifest_is_refused(tmp_path, survey):

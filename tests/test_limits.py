@@ -66,14 +66,21 @@ FLOAT32_STEPS = [
 ]
 
 
-@pytest.mark.parametrize("far", [-1e39, 1e39, -1e300])
+@pytest.mark.parametrize("far", [-1e39, 1e39, -1e300, -1e9, 2e6])
 @pytest.mark.parametrize(("name", "call"), FLOAT32_STEPS, ids=[c[0] for c in FLOAT32_STEPS])
-def test_an_extent_beyond_float32_is_refused_not_turned_into_inf(name, call, far) -> None:
+def test_a_point_beyond_float32s_reach_is_refused(name, call, far) -> None:
     # One far point below the rest makes the minimum corner far, and every other point
-    # minus it overflows float32 (silently all inf before; above the rest only the far
-    # point did).
+    # minus it loses its precision in float32 (all inf beyond 3.4e38; at 1e9, steps of
+    # 64 m): silently wrong before. Above the rest only the far point did.
     points = np.random.default_rng(0).random((300, 3)) * [50.0, 50.0, 5.0]
     points = np.r_[points, [[0.0, far, 0.0]]]
-    with pytest.raises(ValueError, match="beyond float32's range"):
+    with pytest.raises(ValueError, match=r"more than 2\^24 x 0.1"):
         call(points)
     call(points[:-1])  # the same cloud without it runs
+
+
+@pytest.mark.parametrize(("name", "call"), FLOAT32_STEPS, ids=[c[0] for c in FLOAT32_STEPS])
+def test_a_survey_within_float32s_reach_runs(name, call) -> None:
+    # 1,600 km apart, at UTM-sized coordinates: within reach (2^24 x 0.1 = 1,677.7 km).
+    points = np.random.default_rng(1).random((300, 3)) * [50.0, 50.0, 5.0] + [5e5, 5.4e6, 0]
+    call(np.r_[points, points[:1] + [0.0, 1.6e6, 0.0]])

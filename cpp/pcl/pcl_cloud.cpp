@@ -10,15 +10,17 @@ pcl::PointCloud<pcl::PointXYZ>::Ptr to_pcl_cloud(PointsView points,
                                                  const std::array<double, 3>& origin) {
     pcl::PointCloud<pcl::PointXYZ>::Ptr cloud(new pcl::PointCloud<pcl::PointXYZ>);
     cloud->resize(points.size);
-    bool overflow = false;
+    bool beyond = false;
     for (std::size_t i = 0; i < points.size; ++i) {
-        const pcl::PointXYZ local(static_cast<float>(points.coord(i, 0) - origin[0]),
-                                  static_cast<float>(points.coord(i, 1) - origin[1]),
-                                  static_cast<float>(points.coord(i, 2) - origin[2]));
-        (*cloud)[i] = local;
-        overflow = overflow || std::isinf(local.x) || std::isinf(local.y) || std::isinf(local.z);
+        double local[3];
+        for (int a = 0; a < 3; ++a) {
+            local[a] = points.coord(i, a) - origin[a];
+            beyond = beyond || !(std::fabs(local[a]) <= kFloat32Reach);
+        }
+        (*cloud)[i] = pcl::PointXYZ(static_cast<float>(local[0]), static_cast<float>(local[1]),
+                                    static_cast<float>(local[2]));
     }
-    if (overflow) throw_float32_overflow();
+    if (beyond) throw_beyond_float32_reach();
     cloud->width = static_cast<std::uint32_t>(points.size);
     cloud->height = 1;
     cloud->is_dense = true;

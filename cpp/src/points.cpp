@@ -69,23 +69,24 @@ double lattice_floor(double low, double size) {
 std::vector<float> to_local_float(PointsView points, const std::array<double, 3>& origin) {
     std::vector<float> local(3 * points.size);
     const auto n = static_cast<std::ptrdiff_t>(points.size);
-    bool overflow = false;
-#pragma omp parallel for schedule(static) reduction(|| : overflow)
+    bool beyond = false;
+#pragma omp parallel for schedule(static) reduction(|| : beyond)
     for (std::ptrdiff_t i = 0; i < n; ++i)
         for (int a = 0; a < 3; ++a) {
-            const float value = static_cast<float>(points.coord(i, a) - origin[a]);
-            local[3 * i + a] = value;
-            overflow = overflow || std::isinf(value);
+            const double value = points.coord(i, a) - origin[a];
+            local[3 * i + a] = static_cast<float>(value);
+            beyond = beyond || !(std::fabs(value) <= kFloat32Reach);
         }
-    if (overflow) throw_float32_overflow();
+    if (beyond) throw_beyond_float32_reach();
     return local;
 }
 
-void throw_float32_overflow() {
+void throw_beyond_float32_reach() {
     throw std::invalid_argument(
-        "points: a coordinate minus the local origin is beyond "
-        "float32's range (about 3.4e38), which this float32 step cannot hold; the extent "
-        "of the points is too large (a stray point far from the rest?)");
+        "points: a coordinate lies more than 2^24 x 0.1 = 1677721.6 (metres for LiDAR) from "
+        "the local origin on some axis, where float32, which this step computes in, "
+        "resolves no better than 0.125; a stray point far from the rest? drop it, or split "
+        "the cloud into tiles");
 }
 
 }  // namespace pcl_rg

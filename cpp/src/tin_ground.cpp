@@ -189,7 +189,8 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
         if (!spread)
             throw std::invalid_argument(
                 "points are all collinear in XY (or fewer than 3 distinct XY positions on "
-                "the TIN's grid, whose step is the XY extent / 2^29: " +
+                "the TIN's grid, whose step is the power of two at or above the XY extent / "
+                "2^29: " +
                 check::format_value(frame.quantum) +
                 " m here; points far from the rest coarsen it): a TIN needs 3 points not "
                 "on one line");

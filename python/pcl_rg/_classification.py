@@ -13,6 +13,7 @@ from .io import PointFile
 __all__ = [
     "GROUND",
     "MEAN_ATTRIBUTES",
+    "PACKED_COLOURS",
     "NEVER_CLASSIFIED",
     "NOISE",
     "NOISE_CLASSES",
@@ -98,17 +99,31 @@ def ground_classes(cloud: PointFile, work: np.ndarray, ground: np.ndarray) -> np
 MEAN_ATTRIBUTES = ("intensity", "red", "green", "blue", "nir", "gps_time")
 
 
+#: PCL's packed colours: four bytes per point (blue, green, red, alpha or 0) stored in a
+#: float32 (``rgb``) or a uint32 (``rgba``); averaged byte by byte, never as one number.
+PACKED_COLOURS = ("rgb", "rgba")
+
+
 def voxel_attributes(
     fields: dict[str, np.ndarray], rows: np.ndarray, voxel: np.ndarray, counts: np.ndarray
 ) -> dict[str, np.ndarray]:
-    """Per-voxel attributes: mean of float fields and MEAN_ATTRIBUTES, else the first point's."""
+    """Per-voxel attributes: mean of float fields and MEAN_ATTRIBUTES, channel means of
+    PACKED_COLOURS, else the first point's."""
     m = len(counts)
     first = np.full(m, np.iinfo(np.int64).max, dtype=np.int64)
     np.minimum.at(first, voxel, rows)
     out = {}
     for name, values in fields.items():
         values = np.asarray(values)
-        if values.dtype.kind == "f" or (name in MEAN_ATTRIBUTES and values.dtype.kind in "iu"):
+        if name in PACKED_COLOURS and values.ndim == 1 and values.dtype.itemsize == 4:
+            channels = np.ascontiguousarray(values[rows]).view(np.uint8).reshape(len(rows), 4)
+            sums = np.stack(
+                [np.bincount(voxel, weights=channels[:, j], minlength=m) for j in range(4)],
+                axis=1,
+            )
+            mean = np.round(sums / counts[:, None]).astype(np.uint8)
+            out[name] = np.ascontiguousarray(mean).view(values.dtype).reshape(m)
+        elif values.dtype.kind == "f" or (name in MEAN_ATTRIBUTES and values.dtype.kind in "iu"):
             width = int(np.prod(values.shape[1:]))  # 1 for a column; stays valid at N = 0
             flat = values[rows].reshape(len(rows), width).astype(np.float64)
             sums = np.stack(

@@ -40,7 +40,7 @@ UTM_OFFSET = (500_000.0, 5_000_000.0, 0.0)
 SOR = {"mean_k": 10, "std_mul": 2.0}
 LEAF = 1.0  # m; the scene has 4 points/m2, so about 4 points per voxel on open ground
 # Grid filter: 1 m cells (twice the point spacing) and the slope of the definition,
-# tan of the steepest terrain; the scene's terrace ramp is at most 25 degrees.
+# tan 26.6 deg, just above the scene's steepest terrain (its terrace ramp, 25 deg).
 # A seed must lie in a component of at least 10 points, so the few low outliers
 # SOR misses cannot seed a block.
 GRID = {"block_size": 40.0, "cell_size": 1.0, "slope": 0.5, "min_seed_component": 10}
@@ -363,7 +363,8 @@ def run_demo(
         "removed by SOR count as predicted object.",
         f"parameters: SOR mean_k {SOR['mean_k']}, std_mul {SOR['std_mul']:g}; voxel leaf "
         f"{LEAF:g} m; grid block {GRID['block_size']:g} m, cell {GRID['cell_size']:g} m, slope "
-        f"{GRID['slope']:g} (tan of the steepest terrain, 25 deg), min seed component "
+        f"{GRID['slope']:g} (tan 26.6 deg, just above the steepest terrain, 25 deg), min seed "
+        "component "
         f"{GRID['min_seed_component']}; tin TinGroundParams.isprs(); region "
         f"growing k {SEGMENT['k']}, min cluster {SEGMENT['min_cluster_size']}, curvedness "
         f"threshold {CURVEDNESS:g} 1/m (the default scaled from 5 mm to {LEAF:g} m voxels), "

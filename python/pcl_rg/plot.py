@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -190,13 +191,23 @@ def _draw(ax, fig, u, v, z, classes, segments, names, size):
             sel = classes == code
             label, colour = names.get(int(code), (f"class {code}", None))
             ax.plot(u[sel], v[sel], color=colour, label=f"{label} ({int(sel.sum()):,})", **marker)
-        ax.legend(markerscale=max(6 / size, 1), loc="upper right", fontsize=8)
+        if codes.size:  # no point, no legend (matplotlib warns of an empty one)
+            ax.legend(markerscale=max(6 / size, 1), loc="upper right", fontsize=8)
     else:
         sc = ax.scatter(u, v, c=z, s=size * size, cmap="viridis", linewidths=0)
         fig.colorbar(sc, ax=ax, label="z (m)", shrink=0.8)
 
 
 @_fill_plot_docstring
+def _save(fig: Any, path: str | os.PathLike[str]) -> None:
+    """Save `fig` through a temporary file renamed into place: never a half-drawn file."""
+    from .io._atomic import atomic_write
+
+    name = os.fspath(path)
+    kind = os.path.splitext(name)[1][1:].lower() or None  # None: matplotlib's default
+    atomic_write(name, lambda stream: fig.savefig(stream, format=kind, bbox_inches="tight"))
+
+
 def top_view(
     points: npt.ArrayLike,
     path: str | os.PathLike,
@@ -271,7 +282,7 @@ def top_view(
         ax.set_ylabel("y (m)")
         if title:
             ax.set_title(title)
-        fig.savefig(os.fspath(path), bbox_inches="tight")
+        _save(fig, path)
     finally:
         plt.close(fig)
 
@@ -384,7 +395,7 @@ def profile(
             or f"profile A ({a[0]:.2f}, {a[1]:.2f}) to B ({b[0]:.2f}, {b[1]:.2f}), "
             f"corridor {width:g} m, {n_inside:,} points"
         )
-        fig.savefig(os.fspath(path), bbox_inches="tight")
+        _save(fig, path)
     finally:
         plt.close(fig)
     return n_inside

@@ -43,12 +43,17 @@ inline std::int64_t floor_to_int(double q) {
 
 /// The points minus `origin`, as row-major float32 x, y, z: the local frame in which
 /// distances are computed exactly as PCL computes them on its float clouds. Throws
-/// std::invalid_argument when a coordinate does not fit (throw_float32_overflow).
+/// std::invalid_argument when a coordinate lies beyond kFloat32Reach of the origin.
 std::vector<float> to_local_float(PointsView points, const std::array<double, 3>& origin);
 
-/// Throws the error of a float32 frame that cannot hold the points: some point minus
-/// the origin is beyond float32's range (about 3.4e38), which would turn it, and
-/// with a far minimum corner every other point, into infinity.
-[[noreturn]] void throw_float32_overflow();
+/// How far from the local origin a float32 coordinate may lie: 2^24 x 0.1, about 1.68e6
+/// (1,678 km for LiDAR in metres), where float32's step reaches 0.125, so points about
+/// 0.1 apart could merge (and a point beyond 3.4e38 becomes infinite). No tile spans
+/// that much: what lies beyond is a stray point.
+constexpr double kFloat32Reach = 0x1p24 * 0.1;
+
+/// Throws the error of a float32 frame that cannot hold the points (a coordinate beyond
+/// kFloat32Reach of the local origin; with a far minimum corner, every other point).
+[[noreturn]] void throw_beyond_float32_reach();
 
 }  // namespace pcl_rg

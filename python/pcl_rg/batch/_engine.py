@@ -165,21 +165,27 @@ def _remove_partial_outputs(outputs: Sequence[str]) -> None:
 
 
 def _check_one_crs(paths: Sequence[str], extents: Sequence[dict[str, Any]]) -> None:
-    """Refuse, before any work, tiles whose coordinate system records differ: their
-    coordinates may overlap while the places do not (two UTM zones), and a tile would
-    buffer a stranger. Tiles without such records are not compared."""
-    first: dict[str, str] = {}
-    for path, extent in zip(paths, extents, strict=True):
-        digest = extent.get("crs", "") if extent["ok"] else ""
-        if digest:
-            first.setdefault(digest, path)
-    if len(first) > 1:
-        a, b = list(first.values())[:2]
-        raise ValueError(
-            f"the tiles are not in one coordinate system: {os.path.basename(a)!r} and "
-            f"{os.path.basename(b)!r} carry different CRS records (GeoTIFF keys or WKT); "
-            "run each coordinate system's tiles on their own"
-        )
+    """Refuse, before any work, tiles whose CRS records name different EPSG codes: their
+    coordinates may overlap where the places do not (two UTM zones), and a tile would
+    buffer a stranger. Tiles without a code are not compared."""
+    coded = [
+        (path, set(extent["crs"]))
+        for path, extent in zip(paths, extents, strict=True)
+        if extent["ok"] and extent.get("crs")
+    ]
+    for k, (path, codes) in enumerate(coded):
+        for other, other_codes in coded[:k]:
+            if not codes & other_codes:
+
+                def named(codes: set[int]) -> str:
+                    return " or ".join(f"EPSG:{code}" for code in sorted(codes))
+
+                raise ValueError(
+                    f"the tiles are not in one coordinate system: {os.path.basename(other)!r} "
+                    f"is in {named(other_codes)} and {os.path.basename(path)!r} in "
+                    f"{named(codes)} (their GeoTIFF keys or WKT); run each system's tiles "
+                    "on their own"
+                )
 
 
 def _discard(manifest: Manifest, output: str) -> str:
@@ -221,7 +227,7 @@ def run(
     reports = [TileReport(p, o, "failed") for p, o in zip(paths, outputs, strict=True)]
     manifest = Manifest(folder)
     if not resume:
-        manifest.entries.clear()
+        manifest.clear()
     scratch = tempfile.mkdtemp(prefix=".pcl_rg-scratch-", dir=folder)
     job = dataclasses.replace(job_template, scratch=scratch)
     parameters = _plain(dataclasses.asdict(job.params))
@@ -289,9 +295,7 @@ def _run_on(
         else neighbours(boxes, job.buffer)
     )
     unreadable = [os.path.basename(paths[i]) for i, e in enumerate(extents) if not e["ok"]]
-    tiles = [
-        _tasks.Tile(i, paths[i], outputs[i], boxes[i] or NOWHERE) for i in range(len(paths))
-    ]
+    tiles = [_tasks.Tile(i, paths[i], outputs[i], boxes[i] or NOWHERE) for i in range(len(paths))]
 
     # What each output is computed from, taken once before any work (an input edited
     # during the run must not be recorded as the one its output came from).
@@ -376,8 +380,12 @@ def _run_on(
         bar.close()
     stage1 = {i: _outcome(f) for i, f in cached.items()}
     for i, result in stage1.items():
-        if not result["ok"]:
-            reports[i].status, reports[i].error = "failed", result["error"]
+        if result["ok"] or reports[i].status == "failed":
+            continue  # a tile of the work reported its failure above, with its note
+        # A tile skipped as done, read only as a buffer, that now fails to decode: its
+        # output cannot be vouched for any more.
+        reports[i].status = "failed"
+        reports[i].error = result["error"] + _discard(manifest, outputs[i])
     for i, report in enumerate(reports):
         missing = [j for j in near[i] if j in stage1 and not stage1[j]["ok"]]
         report.no_buffer_from = [os.path.basename(paths[j]) for j in missing] + unreadable

@@ -61,6 +61,12 @@ class Manifest:
         if self.entries.pop(os.path.basename(output), None) is not None:
             self._save()
 
+    def clear(self) -> None:
+        """Forget every entry, on disk too (a run without resuming)."""
+        self.entries.clear()
+        if os.path.exists(self.path):
+            self._save()
+
     def _save(self) -> None:
         text = json.dumps(self.entries, indent=1, sort_keys=True).encode()
         atomic_write(self.path, lambda stream: stream.write(text))

@@ -13,9 +13,9 @@ result, so its neighbours still run (without its buffer).
 from __future__ import annotations
 
 import dataclasses
-import hashlib
 import os
 import pickle
+import re
 import resource
 import time
 from collections.abc import Callable
@@ -95,35 +95,83 @@ def passed_on(result: dict[str, Any]) -> dict[str, Any]:
 
 
 def tile_extent(path: str) -> dict[str, Any]:
-    """Stage 0: the tile's box, from the header for LAS/LAZ, and its CRS records."""
+    """Stage 0: the tile's box, from the header for LAS/LAZ, and its CRS's EPSG codes."""
 
     def work() -> dict[str, Any]:
         extent = read_extent(path)
-        return {"extent": tuple(extent), "crs": _crs_digest(path) if extent.from_header else ""}
+        return {"extent": tuple(extent), "crs": _crs_codes(path) if extent.from_header else []}
 
     return _guarded(work)
 
 
-def _crs_digest(path: str) -> str:
-    """A digest of a LAS/LAZ file's coordinate system records, "" when it has none.
+# GeoTIFF keys of the horizontal CRS, projected first (GeoTIFF 1.0, section 6.3).
+_PROJECTED_KEY, _GEOGRAPHIC_KEY = 3072, 2048
+_USER_DEFINED = 32767
+# WKT 1 and WKT 2 keywords of a projected, then a geographic or geodetic, CRS.
+_WKT_CRS = (
+    ("PROJCS", "PROJCRS", "PROJECTEDCRS"),
+    ("GEOGCS", "GEOGCRS", "GEOGRAPHICCRS", "GEODCRS", "GEODETICCRS"),
+)
+_WKT_EPSG = re.compile(r'(?:AUTHORITY|ID)\s*[\[(]\s*"EPSG"\s*,\s*"?(\d+)', re.IGNORECASE)
 
-    The records are the VLRs and EVLRs of user ``LASF_Projection`` (GeoTIFF keys, OGC
-    WKT), compared as bytes: tiles whose digests differ describe different coordinate
-    systems, or one in other words, and a survey's tiles are expected to share one.
+
+def _crs_codes(path: str) -> list[int]:
+    """The EPSG codes a LAS/LAZ file gives its horizontal CRS, in its GeoTIFF keys and
+    its OGC WKT (VLRs or EVLRs); none when it has no such record or no code in them.
+
+    Codes, not the records' bytes: one CRS is written in many ways (WKT 1 or 2, with or
+    without GeoTIFF keys, other citations), and only different codes say that two
+    tiles are in different systems.
     """
     import laspy
+    from laspy.vlrs.known import GeoKeyDirectoryVlr, WktCoordinateSystemVlr
 
     with laspy.open(path) as reader:
-        header = reader.header
-        records = [*header.vlrs, *(header.evlrs or [])]
-    digest = hashlib.sha256()
-    found = False
-    for record in sorted(records, key=lambda r: (r.record_id, r.record_data_bytes())):
-        if record.user_id.rstrip("\0") == "LASF_Projection":
-            found = True
-            digest.update(record.record_id.to_bytes(2, "little"))
-            digest.update(record.record_data_bytes())
-    return digest.hexdigest() if found else ""
+        records = [*reader.header.vlrs, *(reader.header.evlrs or [])]
+    codes = set()
+    for record in records:
+        if isinstance(record, GeoKeyDirectoryVlr):
+            keys = {key.id: key for key in record.geo_keys}
+            for key_id in (_PROJECTED_KEY, _GEOGRAPHIC_KEY):
+                key = keys.get(key_id)
+                if key is not None and key.tiff_tag_location == 0:
+                    if 0 < key.value_offset < _USER_DEFINED:
+                        codes.add(int(key.value_offset))
+                    break
+        elif isinstance(record, WktCoordinateSystemVlr):
+            code = _wkt_epsg(record.string)
+            if code is not None:
+                codes.add(code)
+    return sorted(codes)
+
+
+def _wkt_epsg(wkt: str) -> int | None:
+    """The EPSG code of a WKT's horizontal CRS: the AUTHORITY (WKT 1) or ID (WKT 2)
+    clause at the top level of its first projected, else geographic, CRS object."""
+    for keywords in _WKT_CRS:
+        found = re.search(r"\b(?:" + "|".join(keywords) + r")\s*[\[(]", wkt, re.IGNORECASE)
+        if not found:
+            continue
+        depth, i = 0, found.end() - 1
+        while i < len(wkt):
+            c = wkt[i]
+            if c == '"':  # a quoted name may hold brackets; "" is an escaped quote
+                i = wkt.find('"', i + 1)
+                if i < 0:
+                    return None
+            elif c in "[(":
+                depth += 1
+            elif c in "])":
+                depth -= 1
+                if depth == 0:
+                    return None
+            elif depth == 1 and c in "AaIi":
+                clause = _WKT_EPSG.match(wkt, i)
+                if clause:
+                    return int(clause.group(1))
+            i += 1
+        return None
+    return None
 
 
 # ---------------------------------------------------------------- stage 1

@@ -75,6 +75,9 @@ def _check_common(args: argparse.Namespace) -> None:
     width = getattr(args, "profile_width", None)
     if width is not None and not width > 0:
         raise CliError(f"argument --profile-width: must be > 0, got {width:g}")
+    line = getattr(args, "profile_line", None)
+    if line is not None and tuple(line[:2]) == tuple(line[2:]):
+        raise CliError("argument --profile-line: its ends A and B must differ")
 
 
 def _execute(argv: Sequence[str]) -> int:

@@ -8,8 +8,9 @@ only the kept points.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from typing import Any
 
 import numpy as np
@@ -155,13 +156,28 @@ def check_plots(source: str, plots: Sequence[str | None]) -> None:
             raise CliError(f"plot file {plot!r} must end in .png")
         if not os.path.isdir(os.path.dirname(os.path.abspath(plot))):
             raise CliError(f"the folder of plot file {plot!r} does not exist")
+        if os.path.isdir(plot):
+            raise CliError(f"plot file {plot!r} is a folder, not a file")
         if os.path.exists(plot) and os.path.samefile(source, plot):
             raise CliError(f"plot file {plot!r} is the INPUT file; refusing to overwrite it")
     named = [plot for plot in plots if plot is not None]
     for k, plot in enumerate(named):
         for other in named[:k]:  # one would silently replace the other
-            if os.path.realpath(plot) == os.path.realpath(other):
+            same = os.path.realpath(plot) == os.path.realpath(other)
+            if not same and os.path.exists(plot) and os.path.exists(other):
+                same = os.path.samefile(plot, other)  # hard links
+            if same:
                 raise CliError(f"plot files {other!r} and {plot!r} are the same file")
+
+
+@contextlib.contextmanager
+def _figure_errors() -> Iterator[None]:
+    """A figure that cannot be written, after OUTPUT is: a failure (exit 1), not usage."""
+    try:
+        yield
+    except OSError as error:
+        reason = error.strerror or str(error)
+        raise CliError(f"cannot write figure {error.filename!r}: {reason}", EXIT_FAILURE) from None
 
 
 def read(run: Run, path: str) -> PointFile:
@@ -307,7 +323,7 @@ def plots(
     cls = None if classes is None else np.asarray(classes)[keep].astype(np.int64)
     seg = None if segments is None else np.asarray(segments)[keep].astype(np.int64)
     files = []
-    with run.stage("plot", "drawing figures"):
+    with run.stage("plot", "drawing figures"), _figure_errors():
         if top is not None:
             plot.top_view(xyz, top, classes=cls, segments=seg, title=title)
             files.append(os.path.abspath(top))
@@ -330,8 +346,8 @@ def plots(
                     classes=cls,
                     segments=seg,
                 )
-            except ValueError as error:
-                raise CliError(f"--profile: {error}") from None
+            except ValueError as error:  # after OUTPUT is written: a failure, not usage
+                raise CliError(f"--profile: {error}", EXIT_FAILURE) from None
             run.result["profile_points"] = n
             files.append(os.path.abspath(side))
     run.result["figures"] = files

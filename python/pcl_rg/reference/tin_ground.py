@@ -349,7 +349,8 @@ def tin_ground(
     if other.size == 0 or not _orient(gx[0], gy[0], gx[other[0]], gy[other[0]], gx, gy).any():
         raise ValueError(
             "points are all collinear in XY (or fewer than 3 distinct XY positions on the "
-            f"TIN's grid, whose step is the XY extent / 2^29: {q:g} m here; points far from "
+            "TIN's grid, whose step is the power of two at or above the XY extent / 2^29: "
+            f"{q:g} m here; points far from "
             "the rest coarsen it): a TIN needs 3 points not on one line"
         )
 

@@ -30,7 +30,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "Statistical outlier removal (PCL's StatisticalOutlierRemoval): a point "
         "whose mean distance to its mean_k nearest neighbours exceeds the mean of all such "
         "distances by more than std_mul standard deviations is classified 7 (noise); the other "
-        "points keep their class (1 if the file had none)."
+        "points keep their class (1 if the file had none), except that a point of class 7 "
+        "(an earlier run's noise, or the vendor's) is judged again and becomes 1 when it is "
+        "an inlier now, so that a rerun with other parameters replaces the earlier noise "
+        "class."
     )
     add_io_arguments(parser, "write only the inliers")
     flags = add_param_flags(

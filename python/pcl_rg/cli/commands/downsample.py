@@ -27,9 +27,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.description = (
         "Voxel grid downsampling (PCL's VoxelGrid): OUTPUT holds one point per "
         "occupied voxel, at the mean of its points. Attributes of a centroid: the mean (rounded "
-        "for integers) of " + ", ".join(MEAN_ATTRIBUTES) + " and of every floating-point field; "
-        "every other field (classification, return numbers, flags, ids) is taken from the "
-        "voxel's first point in file order."
+        "for integers) of " + ", ".join(MEAN_ATTRIBUTES) + " and of every floating-point field, "
+        "PCL's packed rgb/rgba colours channel by channel; every other field (classification, "
+        "return numbers, flags, ids) is taken from the voxel's first point in file order."
     )
     add_io_arguments(parser, None)
     flags = add_param_flags(parser, "voxel grid parameters", {"voxel": pcl_rg.VoxelGridParams})
