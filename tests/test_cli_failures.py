@@ -76,6 +76,7 @@ def test_bad_files_give_one_error_line(capsys, tmp_path, scene_las, command):
         ),
         (["segment", "--method", "pcl", "--seed-measure", "mean"], "does not apply"),
         (["segment", "--k", "100000"], "k must be < the number of points"),
+        (["pipeline", "--sor-mean-k", "10000000"], "argument --sor-mean-k: sor_mean_k must be <"),
         (["denoise", "--unknown-flag"], "unrecognized arguments: --unknown-flag"),
     ],
 )

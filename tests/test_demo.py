@@ -109,3 +109,8 @@ def test_demo_command(capsys, tmp_path):
     code = cli.main(["demo", "--output", str(tmp_path / "file"), "-q"])
     assert code == 2
     assert "exists and is not a folder" in capsys.readouterr().err
+    for size in ("50", "1e9"):  # refused before any work, leaving no folder behind
+        code = cli.main(["demo", "--output", str(tmp_path / "none"), "--size", size, "-q"])
+        assert code == 2
+        assert "size must be in [80, 5000] m" in capsys.readouterr().err
+        assert not (tmp_path / "none").exists()

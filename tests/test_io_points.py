@@ -66,6 +66,11 @@ def test_ply_types_without_template(tmp_path):
     assert back.fields["huge"].dtype == np.float64
     np.testing.assert_array_equal(back.fields["huge"], np.arange(50) * 2.0**40)
     assert {"pair_0", "pair_1"} <= set(back.fields)
+    # Beyond 2**53 double rounds integers: refused rather than rounded.
+    with pytest.raises(ValueError, match=r"field 'id': PLY has no 64-bit integers"):
+        write_points(tmp_path / "c.ply", exact[:1], {"id": np.array([2**53 + 1])})
+    write_points(tmp_path / "c.ply", exact[:1], {"id": np.array([2**32 - 1], np.int64)})
+    assert read_points(tmp_path / "c.ply").fields["id"].dtype == np.uint32
     utm = exact + [5e5 + 0.001, 5e6, 0]
     write_points(tmp_path / "b.ply", utm)
     back = read_points(tmp_path / "b.ply")
@@ -170,6 +175,10 @@ def test_xyz_round_trip_is_exact(tmp_path):
         assert back.fields["classification"].dtype == np.int64  # whole numbers
         np.testing.assert_array_equal(back.fields["classification"], fields["classification"])
         np.testing.assert_array_equal(back.fields["intensity"], fields["intensity"])
+    # Integers beyond 2**53, which float64 rounds, come back exactly.
+    ids = np.array([2**53 + 1, -(2**62) - 1, 7], np.int64)
+    write_points(tmp_path / "ids.xyz", xyz[:3], {"id": ids})
+    np.testing.assert_array_equal(read_points(tmp_path / "ids.xyz").fields["id"], ids)
 
 
 def test_xyz_column_names(tmp_path):

@@ -264,3 +264,15 @@ def test_the_c_structs_leave_the_lengths_unset_too() -> None:
     core.stop_edge = 1.5
     assert core.stop_edge == 1.5
     assert dataclasses.replace(GridGroundParams(), cell_size=2.0).to_core().cell_size == (2.0, 2.0)
+
+
+def test_spacing_scale_and_normals_report_what_they_measured() -> None:
+    points = scenes()[1]
+    with pcl_rg.collect_diagnostics() as diagnostics:
+        spacing = pcl_rg.point_spacing(points)
+        scale = pcl_rg.point_scale(points)
+        pcl_rg.normals(points[:2000], k=12)
+    assert diagnostics["point_spacing"] == {"points": len(points), "point_spacing": spacing}
+    assert diagnostics["point_scale"]["noise"] == scale.noise
+    assert diagnostics["point_scale"]["point_spacing"] == scale.spacing
+    assert diagnostics["normals"] == {"points": 2000, "k": 12}

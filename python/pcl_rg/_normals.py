@@ -9,6 +9,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _core
+from ._diagnostics import record
 from ._docstrings import fill_docstring
 from ._params import check_fields, param, resolve_arguments, to_core
 from ._validation import MAX_POINTS_UINT32, as_points
@@ -135,5 +136,7 @@ def normals(
     """
     p = resolve_arguments(NormalsParams, locals())
     xyz = as_points(points, max_points=MAX_POINTS_UINT32)
-    return NormalsResult(*_core.normals(xyz, p.to_core()))
+    result = NormalsResult(*_core.normals(xyz, p.to_core()))
+    record("normals", points=len(xyz), k=p.k)
+    return result
 

@@ -7,6 +7,7 @@ from typing import NamedTuple
 import numpy.typing as npt
 
 from . import _core
+from ._diagnostics import record
 from ._docstrings import fill_docstring
 from ._validation import as_points
 
@@ -92,5 +93,7 @@ def point_scale(points: npt.ArrayLike) -> PointScale:
     >>> round(pcl_rg.point_scale(np.vstack([plane, canopy])).noise, 4)  # still the plane's
     0.0009
     """
-    spacing, noise = _core.point_scale(as_points(points))
+    xyz = as_points(points)
+    spacing, noise = _core.point_scale(xyz)
+    record("point_scale", points=len(xyz), point_spacing=spacing, noise=noise)
     return PointScale(spacing, noise)

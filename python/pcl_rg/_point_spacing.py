@@ -10,6 +10,7 @@ from typing import TypeVar
 import numpy.typing as npt
 
 from . import _core
+from ._diagnostics import record
 from ._docstrings import fill_docstring
 from ._validation import as_points
 
@@ -78,7 +79,10 @@ def point_spacing(points: npt.ArrayLike) -> float:
     >>> round(pcl_rg.point_spacing(half), 2)
     0.5
     """
-    return float(_core.point_spacing(as_points(points)))
+    xyz = as_points(points)
+    spacing = float(_core.point_spacing(xyz))
+    record("point_spacing", points=len(xyz), point_spacing=spacing)
+    return spacing
 
 
 def lengths_spacing(spacing: float) -> float:

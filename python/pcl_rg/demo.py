@@ -43,6 +43,9 @@ LEAF = 1.0  # m; the scene has 4 points/m2, so about 4 points per voxel on open 
 # tan 26.6 deg, just above the scene's steepest terrain (its terrace ramp, 25 deg).
 # A seed must lie in a component of at least 10 points, so the few low outliers
 # SOR misses cannot seed a block.
+# Side lengths of the scene (m): its six buildings and 40 trees need the room, and at 4
+# points per m^2 the largest makes 100 million points.
+MIN_SIZE, MAX_SIZE = 80.0, 5000.0
 GRID = {"block_size": 40.0, "cell_size": 1.0, "slope": 0.5, "min_seed_component": 10}
 # The one set chosen on the ISPRS samples: LiDAR360's own defaults (8 deg iteration
 # angle) accept too little ground at 2-4 points/m2, see benchmarks/RESULTS.md.
@@ -162,7 +165,8 @@ def run_demo(
     seed, size : int, float
         Scene seed and side length in metres (density 4 points/m2, six buildings,
         40 trees, 0.2 % noise, at a UTM-sized offset so the local-origin handling
-        is exercised). ``size`` must be at least about 80 m.
+        is exercised). ``size`` must lie in [80, 5000] m (25,600 to 100 million
+        points).
     plots : bool
         Write PNG figures (needs matplotlib).
     survey : bool
@@ -204,6 +208,11 @@ def run_demo(
     ['denoise: SOR', 'downsample: voxel grid', 'ground: grid', 'ground: tin']
     """
     stage = stage or _no_stage
+    if not MIN_SIZE <= size <= MAX_SIZE:  # checked before the folder is made
+        raise ValueError(
+            f"size must be in [{MIN_SIZE:g}, {MAX_SIZE:g}] m (the scene's objects need the "
+            f"room; 4 points per m^2 make up to 100 million points), got {size:g}"
+        )
     out = Path(output)
     if out.exists() and not out.is_dir():
         raise ValueError(f"output {os.fspath(output)!r} exists and is not a folder")

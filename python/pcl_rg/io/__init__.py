@@ -376,7 +376,8 @@ def write_points(
 
     PCD, PLY without a template: x, y, z as float32 when that is exact, else
     float64. Both store fields with their dtype (PLY has no 64-bit integers:
-    int64 becomes int32 when the values fit, else float64; bool becomes
+    int64 becomes int32 or uint32 when the values fit, else float64 up to
+    2**53, beyond which the write is refused rather than rounded; bool becomes
     uint8); (N, count) fields become ``name_0``, ``name_1``, ... in PLY and
     XYZ. XYZ text writes a ``# x y z ...`` header comment and every number as
     the shortest text that reads back to the same value.

@@ -235,14 +235,23 @@ def read(path: str) -> tuple[np.ndarray, dict[str, np.ndarray], tuple]:
     return points, fields, (encoding, xyz_dtype, comments)
 
 
-def _ply_column(array: np.ndarray) -> np.ndarray:
+def _ply_column(name: str, array: np.ndarray) -> np.ndarray:
     if array.dtype == np.bool_:
         return array.astype(np.uint8)
     if array.dtype.kind in "iu" and array.dtype.itemsize == 8:
-        info = np.iinfo(np.int32)
-        if len(array) == 0 or (array.min() >= info.min and array.max() <= info.max):
-            return array.astype(np.int32)
-        return array.astype(np.float64)
+        # PLY has no 64-bit integers: the narrowest of int, uint and double that holds
+        # every value exactly.
+        low, high = (int(array.min()), int(array.max())) if len(array) else (0, 0)
+        for kind in (np.int32, np.uint32):
+            if np.iinfo(kind).min <= low and high <= np.iinfo(kind).max:
+                return array.astype(kind)
+        if -(2**53) <= low and high <= 2**53:
+            return array.astype(np.float64)
+        raise ValueError(
+            f"field {name!r}: PLY has no 64-bit integers, and values beyond 2**53 (here "
+            f"{low} to {high}) would be rounded as double; write LAS/LAZ (its extra bytes "
+            "hold int64) instead"
+        )
     if array.dtype.kind == "f" and array.dtype.itemsize < 4:
         return array.astype(np.float32)
     return array
@@ -265,7 +274,7 @@ def write(
             ("y", xyz[:, 1].astype(xyz_dtype)),
             ("z", xyz[:, 2].astype(xyz_dtype)),
         ]
-    data += [(key, _ply_column(array)) for key, array in split_columns(columns)]
+    data += [(key, _ply_column(key, array)) for key, array in split_columns(columns)]
     names = [key for key, _ in data]
     if len(set(names)) != len(names):
         raise ValueError(f"PLY property names must be unique, got {names}")

@@ -108,11 +108,22 @@ def read(path: str) -> tuple[np.ndarray, dict[str, np.ndarray], None]:
     for i, key in enumerate(names, start=3):
         column = table[:, i]
         whole = np.isfinite(column).all() and np.array_equal(column, np.round(column))
-        if whole and np.abs(column).max() <= 2.0**53:
+        if whole and np.abs(column).max() < 2.0**53:
             fields[key] = column.astype(np.int64)
+        elif whole:  # beyond 2**53 float64 rounds integers: read them from the text
+            fields[key] = _exact_integers(rows, i, column)
         else:
             fields[key] = column.copy()
     return np.ascontiguousarray(table[:, :3]), fields, None
+
+
+def _exact_integers(rows: list[str], i: int, column: np.ndarray) -> np.ndarray:
+    """Column `i` of `rows` as int64 when every entry is an integer literal that int64
+    holds, else `column` (the float64 values)."""
+    try:
+        return np.array([int(row.split()[i]) for row in rows], dtype=np.int64)
+    except (ValueError, OverflowError):  # 1e20, 2.0, or beyond int64
+        return column.copy()
 
 
 def write(path: str, xyz: np.ndarray, columns: dict[str, np.ndarray], layout: None = None) -> None:

@@ -51,7 +51,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 def execute(args: argparse.Namespace, run: Run) -> None:
     options = params_from_args(args, args.flags, "pipeline", args.pipeline_params)
-    cloud, valid = read_input(args, run)
+    sor = None if options.sor is None else ("sor_mean_k", options.sor.mean_k)
+    cloud, valid = read_input(args, run, sor)
     points = cloud.points
     stages = "SOR, voxel grid, normals, region growing"
     with run.stage("pipeline", f"{stages} on {int(valid.sum()):,} points"):
