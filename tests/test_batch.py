@@ -610,3 +610,13 @@ def test_a_folder_in_place_of_the_manifest_is_refused(tmp_path, survey):
     (tmp_path / "out" / MANIFEST).mkdir(parents=True)
     with pytest.raises(ValueError, match="is not a file"):
         batch.ground(survey.paths[:2], tmp_path / "out")
+
+
+def test_the_report_gives_the_parameters_the_tiles_ran_with(tmp_path, scheduler):
+    source = synthetic_survey(tmp_path / "in", tiles=(1, 2), tile_size=40.0, seed=4)
+    report = batch.ground(source.paths, tmp_path / "out", scheduler=scheduler)
+    used = pcl_rg.GridGroundParams().at_spacing(batch.survey_spacing(source.paths))
+    assert report.parameters["cell_size"] == list(used.cell_size)  # not None, as given
+    options = ["--out", tmp_path / "c", "--scheduler", scheduler, "--json"]
+    result = run_pcl_rg("batch", "ground", *source.paths, *options, timeout=300)
+    assert json.loads(result.stdout)["parameters"]["cell_size"] == list(used.cell_size)

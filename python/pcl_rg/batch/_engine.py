@@ -67,6 +67,9 @@ class BatchReport:
     workers: int
     buffer: float
     dashboard: str | None = None
+    parameters: dict[str, Any] = dataclasses.field(default_factory=dict)
+    """The parameters every tile ran with, lengths left unset filled in from the
+    survey's spacing (:func:`pcl_rg.batch.survey_spacing`)."""
 
     @property
     def failed(self) -> list[TileReport]:
@@ -240,7 +243,7 @@ def run(
             n_workers = len(client.scheduler_info().get("workers", {}))
             futures: list[Any] = []
             try:
-                _run_on(
+                parameters = _run_on(
                     client, job, paths, outputs, reports, manifest, parameters, progress, futures
                 )
             except BaseException:
@@ -250,7 +253,13 @@ def run(
         shutil.rmtree(scratch, ignore_errors=True)
         _remove_partial_outputs(outputs)
     return BatchReport(
-        job.operation, reports, time.perf_counter() - start, n_workers, job.buffer, dashboard
+        job.operation,
+        reports,
+        time.perf_counter() - start,
+        n_workers,
+        job.buffer,
+        dashboard,
+        parameters,
     )
 
 
@@ -264,7 +273,7 @@ def _run_on(
     parameters: Any,
     progress: bool,
     futures: list[Any],
-) -> None:
+) -> Any:
     from distributed import as_completed
 
     extents = client.gather(client.map(_tasks.tile_extent, paths, pure=False))
@@ -389,6 +398,7 @@ def _run_on(
     for i, report in enumerate(reports):
         missing = [j for j in near[i] if j in stage1 and not stage1[j]["ok"]]
         report.no_buffer_from = [os.path.basename(paths[j]) for j in missing] + unreadable
+    return parameters
 
 
 def _outcome(future: Any) -> dict[str, Any]:

@@ -16,7 +16,6 @@ from .._flags import (
     float_type,
     int_type,
     method_params,
-    params_dict,
     params_from_args,
 )
 from .._run import Run
@@ -105,7 +104,7 @@ def execute(args: argparse.Namespace, run: Run) -> None:
     else:
         params = params_from_args(args, args.flags, "voxel", pcl_rg.VoxelGridParams)
         report = batch.downsample(args.inputs, args.out, params=params, **options)
-    run.result.update(report.to_dict(), parameters=params_dict(params))
+    run.result.update(report.to_dict())  # its parameters: those the tiles ran with
     done = [t for t in report.tiles if t.status == "done"]
     skipped = [t for t in report.tiles if t.status == "skipped"]
     run.say(
