@@ -284,3 +284,17 @@ def test_core_equals_reference_on_a_tile_with_the_default_viewpoint() -> None:
     core, ref = pcl_rg.convex_segmentation(tile), reference.convex_segmentation(tile)
     # As test_core_equals_reference: growth rounding and k-th place ties only.
     assert matched_agreement(core, ref) >= 0.999
+
+
+def test_a_grid_that_leaves_too_few_centroids_is_not_used() -> None:
+    # 36 points of noise 1 m on a 1 m lattice: the noise grid would leave 9 voxels, too
+    # few for k = 15 (the caller's N = 36 is enough). So is a clump whose grid, anchored
+    # at the world origin, happens to leave 12 after a shift.
+    rng = np.random.default_rng(2)
+    lattice = np.stack(np.meshgrid(np.arange(6.0), np.arange(6.0)), -1).reshape(-1, 2) - 3.0
+    rng_clump = np.random.default_rng(1)
+    clump = np.vstack([rng_clump.normal(0, 0.01, (20, 3)), rng_clump.uniform(-20, 20, (10, 3))])
+    for points in (np.c_[lattice, rng.uniform(0, 1, 36)], clump + [1000.0, 1000.0, 0.0]):
+        labels = pcl_rg.convex_segmentation(points)
+        np.testing.assert_array_equal(labels, reference.convex_segmentation(points))
+        np.testing.assert_array_equal(labels, pcl_rg.convex_segmentation(points, noise_leaves=0))

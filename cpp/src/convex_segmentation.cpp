@@ -232,16 +232,22 @@ ConvexSegmentationTimings convex_segmentation(PointsView points,
         if (params.noise_leaves * scale.noise > scale.spacing)  // NaN (tiny cloud): no grid
             leaf = params.noise_leaves * scale.noise;
     }
+    VoxelGridResult grid;
+    std::vector<std::int64_t> voxel_of_point;
+    if (leaf > 0.0) {
+        VoxelGridParams grid_params;
+        grid_params.leaf_size = {leaf, leaf, leaf};
+        voxel_of_point.resize(n);
+        grid = voxel_grid(points, grid_params, voxel_of_point.data());
+        // A grid that leaves no more than k centroids (a small cloud, or one the grid's
+        // world anchoring cuts unluckily) is not used: the caller's k < N must suffice.
+        if (grid.counts.size() <= static_cast<std::size_t>(params.k)) leaf = 0.0;
+    }
     if (leaf == 0.0) {
         ConvexSegmentationTimings timings = segment_points(points, params, labels);
         timings.viewpoint = *params.viewpoint;
         return timings;
     }
-
-    VoxelGridParams grid_params;
-    grid_params.leaf_size = {leaf, leaf, leaf};
-    std::vector<std::int64_t> voxel_of_point(n);
-    const VoxelGridResult grid = voxel_grid(points, grid_params, voxel_of_point.data());
     const double grid_seconds = seconds_since(start);
     const std::size_t m = grid.counts.size();
     std::vector<std::int32_t> voxel_labels(m);

@@ -148,8 +148,9 @@ def convex_segmentation(
     Notes
     -----
     0. The grid: leaf = `noise_leaves` x noise, used when it is larger than the
-       spacing (:func:`pcl_rg.point_scale`); the centroids are segmented, and
-       labels are numbered again by the smallest input index.
+       spacing (:func:`pcl_rg.point_scale`) and leaves more than k centroids; the
+       centroids are segmented, and labels are numbered again by the smallest
+       input index.
     1. Normals, Gaussian curvature K and mean curvature H of every point as
        :func:`pcl_rg.normals` computes them, on its k nearest neighbours; r is
        the distance to the k-th of them, and the measure is the curvedness

@@ -189,8 +189,9 @@ def convex_segmentation(
         leaf = p.noise_leaves * scale.noise
         if leaf > scale.spacing:
             grid = voxel_grid(xyz, leaf)
-            on_grid = _segment(np.ascontiguousarray(grid.centroids), p)[grid.voxel_of_point]
-            return _number_by_first_index(on_grid)
+            if len(grid.centroids) > p.k:  # else the points, as if there were no grid
+                on_grid = _segment(np.ascontiguousarray(grid.centroids), p)[grid.voxel_of_point]
+                return _number_by_first_index(on_grid)
     return _segment(xyz, p)
 
 
