@@ -276,3 +276,13 @@ def test_spacing_scale_and_normals_report_what_they_measured() -> None:
     assert diagnostics["point_scale"]["noise"] == scale.noise
     assert diagnostics["point_scale"]["point_spacing"] == scale.spacing
     assert diagnostics["normals"] == {"points": 2000, "k": 12}
+
+
+def test_diagnostics_iterate_over_the_functions_recorded() -> None:
+    points = scenes()[1]
+    with pcl_rg.collect_diagnostics() as diagnostics:
+        pcl_rg.point_spacing(points)
+        pcl_rg.grid_ground(points[:5000])
+        pcl_rg.point_spacing(points[:100])
+    assert list(diagnostics) == ["point_spacing", "grid_ground"]
+    assert diagnostics["point_spacing"]["points"] == 100  # the latest call

@@ -50,6 +50,11 @@ class Diagnostics:
     def __contains__(self, function: object) -> bool:
         return any(entry.function == function for entry in self.records)
 
+    def __iter__(self) -> Iterator[str]:
+        """The names of the functions recorded, each once, in the order of their first
+        call (without it, iteration would fall back to diagnostics[0], a KeyError)."""
+        return iter(dict.fromkeys(entry.function for entry in self.records))
+
     def __repr__(self) -> str:
         return f"Diagnostics({self.records!r})"
 

@@ -245,7 +245,7 @@ def add_param_flags(
         missing = [m for m, d in defaults.items() if d is dataclasses.MISSING]
         shown = {m: show(d) for m, d in defaults.items() if d is not dataclasses.MISSING}
         if missing and not shown and path[0] in optional_off:
-            text += f" (required for the {path[0]} stage, which runs only when it is given)"
+            text += f" (for the {path[0]} stage; without it, the description says what runs)"
         elif missing and not shown:
             text += " (required)"
         elif len(set(shown.values())) == 1 and not missing:

@@ -17,7 +17,7 @@ COMMANDS = {
     "ground": "classify ground (2) and other (1) points",
     "denoise": "classify statistical outliers as noise (7)",
     "downsample": "replace the points of each voxel by their centroid",
-    "segment": "region growing: a segment_id per point (-1 none)",
+    "segment": "segmentation (convex by default): a segment_id per point (-1 none)",
     "pipeline": "seed 004: SOR, voxel grid, normals, region growing",
     "batch": "a survey of many tiles on Dask: ground, denoise or downsample",
     "evaluate": "score a classified file against ground truth",

@@ -40,7 +40,7 @@ def methods() -> dict[str, Method]:
             "tin",
             pcl_rg.tin_ground,
             pcl_rg.TinGroundParams,
-            "progressive TIN densification (seed 002, LiDAR360's settings)",
+            "progressive TIN densification (seed 002, LiDAR360's parameters; default preset isprs)",
         ),
     }
 
