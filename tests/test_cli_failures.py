@@ -140,3 +140,23 @@ def test_interrupt_leaves_no_partial_file(capsys, tmp_path, scene_las, monkeypat
     monkeypatch.setattr(pcl_rg, "grid_ground", interrupted)
     code, _, err = run(capsys, "ground", scene_las, tmp_path / "out.laz")
     assert code == 130 and list(tmp_path.iterdir()) == []
+
+
+def test_a_figure_that_cannot_be_written_leaves_no_part_of_it(
+    capsys, tmp_path, scene_las, monkeypatch
+):
+    # OUTPUT is written first; a figure that fails afterwards (disk full half-way through
+    # the PNG) is a failure (exit 1), not a usage error, and leaves no partial PNG.
+    from matplotlib.figure import Figure
+
+    def savefig_then_fail(self, stream, **kwargs):
+        stream.write(b"\x89PNG half a figure")
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    monkeypatch.setattr(Figure, "savefig", savefig_then_fail)
+    code, out, err = run(
+        capsys, "ground", scene_las, tmp_path / "g.las", "--plot", tmp_path / "top.png"
+    )
+    assert code == 1
+    assert_one_error_line(err, f"cannot write figure '{tmp_path / 'top.png'}'", "No space left")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["g.las"]

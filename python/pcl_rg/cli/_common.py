@@ -171,13 +171,13 @@ def check_plots(source: str, plots: Sequence[str | None]) -> None:
 
 
 @contextlib.contextmanager
-def _figure_errors() -> Iterator[None]:
+def _figure_errors(path: str) -> Iterator[None]:
     """A figure that cannot be written, after OUTPUT is: a failure (exit 1), not usage."""
     try:
         yield
     except OSError as error:
         reason = error.strerror or str(error)
-        raise CliError(f"cannot write figure {error.filename!r}: {reason}", EXIT_FAILURE) from None
+        raise CliError(f"cannot write figure {path!r}: {reason}", EXIT_FAILURE) from None
 
 
 def read(run: Run, path: str) -> PointFile:
@@ -323,9 +323,10 @@ def plots(
     cls = None if classes is None else np.asarray(classes)[keep].astype(np.int64)
     seg = None if segments is None else np.asarray(segments)[keep].astype(np.int64)
     files = []
-    with run.stage("plot", "drawing figures"), _figure_errors():
+    with run.stage("plot", "drawing figures"):
         if top is not None:
-            plot.top_view(xyz, top, classes=cls, segments=seg, title=title)
+            with _figure_errors(top):
+                plot.top_view(xyz, top, classes=cls, segments=seg, title=title)
             files.append(os.path.abspath(top))
         if side is not None:
             if args.profile_line is not None:
@@ -337,15 +338,16 @@ def plots(
             else:
                 x0, y0, x1, y1 = 0.0, 0.0, 1.0, 0.0
             try:
-                n = plot.profile(
-                    xyz,
-                    side,
-                    (x0, y0),
-                    (x1, y1),
-                    width=args.profile_width,
-                    classes=cls,
-                    segments=seg,
-                )
+                with _figure_errors(side):
+                    n = plot.profile(
+                        xyz,
+                        side,
+                        (x0, y0),
+                        (x1, y1),
+                        width=args.profile_width,
+                        classes=cls,
+                        segments=seg,
+                    )
             except ValueError as error:  # after OUTPUT is written: a failure, not usage
                 raise CliError(f"--profile: {error}", EXIT_FAILURE) from None
             run.result["profile_points"] = n
