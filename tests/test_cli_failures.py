@@ -160,3 +160,16 @@ def test_a_figure_that_cannot_be_written_leaves_no_part_of_it(
     assert code == 1
     assert_one_error_line(err, f"cannot write figure '{tmp_path / 'top.png'}'", "No space left")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["g.las"]
+
+
+def test_a_format_that_cannot_hold_a_field_fails_after_the_work_with_exit_1(capsys, tmp_path):
+    # PLY has no 64-bit integers: found when OUTPUT is written, after the work, so a
+    # failure (1), not a usage error (2), and no file.
+    from pcl_rg.io import write_points
+
+    points = np.random.default_rng(0).random((200, 3)) * 10
+    write_points(tmp_path / "big.xyz", points, {"gps_id": np.arange(200) + 2**60})
+    code, out, err = run(capsys, "denoise", tmp_path / "big.xyz", tmp_path / "out.ply")
+    assert code == 1
+    assert_one_error_line(err, "cannot write", "PLY has no 64-bit integers")
+    assert not (tmp_path / "out.ply").exists()

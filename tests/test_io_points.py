@@ -179,6 +179,18 @@ def test_xyz_round_trip_is_exact(tmp_path):
     ids = np.array([2**53 + 1, -(2**62) - 1, 7], np.int64)
     write_points(tmp_path / "ids.xyz", xyz[:3], {"id": ids})
     np.testing.assert_array_equal(read_points(tmp_path / "ids.xyz").fields["id"], ids)
+    # Whole numbers written as floats in the same column are whole numbers too.
+    for tokens, expected in [
+        (["9007199254740993", "1e3"], [2**53 + 1, 1000]),
+        (["9007199254740992.0", "1"], [2**53, 1]),
+        (["9007199254740993", "0.5"], None),  # a fraction: the column is float64
+    ]:
+        (tmp_path / "mix.xyz").write_text("".join(f"0 0 0 {t}\n" for t in tokens))
+        column = read_points(tmp_path / "mix.xyz").fields["column_4"]
+        if expected is None:
+            assert column.dtype == np.float64
+        else:
+            assert column.dtype == np.int64 and column.tolist() == expected
 
 
 def test_xyz_column_names(tmp_path):

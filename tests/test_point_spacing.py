@@ -281,8 +281,9 @@ def test_spacing_scale_and_normals_report_what_they_measured() -> None:
 def test_diagnostics_iterate_over_the_functions_recorded() -> None:
     points = scenes()[1]
     with pcl_rg.collect_diagnostics() as diagnostics:
+        assert not diagnostics and len(diagnostics) == 0
         pcl_rg.point_spacing(points)
         pcl_rg.grid_ground(points[:5000])
         pcl_rg.point_spacing(points[:100])
-    assert list(diagnostics) == ["point_spacing", "grid_ground"]
+    assert list(diagnostics) == ["point_spacing", "grid_ground"] and len(diagnostics) == 2
     assert diagnostics["point_spacing"]["points"] == 100  # the latest call

@@ -50,6 +50,10 @@ class Diagnostics:
     def __contains__(self, function: object) -> bool:
         return any(entry.function == function for entry in self.records)
 
+    def __len__(self) -> int:
+        """The number of functions recorded (0, and falsy, before any call)."""
+        return len({entry.function for entry in self.records})
+
     def __iter__(self) -> Iterator[str]:
         """The names of the functions recorded, each once, in the order of their first
         call (without it, iteration would fall back to diagnostics[0], a KeyError)."""

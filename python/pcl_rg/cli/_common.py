@@ -194,6 +194,8 @@ def write(
         except OSError as error:
             reason = error.strerror or str(error)
             raise CliError(f"cannot write {path!r}: {reason}", EXIT_FAILURE) from None
+        except ValueError as error:  # what the format cannot hold, found after the work
+            raise CliError(f"cannot write {path!r}: {error}", EXIT_FAILURE) from None
     run.result["output"] = os.path.abspath(path)
     run.result["points_out"] = int(len(points))
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import decimal
 import os
 import re
 from typing import BinaryIO
@@ -118,11 +119,21 @@ def read(path: str) -> tuple[np.ndarray, dict[str, np.ndarray], None]:
 
 
 def _exact_integers(rows: list[str], i: int, column: np.ndarray) -> np.ndarray:
-    """Column `i` of `rows` as int64 when every entry is an integer literal that int64
-    holds, else `column` (the float64 values)."""
+    """Column `i` of `rows` as int64 when every entry is a whole number (``7``, ``7.0``,
+    ``7e0``) that int64 holds, read exactly from its text, else `column` (float64)."""
+    values = []
+    for row in rows:
+        token = row.split()[i]
+        try:
+            values.append(int(token))
+        except ValueError:  # 1e3, 5., 1.0e16: whole when their decimal value is
+            exact = decimal.Decimal(token)
+            if exact != exact.to_integral_value():
+                return column.copy()
+            values.append(int(exact))
     try:
-        return np.array([int(row.split()[i]) for row in rows], dtype=np.int64)
-    except (ValueError, OverflowError):  # 1e20, 2.0, or beyond int64
+        return np.array(values, dtype=np.int64)
+    except OverflowError:  # beyond int64
         return column.copy()
 
 
