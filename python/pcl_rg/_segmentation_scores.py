@@ -10,6 +10,8 @@ from typing import NamedTuple
 import numpy as np
 import numpy.typing as npt
 
+from ._validation import as_labels
+
 __all__ = ["SegmentationScores", "segmentation_scores"]
 
 #: Share of a truth segment a cluster must hold to count in over/under-segmentation.
@@ -36,15 +38,9 @@ class SegmentationScores(NamedTuple):
 
 
 def _check_labels(name: str, values: npt.ArrayLike) -> np.ndarray:
-    if np.ma.is_masked(values):  # np.asarray would drop the mask and score every point
-        raise ValueError(f"{name}: masked arrays are not scored; select the points first")
-    array = np.asarray(values)
-    if array.size == 0 and array.dtype.kind == "f":  # [] and np.array([]) are float64
-        array = array.astype(np.int64)
+    array = as_labels(name, values, np.int64)
     if array.dtype.kind not in "iu":
         raise TypeError(f"{name} must be an integer array, got dtype {array.dtype}")
-    if array.ndim != 1:
-        raise ValueError(f"{name} must be one-dimensional, got shape {array.shape}")
     if array.dtype.kind == "u" and array.size and array.max() > np.iinfo(np.int64).max:
         # int64 would wrap them to negative ids, read as "unassigned"
         raise ValueError(f"{name} has ids above 2**63 - 1, got {array.max()}")

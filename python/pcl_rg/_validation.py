@@ -1,4 +1,4 @@
-"""Input gate shared by every public function: points and plain numbers."""
+"""Input gate shared by every public function: points, labels and plain numbers."""
 
 from __future__ import annotations
 
@@ -8,6 +8,7 @@ import numpy.typing as npt
 __all__ = [
     "MAX_POINTS_INT32",
     "MAX_POINTS_UINT32",
+    "as_labels",
     "as_points",
 ]
 
@@ -61,3 +62,20 @@ def as_points(
     return array
 
 
+
+
+def as_labels(name: str, values: npt.ArrayLike, empty: npt.DTypeLike) -> np.ndarray:
+    """`values` as a one-dimensional array of labels, or raise ValueError.
+
+    A masked array is refused (np.asarray would drop its mask, and every point would
+    be scored); an empty list, which NumPy makes float64, becomes an empty array of
+    `empty`. The caller checks the dtype.
+    """
+    if np.ma.is_masked(values):
+        raise ValueError(f"{name}: masked arrays are not scored; select the points first")
+    array = np.asarray(values)
+    if array.size == 0 and array.dtype.kind == "f":
+        array = array.astype(empty)
+    if array.ndim != 1:
+        raise ValueError(f"{name} must be one-dimensional, got shape {array.shape}")
+    return array

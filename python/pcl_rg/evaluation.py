@@ -8,6 +8,7 @@ import numpy as np
 import numpy.typing as npt
 
 from ._segmentation_scores import SegmentationScores, segmentation_scores
+from ._validation import as_labels
 
 __all__ = ["GroundErrors", "SegmentationScores", "ground_errors", "segmentation_scores"]
 
@@ -28,16 +29,10 @@ class GroundErrors(NamedTuple):
 
 
 def _labels(name: str, value: npt.ArrayLike) -> np.ndarray:
-    if np.ma.is_masked(value):  # np.asarray would drop the mask and score every point
-        raise ValueError(f"{name}: masked arrays are not scored; select the points first")
     array = np.asarray(value)
-    if array.size == 0 and array.dtype.kind == "f":  # [] and np.array([]) are float64
-        array = array.astype(np.bool_)
-    if array.dtype != np.bool_:
+    if array.dtype != np.bool_ and not (array.size == 0 and array.dtype.kind == "f"):
         raise ValueError(f"{name} must be a boolean array, got dtype {array.dtype}")
-    if array.ndim != 1:
-        raise ValueError(f"{name} must be one-dimensional, got shape {array.shape}")
-    return array
+    return as_labels(name, value, np.bool_)
 
 
 def ground_errors(truth: npt.ArrayLike, predicted: npt.ArrayLike) -> GroundErrors:
