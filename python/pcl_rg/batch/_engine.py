@@ -28,6 +28,7 @@ from .. import __version__
 from .._point_spacing import with_spacing_lengths
 from ..io import Extent
 from . import _tasks
+from ._headers import check_one_crs
 from ._manifest import Manifest, file_signature
 from ._plan import (
     Box,
@@ -167,30 +168,6 @@ def _remove_partial_outputs(outputs: Sequence[str]) -> None:
                 os.unlink(stray)
 
 
-def _check_one_crs(paths: Sequence[str], extents: Sequence[dict[str, Any]]) -> None:
-    """Refuse, before any work, tiles whose CRS records name different EPSG codes: their
-    coordinates may overlap where the places do not (two UTM zones), and a tile would
-    buffer a stranger. Tiles without a code are not compared."""
-    coded = [
-        (path, set(extent["crs"]))
-        for path, extent in zip(paths, extents, strict=True)
-        if extent["ok"] and extent.get("crs")
-    ]
-    for k, (path, codes) in enumerate(coded):
-        for other, other_codes in coded[:k]:
-            if not codes & other_codes:
-
-                def named(codes: set[int]) -> str:
-                    return " or ".join(f"EPSG:{code}" for code in sorted(codes))
-
-                raise ValueError(
-                    f"the tiles are not in one coordinate system: {os.path.basename(other)!r} "
-                    f"is in {named(other_codes)} and {os.path.basename(path)!r} in "
-                    f"{named(codes)} (their GeoTIFF keys or WKT); run each system's tiles "
-                    "on their own"
-                )
-
-
 def _discard(manifest: Manifest, output: str) -> str:
     """Forget a failed tile's output and remove an earlier run's file of it, so that the
     folder holds no output that does not come from its current input; what to add to
@@ -277,7 +254,7 @@ def _run_on(
     from distributed import as_completed
 
     extents = client.gather(client.map(_tasks.tile_extent, paths, pure=False))
-    _check_one_crs(paths, extents)
+    check_one_crs(paths, extents)
     boxes: list[Box | None] = []
     for i, (report, extent) in enumerate(zip(reports, extents, strict=True)):
         if not extent["ok"]:

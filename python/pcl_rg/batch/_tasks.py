@@ -15,7 +15,6 @@ from __future__ import annotations
 import dataclasses
 import os
 import pickle
-import re
 import resource
 import time
 from collections.abc import Callable
@@ -33,6 +32,7 @@ from .._classification import (
     voxel_attributes,
 )
 from ..io import PointFile, read_extent, read_points, write_points
+from ._headers import check_header_box, crs_codes
 from ._plan import Box, covers, grow, meets
 
 __all__ = [
@@ -99,79 +99,9 @@ def tile_extent(path: str) -> dict[str, Any]:
 
     def work() -> dict[str, Any]:
         extent = read_extent(path)
-        return {"extent": tuple(extent), "crs": _crs_codes(path) if extent.from_header else []}
+        return {"extent": tuple(extent), "crs": crs_codes(path) if extent.from_header else []}
 
     return _guarded(work)
-
-
-# GeoTIFF keys of the horizontal CRS, projected first (GeoTIFF 1.0, section 6.3).
-_PROJECTED_KEY, _GEOGRAPHIC_KEY = 3072, 2048
-_USER_DEFINED = 32767
-# WKT 1 and WKT 2 keywords of a projected, then a geographic or geodetic, CRS.
-_WKT_CRS = (
-    ("PROJCS", "PROJCRS", "PROJECTEDCRS"),
-    ("GEOGCS", "GEOGCRS", "GEOGRAPHICCRS", "GEODCRS", "GEODETICCRS"),
-)
-_WKT_EPSG = re.compile(r'(?:AUTHORITY|ID)\s*[\[(]\s*"EPSG"\s*,\s*"?(\d+)', re.IGNORECASE)
-
-
-def _crs_codes(path: str) -> list[int]:
-    """The EPSG codes a LAS/LAZ file gives its horizontal CRS, in its GeoTIFF keys and
-    its OGC WKT (VLRs or EVLRs); none when it has no such record or no code in them.
-
-    Codes, not the records' bytes: one CRS is written in many ways (WKT 1 or 2, with or
-    without GeoTIFF keys, other citations), and only different codes say that two
-    tiles are in different systems.
-    """
-    import laspy
-    from laspy.vlrs.known import GeoKeyDirectoryVlr, WktCoordinateSystemVlr
-
-    with laspy.open(path) as reader:
-        records = [*reader.header.vlrs, *(reader.header.evlrs or [])]
-    codes = set()
-    for record in records:
-        if isinstance(record, GeoKeyDirectoryVlr):
-            keys = {key.id: key for key in record.geo_keys}
-            for key_id in (_PROJECTED_KEY, _GEOGRAPHIC_KEY):
-                key = keys.get(key_id)
-                if key is not None and key.tiff_tag_location == 0:
-                    if 0 < key.value_offset < _USER_DEFINED:
-                        codes.add(int(key.value_offset))
-                    break
-        elif isinstance(record, WktCoordinateSystemVlr):
-            code = _wkt_epsg(record.string)
-            if code is not None:
-                codes.add(code)
-    return sorted(codes)
-
-
-def _wkt_epsg(wkt: str) -> int | None:
-    """The EPSG code of a WKT's horizontal CRS: the AUTHORITY (WKT 1) or ID (WKT 2)
-    clause at the top level of its first projected, else geographic, CRS object."""
-    for keywords in _WKT_CRS:
-        found = re.search(r"\b(?:" + "|".join(keywords) + r")\s*[\[(]", wkt, re.IGNORECASE)
-        if not found:
-            continue
-        depth, i = 0, found.end() - 1
-        while i < len(wkt):
-            c = wkt[i]
-            if c == '"':  # a quoted name may hold brackets; "" is an escaped quote
-                i = wkt.find('"', i + 1)
-                if i < 0:
-                    return None
-            elif c in "[(":
-                depth += 1
-            elif c in "])":
-                depth -= 1
-                if depth == 0:
-                    return None
-            elif depth == 1 and c in "AaIi":
-                clause = _WKT_EPSG.match(wkt, i)
-                if clause:
-                    return int(clause.group(1))
-            i += 1
-        return None
-    return None
 
 
 # ---------------------------------------------------------------- stage 1
@@ -203,7 +133,7 @@ def cache_tile(job: Job, tile: Tile) -> dict[str, Any]:
 
     def work() -> dict[str, Any]:
         cloud = read_points(tile.path)
-        _check_header_box(tile, cloud)
+        check_header_box(tile.path, tile.box, cloud)
         folder = _folder(job, tile)
         os.makedirs(folder, exist_ok=True)
         np.save(os.path.join(folder, "points.npy"), cloud.points)
@@ -226,49 +156,6 @@ def cache_tile(job: Job, tile: Tile) -> dict[str, Any]:
         return {"points": len(cloud)}
 
     return _guarded(work)
-
-
-# How far a LAS/LAZ header's box may lie from its points' before the plan made from the
-# headers is refused. Points outside it by more than a rounding (writers round the
-# bounds; coarser scales round more) would miss the tiles they should buffer. A box
-# wider than its points (some writers round it outwards) only adds a neighbour to read
-# and moves the survey's spacing a little, up to a metre or 1 % of the tile on a side.
-HEADER_BOX_ROUNDING = 0.01  # m
-HEADER_BOX_SLACK = (1.0, 0.01)  # m, fraction of the tile's width or height
-
-
-def _check_header_box(tile: Tile, cloud: PointFile) -> None:
-    """Raise ValueError when the box stage 0 read from the header is not the points'.
-
-    The run's plan comes from the headers: which tiles give each other a buffer, and
-    the survey's point spacing, which sets every tile's unset lengths.
-    """
-    finite = cloud.points[np.isfinite(cloud.points).all(axis=1), :2]
-    if len(finite) == 0 or tile.box == Box(0.0, 0.0, 0.0, 0.0):
-        return  # no box to plan with: the tile is nobody's neighbour
-    low, high = finite.min(axis=0), finite.max(axis=0)
-    points_box = Box(float(low[0]), float(low[1]), float(high[0]), float(high[1]))
-    scales = getattr(cloud.header, "scales", None)
-    rounding = max(
-        [HEADER_BOX_ROUNDING, *(float(v) for v in (scales if scales is not None else [])[:2])]
-    )
-    size = max(points_box.xmax - points_box.xmin, points_box.ymax - points_box.ymin)
-    slack = max(HEADER_BOX_SLACK[0], HEADER_BOX_SLACK[1] * size)
-    h, p = tile.box, points_box
-    outside = max(h.xmin - p.xmin, h.ymin - p.ymin, p.xmax - h.xmax, p.ymax - h.ymax)
-    wider = max(p.xmin - h.xmin, p.ymin - h.ymin, h.xmax - p.xmax, h.ymax - p.ymax)
-    if outside > rounding or wider > slack:
-
-        def shown(box: Box) -> str:
-            return f"x {box.xmin:.3f} to {box.xmax:.3f}, y {box.ymin:.3f} to {box.ymax:.3f}"
-
-        raise ValueError(
-            f"{tile.path!r}: the header's bounding box ({shown(tile.box)}) is not that of "
-            f"its points ({shown(points_box)}); a batch plans the survey from the headers "
-            "(which tiles buffer each other, the point spacing of every tile's unset "
-            "lengths), so this run's other tiles may be off too: rewrite the file with "
-            "its true box (pcl_rg.io.read_points, then write_points) and run again"
-        )
 
 
 def _load(job: Job, tile: Tile, mmap: bool = False) -> PointFile:

@@ -140,12 +140,17 @@ def check_paths(source: str, target: str, plots: Sequence[str | None] = ()) -> N
     folder = os.path.dirname(os.path.abspath(target))
     if not os.path.isdir(folder):
         raise CliError(f"the folder of OUTPUT {target!r} does not exist")
-    same = os.path.realpath(source) == os.path.realpath(target)
-    if not same and os.path.exists(target):
-        same = os.path.samefile(source, target)  # hard links, bind mounts
-    if same:
+    if _same_file(source, target):
         raise CliError(f"OUTPUT {target!r} is the INPUT file; refusing to overwrite the input")
     check_plots(source, plots)
+
+
+def _same_file(a: str, b: str) -> bool:
+    """Whether paths `a` and `b` name one file: the same path once links are resolved,
+    or, when both exist, one file under two names (hard links, bind mounts)."""
+    if os.path.realpath(a) == os.path.realpath(b):
+        return True
+    return os.path.exists(a) and os.path.exists(b) and os.path.samefile(a, b)
 
 
 def check_plots(source: str, plots: Sequence[str | None]) -> None:
@@ -158,15 +163,12 @@ def check_plots(source: str, plots: Sequence[str | None]) -> None:
             raise CliError(f"the folder of plot file {plot!r} does not exist")
         if os.path.isdir(plot):
             raise CliError(f"plot file {plot!r} is a folder, not a file")
-        if os.path.exists(plot) and os.path.samefile(source, plot):
+        if _same_file(source, plot):
             raise CliError(f"plot file {plot!r} is the INPUT file; refusing to overwrite it")
     named = [plot for plot in plots if plot is not None]
     for k, plot in enumerate(named):
         for other in named[:k]:  # one would silently replace the other
-            same = os.path.realpath(plot) == os.path.realpath(other)
-            if not same and os.path.exists(plot) and os.path.exists(other):
-                same = os.path.samefile(plot, other)  # hard links
-            if same:
+            if _same_file(plot, other):
                 raise CliError(f"plot files {other!r} and {plot!r} are the same file")
 
 

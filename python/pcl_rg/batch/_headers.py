@@ -1,0 +1,158 @@
+"""What the tiles' LAS/LAZ headers say, checked: the batch plans a survey from them.
+
+Stage 0 reads each header's coordinate system (`crs_codes`), and the run refuses
+tiles in different systems (`check_one_crs`); stage 1, which decodes a tile anyway,
+checks that its header's box is its points' (`check_header_box`).
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from ..io import PointFile
+from ._plan import Box
+
+__all__ = ["check_header_box", "check_one_crs", "crs_codes"]
+
+
+# GeoTIFF keys of the horizontal CRS, projected first (GeoTIFF 1.0, section 6.3).
+_PROJECTED_KEY, _GEOGRAPHIC_KEY = 3072, 2048
+_USER_DEFINED = 32767
+# WKT 1 and WKT 2 keywords of a projected, then a geographic or geodetic, CRS.
+_WKT_CRS = (
+    ("PROJCS", "PROJCRS", "PROJECTEDCRS"),
+    ("GEOGCS", "GEOGCRS", "GEOGRAPHICCRS", "GEODCRS", "GEODETICCRS"),
+)
+_WKT_EPSG = re.compile(r'(?:AUTHORITY|ID)\s*[\[(]\s*"EPSG"\s*,\s*"?(\d+)', re.IGNORECASE)
+
+
+def crs_codes(path: str) -> list[int]:
+    """The EPSG codes a LAS/LAZ file gives its horizontal CRS, in its GeoTIFF keys and
+    its OGC WKT (VLRs or EVLRs); none when it has no such record or no code in them.
+
+    Codes, not the records' bytes: one CRS is written in many ways (WKT 1 or 2, with or
+    without GeoTIFF keys, other citations), and only different codes say that two
+    tiles are in different systems.
+    """
+    import laspy
+    from laspy.vlrs.known import GeoKeyDirectoryVlr, WktCoordinateSystemVlr
+
+    with laspy.open(path) as reader:
+        records = [*reader.header.vlrs, *(reader.header.evlrs or [])]
+    codes = set()
+    for record in records:
+        if isinstance(record, GeoKeyDirectoryVlr):
+            keys = {key.id: key for key in record.geo_keys}
+            for key_id in (_PROJECTED_KEY, _GEOGRAPHIC_KEY):
+                key = keys.get(key_id)
+                if key is not None and key.tiff_tag_location == 0:
+                    if 0 < key.value_offset < _USER_DEFINED:
+                        codes.add(int(key.value_offset))
+                    break
+        elif isinstance(record, WktCoordinateSystemVlr):
+            code = _wkt_epsg(record.string)
+            if code is not None:
+                codes.add(code)
+    return sorted(codes)
+
+
+def _wkt_epsg(wkt: str) -> int | None:
+    """The EPSG code of a WKT's horizontal CRS: the AUTHORITY (WKT 1) or ID (WKT 2)
+    clause at the top level of its first projected, else geographic, CRS object."""
+    for keywords in _WKT_CRS:
+        found = re.search(r"\b(?:" + "|".join(keywords) + r")\s*[\[(]", wkt, re.IGNORECASE)
+        if not found:
+            continue
+        depth, i = 0, found.end() - 1
+        while i < len(wkt):
+            c = wkt[i]
+            if c == '"':  # a quoted name may hold brackets; "" is an escaped quote
+                i = wkt.find('"', i + 1)
+                if i < 0:
+                    return None
+            elif c in "[(":
+                depth += 1
+            elif c in "])":
+                depth -= 1
+                if depth == 0:
+                    return None
+            elif depth == 1 and c in "AaIi":
+                clause = _WKT_EPSG.match(wkt, i)
+                if clause:
+                    return int(clause.group(1))
+            i += 1
+        return None
+    return None
+
+
+def check_one_crs(paths: Sequence[str], extents: Sequence[dict[str, Any]]) -> None:
+    """Refuse, before any work, tiles whose CRS records name different EPSG codes: their
+    coordinates may overlap where the places do not (two UTM zones), and a tile would
+    buffer a stranger. Tiles without a code are not compared."""
+    coded = [
+        (path, set(extent["crs"]))
+        for path, extent in zip(paths, extents, strict=True)
+        if extent["ok"] and extent.get("crs")
+    ]
+    for k, (path, codes) in enumerate(coded):
+        for other, other_codes in coded[:k]:
+            if not codes & other_codes:
+
+                def named(codes: set[int]) -> str:
+                    return " or ".join(f"EPSG:{code}" for code in sorted(codes))
+
+                raise ValueError(
+                    f"the tiles are not in one coordinate system: {os.path.basename(other)!r} "
+                    f"is in {named(other_codes)} and {os.path.basename(path)!r} in "
+                    f"{named(codes)} (their GeoTIFF keys or WKT); run each system's tiles "
+                    "on their own"
+                )
+
+
+# How far a LAS/LAZ header's box may lie from its points' before the plan made from the
+# headers is refused. Points outside it by more than a rounding (writers round the
+# bounds; coarser scales round more) would miss the tiles they should buffer. A box
+# wider than its points (some writers round it outwards) only adds a neighbour to read
+# and moves the survey's spacing a little, up to a metre or 1 % of the tile on a side.
+HEADER_BOX_ROUNDING = 0.01  # m
+HEADER_BOX_SLACK = (1.0, 0.01)  # m, fraction of the tile's width or height
+
+
+def check_header_box(path: str, header_box: Box, cloud: PointFile) -> None:
+    """Raise ValueError when `header_box`, which stage 0 read from the header of the
+    file at `path`, is not the box of its points (`cloud`).
+
+    The run's plan comes from the headers: which tiles give each other a buffer, and
+    the survey's point spacing, which sets every tile's unset lengths.
+    """
+    finite = cloud.points[np.isfinite(cloud.points).all(axis=1), :2]
+    if len(finite) == 0 or header_box == Box(0.0, 0.0, 0.0, 0.0):
+        return  # no box to plan with: the tile is nobody's neighbour
+    low, high = finite.min(axis=0), finite.max(axis=0)
+    points_box = Box(float(low[0]), float(low[1]), float(high[0]), float(high[1]))
+    scales = getattr(cloud.header, "scales", None)
+    rounding = max(
+        [HEADER_BOX_ROUNDING, *(float(v) for v in (scales if scales is not None else [])[:2])]
+    )
+    size = max(points_box.xmax - points_box.xmin, points_box.ymax - points_box.ymin)
+    slack = max(HEADER_BOX_SLACK[0], HEADER_BOX_SLACK[1] * size)
+    h, p = header_box, points_box
+    outside = max(h.xmin - p.xmin, h.ymin - p.ymin, p.xmax - h.xmax, p.ymax - h.ymax)
+    wider = max(p.xmin - h.xmin, p.ymin - h.ymin, h.xmax - p.xmax, h.ymax - p.ymax)
+    if outside > rounding or wider > slack:
+
+        def shown(box: Box) -> str:
+            return f"x {box.xmin:.3f} to {box.xmax:.3f}, y {box.ymin:.3f} to {box.ymax:.3f}"
+
+        raise ValueError(
+            f"{path!r}: the header's bounding box ({shown(header_box)}) is not that of "
+            f"its points ({shown(points_box)}); a batch plans the survey from the headers "
+            "(which tiles buffer each other, the point spacing of every tile's unset "
+            "lengths), so this run's other tiles may be off too: rewrite the file with "
+            "its true box (pcl_rg.io.read_points, then write_points) and run again"
+        )
