@@ -193,3 +193,22 @@ def scene_las(tmp_path_factory) -> Path:
     path = tmp_path_factory.mktemp("scene") / "scene.las"
     las.write(path)
     return path
+
+
+# The batch tests' (test_batch.py, test_batch_faults.py): one local Dask cluster per
+# module, and a survey of tiles.
+@pytest.fixture(scope="module")
+def scheduler():
+    from distributed import LocalCluster
+
+    with LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0"
+    ) as cluster:
+        yield cluster.scheduler_address
+
+
+@pytest.fixture(scope="module")
+def survey(tmp_path_factory):
+    """A 5 x 5 synthetic survey (about 140k points) with objects across tile borders."""
+    folder = tmp_path_factory.mktemp("survey")
+    return datasets.synthetic_survey(folder, tiles=(5, 5), tile_size=60.0, seed=7)
