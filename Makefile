@@ -32,9 +32,12 @@ lint: $(VENV)/.installed
 
 # Long fuzzing for local runs: many more damaged files than `make test` runs, and
 # hypothesis's random profile with 20x the examples of every property test.
+# FUZZ_SEED picks the damaged files (`make fuzz FUZZ_SEED=$RANDOM` for new ones).
+FUZZ_SEED ?= 20261130
 .PHONY: fuzz
 fuzz: $(VENV)/.installed
 	PCL_RG_HYPOTHESIS_PROFILE=fuzz PCL_RG_FUZZ_CASES=5000 PCL_RG_FUZZ_CLI_CASES=300 \
+	    PCL_RG_FUZZ_SEED=$(FUZZ_SEED) \
 	    $(PY) -m pytest -q tests/test_fuzz_files.py $$(grep -l '@given' tests/test_*.py)
 
 bench: $(VENV)/.installed

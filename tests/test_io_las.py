@@ -104,6 +104,27 @@ def test_las_new_extra_dimension_on_a_template(tmp_path):
         np.testing.assert_array_equal(back.fields[name], values, err_msg=name)
 
 
+def test_las_template_with_header_text_that_is_not_ascii(tmp_path):
+    # The specification wants ASCII there, files in the wild do not always comply, and
+    # such a file reads fine: writing in its layout must work too (found by make fuzz).
+    random_las("1.2", 1, 50, seed=3, extra=False).write(tmp_path / "in.las")
+    data = bytearray((tmp_path / "in.las").read_bytes())
+    at = data.index(b"kept")  # the VLR's description
+    data[at + 1] = 0xBA
+    (tmp_path / "in.las").write_bytes(bytes(data))
+    cloud = read_points(tmp_path / "in.las")
+    write_points(tmp_path / "out.las", cloud.points, cloud.fields, template=cloud)
+    back = read_points(tmp_path / "out.las")
+    np.testing.assert_array_equal(back.points, cloud.points)
+    description = [v.description for v in back.header.vlrs if v.record_id == 42]
+    assert description == [b"k\xbapt"]  # bytes laspy could not decode go back as they were
+
+    # A character ASCII cannot encode, set by the caller, is written as "?".
+    cloud.header.system_identifier = "Zürich survey"
+    write_points(tmp_path / "named.las", cloud.points, cloud.fields, template=cloud)
+    assert read_points(tmp_path / "named.las").header.system_identifier == "Z?rich survey"
+
+
 def test_las_without_template(tmp_path):
     rng = np.random.default_rng(11)
     n = 1000

@@ -36,8 +36,13 @@ class Run:
         self.exit_status = 0
 
     @contextmanager
-    def stage(self, key: str, description: str) -> Iterator[None]:
-        """Time a stage; show a spinner on stderr if it runs past PROGRESS_DELAY."""
+    def stage(self, key: str, description: str, source: str | None = None) -> Iterator[None]:
+        """Time a stage; show a spinner on stderr if it runs past PROGRESS_DELAY.
+
+        `source`: the file whose points the stage works on. A ValueError the stage
+        raises is then about those points (an extent, a count, their layout against
+        the parameters), and its message says which file they came from.
+        """
         start = time.perf_counter()
         done = threading.Event()
         outcome = ["done in"]  # how the spinner's last line reports the end of the stage
@@ -49,6 +54,11 @@ class Run:
             thread.start()
         try:
             yield
+        except ValueError as error:
+            outcome[0] = "failed after"
+            if source is None:
+                raise
+            raise ValueError(f"{error} (the points of {source!r})") from error
         except BaseException as error:
             interrupted = isinstance(error, KeyboardInterrupt)
             outcome[0] = "interrupted after" if interrupted else "failed after"

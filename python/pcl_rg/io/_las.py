@@ -128,10 +128,6 @@ def write(
     """
     try:
         _write_las(path, xyz, columns, template, compress)
-    except UnicodeError as error:  # laspy encodes the header's text fields as ASCII
-        raise ValueError(
-            f"cannot write {path!r}{source}: a header text is not ASCII ({error})"
-        ) from None
     except (OSError, ValueError, TypeError):
         raise
     except Exception as error:  # laspy or lazrs refusing the template's header
@@ -221,7 +217,17 @@ def _write_las(
     def write_data(stream: BinaryIO) -> None:
         recorder = _RecordingStream(stream)
         try:
-            las.write(recorder, do_compress=compress)
+            # The header's text fields (system identifier, VLR descriptions, ...) are
+            # ASCII by the specification, but files in the wild hold other bytes, which
+            # laspy reads as they are: a template's are written back as they came, and
+            # a character that ASCII cannot encode becomes "?" ("replace"), rather than
+            # the whole write failing on a descriptive field.
+            with laspy.LasWriter(
+                recorder, las.header, do_compress=compress, closefd=False, encoding_errors="replace"
+            ) as writer:
+                writer.write_points(las.points)
+                if las.header.version.minor >= 4 and las.evlrs is not None:
+                    writer.write_evlrs(las.evlrs)
         except Exception:
             # lazrs turns an exception of the stream (e.g. ENOSPC) into its own
             # LazrsError; surface the original.

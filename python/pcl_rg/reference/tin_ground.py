@@ -8,6 +8,9 @@ formulas are the core's, operation for operation, on the same snapped grid, so
 the two agree point for point whenever qhull picks the same Delaunay
 triangulation; they can differ only where it is not unique (four or more
 co-circular vertices, frequent on gridded data such as the ISPRS samples).
+qhull works in floating point: vertices a few grid steps apart in a large
+extent, which the core's exact predicates tell apart, it may merge, and then
+:class:`QhullPrecisionError` is raised instead of an answer.
 """
 
 from __future__ import annotations
@@ -26,7 +29,7 @@ from .._validation import as_points
 from ._lattice import lattice_floor
 from .point_spacing import point_spacing
 
-__all__ = ["grid_quantum", "locate", "seeds", "tin_ground", "triangulate"]
+__all__ = ["QhullPrecisionError", "grid_quantum", "locate", "seeds", "tin_ground", "triangulate"]
 
 _DEG_TO_RAD = math.pi / 180.0
 
@@ -55,6 +58,17 @@ def _orient_perturbed(ax, ay, bx, by, px, py):  # type: ignore[no-untyped-def]
     return sign
 
 
+class QhullPrecisionError(RuntimeError):
+    """qhull left vertices out of the TIN: the reference has no exact answer there.
+
+    qhull's Delaunay works on the lifted points (x, y, x^2 + y^2) in float64, so
+    vertices a few grid steps apart in an extent of ~2^29 steps can be too close
+    for it and one is dropped as "coplanar". The core's predicates are exact
+    integer arithmetic and triangulate such points; tests that compare the two
+    skip these inputs.
+    """
+
+
 def triangulate(vx: np.ndarray, vy: np.ndarray, quantum: float) -> tuple:
     """qhull's Delaunay triangulation of integer vertices (given to qhull in metres).
 
@@ -64,8 +78,19 @@ def triangulate(vx: np.ndarray, vy: np.ndarray, quantum: float) -> tuple:
     triangle per vertex. qhull's triangulated output may hold zero-area rows where
     four or more points are co-circular; they are kept for walking but can hold no
     point.
+
+    Raises
+    ------
+    QhullPrecisionError
+        qhull dropped vertices closer to others than its precision resolves.
     """
     dt = Delaunay(np.c_[vx, vy].astype(np.float64) * quantum)
+    if len(dt.coplanar):
+        raise QhullPrecisionError(
+            f"reference: qhull merged {len(dt.coplanar)} TIN vertex(es) into a neighbour "
+            "closer than its float64 precision resolves (a few grid steps in a wide "
+            "extent); this NumPy reference cannot build that TIN exactly (the core can)"
+        )
     s = dt.simplices.astype(np.int64)
     nb = dt.neighbors.astype(np.int64)
     o = _orient(vx[s[:, 0]], vy[s[:, 0]], vx[s[:, 1]], vy[s[:, 1]], vx[s[:, 2]], vy[s[:, 2]])

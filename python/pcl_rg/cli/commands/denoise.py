@@ -48,7 +48,9 @@ def execute(args: argparse.Namespace, run: Run) -> None:
     cloud, valid = read_input(args, run, ("mean_k", params.mean_k))
     points = cloud.points
     n_valid = int(valid.sum())
-    with run.stage("denoise", f"statistical outlier removal on {n_valid:,} points"):
+    with run.stage(
+        "denoise", f"statistical outlier removal on {n_valid:,} points", source=args.input
+    ):
         inlier = pcl_rg.statistical_outlier_removal(points[valid], params=params)
     keep = np.zeros(len(cloud), bool)
     keep[valid] = inlier

@@ -42,10 +42,10 @@ def execute(args: argparse.Namespace, run: Run) -> None:
     cloud, valid = read_input(args, run)
     points = cloud.points
     rows = np.flatnonzero(valid)
-    with run.stage("downsample", f"voxel grid on {len(rows):,} points"):
+    with run.stage("downsample", f"voxel grid on {len(rows):,} points", source=args.input):
         grid = pcl_rg.voxel_grid(points[rows], params=params)
     kept = grid.voxel_of_point >= 0
-    with run.stage("attributes", "voxel attributes"):
+    with run.stage("attributes", "voxel attributes", source=args.input):
         fields = voxel_attributes(cloud.fields, rows[kept], grid.voxel_of_point[kept], grid.counts)
     write(run, args.output, grid.centroids, fields, cloud)
     run.result.update(

@@ -64,7 +64,9 @@ def execute(args: argparse.Namespace, run: Run) -> None:
     points = cloud.points
     noise = noise_mask(existing_classes(cloud), len(cloud))
     work = valid & ~noise
-    with run.stage("ground", f"ground filter ({method.name}) on {int(work.sum()):,} points"):
+    with run.stage(
+        "ground", f"ground filter ({method.name}) on {int(work.sum()):,} points", source=args.input
+    ):
         ground = method.function(points[work], params=params)
     classes = ground_classes(cloud, work, ground)
     n_ground = int(ground.sum())

@@ -55,7 +55,7 @@ def execute(args: argparse.Namespace, run: Run) -> None:
     cloud, valid = read_input(args, run, sor)
     points = cloud.points
     stages = "SOR, voxel grid, normals, region growing"
-    with run.stage("pipeline", f"{stages} on {int(valid.sum()):,} points"):
+    with run.stage("pipeline", f"{stages} on {int(valid.sum()):,} points", source=args.input):
         result = args.pipeline(
             points[valid], **params_dict(options), auto_voxel=args.auto_voxel
         )

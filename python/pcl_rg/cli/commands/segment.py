@@ -40,8 +40,7 @@ def methods() -> dict[str, Method]:
             "convex",
             pcl_rg.convex_segmentation,
             pcl_rg.ConvexSegmentationParams,
-            "smooth patches merged across convex edges, scale-free defaults (objects, "
-            "not faces)",
+            "smooth patches merged across convex edges, scale-free defaults (objects, not faces)",
         ),
         "curvature": Method(
             "curvature",
@@ -81,7 +80,9 @@ def execute(args: argparse.Namespace, run: Run) -> None:
     cloud, valid = read_input(args, run, ("k", params.k))
     points = cloud.points
     n_valid = int(valid.sum())
-    with run.stage("segment", f"segmentation ({method.name}) on {n_valid:,} points"):
+    with run.stage(
+        "segment", f"segmentation ({method.name}) on {n_valid:,} points", source=args.input
+    ):
         labels = method.function(points[valid], params=params)
     segment = np.full(len(cloud), -1, dtype=np.int32)
     segment[valid] = labels
