@@ -337,8 +337,8 @@ def test_offset_does_not_change_geometry() -> None:
 @pytest.mark.parametrize(
     ("kwargs", "match"),
     [
-        ({"size": 0.0}, "size must be > 0, got 0"),
-        ({"size": -5}, "size must be > 0"),
+        ({"size": 0.0}, r"size must be in \(0, 100000\], got 0"),
+        ({"size": -5}, r"size must be in \(0, 100000\], got -5"),
         ({"size": float("nan")}, "size must be finite"),
         ({"size": float("inf")}, "size must be finite"),
         ({"density": 0.0}, "density must be > 0"),
@@ -354,6 +354,14 @@ def test_offset_does_not_change_geometry() -> None:
         ({"seed": -1}, "seed must be >= 0"),
         ({"size": 30.0}, "n_buildings=6 .* do not fit in a 30 m square"),
         ({"size": 3.0, "n_buildings": 0, "n_trees": 1}, "n_trees=1"),
+        # Absurd requests, refused before anything is drawn (they used to be killed for
+        # want of memory, or to run for minutes first).
+        ({"size": 100.0, "n_trees": 10**9}, "n_trees=1,000,000,000 ask for .* more than"),
+        ({"size": 100.0, "density": 1e12}, "density=1e.12.* more than this machine's"),
+        ({"size": 200.0, "n_buildings": 3000}, "3,000 buildings .* do not fit in a 200 m"),
+        ({"size": 1e5, "n_buildings": 10**6}, "n_buildings must be <= 10,000"),
+        ({"size": 1e200}, r"size must be in \(0, 100000\]"),
+        ({"offset": (1e17, 0.0, 0.0)}, "too far from 0: float64 resolves only 32 m"),
     ],
 )
 def test_value_errors(kwargs: dict, match: str) -> None:

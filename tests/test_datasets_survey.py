@@ -229,6 +229,13 @@ def test_survey_formats_store_the_same_points(tmp_path) -> None:
             ValueError,
             "2 non-overlapping buildings .* do not fit in the 500 x 10 m survey",
         ),
+        ({"origin": (1e306, 0.0, 0.0)}, ValueError, "origin .* is too far from 0"),
+        (
+            {"tiles": (100, 100), "tile_size": 1000.0, "buildings_per_km2": 5.0},
+            ValueError,
+            "50,000 buildings .* at most 10,000",
+        ),
+        ({"density": 1e12}, ValueError, "more than this machine's"),
         # Crowns at least 4 m across in a 3 m square.
         ({"tile_size": 3.0, "trees_per_km2": 1e6}, ValueError, "could not place 9 trees"),
     ],

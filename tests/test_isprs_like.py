@@ -126,7 +126,10 @@ def test_offset_shifts_points_and_buildings_only() -> None:
 @pytest.mark.parametrize(
     ("kwargs", "error", "match"),
     [
-        ({"size": 200.0}, ValueError, "size must be >= 250"),
+        ({"size": 200.0}, ValueError, r"size must be in \[250, 1000\], got 200"),
+        ({"size": 5000.0, "density": 1e-9}, ValueError, r"size must be in \[250, 1000\]"),
+        ({"density": 1e12}, ValueError, "density=1e.12 ask for .* more than this machine's"),
+        ({"offset": (1e300, 0.0, 0.0)}, ValueError, "offset .* is too far from 0"),
         ({"density": 0.0}, ValueError, "density must be > 0"),
         ({"seed": -1}, ValueError, "seed must be >= 0"),
         ({"seed": 1.5}, TypeError, "seed must be an integer"),

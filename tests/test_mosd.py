@@ -66,3 +66,20 @@ def test_refuses_files_that_are_not_mosd(tmp_path) -> None:
         load_mosd(unlabeled)
     with pytest.raises(OSError):
         load_mosd(tmp_path / "missing.pcd")
+
+
+@pytest.mark.parametrize(
+    "label",
+    [
+        np.array([1.5, 0.0, 2.0, 20.7]),  # fractional: was truncated to 1 and 20
+        np.array([1.0, np.nan, 2.0, 20.0]),  # NaN: was -2^31 with a RuntimeWarning
+        np.array([1, 2, 3, 2**32 - 1], dtype=np.uint32),  # was -1 after the int32 cast
+        np.array([[1, 1], [2, 2], [3, 3], [20, 20]], dtype=np.uint32),  # was an IndexError
+    ],
+    ids=["fractional", "nan", "beyond-int32", "two-per-point"],
+)
+def test_refuses_a_damaged_label_field(tmp_path, label) -> None:
+    path = tmp_path / "scene.pcd"
+    write_pcd(path, np.zeros((4, 3)), {"label": label}, width=2, height=2)
+    with pytest.raises(ValueError, match="'label' field"):
+        load_mosd(path)

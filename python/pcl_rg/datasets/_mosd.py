@@ -52,7 +52,9 @@ def load_mosd(path: str | os.PathLike[str]) -> MosdScene:
     Raises
     ------
     ValueError
-        If the file has no ``label`` field or is not organized (height 1).
+        If the file has no ``label`` field, one with more than one value per point
+        or with values that are not whole numbers in [0, 2^31 - 1] on valid
+        points, or is not organized (height 1).
     OSError
         If the file cannot be read.
 
@@ -93,12 +95,26 @@ def load_mosd(path: str | os.PathLike[str]) -> MosdScene:
         raise ValueError(f"{os.fspath(path)}: no 'label' field; not an mOSD scene")
     if layout.height <= 1:
         raise ValueError(f"{os.fspath(path)}: not an organized cloud (height {layout.height})")
-    label = np.asarray(cloud.fields["label"]).reshape(-1)
+    label = np.asarray(cloud.fields["label"])
+    if label.ndim != 1:
+        raise ValueError(
+            f"{os.fspath(path)}: the 'label' field holds {label.shape[1]} values per point; "
+            "mOSD has one"
+        )
     valid = np.isfinite(cloud.points).all(axis=1)
+    # Labels are small whole numbers (0-9 the table, 20-29 the first object, ...): a
+    # fractional, non-finite or out-of-range one is a damaged file, not a segment id.
+    kept = label[valid]
+    whole = np.isfinite(kept) & (kept == np.floor(kept)) if kept.dtype.kind == "f" else True
+    if kept.size and not (np.all(whole) and kept.min() >= 0 and kept.max() <= 2**31 - 1):
+        raise ValueError(
+            f"{os.fspath(path)}: the 'label' field holds values that are not whole numbers "
+            "in [0, 2^31 - 1]; not an mOSD label field"
+        )
     pixel = np.flatnonzero(valid)
     return MosdScene(
         points=np.ascontiguousarray(cloud.points[valid]),
-        labels=label[valid].astype(np.int32),
+        labels=kept.astype(np.int32),
         pixel=pixel.astype(np.intp),
         width=int(layout.width),
         height=int(layout.height),

@@ -8,6 +8,7 @@ rectangle, and the points each kind of object returns, with their ASPRS classes.
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Callable
 
 import numpy as np
@@ -30,19 +31,30 @@ _GROUND_ROUGHNESS = 0.03  # std of the Gaussian roughness added to the terrain
 _ROOF_ROUGHNESS = 0.02  # std of the roof-point heights around the flat roof
 _RAMP_CLEARANCE = 3.0  # buildings keep this far from the ramp band
 LARGE_SIDES = ((25.0, 30.0), (20.5, 30.0))  # sides of the first, large building
-_SMALL_SIDE = (8.0, 18.0)  # sides of the other buildings
+SMALL_SIDE = (8.0, 18.0)  # sides of the other buildings
 _BUILDING_HEIGHT = (4.0, 15.0)
-_BUILDING_MARGIN = 2.0  # from the area border
-_BUILDING_GAP = 4.0  # between two buildings
+BUILDING_MARGIN = 2.0  # from the area border
+BUILDING_GAP = 4.0  # between two buildings
 _WALL_DENSITY_RATIO = 0.15  # wall points per m^2 of wall, as a fraction of `density`
-_CROWN_RADIUS = (2.0, 5.0)
+CROWN_RADIUS = (2.0, 5.0)
 _TREE_HEIGHT = (5.0, 20.0)
 _TREE_CLEARANCE = 1.0  # between a crown's edge and a building footprint
-_CLEAR_REACH = _CROWN_RADIUS[1] + _TREE_CLEARANCE + 1.0  # beyond: clear of a footprint
+_CLEAR_REACH = CROWN_RADIUS[1] + _TREE_CLEARANCE + 1.0  # beyond: clear of a footprint
 _UNDERSTORY_RATIO = 0.1  # trunk/understory returns, as a fraction of the canopy returns
 _UNDER_CANOPY_KEEP = 0.5  # fraction of ground returns kept under a crown
 _LOW_NOISE_DEPTH = (1.0, 20.0)  # below the terrain
 _HIGH_NOISE_HEIGHT = (20.0, 100.0)  # above the terrain
+
+# Limits that refuse an absurd request up front, instead of a run that the system kills
+# for want of memory or that does not end. Placement compares a building with every one
+# placed before it (quadratic); a scene's peak memory is about _BYTES_PER_POINT per point
+# (synthetic_scene's docstring) and _BYTES_PER_OBJECT per tree or building drawn.
+MAX_BUILDINGS = 10_000
+MAX_SIZE = 1e5  # m: a square's side (its area squared stays far from overflow)
+_BYTES_PER_POINT = 60
+_BYTES_PER_OBJECT = 200
+# The finest detail of the scenes (roughness 2-3 cm) needs coordinates resolved to this.
+_RESOLUTION = 1e-4
 
 # x, y, z and the ASPRS class of one kind of return.
 Block = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], int]
@@ -56,7 +68,7 @@ def scene_sides(rng: np.random.Generator, placed: int) -> tuple[float, float]:
         if rng.random() < 0.5:
             w, h = h, w
         return w, h
-    w, h = rng.uniform(*_SMALL_SIDE, 2)
+    w, h = rng.uniform(*SMALL_SIDE, 2)
     return w, h
 
 
@@ -82,12 +94,12 @@ def place_buildings(
             break
         w, h = sides(rng, placed)
         u, v = rng.random(2)
-        span_x = area[0] - 2.0 * _BUILDING_MARGIN - w
-        span_y = area[1] - 2.0 * _BUILDING_MARGIN - h
+        span_x = area[0] - 2.0 * BUILDING_MARGIN - w
+        span_y = area[1] - 2.0 * BUILDING_MARGIN - h
         if span_x < 0.0 or span_y < 0.0:
             continue
-        xmin = _BUILDING_MARGIN + u * span_x
-        ymin = _BUILDING_MARGIN + v * span_y
+        xmin = BUILDING_MARGIN + u * span_x
+        ymin = BUILDING_MARGIN + v * span_y
         # Keep the sloped band clear: a roof above a 20-degree ramp would make
         # the slope-break test ambiguous.
         s_c = ramp_coordinate(terrain, xmin + 0.5 * w, ymin + 0.5 * h)
@@ -98,10 +110,10 @@ def place_buildings(
             continue
         prev = boxes[:placed]
         apart = (
-            (xmin >= prev[:, 2] + _BUILDING_GAP)
-            | (xmin + w + _BUILDING_GAP <= prev[:, 0])
-            | (ymin >= prev[:, 3] + _BUILDING_GAP)
-            | (ymin + h + _BUILDING_GAP <= prev[:, 1])
+            (xmin >= prev[:, 2] + BUILDING_GAP)
+            | (xmin + w + BUILDING_GAP <= prev[:, 0])
+            | (ymin >= prev[:, 3] + BUILDING_GAP)
+            | (ymin + h + BUILDING_GAP <= prev[:, 1])
         )
         if not np.all(apart):
             continue
@@ -143,7 +155,7 @@ def place_trees(
         if need == 0:
             break
         m = max(2 * need, 16)
-        r = rng.uniform(*_CROWN_RADIUS, m)
+        r = rng.uniform(*CROWN_RADIUS, m)
         top = rng.uniform(*_TREE_HEIGHT, m)
         x = r + rng.random(m) * (area[0] - 2.0 * r)
         y = r + rng.random(m) * (area[1] - 2.0 * r)
@@ -372,8 +384,31 @@ def object_rows(
 # the scene
 
 
+def check_scene_budget(points: float, objects: float, what: str) -> None:
+    """Refuse, before anything is drawn, a scene this machine's memory cannot hold.
+
+    `points` is the expected number of points, `objects` the trees and buildings to
+    place, `what` the arguments that set them (for the message).
+    """
+    need = _BYTES_PER_POINT * points + _BYTES_PER_OBJECT * objects
+    try:
+        memory = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (AttributeError, OSError, ValueError):  # no such query here: no limit
+        return
+    if not need <= memory:
+        raise ValueError(
+            f"{what} ask for about {points:.3g} points and {objects:.3g} objects, about "
+            f"{need / 2**30:.3g} GiB, more than this machine's {memory / 2**30:.3g} GiB; "
+            "use a smaller area or density"
+        )
+
+
 def check_offset(offset: object, name: str = "offset") -> NDArray[np.float64]:
-    """A scene's offset (or origin) as 3 finite float64 values; None gives zeros."""
+    """A scene's offset (or origin) as 3 finite float64 values; None gives zeros.
+
+    Refused when float64 cannot resolve the scene's detail (0.1 mm) at its magnitude:
+    the points would land on a coarse lattice, their geometry lost.
+    """
     if offset is None:
         return np.zeros(3)
     try:
@@ -384,6 +419,14 @@ def check_offset(offset: object, name: str = "offset") -> NDArray[np.float64]:
         raise ValueError(f"{name} must have length 3, got shape {arr.shape}")
     if not np.all(np.isfinite(arr)):
         raise ValueError(f"{name} must be finite, got {arr.tolist()}")
+    # The scenes reach at most a few hundred km beyond the offset: 2x its magnitude.
+    step = float(np.spacing(2.0 * np.abs(arr).max()))
+    if step > _RESOLUTION:
+        raise ValueError(
+            f"{name} {arr.tolist()} is too far from 0: float64 resolves only {step:.3g} m "
+            f"there, and the scene's detail needs {_RESOLUTION:g} m; use an offset within "
+            "about 1e11 m"
+        )
     return arr.copy()
 
 

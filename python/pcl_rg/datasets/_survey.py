@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import os
 from typing import NamedTuple
 
@@ -114,6 +115,20 @@ def _layout(
     rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(_LAYOUT_STREAM,)))
     km2 = area[0] * area[1] / 1e6
     n_buildings = int(round(buildings_per_km2 * km2))
+    n_trees = int(round(trees_per_km2 * km2))
+    if n_buildings > objects.MAX_BUILDINGS:
+        raise ValueError(
+            f"{n_buildings:,} buildings (buildings_per_km2={buildings_per_km2:g} over "
+            f"{km2:g} km^2): at most {objects.MAX_BUILDINGS:,} are placed, each clear of every "
+            "other; use fewer tiles or buildings_per_km2"
+        )
+    # The tiles are drawn one at a time; the trees of the whole survey are placed at once.
+    crown = math.pi * objects.CROWN_RADIUS[1] ** 2
+    objects.check_scene_budget(
+        density * (tile_size * tile_size + n_trees * crown) * (1.0 + noise_fraction) * 1.2,
+        n_trees + n_buildings,
+        f"tile_size={tile_size:g}, density={density:g}, trees_per_km2={trees_per_km2:g}",
+    )
     buildings = objects.place_buildings(rng, n_buildings, area, terrain, _survey_sides)
     if len(buildings) < n_buildings:
         raise ValueError(
@@ -121,7 +136,6 @@ def _layout(
             f"up to {_LARGE_SIDE[1]:g} m long) do not fit in the {area[0]:g} x {area[1]:g} m "
             "survey beside its sloped band; use more or larger tiles or fewer buildings_per_km2"
         )
-    n_trees = int(round(trees_per_km2 * km2))
     trees = objects.place_trees(rng, n_trees, area, buildings)
     if len(trees) < n_trees:
         raise ValueError(

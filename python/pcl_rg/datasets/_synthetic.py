@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 import numpy as np
@@ -47,8 +48,6 @@ class SyntheticScene(NamedTuple):
 # argument checks
 
 
-
-
 # --------------------------------------------------------------------------
 # objects
 
@@ -70,7 +69,7 @@ def synthetic_scene(
     ----------
     %(scene_seed)s
     size : float, default 200.0
-        Side of the square area in metres; the scene covers
+        Side of the square area in metres, at most 100 km; the scene covers
         ``[0, size] x [0, size]`` before ``offset``.
     density : float, default 4.0
         Points per m^2 on the open ground, the roofs and the tree crowns.
@@ -98,10 +97,12 @@ def synthetic_scene(
     Raises
     ------
     ValueError
-        If ``size`` or ``density`` is not finite and > 0, ``seed``,
-        ``n_buildings`` or ``n_trees`` is negative, ``noise_fraction`` is not
-        in [0, 0.5), ``offset`` is not 3 finite numbers, or the buildings or
-        trees do not fit in the area.
+        If ``size`` or ``density`` is not finite and > 0, ``size`` exceeds
+        100 km, ``seed``, ``n_buildings`` or ``n_trees`` is negative,
+        ``n_buildings`` exceeds 10,000, ``noise_fraction`` is not in
+        [0, 0.5), ``offset`` is not 3 finite numbers or so large that float64
+        cannot resolve 0.1 mm there, the buildings or trees do not fit in the
+        area, or the scene would need more memory than the machine has.
     TypeError
         If a count or the seed is not an integer, or ``size``, ``density`` or
         ``noise_fraction`` is not a real number.
@@ -156,12 +157,32 @@ def synthetic_scene(
     ((2, 5), (5, 4))
     """
     seed = check_number("seed", seed, int, minimum=0)
-    size = check_number("size", size, float, above=0.0)
+    size = check_number("size", size, float, above=0.0, maximum=objects.MAX_SIZE)
     density = check_number("density", density, float, above=0.0)
     n_buildings = check_number("n_buildings", n_buildings, int, minimum=0)
     n_trees = check_number("n_trees", n_trees, int, minimum=0)
     noise_fraction = objects.check_noise_fraction(noise_fraction)
     origin = objects.check_offset(offset)
+    if n_buildings > objects.MAX_BUILDINGS:
+        raise ValueError(
+            f"n_buildings must be <= {objects.MAX_BUILDINGS:,} (each is placed clear of every "
+            f"other), got {n_buildings:,}"
+        )
+    # Each building with its gap takes at least this much of the square: refuse at once
+    # what cannot fit, rather than after every attempt to place it.
+    usable = (size - 2.0 * objects.BUILDING_MARGIN + objects.BUILDING_GAP) ** 2
+    smallest = (objects.SMALL_SIDE[0] + objects.BUILDING_GAP) ** 2
+    if n_buildings and (n_buildings - 1) * smallest > usable:
+        raise ValueError(
+            f"n_buildings={n_buildings:,} buildings of at least {objects.SMALL_SIDE[0]:g} m "
+            f"a side do not fit in a {size:g} m square; use a larger size or fewer n_buildings"
+        )
+    crown = math.pi * objects.CROWN_RADIUS[1] ** 2
+    objects.check_scene_budget(
+        density * (size * size + n_trees * crown) * (1.0 + noise_fraction) * 1.2,
+        n_trees + n_buildings,
+        f"size={size:g}, density={density:g}, n_trees={n_trees:,}",
+    )
 
     terrain = make_terrain(seed, size)
     # Everything else comes from the scene stream (spawn key 1), drawn in a
