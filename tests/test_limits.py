@@ -2,7 +2,8 @@
 
 A zero-stride view of billions of rows costs no memory, so the refusal is tested
 for real: it must come before any copy or conversion of the input. Coordinates
-that the float32 local frame cannot hold are refused too, instead of becoming inf.
+that the float32 local frame cannot hold are refused too, instead of becoming inf,
+and masked arrays, whose masks np.asarray would drop.
 """
 
 from __future__ import annotations
@@ -84,3 +85,13 @@ def test_a_survey_within_float32s_reach_runs(name, call) -> None:
     # 1,600 km apart, at UTM-sized coordinates: within reach (2^24 x 0.1 = 1,677.7 km).
     points = np.random.default_rng(1).random((300, 3)) * [50.0, 50.0, 5.0] + [5e5, 5.4e6, 0]
     call(np.r_[points, points[:1] + [0.0, 1.6e6, 0.0]])
+
+
+@pytest.mark.parametrize(("name", "call", "limit"), CASES, ids=[c[0] for c in CASES])
+def test_masked_points_are_refused_not_unmasked(name, call, limit) -> None:
+    # np.asarray drops a mask: the masked rows (here far away) would be used silently.
+    points = np.ma.masked_array(np.random.default_rng(0).uniform(0.0, 10.0, (60, 3)))
+    points[:5] = 1e3
+    points[:5] = np.ma.masked
+    with pytest.raises(ValueError, match="masked arrays are not accepted"):
+        call(points)

@@ -125,6 +125,10 @@ def test_errors_and_empty_input() -> None:
         seed004(pts, voxel=0.5)  # type: ignore[arg-type]
     with pytest.raises(TypeError, match="region must be"):
         seed004(pts, region=None)  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match="auto_voxel must be True or False, got 'no'"):
+        seed004(pts, auto_voxel="no")  # type: ignore[arg-type]  (a truthy string)
+    with pytest.raises(TypeError, match="time_original must be True or False"):
+        seed004(pts, time_original="no")  # type: ignore[arg-type]
     bad = pts.copy()
     bad[5, 0] = np.nan
     with pytest.raises(ValueError, match="NaN"):

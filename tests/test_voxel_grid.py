@@ -194,6 +194,8 @@ def test_empty_and_single_point():
         ({"leaf_size": (1.0, 2.0)}, ValueError, "leaf_size must be a number or a sequence of 3"),
         ({"leaf_size": (1.0, 0.0, 1.0)}, ValueError, "leaf_size must be > 0"),
         ({"leaf_size": "big"}, TypeError, "leaf_size must be a number or 3 numbers"),
+        ({"leaf_size": True}, TypeError, "leaf_size must be a number or 3 numbers"),
+        ({"leaf_size": (0.5, True, 0.5)}, TypeError, "leaf_size must be a number or 3 numbers"),
         (
             {"leaf_size": 1.0, "min_points_per_voxel": 0},
             ValueError,

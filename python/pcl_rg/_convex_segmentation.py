@@ -112,14 +112,18 @@ def convex_segmentation(
         (default 0: the cross-validated choice).
     min_cluster_size : int, optional
         Patches with fewer points take no part in the convexity test and join
-        the segment they share most neighbour pairs with; segments with fewer
-        points are dropped (-1) (default 20).
+        the segment of the one large patch they share most neighbour pairs with
+        (not the segment summed over its patches: step 5 of the Notes); segments
+        with fewer points are dropped (-1) (default 20).
     noise_leaves : float, optional
         When this many times the measured noise (:func:`pcl_rg.point_scale`)
         exceeds the point spacing, the steps below run on a voxel grid of that
         leaf and every point takes its voxel's label (default 10; 0: never).
         A raw Kinect frame (1.5 mm spacing, 0.5 mm noise) is segmented on a
         grid of about 4.5 mm; data already that coarse is segmented as it is.
+        The grid is anchored at multiples of the leaf in world coordinates, as
+        :func:`pcl_rg.voxel_grid`'s: a cloud moved by other than whole leaves
+        is cut into other voxels, and some labels near voxel boundaries change.
         The noise is read on surface neighbourhoods only, so vegetation (thick
         volumes of points) does not count as sensor noise.
     viewpoint : sequence of 3 float, optional

@@ -191,7 +191,11 @@ def _number(name: str, value: Any, spec: Spec) -> Any:
 
 def _per_axis(name: str, value: Any, spec: Spec) -> tuple[float, ...]:
     axes = spec.axes or 1
-    if isinstance(value, (str, bytes)):
+    # True is not a length, also inside a sequence (where np.asarray would make it 1.0).
+    flags = (str, bytes, bool, np.bool_)
+    if isinstance(value, flags) or (
+        isinstance(value, (list, tuple)) and any(isinstance(v, flags) for v in value)
+    ):
         raise TypeError(f"{name} must be a number or {axes} numbers, got {value!r}")
     if isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_)):
         values: tuple[Any, ...] = (value,) * axes
@@ -236,6 +240,11 @@ def check_number(
 ) -> Any:
     """A plain argument (not a dataclass field) checked as a parameter would be."""
     return _number(name, value, Spec(kind, "", "", minimum, above, maximum, None, None, None))
+
+
+def check_flag(name: str, value: Any) -> bool:
+    """A plain True/False argument (not a dataclass field), or TypeError."""
+    return check_value(name, value, Spec(bool, ""))
 
 
 def check_fields(params: Any) -> None:

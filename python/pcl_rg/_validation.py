@@ -33,9 +33,14 @@ def as_points(
     TypeError
         For complex, boolean, object, string or other non-numeric dtypes.
     ValueError
-        For a wrong shape, more than `max_points` rows, or non-finite values
-        (the count and first indices are named).
+        For a wrong shape, more than `max_points` rows, non-finite values (the
+        count and first indices are named), or masked entries.
     """
+    if np.ma.is_masked(points):  # np.asarray would drop the mask: masked rows would count
+        raise ValueError(
+            f"{name}: masked arrays are not accepted (their masked rows would be used); "
+            "select the unmasked points first, e.g. points[~points.mask.any(axis=1)].data"
+        )
     array = np.asarray(points)
     kind = array.dtype.kind
     if kind not in "fiu":

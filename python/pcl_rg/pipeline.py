@@ -12,6 +12,7 @@ import numpy.typing as npt
 from ._convex_segmentation import ConvexSegmentationParams
 from ._diagnostics import collect_diagnostics
 from ._docstrings import fill_docstring
+from ._params import check_flag
 from ._point_scale import point_scale
 from ._region_growing import RegionGrowingParams, region_growing
 from ._statistical_outlier_removal import (
@@ -81,11 +82,13 @@ class Seed004Result(NamedTuple):
     """Result of :func:`seed004`."""
 
     labels: np.ndarray
-    """int32 (N,): cluster of every input point; -1 for SOR outliers and dropped regions."""
+    """int32 (N,): cluster of every input point; -1 for SOR outliers, points of voxels
+    under ``min_points_per_voxel`` and dropped regions."""
     inlier: np.ndarray
     """bool (N,): the SOR mask (all True when SOR is skipped)."""
     segment_of_point: np.ndarray
-    """intp (N,): row of ``points`` each input point went into, -1 for outliers."""
+    """intp (N,): row of ``points`` each input point went into; -1 for SOR outliers and
+    points of voxels under ``min_points_per_voxel``."""
     points: np.ndarray
     """float64 (M, 3): the preprocessed points that were segmented."""
     point_labels: np.ndarray
@@ -174,7 +177,11 @@ def seed004(
     voxel : VoxelGridParams or None, optional
         Simplification stage. None (the default): a leaf size chosen from the
         data by :func:`auto_leaf_size` (the report's stage name says which),
-        or no grid when `auto_voxel` is False.
+        or no grid when `auto_voxel` is False. Either grid is anchored at
+        multiples of the leaf in world coordinates (:func:`pcl_rg.voxel_grid`,
+        so that tiles of a survey share it): a cloud moved by other than whole
+        leaves is cut into other voxels, and some labels near voxel boundaries
+        change; none degrade at large (UTM) coordinates.
     region : RegionGrowingParams, optional
         Normals, curvatures and curvature-seeded region growing.
     time_original : bool, default False
@@ -187,8 +194,9 @@ def seed004(
     Returns
     -------
     Seed004Result
-        ``labels`` int32 (N,) per input point (-1: SOR outlier, or a region
-        outside the cluster sizes), numbered 0, 1, ... by each cluster's
+        ``labels`` int32 (N,) per input point (-1: SOR outlier, a point of a
+        voxel under ``min_points_per_voxel``, or a region outside the cluster
+        sizes), numbered 0, 1, ... by each cluster's
         smallest input index; the SOR ``inlier`` mask; ``segment_of_point``
         (the preprocessed point holding each input point); the segmented
         ``points`` and their ``point_labels``; and the ``report``.
@@ -240,6 +248,8 @@ def seed004(
         raise TypeError(f"voxel must be a VoxelGridParams or None, got {voxel!r}")
     if not isinstance(region, RegionGrowingParams):
         raise TypeError(f"region must be a RegionGrowingParams, got {region!r}")
+    time_original = check_flag("time_original", time_original)
+    auto_voxel = check_flag("auto_voxel", auto_voxel)
     xyz = as_points(points, max_points=MAX_POINTS_UINT32)  # stages check their own limits
     n = len(xyz)
     stages: list[StageReport] = []
