@@ -3,6 +3,7 @@ VLRs kept bit for bit, templates, scales, what LAS cannot store, and damaged fil
 
 from __future__ import annotations
 
+import laspy
 import numpy as np
 import pytest
 from las_helpers import random_las, raw_points
@@ -123,6 +124,23 @@ def test_las_template_with_header_text_that_is_not_ascii(tmp_path):
     cloud.header.system_identifier = "Zürich survey"
     write_points(tmp_path / "named.las", cloud.points, cloud.fields, template=cloud)
     assert read_points(tmp_path / "named.las").header.system_identifier == "Z?rich survey"
+
+
+def test_las_template_with_integer_extra_bytes_of_several_values(tmp_path):
+    # An extra-bytes dimension of 3 x int16 per point (or the 4 x uint8 laspy makes of
+    # undocumented extra bytes) has a sub-array dtype: laspy's dim.min/max fail on it,
+    # and writing in the file's own layout failed after the work (found by make fuzz).
+    las = random_las("1.4", 6, 40, seed=5, extra=False)
+    las.add_extra_dims([laspy.ExtraBytesParams(name="counts", type="3i2")])
+    las.counts = np.random.default_rng(5).integers(-30000, 30000, (40, 3))
+    las.write(tmp_path / "in.las")
+    cloud = read_points(tmp_path / "in.las")
+    write_points(tmp_path / "out.las", cloud.points, cloud.fields, template=cloud)
+    back = read_points(tmp_path / "out.las")
+    np.testing.assert_array_equal(back.fields["counts"], las.counts)
+    too_large = dict(cloud.fields, counts=np.full((40, 3), 40000))
+    with pytest.raises(ValueError, match=r"outside the range \[-32768, 32767\]"):
+        write_points(tmp_path / "bad.las", cloud.points, too_large, template=cloud)
 
 
 def test_las_without_template(tmp_path):

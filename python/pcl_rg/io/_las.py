@@ -202,10 +202,11 @@ def _write_las(
                         f"fields[{key!r}] holds fractional values but LAS stores {key} as integers"
                     )
             low, high = values.min(), values.max()
-            if low < dim.min or high > dim.max:
+            lowest, highest = _integer_range(dim)
+            if low < lowest or high > highest:
                 raise ValueError(
                     f"fields[{key!r}] has values from {low} to {high}, outside the range "
-                    f"[{dim.min}, {dim.max}] of LAS point format {header.point_format.id}"
+                    f"[{lowest}, {highest}] of LAS point format {header.point_format.id}"
                 )
             values = values.astype(np.int64)
         try:
@@ -238,6 +239,20 @@ def _write_las(
             raise recorder.error
 
     atomic_write(path, write_data)
+
+
+def _integer_range(dim) -> tuple[int, int]:
+    """The values an integer or bit-field LAS dimension can store.
+
+    laspy's own dim.min/max fail for a dimension of several values per point, such as
+    extra bytes of 3 x int16 or the 4 x uint8 it makes of undocumented extra bytes (a
+    sub-array dtype, kind 'V'); each value has the range of the element type.
+    """
+    type_str = dim.type_str()
+    if type_str is None:  # a bit field
+        return int(dim.min), int(dim.max)
+    info = np.iinfo(np.dtype(type_str).base)
+    return int(info.min), int(info.max)
 
 
 class _RecordingStream:
