@@ -359,9 +359,10 @@ def test_offset_does_not_change_geometry() -> None:
         ({"size": 100.0, "n_trees": 10**9}, "n_trees=1,000,000,000 ask for .* more than"),
         ({"size": 100.0, "density": 1e12}, "density=1e.12.* more than this machine's"),
         ({"size": 200.0, "n_buildings": 3000}, "3,000 buildings .* do not fit in a 200 m"),
-        ({"size": 1e5, "n_buildings": 10**6}, "n_buildings must be <= 10,000"),
+        ({"size": 1e5, "n_buildings": 10**6}, "n_buildings must be <= 100,000"),
         ({"size": 1e200}, r"size must be in \(0, 100000\]"),
-        ({"offset": (1e17, 0.0, 0.0)}, "too far from 0: float64 resolves only 32 m"),
+        ({"offset": (1e17, 0.0, 0.0)}, "too far from 0: beyond 1e.11 m"),
+        ({"offset": (0.0, 0.0, 1.5e308)}, "too far from 0"),  # 2 x offset overflows
     ],
 )
 def test_value_errors(kwargs: dict, match: str) -> None:

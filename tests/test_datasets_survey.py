@@ -231,9 +231,9 @@ def test_survey_formats_store_the_same_points(tmp_path) -> None:
         ),
         ({"origin": (1e306, 0.0, 0.0)}, ValueError, "origin .* is too far from 0"),
         (
-            {"tiles": (100, 100), "tile_size": 1000.0, "buildings_per_km2": 5.0},
+            {"tiles": (100, 100), "tile_size": 1000.0, "buildings_per_km2": 20.0},
             ValueError,
-            "50,000 buildings .* at most 10,000",
+            "200,000 buildings .* at most 100,000",
         ),
         ({"density": 1e12}, ValueError, "more than this machine's"),
         # Crowns at least 4 m across in a 3 m square.

@@ -7,6 +7,7 @@ import laspy
 import numpy as np
 import pytest
 from las_helpers import random_las, raw_points
+from laspy.vlrs.vlrlist import VLRList
 
 from pcl_rg.io import read_points, write_points
 
@@ -124,6 +125,25 @@ def test_las_template_with_header_text_that_is_not_ascii(tmp_path):
     cloud.header.system_identifier = "Zürich survey"
     write_points(tmp_path / "named.las", cloud.points, cloud.fields, template=cloud)
     assert read_points(tmp_path / "named.las").header.system_identifier == "Z?rich survey"
+
+
+@pytest.mark.parametrize("ext", [".las", ".laz"])
+def test_las_template_with_an_evlr_text_that_is_not_ascii(tmp_path, ext):
+    # The same for an extended VLR (LAS 1.4), which laspy writes with strict ASCII.
+    las = random_las("1.4", 6, 30, seed=4, extra=False)
+    las.evlrs = VLRList()
+    las.evlrs.append(laspy.VLR("pcl_rg_test", 7, "evdesc", b"payload"))
+    las.write(tmp_path / "in.las")
+    data = bytearray((tmp_path / "in.las").read_bytes())
+    data[data.index(b"evdesc") + 1] = 0xBA
+    (tmp_path / "in.las").write_bytes(bytes(data))
+    cloud = read_points(tmp_path / "in.las")
+    write_points(tmp_path / f"out{ext}", cloud.points, cloud.fields, template=cloud)
+    back = read_points(tmp_path / f"out{ext}")
+    np.testing.assert_array_equal(back.points, cloud.points)
+    assert [(v.description, v.record_data) for v in back.header.evlrs] == [
+        (b"e\xbadesc", b"payload")
+    ]
 
 
 def test_las_template_with_integer_extra_bytes_of_several_values(tmp_path):

@@ -366,6 +366,14 @@ def test_missing_file_and_bad_types(tmp_path):
         write_points(tmp_path / "a.ply", np.zeros((3, 3)), classification=[1, 2, 300])
     with pytest.raises(TypeError, match="template must be a PointFile"):
         write_points(tmp_path / "a.ply", np.zeros((3, 3)), template="x.las")
+    # Masked arrays: np.asarray would drop the mask and write the masked values.
+    masked = np.ma.masked_array(np.zeros((3, 3)), mask=[[0, 0, 0], [1, 1, 1], [0, 0, 0]])
+    with pytest.raises(ValueError, match="points: masked arrays are not written"):
+        write_points(tmp_path / "a.ply", masked)
+    values = np.ma.masked_array([1, 2, 3], mask=[0, 1, 0])
+    with pytest.raises(ValueError, match=r"fields\['a'\]: masked arrays are not written"):
+        write_points(tmp_path / "a.ply", np.zeros((3, 3)), {"a": values})
+    assert not (tmp_path / "a.ply").exists()
 
 
 def test_empty_clouds_round_trip(tmp_path):

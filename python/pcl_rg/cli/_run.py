@@ -39,9 +39,10 @@ class Run:
     def stage(self, key: str, description: str, source: str | None = None) -> Iterator[None]:
         """Time a stage; show a spinner on stderr if it runs past PROGRESS_DELAY.
 
-        `source`: the file whose points the stage works on. A ValueError the stage
-        raises is then about those points (an extent, a count, their layout against
-        the parameters), and its message says which file they came from.
+        `source`: the file the stage works on. A ValueError the stage raises then
+        names it: the message is about that file's points (their extent, say) or
+        about what an earlier step made of them (the points a pipeline kept), and
+        either way the user learns which input it came from.
         """
         start = time.perf_counter()
         done = threading.Event()
@@ -58,7 +59,7 @@ class Run:
             outcome[0] = "failed after"
             if source is None:
                 raise
-            raise ValueError(f"{error} (the points of {source!r})") from error
+            raise ValueError(f"{error} (input {source!r})") from error
         except BaseException as error:
             interrupted = isinstance(error, KeyboardInterrupt)
             outcome[0] = "interrupted after" if interrupted else "failed after"

@@ -335,9 +335,9 @@ def isprs_like_scene(
     ValueError
         If ``size`` is not in [250, 1000], ``density`` is not finite and > 0,
         ``seed`` is negative, ``noise_fraction`` is not in [0, 0.5),
-        ``offset`` is not 3 finite numbers or so large that float64 cannot
-        resolve 0.1 mm there, or the scene would need more memory than the
-        machine has.
+        ``offset`` is not 3 finite numbers or farther than 1e11 m from 0
+        (where float64 cannot resolve 0.1 mm), or the scene would need more
+        memory than the machine has.
     TypeError
         If the seed is not an integer, or another number is not a real number.
 

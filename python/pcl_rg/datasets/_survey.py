@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 import os
 from typing import NamedTuple
 
@@ -122,12 +121,13 @@ def _layout(
             f"{km2:g} km^2): at most {objects.MAX_BUILDINGS:,} are placed, each clear of every "
             "other; use fewer tiles or buildings_per_km2"
         )
-    # The tiles are drawn one at a time; the trees of the whole survey are placed at once.
-    crown = math.pi * objects.CROWN_RADIUS[1] ** 2
+    # The points are drawn one tile at a time (their crowns, roofs and walls included:
+    # twice the open ground's count at most); the objects of the whole survey at once.
     objects.check_scene_budget(
-        density * (tile_size * tile_size + n_trees * crown) * (1.0 + noise_fraction) * 1.2,
+        2.0 * density * tile_size * tile_size,
         n_trees + n_buildings,
-        f"tile_size={tile_size:g}, density={density:g}, trees_per_km2={trees_per_km2:g}",
+        f"tile_size={tile_size:g}, density={density:g}, tiles={tiles}, "
+        f"trees_per_km2={trees_per_km2:g}, buildings_per_km2={buildings_per_km2:g}",
     )
     buildings = objects.place_buildings(rng, n_buildings, area, terrain, _survey_sides)
     if len(buildings) < n_buildings:
@@ -306,8 +306,10 @@ def synthetic_survey(
     ------
     ValueError
         If a number is out of its range, ``tiles`` is not a pair, ``origin``
-        is not 3 finite numbers, ``format`` is unknown, or the buildings or
-        trees do not fit in the survey.
+        is not 3 finite numbers or farther than 1e11 m from 0, ``format`` is
+        unknown, the buildings or trees do not fit in the survey, it would
+        hold more than 100,000 buildings, or a tile with the survey's objects
+        would need more memory than the machine has.
     TypeError
         If ``folder`` is not a path, ``format`` not a str, a count or the seed
         not an integer, or another number not a real number.

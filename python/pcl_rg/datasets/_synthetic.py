@@ -99,10 +99,11 @@ def synthetic_scene(
     ValueError
         If ``size`` or ``density`` is not finite and > 0, ``size`` exceeds
         100 km, ``seed``, ``n_buildings`` or ``n_trees`` is negative,
-        ``n_buildings`` exceeds 10,000, ``noise_fraction`` is not in
-        [0, 0.5), ``offset`` is not 3 finite numbers or so large that float64
-        cannot resolve 0.1 mm there, the buildings or trees do not fit in the
-        area, or the scene would need more memory than the machine has.
+        ``n_buildings`` exceeds 100,000, ``noise_fraction`` is not in
+        [0, 0.5), ``offset`` is not 3 finite numbers or farther than 1e11 m
+        from 0 (where float64 cannot resolve 0.1 mm), the buildings or trees
+        do not fit in the area, or the scene would need more memory than the
+        machine has.
     TypeError
         If a count or the seed is not an integer, or ``size``, ``density`` or
         ``noise_fraction`` is not a real number.

@@ -31,6 +31,8 @@ def check_path(path: object, argname: str = "path") -> str:
 
 def check_xyz(points: ArrayLike) -> np.ndarray:
     """`points` as C-contiguous float64 (N, 3); NaN and signalling NaN kept, no warning."""
+    if np.ma.is_masked(points):  # np.asarray would drop the mask and write the rows
+        raise ValueError("points: masked arrays are not written; select the unmasked rows first")
     array = np.asarray(points)
     if array.dtype.kind not in "fiu":
         raise TypeError(f"points must be a real float or integer array, got dtype {array.dtype}")
@@ -52,6 +54,8 @@ def check_columns(
             raise TypeError(f"fields keys must be non-empty str, got {key!r}")
         if key.lower() in ("x", "y", "z"):
             raise ValueError(f"fields[{key!r}]: x, y and z are given in points, not fields")
+        if np.ma.is_masked(values):
+            raise ValueError(f"fields[{key!r}]: masked arrays are not written; fill them first")
         array = np.asarray(values)
         if array.dtype.kind not in "biuf":
             raise TypeError(

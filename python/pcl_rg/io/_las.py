@@ -228,7 +228,7 @@ def _write_las(
             ) as writer:
                 writer.write_points(las.points)
                 if las.header.version.minor >= 4 and las.evlrs is not None:
-                    writer.write_evlrs(las.evlrs)
+                    writer.write_evlrs(_LenientTexts(las.evlrs))
         except Exception:
             # lazrs turns an exception of the stream (e.g. ENOSPC) into its own
             # LazrsError; surface the original.
@@ -239,6 +239,23 @@ def _write_las(
             raise recorder.error
 
     atomic_write(path, write_data)
+
+
+class _LenientTexts:
+    """A list of EVLRs written with the header's "replace" for their text fields.
+
+    laspy's LasWriter.write_evlrs writes them with strict ASCII, whatever the writer
+    was given; this wrapper is the one place that passes the writer's choice on.
+    """
+
+    def __init__(self, vlrs) -> None:
+        self._vlrs = vlrs
+
+    def __len__(self) -> int:
+        return len(self._vlrs)
+
+    def write_to(self, stream: BinaryIO, as_extended: bool = False, **_: object) -> int:
+        return self._vlrs.write_to(stream, as_extended=as_extended, encoding_errors="replace")
 
 
 def _integer_range(dim) -> tuple[int, int]:

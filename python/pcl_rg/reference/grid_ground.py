@@ -173,6 +173,15 @@ def grid_ground(
     :func:`pcl_rg.reference._final_pass.final_pass` follows, ``final_passes``
     times, each round on the ground of the one before.
 
+    Raises
+    ------
+    ValueError, TypeError
+        As :func:`pcl_rg.grid_ground`.
+    QhullPrecisionError
+        Where qhull cannot resolve the final pass's TIN vertices
+        (:func:`pcl_rg.reference.tin_ground.triangulate`); the core has an
+        answer there, this reference does not.
+
     Examples
     --------
     >>> from pcl_rg import reference

@@ -338,6 +338,14 @@ def tin_ground(
 ) -> np.ndarray:
     """Reference progressive TIN densification: same signature and result as the core.
 
+    Raises
+    ------
+    ValueError, TypeError
+        As :func:`pcl_rg.tin_ground`.
+    QhullPrecisionError
+        Where qhull cannot resolve the TIN's vertices (:func:`triangulate`); the
+        core has an answer there, this reference does not.
+
     Examples
     --------
     >>> import numpy as np
