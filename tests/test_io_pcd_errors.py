@@ -161,6 +161,8 @@ def test_ascii_values_out_of_range_or_not_ascii(tmp_path):
         (b"HEIGHT 1", b"HEIGHT 1\nHEIGHT 1", "HEIGHT twice"),
         (b"HEIGHT 1", b"HEIGHT 1\nCOLOR red", "unknown header keyword 'COLOR'"),
         (b"HEIGHT 1", "HEIGHT 1 é".encode(), "not ASCII"),
+        # A NUL in a name: read, it could never be written back (found by make fuzz).
+        (b"FIELDS x y z intensity", b"FIELDS x y z inten\x00\x10sity", "not ASCII text"),
     ],
 )
 def test_bad_headers(tmp_path, old, new, match):

@@ -10,6 +10,7 @@ those of :func:`pcl_rg.io.read_pcd`.
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Sequence
 from typing import NamedTuple
 
@@ -61,6 +62,7 @@ PAD = "_"
 # The header ends with the DATA line; real headers are a few hundred bytes.
 MAX_HEADER_BYTES = 1 << 20
 _MAX_PCD_COUNT = 1 << 16
+_CONTROL = re.compile(r"[\x00-\x08\x0a-\x1f\x7f]")  # all but tab
 
 
 class PcdField(NamedTuple):
@@ -118,8 +120,12 @@ def parse_header(path: str, head: bytes) -> PcdHeader:
         try:
             line = raw.decode("ascii")
         except UnicodeDecodeError:
+            line = None
+        # Control characters (NUL, ...) are ASCII but no header's text: a field name
+        # holding them could be read but never written back.
+        if line is None or _CONTROL.search(line):
             what = "not a PCD file" if not entries else "header is not ASCII text"
-            raise bad_pcd(path, f"{what} (line {line_no}: {raw[:40]!r})") from None
+            raise bad_pcd(path, f"{what} (line {line_no}: {raw[:40]!r})")
         tokens = line.split()
         key = tokens[0]
         if key not in KEYWORDS:
