@@ -312,3 +312,61 @@ def test_pmf_empty() -> None:
             np.empty((0, 3)), approximate=approximate
         )
         assert empty.dtype == np.bool_ and empty.shape == (0,)
+
+
+# --- what PCL cannot run with: refused before it loops, aborts or exhausts memory -------
+
+_KM = np.c_[np.random.default_rng(0).uniform(0.0, 1000.0, (3000, 2)), np.zeros(3000)]
+
+
+@pytest.mark.parametrize(
+    ("points", "kwargs", "match"),
+    [
+        # PCL's `while (window < max_window_size)` never ends (memory grows ~0.4 GB/s).
+        (None, {"base": 1.0}, "window series does not grow"),
+        (None, {"base": 1 + 1e-8}, "window series does not grow"),  # 1 in float32
+        (None, {"base": 1e-300, "exponential": False}, "window series does not grow"),
+        (None, {"base": 1.0001}, "more than 64 steps"),  # ran for minutes
+        (_KM, {"max_window_size": 10**6, "exponential": False}, "more than 64 steps"),
+        (None, {"base": 1e10, "approximate": True}, "half size overflows int"),
+        # Octree and Eigen assertions (SIGABRT).
+        (None, {"cell_size": 1e-8}, "more than 2.24 cells on an axis"),
+        (None, {"cell_size": 3e38}, "beyond float32"),
+        (None, {"cell_size": 1e-45}, "float32, which cannot hold 1e-45"),
+        (_KM, {"cell_size": 1e-7, "approximate": True}, "more than 2.24 cells on an axis"),
+        # The approximate filter's dense grids and naive windows (120 GB, or hours).
+        (
+            _KM,
+            {"cell_size": 1e-2, "approximate": True},
+            r"grids would hold \d+ cells \(at most 2.28",
+        ),
+        (_KM, {"max_window_size": 10**6, "approximate": True}, "compare about .* at most 1e11"),
+    ],
+)
+def test_pmf_refuses_what_pcl_cannot_run(points, kwargs, match) -> None:
+    pts = _box_on_plane(41)[0] if points is None else points
+    with pytest.raises(ValueError, match=match):
+        pcl_rg.pcl.progressive_morphological_filter(pts, **kwargs)
+
+
+def test_voxel_grid_and_lccp_refuse_what_float32_and_pcl_cannot_hold() -> None:
+    # PCL's int64 voxel count wrapped for tiny leaves, and then the centroids came back
+    # in an order that did not match voxel_of_point (up to 1000 m off).
+    pts = np.array([[0, 0, 0], [1000.0, 1000.0, 10.0], [0, 0, 5.0], [3, 4, 0.1]])
+    with pytest.raises(ValueError, match="more than 2.31 - 1 voxels"):
+        pcl_rg.pcl.voxel_grid(pts, 3e-7)
+    with pytest.raises(ValueError, match="cannot hold the inverse of 1e-40"):
+        pcl_rg.pcl.voxel_grid([[0, 0, 0], [1, 1, 1]], 1e-40)  # one voxel for every point
+    with pytest.raises(ValueError, match="min_points_per_voxel: pcl::VoxelGrid counts in 32"):
+        pcl_rg.pcl.voxel_grid(pts, 1.0, min_points_per_voxel=2**32)
+    viewpoint = tuple(pts.mean(axis=0))
+    for kwargs, name in [
+        ({"voxel_resolution": 3.5e38, "seed_resolution": 3.5e38}, "voxel_resolution"),  # abort
+        ({"voxel_resolution": 0.5, "seed_resolution": 1e39}, "seed_resolution"),
+        (
+            {"voxel_resolution": 0.5, "seed_resolution": 2.0, "spatial_importance": 1e39},
+            "spatial_importance",
+        ),
+    ]:
+        with pytest.raises(ValueError, match=f"{name}: PCL computes in float32"):
+            pcl_rg.pcl.lccp(pts, viewpoint=viewpoint, **kwargs)

@@ -41,17 +41,29 @@ PclVoxelGridResult pcl_voxel_grid(PointsView points, const VoxelGridParams& para
     const float inverse[3] = {1.0f / static_cast<float>(params.leaf_size[0]),
                               1.0f / static_cast<float>(params.leaf_size[1]),
                               1.0f / static_cast<float>(params.leaf_size[2])};
-    // PCL's overflow refusal (warn, return the input) becomes an error here.
+    // A leaf whose float32 inverse is not finite would put every point in one voxel.
+    for (int a = 0; a < 3; ++a)
+        if (!std::isfinite(inverse[a]) || static_cast<float>(params.leaf_size[a]) <= 0.0f)
+            throw std::invalid_argument(
+                "leaf_size: pcl::VoxelGrid computes in float32, which "
+                "cannot hold the inverse of " +
+                check::format_value(params.leaf_size[a]));
+    // PCL's overflow refusal (warn, return the input) becomes an error here. Counted in
+    // double: PCL's own int64 product wraps for tiny leaves, and then passes.
+    if (params.min_points_per_voxel > std::numeric_limits<unsigned int>::max())
+        throw std::invalid_argument(
+            "min_points_per_voxel: pcl::VoxelGrid counts in 32 bits, at most 4294967295, got " +
+            std::to_string(params.min_points_per_voxel));
     Eigen::Vector4f min_p, max_p;
     pcl::getMinMax3D(*cloud, min_p, max_p);
-    std::int64_t voxels = 1;
+    double voxels = 1.0;
     for (int a = 0; a < 3; ++a)
-        voxels *= static_cast<std::int64_t>((max_p[a] - min_p[a]) * inverse[a]) + 1;
+        voxels *= std::floor(static_cast<double>((max_p[a] - min_p[a]) * inverse[a])) + 1.0;
     if (voxels > std::numeric_limits<std::int32_t>::max())
         throw std::invalid_argument(
             "leaf_size: pcl::VoxelGrid refuses more than 2^31 - 1 voxels in the bounding box, "
             "got " +
-            std::to_string(voxels) + " (pcl_rg.voxel_grid has no such limit)");
+            check::format_value(voxels) + " (pcl_rg.voxel_grid has no such limit)");
 
     pcl::VoxelGrid<pcl::PointXYZ> filter;
     filter.setInputCloud(cloud);

@@ -30,6 +30,7 @@
 #include <stdexcept>
 #include <string>
 #include <unordered_map>
+#include <utility>
 
 #include "pcl_cloud.hpp"
 #include "pcl_rg/check.hpp"
@@ -78,6 +79,24 @@ void check_reach(PointsView points, const LccpParams& params) {
             " m away on an axis");
 }
 
+// PCL's classes take these as float32: beyond its range a resolution trips an octree
+// assertion (abort) and an importance becomes inf (a silently degenerate result).
+void check_float32_range(const LccpParams& params) {
+    const std::pair<const char*, double> values[] = {
+        {"voxel_resolution", params.voxel_resolution},
+        {"seed_resolution", params.seed_resolution},
+        {"spatial_importance", params.spatial_importance},
+        {"normal_importance", params.normal_importance},
+        {"smoothness_threshold", params.smoothness_threshold}};
+    for (const auto& [name, value] : values) {
+        const auto single = static_cast<float>(value);
+        if (!std::isfinite(single) || (value > 0.0 && single < std::numeric_limits<float>::min()))
+            throw std::invalid_argument(std::string(name) +
+                                        ": PCL computes in float32, which cannot hold " +
+                                        check::format_value(value));
+    }
+}
+
 }  // namespace
 
 LccpTimings pcl_lccp(PointsView points, const LccpParams& params, std::int32_t* labels) {
@@ -86,6 +105,7 @@ LccpTimings pcl_lccp(PointsView points, const LccpParams& params, std::int32_t* 
     const std::size_t n = points.size;
     if (n == 0) return timings;
     check::indexable_by_int32(n);
+    check_float32_range(params);
     check_reach(points, params);
     const auto cloud = to_pcl_cloud(points, params.viewpoint);
     poll_interrupt();  // PCL's classes cannot be interrupted: polls between their stages

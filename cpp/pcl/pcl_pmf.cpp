@@ -8,6 +8,11 @@
 #include <pcl/segmentation/progressive_morphological_filter.h>
 
 #include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <stdexcept>
+#include <string>
 
 #include "pcl_cloud.hpp"
 #include "pcl_rg/check.hpp"
@@ -25,6 +30,86 @@ void validate(const ProgressiveMorphologicalFilterParams& params) {
 }
 
 namespace {
+
+// PCL builds its series of windows with `while (window < max_window_size)`, which never
+// ends when the series does not grow (base 1, or a base that float32 rounds to 1 or 0)
+// and runs for ages or overflows int when it grows too slowly or too fast; its grids are
+// sized from the extent with no limit, and its octree and Eigen assert (abort) where a
+// cell is too small for the extent. So the series is computed here first, in PCL's own
+// float32 arithmetic, and the grid and the work it implies are checked against limits
+// far above any use (the 10M-point benchmark: 5 windows, 2.5M cells, 7e9 comparisons).
+constexpr int kMaxWindows = 64;
+constexpr double kMaxCellsPerAxis = 1 << 24;      // octree keys and Eigen's int rows
+constexpr double kMaxApproximateCells = 1 << 28;  // 3 float matrices: 3 GiB
+constexpr double kMaxApproximateWork = 1e11;      // cells x window area, summed
+
+void check_against_extent(const ProgressiveMorphologicalFilterParams& params, double ex,
+                          double ey) {
+    const auto cell = static_cast<float>(params.cell_size);
+    const auto base = static_cast<float>(params.base);
+    if (!(cell >= std::numeric_limits<float>::min()) || !std::isfinite(cell))
+        throw std::invalid_argument("cell_size: PCL computes in float32, which cannot hold " +
+                                    check::format_value(params.cell_size));
+    const double cells_x = std::floor(ex / cell) + 1.0, cells_y = std::floor(ey / cell) + 1.0;
+    if (std::max(cells_x, cells_y) > kMaxCellsPerAxis)
+        throw std::invalid_argument("cell_size is too small for the extent of the points (" +
+                                    check::format_value(ex) + " x " + check::format_value(ey) +
+                                    " m: more than 2^24 cells on an axis), got " +
+                                    check::format_value(params.cell_size));
+    if (params.approximate && cells_x * cells_y > kMaxApproximateCells)
+        throw std::invalid_argument(
+            "cell_size is too small for the extent of the points: the approximate filter's "
+            "grids would hold " +
+            check::format_value(cells_x * cells_y) +
+            " cells (at most 2^28; a stray point far from the rest makes the extent this "
+            "large), got " +
+            check::format_value(params.cell_size));
+    // The series, as PCL computes it: metres (point-wise) or cells (approximate).
+    float window = 0.0f, previous = -1.0f;
+    double work = 0.0;
+    for (int k = 0; window < params.max_window_size; ++k) {
+        if (k == kMaxWindows)
+            throw std::invalid_argument(
+                "base and max_window_size: the window series takes more than 64 steps to "
+                "reach max_window_size (base " +
+                check::format_value(params.base) + ", " +
+                (params.exponential ? "exponential" : "linear") + ")");
+        double half = 0.0;
+        if (params.approximate) {
+            // PCL: static_cast<int>(pow(base, k)), or (k + 1) * base in float truncated.
+            half = params.exponential
+                       ? std::trunc(std::pow(static_cast<double>(base), k))
+                       : std::trunc(static_cast<double>(static_cast<float>(k + 1) * base));
+            if (!(half < 1 << 30))  // PCL's int half size, and int row indices beyond it
+                throw std::invalid_argument(
+                    "base: the approximate filter's window half size overflows int at step " +
+                    std::to_string(k) + ", got base " + check::format_value(params.base));
+            window = static_cast<float>(2 * static_cast<std::int64_t>(half) + 1);
+            work += cells_x * cells_y * std::min(2 * half + 1, cells_y) *
+                    std::min(2 * half + 1, cells_x);
+        } else {
+            window = params.exponential ? cell * (2.0f * std::pow(base, k) + 1.0f)
+                                        : cell * (2.0f * static_cast<float>(k + 1) * base + 1.0f);
+            if (!std::isfinite(window))
+                throw std::invalid_argument(
+                    "cell_size and base: a window of the series is beyond float32 at step " +
+                    std::to_string(k));
+        }
+        if (!(window > previous))
+            throw std::invalid_argument(
+                "base: the window series does not grow (base " + check::format_value(params.base) +
+                " as float32 holds it" +
+                (params.exponential ? ", exponential: it must exceed 1" : "") +
+                "), so PCL would never reach max_window_size");
+        previous = window;
+    }
+    if (work > kMaxApproximateWork)
+        throw std::invalid_argument(
+            "cell_size and max_window_size: the approximate filter would compare about " +
+            check::format_value(work) +
+            " cells (each cell against its window, for every window; at most 1e11); use a "
+            "larger cell_size or a smaller max_window_size");
+}
 
 template <class Filter>
 void run(Filter& filter, const pcl::PointCloud<pcl::PointXYZ>::Ptr& cloud,
@@ -48,7 +133,10 @@ void pcl_progressive_morphological_filter(PointsView points,
     validate(params);
     std::fill(ground, ground + points.size, false);
     if (points.size == 0) return;
-    const auto cloud = to_pcl_cloud(points, local_origin(points));
+    const auto origin = local_origin(points);
+    const auto cloud = to_pcl_cloud(points, origin);  // first: it names a stray point
+    const auto upper = upper_corner(points, origin);
+    check_against_extent(params, upper[0] - origin[0], upper[1] - origin[1]);
     poll_interrupt();  // PCL's filters themselves cannot be interrupted
 
     pcl::Indices indices;

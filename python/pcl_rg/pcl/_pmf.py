@@ -24,7 +24,11 @@ class ProgressiveMorphologicalFilterParams:
     """
 
     max_window_size: int = param(
-        20, minimum=1, bits=32, unit="cells", help="largest window (setMaxWindowSize)"
+        20,
+        minimum=1,
+        bits=32,
+        help="largest window: metres in the point-wise filter, cells in the approximate one "
+        "(setMaxWindowSize)",
     )
     slope: float = param(1.0, minimum=0.0, unit="m/m", help="terrain slope (setSlope)")
     initial_distance: float = param(
@@ -71,7 +75,10 @@ def progressive_morphological_filter(
     ----------
     %(points)s
     max_window_size : int, optional
-        Largest morphological window, cells (default 20; ``setMaxWindowSize``).
+        Largest morphological window (default 20; ``setMaxWindowSize``). PCL
+        compares it with the window in metres in the point-wise filter,
+        ``cell_size * (2 * base**k + 1)``, and in cells in the approximate one,
+        ``2 * int(base**k) + 1``: the two agree only where ``cell_size`` is 1.
     slope : float, optional
         Terrain slope for the height thresholds, m per m (default 1;
         ``setSlope``); >= 0.
@@ -101,7 +108,12 @@ def progressive_morphological_filter(
     Raises
     ------
     ValueError
-        Non-finite points, a wrong shape, or a parameter out of range.
+        Non-finite points, a wrong shape, a parameter out of range, or one that
+        PCL cannot run with on these points: a window series that does not
+        grow or takes more than 64 steps, values beyond float32, more than
+        2^24 cells on an axis, or (approximate) grids of more than 2^28 cells
+        or more than 1e11 cell comparisons. PCL would loop, abort or exhaust
+        memory there.
     %(type_error)s
 
     Notes
