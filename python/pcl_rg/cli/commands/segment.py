@@ -80,9 +80,8 @@ def execute(args: argparse.Namespace, run: Run) -> None:
     cloud, valid = read_input(args, run, ("k", params.k))
     points = cloud.points
     n_valid = int(valid.sum())
-    with run.stage(
-        "segment", f"segmentation ({method.name}) on {n_valid:,} points", source=args.input
-    ):
+    description = f"segmentation ({method.name}) on {n_valid:,} points"
+    with run.stage("segment", description, source=args.input):
         labels = method.function(points[valid], params=params)
     segment = np.full(len(cloud), -1, dtype=np.int32)
     segment[valid] = labels
