@@ -156,9 +156,10 @@ def lccp(
     Raises
     ------
     ValueError
-        Non-finite points, a wrong shape, a parameter out of range, or a point
-        more than 2**20 voxels from `viewpoint` (float32 would not resolve the
-        voxels).
+        Non-finite points, a wrong shape, a parameter out of range, a
+        resolution, importance or smoothness threshold that float32 cannot hold
+        (PCL aborts or degenerates there), or a point more than 2**20 voxels
+        from `viewpoint` (float32 would not resolve the voxels).
     %(type_error)s
 
     Notes
