@@ -43,7 +43,7 @@ PclVoxelGridResult pcl_voxel_grid(PointsView points, const VoxelGridParams& para
                               1.0f / static_cast<float>(params.leaf_size[2])};
     // A leaf whose float32 inverse is not finite would put every point in one voxel.
     for (int a = 0; a < 3; ++a)
-        if (!std::isfinite(inverse[a]) || static_cast<float>(params.leaf_size[a]) <= 0.0f)
+        if (!std::isfinite(inverse[a]))  // also a leaf that float32 rounds to 0
             throw std::invalid_argument(
                 "leaf_size: pcl::VoxelGrid computes in float32, which "
                 "cannot hold the inverse of " +

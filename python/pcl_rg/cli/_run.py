@@ -55,14 +55,11 @@ class Run:
             thread.start()
         try:
             yield
-        except ValueError as error:
-            outcome[0] = "failed after"
-            if source is None:
-                raise
-            raise ValueError(f"{error} (input {source!r})") from error
         except BaseException as error:
             interrupted = isinstance(error, KeyboardInterrupt)
             outcome[0] = "interrupted after" if interrupted else "failed after"
+            if isinstance(error, ValueError) and source is not None:
+                raise ValueError(f"{error} (input {source!r})") from error
             raise
         finally:
             # The spinner wakes within 0.25 s and ends: nothing outlives the stage, also
