@@ -130,8 +130,8 @@ def fail_writes(monkeypatch, budget: int, error: BaseException) -> list[str]:
 
     def fake_open(file, mode="r", *args, **kwargs):
         stream = real_open(file, mode, *args, **kwargs)
-        if isinstance(file, int) and "w" in mode:
-            seen.append(os.readlink(f"/proc/self/fd/{file}"))
+        if "x" in mode:  # the temporary file: created, never opened over an existing one
+            seen.append(os.fspath(file))
             return FailingStream(stream, budget, error)
         return stream
 

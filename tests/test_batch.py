@@ -399,6 +399,23 @@ def test_ctrl_c_stops_the_run_and_leaves_no_partial_file(tmp_path):
             assert len(read_points(out / name)) > 0  # complete files only
 
 
+def test_an_interrupt_as_the_scratch_folder_is_made_leaves_nothing(tmp_path, survey, monkeypatch):
+    # Ctrl-C handled as mkdir returns, before its result is stored (CPython runs signal
+    # handlers right after a call): the folder exists and must still be removed.
+    real_mkdir = os.mkdir
+
+    def mkdir_then_interrupt(path, *args, **kwargs):
+        real_mkdir(path, *args, **kwargs)
+        if "pcl_rg-scratch" in os.fspath(path):
+            raise KeyboardInterrupt
+
+    monkeypatch.setattr(batch._engine.os, "mkdir", mkdir_then_interrupt)
+    out = tmp_path / "out"
+    with pytest.raises(KeyboardInterrupt):
+        batch.ground(survey.paths, out)
+    assert not [n for n in os.listdir(out) if n.startswith(".pcl_rg-scratch")]
+
+
 def test_hostile_headers_among_the_tiles_fail_fast_and_alone(tmp_path, scheduler):
     import shutil
 

@@ -401,3 +401,32 @@ def test_failed_write_leaves_nothing(tmp_path, monkeypatch, ext, error):
     assert len(seen) == 1 and os.path.dirname(seen[0]) == str(tmp_path)  # it did start
     assert target.read_bytes() == b"previous content"
     assert sorted(p.name for p in tmp_path.iterdir()) == [f"out.{ext}"]
+
+
+def test_interrupt_as_the_temporary_file_is_created_leaves_nothing(tmp_path, monkeypatch):
+    # Ctrl-C handled as the creating call returns, before its result is stored (CPython
+    # runs signal handlers right after a call): the file exists, nothing refers to it.
+    real_open, real_os_open = open, os.open
+
+    def create_then_interrupt(file, mode="r", *args, **kwargs):
+        stream = real_open(file, mode, *args, **kwargs)
+        if "x" not in mode and "w" not in mode:
+            return stream
+        stream.close()
+        raise KeyboardInterrupt
+
+    def os_create_then_interrupt(name, flags, *args, **kwargs):
+        fd = real_os_open(name, flags, *args, **kwargs)
+        if not flags & os.O_CREAT:
+            return fd
+        os.close(fd)
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(pio._atomic, "open", create_then_interrupt, raising=False)
+    monkeypatch.setattr(pio._atomic.os, "open", os_create_then_interrupt)
+    target = tmp_path / "out.ply"
+    target.write_bytes(b"previous content")
+    with pytest.raises(KeyboardInterrupt):
+        write_points(target, np.zeros((10, 3)))
+    assert [p.name for p in tmp_path.iterdir()] == ["out.ply"]
+    assert target.read_bytes() == b"previous content"

@@ -17,9 +17,9 @@ import hashlib
 import json
 import logging
 import os
+import secrets
 import shutil
 import sys
-import tempfile
 import time
 from collections.abc import Iterator, Sequence
 from typing import Any
@@ -159,6 +159,25 @@ class _Progress:
             self.bar.close()
 
 
+@contextlib.contextmanager
+def _scratch_folder(folder: str) -> Iterator[str]:
+    """A new folder in `folder` for the stage-1 arrays, removed with its contents after."""
+    # Named before it is made: a KeyboardInterrupt raised as mkdir returns, before
+    # anything stores its result, must still find the folder to remove.
+    creating = ""
+    try:
+        while not creating:
+            creating = os.path.join(folder, f".pcl_rg-scratch-{secrets.token_hex(8)}")
+            try:
+                os.mkdir(creating, 0o700)
+            except FileExistsError:
+                creating = ""  # not ours: draw another name
+        yield creating
+    finally:
+        if creating:
+            shutil.rmtree(creating, ignore_errors=True)
+
+
 def _remove_partial_outputs(outputs: Sequence[str]) -> None:
     """Temporary files of writes cut short (a killed worker, Ctrl-C): never left behind."""
     for output in outputs:
@@ -208,12 +227,12 @@ def run(
     manifest = Manifest(folder)
     if not resume:
         manifest.clear()
-    scratch = tempfile.mkdtemp(prefix=".pcl_rg-scratch-", dir=folder)
-    job = dataclasses.replace(job_template, scratch=scratch)
-    parameters = _plain(dataclasses.asdict(job.params))
+    parameters = _plain(dataclasses.asdict(job_template.params))
     dashboard = None
     try:
-        with _client(workers, scheduler) as client:
+        # The scratch folder outlives the workers that write into it.
+        with _scratch_folder(folder) as scratch, _client(workers, scheduler) as client:
+            job = dataclasses.replace(job_template, scratch=scratch)
             dashboard = _dashboard(client)
             if on_dashboard and dashboard:
                 on_dashboard(dashboard)
@@ -227,14 +246,13 @@ def run(
                 client.cancel(futures, force=True)
                 raise
     finally:
-        shutil.rmtree(scratch, ignore_errors=True)
         _remove_partial_outputs(outputs)
     return BatchReport(
-        job.operation,
+        job_template.operation,
         reports,
         time.perf_counter() - start,
         n_workers,
-        job.buffer,
+        job_template.buffer,
         dashboard,
         parameters,
     )

@@ -66,30 +66,30 @@ def write_chunked(stream: BinaryIO, payload: bytes | memoryview) -> None:
 def atomic_write(path: str, write: Callable[[BinaryIO], None]) -> None:
     """Write through a temporary file in the same folder, renamed into place."""
     folder, base = os.path.split(os.path.abspath(path))
-    flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0)
-    fd = -1
-    temp = ""  # set once the file is ours
+    temp = ""  # set once the file is ours and its stream is stored
+    # The name being created, set before the call: a KeyboardInterrupt raised as the call
+    # returns, before its result is stored, must still remove the file the call made.
+    # Python's "x" mode creates with O_EXCL, so an existing name is never taken over.
+    creating = ""
     try:
-        # Inside the try from the start: a KeyboardInterrupt between creating the
-        # temporary file and writing to it must still remove the file and close the fd.
-        while fd < 0:
-            name = os.path.join(folder, f".{base}.{os.getpid()}.{secrets.token_hex(4)}.tmp")
-            with contextlib.suppress(FileExistsError):
-                # os.open applies the umask, unlike tempfile's private 0600 files.
-                fd = os.open(name, flags, 0o666)
-                temp = name
-        stream = open(fd, "wb")  # owns fd from here on
-        fd = -1
+        while not temp:
+            creating = os.path.join(folder, f".{base}.{os.getpid()}.{secrets.token_hex(4)}.tmp")
+            try:
+                # open applies the umask, unlike tempfile's private 0600 files. One object
+                # owns the descriptor from its creation: an interrupted open's stream is
+                # closed when it is dropped, and nothing else ever closes its number.
+                stream = open(creating, "xb")
+            except FileExistsError:
+                creating = ""  # not ours: draw another name
+                continue
+            temp = creating
         with stream:
             write(stream)
             stream.flush()
             os.fsync(stream.fileno())
         os.replace(temp, path)
     except BaseException:
-        if fd >= 0:  # opened, not yet handed to a stream: the file is ours
-            os.close(fd)
-            temp = name
-        if temp:
-            with contextlib.suppress(OSError):
-                os.unlink(temp)
+        if temp or creating:
+            with contextlib.suppress(OSError):  # an open interrupted before it created
+                os.unlink(temp or creating)
         raise
