@@ -61,11 +61,12 @@ CellGrid build_grid(PointsView points, const GridGroundParams& params,
                 grid.occupied.begin());
     }
 
-    // The points by cell and, with the pre-filter, within a cell by height (ties: input
-    // index): the pre-filter then meets a cell's low points first and stops at the first
-    // one it cannot fail against, and the links look only at heights within reach.
-    // Nothing else depends on the order within a cell (grid_ground.cpp); without the
-    // pre-filter it is the input order. Two steps that each touch memory in order, not
+    // The points by cell and, with the pre-filter or the low-outlier test, within a cell
+    // by height, then x, then y (ties: input index): the pre-filter then meets a cell's
+    // low points first and stops at the first one it cannot fail against, the links look
+    // only at heights within reach, and copies of a point lie next to each other for the
+    // low-outlier test. Nothing else depends on the order within a cell (grid_ground.cpp);
+    // without either it is the input order. Two steps that each touch memory in order, not
     // a gather from the input (whose order may be random): (1) every point moves, in
     // input order, straight into the grid's arrays at its band of consecutive cells, a
     // stable counting sort per chunk of the input as spatial_order.cpp's radix pass
@@ -74,7 +75,7 @@ CellGrid build_grid(PointsView points, const GridGroundParams& params,
     // No copy of the cloud beside the grid's arrays: the buffer holds one band. The
     // chunk count depends on n only, and every step is a stable sort or a sort under a
     // total order: the layout does not depend on the threads.
-    grid.by_height = params.filter_passes > 0;
+    grid.by_height = params.filter_passes > 0 || params.outlier_depth > 0.0;
     const int band_shift = std::max(0, bit_width(cells - 1) - 11);
     const std::size_t bands = ((cells - 1) >> band_shift) + 1;
     const auto chunks =
@@ -173,7 +174,10 @@ CellGrid build_grid(PointsView points, const GridGroundParams& params,
                         std::sort(sorted.begin() + static_cast<std::ptrdiff_t>(from),
                                   sorted.begin() + static_cast<std::ptrdiff_t>(fill[k]),
                                   [](const Record& a, const Record& b) {
-                                      return a.p.z < b.p.z || (a.p.z == b.p.z && a.id < b.id);
+                                      if (a.p.z != b.p.z) return a.p.z < b.p.z;
+                                      if (a.p.x != b.p.x) return a.p.x < b.p.x;
+                                      if (a.p.y != b.p.y) return a.p.y < b.p.y;
+                                      return a.id < b.id;
                                   });
             for (std::size_t k = 0; k < end - begin; ++k) {
                 const Record& r = sorted[k];

@@ -152,22 +152,47 @@ void slope_filter(const CellGrid& grid, const GridGroundParams& params,
 // Low outliers: outlier[s] = 1 when some point q at another position lies in the 3 x 3
 // cells of s and every such q has z_q - z_s > depth (the reference's test, in the same
 // arithmetic). Copies of s are not counted, so that duplicating a cloud changes nothing.
+// Needs the cells by (z, x, y) (grid.by_height): a point's copies, all in its cell, are
+// then one run, decided once, and the q with z_q - z_s <= depth come first in each cell,
+// so a run costs the copies it skips and the points it looks at before the first near
+// one, not the whole 3 x 3 block (thousands of copies of one point made this quadratic).
 void low_outliers(const CellGrid& grid, double depth, std::vector<unsigned char>& outlier) {
-    for_each_point_and_cells_around(grid, [&](std::size_t s, const std::ptrdiff_t* around, int k) {
-        bool alone = true, near = false;
-        for (int a = 0; a < k && !near; ++a)
-            for (std::size_t q = grid.start[around[a]]; q < grid.start[around[a] + 1]; ++q) {
-                const Local& other = grid.p[q];
-                const Local& self = grid.p[s];
-                if (other.x == self.x && other.y == self.y && other.z == self.z) continue;
-                alone = false;
-                if (!(grid.p[q].z - grid.p[s].z > depth)) {
+    if (!grid.by_height) throw std::logic_error("low_outliers: cells not sorted by height");
+    const bool parallel = grid.p.size() >= kGridParallelMin;
+    const auto cells = static_cast<std::ptrdiff_t>(grid.cells());
+    const Interruption interruption;
+#pragma omp parallel for schedule(dynamic, 256) if (parallel) firstprivate(interruption)
+    for (std::ptrdiff_t c = 0; c < cells; ++c) {
+        if (interruption.requested()) continue;
+        std::ptrdiff_t around[9];
+        const int k = grid.neighbours(static_cast<std::size_t>(c), around);
+        std::size_t in_block = 0;  // points in the 3 x 3 cells
+        for (int a = 0; a < k; ++a) in_block += grid.start[around[a] + 1] - grid.start[around[a]];
+        const std::size_t end = grid.start[c + 1];
+        for (std::size_t s = grid.start[c], copies_end; s < end; s = copies_end) {
+            const Local& self = grid.p[s];
+            copies_end = s + 1;
+            while (copies_end < end && grid.p[copies_end].x == self.x &&
+                   grid.p[copies_end].y == self.y && grid.p[copies_end].z == self.z)
+                ++copies_end;
+            bool near = false;
+            for (int a = 0; a < k && !near; ++a)
+                for (std::size_t q = grid.start[around[a]]; q < grid.start[around[a] + 1]; ++q) {
+                    if (q == s) {  // the run of s and its copies
+                        q = copies_end - 1;
+                        continue;
+                    }
+                    if (grid.p[q].z - self.z > depth) break;  // and so are all after it
                     near = true;
                     break;
                 }
-            }
-        outlier[s] = !alone && !near ? 1 : 0;
-    });
+            const bool alone = in_block == copies_end - s;
+            std::fill(outlier.begin() + static_cast<std::ptrdiff_t>(s),
+                      outlier.begin() + static_cast<std::ptrdiff_t>(copies_end),
+                      !alone && !near ? 1 : 0);
+        }
+    }
+    interruption.check();
 }
 
 // Whether a pre-filter pass grows the last pass's components (`before`: its candidates)

@@ -37,7 +37,7 @@ struct CellGrid {
     UnfilledVector<std::uint32_t> cell;           // cell number of each position
     UnfilledVector<std::int32_t> snap_x, snap_y;  // XY on the final pass's grid (if asked)
     std::vector<std::size_t> start;               // positions of cell c: [start[c], start[c + 1])
-    bool by_height = false;                       // a cell's points by height (else input order)
+    bool by_height = false;                       // a cell's points by (z, x, y), else input order
     std::size_t blocks = 0;
     std::vector<std::size_t> block_start;     // members of block b: block_member[
     std::vector<std::uint32_t> block_member;  //   block_start[b] .. block_start[b + 1])

@@ -14,6 +14,11 @@ inline void mark(std::vector<std::uint64_t>& bits, std::uint32_t s) {
     __atomic_fetch_or(&bits[s >> 6], std::uint64_t{1} << (s & 63), __ATOMIC_RELAXED);
 }
 
+/// Clears bit s of a bitmap (not atomic: one thread at a time).
+inline void unmark(std::vector<std::uint64_t>& bits, std::uint32_t s) {
+    bits[s >> 6] &= ~(std::uint64_t{1} << (s & 63));
+}
+
 /// Whether bit s of a bitmap is set.
 inline bool marked(const std::vector<std::uint64_t>& bits, std::uint32_t s) {
     return (bits[s >> 6] >> (s & 63) & 1u) != 0;
