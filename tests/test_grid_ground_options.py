@@ -56,6 +56,26 @@ def test_low_outliers_are_never_ground():
     assert pcl_rg.grid_ground(lone, params=dataclasses.replace(plain, outlier_depth=1.0)).all()
 
 
+@pytest.mark.parametrize("filter_passes", [0, 1])
+def test_low_outliers_among_many_copies_equal_the_reference(scene, filter_passes):
+    """Copies of 40 points (2 to 59 each) and of 5 low outliers 3 m below the terrain, in
+    random order: the core decides each run of copies once (a cell's points by z, x,
+    y), with or without the pre-filter that first sorted the cells; the reference tests
+    every point."""
+    rng = np.random.default_rng(11)
+    points = scene.points[:3000]
+    picked = rng.choice(len(points), 45, replace=False)
+    sources = points[picked] - np.r_[np.zeros((40, 3)), np.tile([0.0, 0.0, 3.0], (5, 1))]
+    copies = np.repeat(sources, rng.integers(2, 60, 45), axis=0)
+    cloud = np.vstack([points, copies])[rng.permutation(len(points) + len(copies))]
+    for params in (
+        GridGroundParams(outlier_depth=1.0, filter_passes=filter_passes, cell_size=2.0),
+        GridGroundParams.definition(outlier_depth=0.5, filter_passes=filter_passes),
+    ):
+        ground = assert_core_equals_reference(cloud, params)
+        assert 0 < ground.sum() < len(cloud)
+
+
 def test_final_passes_rerun_the_final_pass_on_its_own_ground(scene):
     """Round r + 1 is the final pass (the reference's) on round r's ground (without low
     outliers, which each round would mask afterwards)."""

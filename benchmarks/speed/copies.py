@@ -20,13 +20,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/_common.py
-from _common import (  # noqa: E402
-    command_of,
-    measure,
-    publish_report,
-    run_conditions,
-    speed_arguments,
-)
+import _common  # noqa: E402
 
 import pcl_rg
 
@@ -53,7 +47,7 @@ def distinct(n: int) -> np.ndarray:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = speed_arguments(__doc__, points=40_000)
+    parser = _common.speed_arguments(__doc__, points=40_000)
     args = parser.parse_args(argv)
     load_before = os.getloadavg()[0]
     sizes = (args.points // 4, args.points)
@@ -63,7 +57,7 @@ def main(argv: list[str] | None = None) -> int:
         for n in sizes:
             timing = {}
             for cloud in (copies, distinct):
-                result = measure(lambda n=n, cloud=cloud: cloud(n), function, args.repeats)
+                result = _common.measure(lambda n=n, cloud=cloud: cloud(n), function, args.repeats)
                 timing[cloud.__name__] = result.get("median", float("nan"))
                 if "median" not in result:
                     print(f"{name} on {cloud.__name__}: {result['error']}", file=sys.stderr)
@@ -81,14 +75,14 @@ def main(argv: list[str] | None = None) -> int:
         rows[-1].append(f"{ratios[1] / ratios[0]:.2f}")
         rows[-2].append("")
     about = (
-        f"{run_conditions(load_before)}. Defaults (voxel_grid: leaf 0.5 m); median of "
+        f"{_common.run_conditions(load_before)}. Defaults (voxel_grid: leaf 0.5 m); median of "
         f"{args.repeats} runs, each case in its own process. Growth: the copies / "
         "distinct ratio at the full size over the ratio at a quarter (about 4 when the "
         "time on copies is quadratic, about 1 when it is not)."
     )
     header = ["algorithm", "points", "copies s", "distinct s", "copies / distinct", "growth"]
-    command = command_of("benchmarks/speed/copies.py", parser, args)
-    publish_report(SECTION, command, about, header, rows, write=args.write)
+    command = _common.command_of("benchmarks/speed/copies.py", parser, args)
+    _common.publish_report(SECTION, command, about, header, rows, write=args.write)
     return 0
 
 

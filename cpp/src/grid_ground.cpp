@@ -95,10 +95,10 @@ namespace {
 constexpr double kMaxIndex = 0x1p40;
 constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
 
-// Calls visit(s, around, k) for every point s, in parallel over cells, with the k cells
-// of the 3 x 3 block around s's cell (its own included); polls for interruption.
+// Calls visit(c, around, k) for every cell c, in parallel, with the k cells of the
+// 3 x 3 block around c (c included); polls for interruption.
 template <class Visit>
-void for_each_point_and_cells_around(const CellGrid& grid, Visit visit) {
+void for_each_cell_and_cells_around(const CellGrid& grid, Visit visit) {
     const bool parallel = grid.p.size() >= kGridParallelMin;
     const auto cells = static_cast<std::ptrdiff_t>(grid.cells());
     const Interruption interruption;
@@ -107,9 +107,18 @@ void for_each_point_and_cells_around(const CellGrid& grid, Visit visit) {
         if (interruption.requested()) continue;
         std::ptrdiff_t around[9];
         const int k = grid.neighbours(static_cast<std::size_t>(c), around);
-        for (std::size_t s = grid.start[c]; s < grid.start[c + 1]; ++s) visit(s, around, k);
+        visit(static_cast<std::size_t>(c), around, k);
     }
     interruption.check();
+}
+
+// Calls visit(s, around, k) for every point s, in parallel over cells, with the k cells
+// of the 3 x 3 block around s's cell (its own included).
+template <class Visit>
+void for_each_point_and_cells_around(const CellGrid& grid, Visit visit) {
+    for_each_cell_and_cells_around(grid, [&](std::size_t c, const std::ptrdiff_t* around, int k) {
+        for (std::size_t s = grid.start[c]; s < grid.start[c + 1]; ++s) visit(s, around, k);
+    });
 }
 
 // Pre-filter: candidate[s] = 0 when s lies higher than a point q of its 3 x 3 cells with
@@ -158,14 +167,7 @@ void slope_filter(const CellGrid& grid, const GridGroundParams& params,
 // one, not the whole 3 x 3 block (thousands of copies of one point made this quadratic).
 void low_outliers(const CellGrid& grid, double depth, std::vector<unsigned char>& outlier) {
     if (!grid.by_height) throw std::logic_error("low_outliers: cells not sorted by height");
-    const bool parallel = grid.p.size() >= kGridParallelMin;
-    const auto cells = static_cast<std::ptrdiff_t>(grid.cells());
-    const Interruption interruption;
-#pragma omp parallel for schedule(dynamic, 256) if (parallel) firstprivate(interruption)
-    for (std::ptrdiff_t c = 0; c < cells; ++c) {
-        if (interruption.requested()) continue;
-        std::ptrdiff_t around[9];
-        const int k = grid.neighbours(static_cast<std::size_t>(c), around);
+    for_each_cell_and_cells_around(grid, [&](std::size_t c, const std::ptrdiff_t* around, int k) {
         std::size_t in_block = 0;  // points in the 3 x 3 cells
         for (int a = 0; a < k; ++a) in_block += grid.start[around[a] + 1] - grid.start[around[a]];
         const std::size_t end = grid.start[c + 1];
@@ -191,8 +193,7 @@ void low_outliers(const CellGrid& grid, double depth, std::vector<unsigned char>
                       outlier.begin() + static_cast<std::ptrdiff_t>(copies_end),
                       !alone && !near ? 1 : 0);
         }
-    }
-    interruption.check();
+    });
 }
 
 // Whether a pre-filter pass grows the last pass's components (`before`: its candidates)
