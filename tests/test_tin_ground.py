@@ -114,6 +114,19 @@ def test_many_copies_of_one_point_are_not_tested_once_per_iteration(monkeypatch)
     assert diagnostics["tin_ground"]["tests"] <= 2 * len(points)
 
 
+@pytest.mark.parametrize("copies", [0, 5])
+def test_iterations_end_when_every_point_is_ground(copies, monkeypatch) -> None:
+    # The reference stops as soon as no point is left to test; so must the core's count.
+    corners = [[0.0, 0.0, 0.0], [10.0, 0.0, 0.0], [0.0, 10.0, 0.0], [10.0, 10.0, 0.0]]
+    points = np.array(corners + [[3.0, 3.0, 0.0]] * (1 + copies))
+    count = reference_iterations(monkeypatch)
+    with pcl_rg.collect_diagnostics() as diagnostics:
+        core = pcl_rg.tin_ground(points, params=LIDAR360)
+    np.testing.assert_array_equal(core, reference.tin_ground(points, params=LIDAR360))
+    assert core.all()
+    assert diagnostics["tin_ground"]["iterations"] == count[0]
+
+
 @pytest.mark.parametrize("sample", ["samp21", "samp41"])
 @pytest.mark.parametrize("params", [LIDAR360, ISPRS], ids=["lidar360", "tuned"])
 def test_core_agrees_with_reference_on_isprs(sample: str, params) -> None:

@@ -163,8 +163,9 @@ void slope_filter(const CellGrid& grid, const GridGroundParams& params,
 // arithmetic). Copies of s are not counted, so that duplicating a cloud changes nothing.
 // Needs the cells by (z, x, y) (grid.by_height): a point's copies, all in its cell, are
 // then one run, decided once, and the q with z_q - z_s <= depth come first in each cell,
-// so a run costs the copies it skips and the points it looks at before the first near
-// one, not the whole 3 x 3 block (thousands of copies of one point made this quadratic).
+// so each cell of the block is decided by its first point that is not a copy: a run
+// costs its own length and 9 looks, not the whole block (thousands of copies of one
+// point made this quadratic).
 void low_outliers(const CellGrid& grid, double depth, std::vector<unsigned char>& outlier) {
     if (!grid.by_height) throw std::logic_error("low_outliers: cells not sorted by height");
     for_each_cell_and_cells_around(grid, [&](std::size_t c, const std::ptrdiff_t* around, int k) {

@@ -154,7 +154,8 @@ IdleIterations skip_idle_iterations(const Delaunay& tin, const Grid& sx, const G
     }
     chosen.clear();
     // This iteration was rank 0's; ranks 1 .. J each had one of their own (with no new
-    // vertex anywhere, every rank did, and the next iteration adds nothing).
+    // vertex anywhere, every rank did, and the next iteration, if a point is left,
+    // adds nothing).
     IdleIterations done;
     done.iterations = static_cast<std::int64_t>(std::min(first_new, last_rank));
     for (std::size_t k = 0, rank = 1; k < waiting.size(); ++k) {
@@ -371,7 +372,9 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
         return dist[a] < dist[b] || (dist[a] == dist[b] && order[a] < order[b]);
     };
 
-    for (std::int32_t iteration = 0;; ++iteration) {
+    // Points not yet ground: none left ends the loop without an iteration of its own.
+    auto unclassified = static_cast<std::int64_t>(work.size());
+    for (std::int32_t iteration = 0; unclassified > 0; ++iteration) {
         interruption.check_now();
         clock = std::chrono::steady_clock::now();
         std::exception_ptr failure;
@@ -471,6 +474,7 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
         stats.classification_seconds += seconds_since(clock);
         stats.iterations = iteration + 1 + idle_iterations;
         if (added == 0) break;
+        unclassified -= added;
 
         // Insert the chosen points in Morton order, each walking from its own triangle.
         clock = std::chrono::steady_clock::now();

@@ -100,7 +100,8 @@ void validate(const TinGroundParams& params);
 /// What a run did, for benchmarks and tests.
 struct TinGroundStats {
     std::int64_t seeds = 0;               ///< lowest points of the seed cells
-    std::int64_t iterations = 0;          ///< the definition's iterations, the last adding nothing
+    std::int64_t iterations = 0;          ///< the definition's, the last adding nothing or
+                                          ///< leaving no point unclassified
     std::int64_t tin_vertices = 0;        ///< final TIN vertices, the 4 virtual corners included
     std::int64_t tests = 0;               ///< point-in-triangle tests evaluated (after skipping)
     double prepare_seconds = 0.0;         ///< extent, spacing, snapping, spatial sort, seeds

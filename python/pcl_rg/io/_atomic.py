@@ -69,7 +69,9 @@ def atomic_write(path: str, write: Callable[[BinaryIO], None]) -> None:
     temp = ""  # set once the file is ours and its stream is stored
     # The name being created, set before the call: a KeyboardInterrupt raised as the call
     # returns, before its result is stored, must still remove the file the call made.
-    # Python's "x" mode creates with O_EXCL, so an existing name is never taken over.
+    # Python's "x" mode creates with O_EXCL, so an existing file is never opened (an
+    # interrupt right after a FileExistsError, before `creating` is cleared, would remove
+    # that file: one of this process id and the same 32 random bits).
     creating = ""
     try:
         while not temp:
