@@ -449,6 +449,26 @@ def test_a_stray_far_point_is_named_as_the_likely_cause() -> None:
             function(np.r_[points, [[1e15, 1e15, 0.0]]])
 
 
+def test_many_points_at_one_position_are_named_as_the_likely_cause() -> None:
+    # 60,000 copies of one point on a 10 m extent: a spacing of 1.5 mm, seed cells of
+    # 3 mm, more than 4 cells per point. The error says where the seed cell came from;
+    # with seed_cell given, it does not.
+    points = np.zeros((60_000, 3))
+    points[-10:] = np.random.default_rng(0).uniform(0.0, 10.0, (10, 3))
+    spacing = pcl_rg.point_spacing(points)
+    for function in (pcl_rg.tin_ground, reference.tin_ground):
+        with pytest.raises(ValueError) as raised:
+            function(points)
+        message = str(raised.value)
+        assert "seed_cell is too small" in message
+        assert "seed_cell was left unset" in message and "many points at one XY" in message
+        stated = float(message.split("point spacing, ")[1].split(" m")[0])
+        assert stated == pytest.approx(spacing, rel=1e-9)
+        with pytest.raises(ValueError) as raised:
+            function(points, seed_cell=0.001)
+        assert "left unset" not in str(raised.value)
+
+
 def test_keywords_override_params() -> None:
     points = scene(1).points
     np.testing.assert_array_equal(

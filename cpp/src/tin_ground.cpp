@@ -261,7 +261,19 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
     interruption.check_now();
 
     // --- 2. seeds: lowest point per max_building_size cell --------------------------
-    const std::vector<std::uint32_t> seeds = tin_seeds(points, params, origin, upper);
+    std::vector<std::uint32_t> seeds;
+    try {
+        seeds = tin_seeds(points, params, origin, upper);
+    } catch (const std::invalid_argument& error) {
+        if (given.seed_cell) throw;
+        // An unset seed_cell follows the measured spacing, which counts every point: many
+        // at one XY position (copies, poles, a scanner's footprint) make it tiny.
+        throw std::invalid_argument(
+            std::string(error.what()) +
+            " (seed_cell was left unset: " + std::to_string(kTinSeedCellPerSpacing) +
+            " x the measured point spacing, " + check::format_value(stats.point_spacing) +
+            " m, which many points at one XY position make small)");
+    }
     interruption.check_now();
     stats.seeds = static_cast<std::int64_t>(seeds.size());
     for (const std::uint32_t s : seeds) ground[s] = true;

@@ -362,6 +362,7 @@ def tin_ground(
     n = len(xyz)
     if n == 0:
         return np.zeros(0, dtype=bool)
+    seed_cell_unset = p.seed_cell is None
     p = with_spacing_lengths(p, lambda: point_spacing(xyz))
     if n < 3:
         raise ValueError(f"points must hold at least 3 points for a TIN, got {n}")
@@ -388,7 +389,16 @@ def tin_ground(
         )
 
     # 2. Seeds: lowest point (ties: index) of each max_building_size cell.
-    seed = _seeds(xyz, ex, ey, p)
+    try:
+        seed = _seeds(xyz, ex, ey, p)
+    except ValueError as error:
+        if not seed_cell_unset:
+            raise
+        multiple = TinGroundParams.SPACING_MULTIPLES["seed_cell"]
+        raise ValueError(
+            f"{error} (seed_cell was left unset: {multiple:.7g} x the measured point spacing, "
+            f"{point_spacing(xyz):.17g} m, which many points at one XY position make small)"
+        ) from None
     ground = np.zeros(n, dtype=bool)
     ground[seed] = True
     by_xy = seed[np.lexsort((seed, gy[seed], gx[seed]))]
