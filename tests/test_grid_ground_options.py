@@ -76,6 +76,33 @@ def test_low_outliers_among_many_copies_equal_the_reference(scene, filter_passes
         assert 0 < ground.sum() < len(cloud)
 
 
+@pytest.mark.parametrize(
+    "params",
+    [
+        GridGroundParams(cell_size=1.0),
+        GridGroundParams(cell_size=0.5, filter_passes=3),
+        GridGroundParams(cell_size=1.0, grow_across_blocks=False),
+        GridGroundParams(cell_size=1.0, filter_passes=0, outlier_depth=0.0),
+        GridGroundParams(cell_size=1.0, min_seed_component=50),
+    ],
+    ids=["defaults", "three passes", "per block", "no sorting", "seed component"],
+)
+def test_stacks_of_copies_equal_the_reference(params):
+    """Stacks of 2 to 199 copies of 20 points, and returns rounded to a 10 cm lattice
+    (a few hundred positions, each many times): a copy takes its predecessor's
+    pre-filter verdict and links (CellGrid::copy_of_previous) instead of testing its
+    whole neighbourhood; the components, so the mask, must stay the reference's."""
+    rng = np.random.default_rng(5)
+    terrain = np.c_[rng.uniform(0.0, 20.0, (800, 2)), rng.normal(0.0, 0.1, 800)]
+    terrain[rng.random(800) < 0.2, 2] += 3.0  # objects
+    stacks = np.repeat(terrain[rng.choice(800, 20, replace=False)], rng.integers(2, 200, 20), 0)
+    lattice = np.round(rng.uniform(0.0, 0.5, (1500, 3)), 1) + [10.0, 10.0, 0.0]
+    cloud = np.vstack([terrain, stacks, lattice])
+    cloud = cloud[rng.permutation(len(cloud))]
+    ground = assert_core_equals_reference(cloud, params)
+    assert 0 < ground.sum() < len(cloud)
+
+
 def test_final_passes_rerun_the_final_pass_on_its_own_ground(scene):
     """Round r + 1 is the final pass (the reference's) on round r's ground (without low
     outliers, which each round would mask afterwards)."""

@@ -135,6 +135,10 @@ void slope_filter(const CellGrid& grid, const GridGroundParams& params,
             candidate[s] = 1;
             return;
         }
+        if (grid.copy_of_previous(s)) {  // decided just before, in this cell's loop
+            candidate[s] = candidate[s - 1];
+            return;
+        }
         const double sx = grid.p[s].x, sy = grid.p[s].y, sz = grid.p[s].z;
         bool keep = true;
         for (int a = 0; a < k && keep; ++a) {

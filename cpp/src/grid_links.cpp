@@ -119,6 +119,12 @@ void add_to_components(const CellGrid& grid, const GridGroundParams& params,
         std::uint32_t current = kNone;
         for (std::ptrdiff_t s = chunk * kChunk; s < std::min(count, (chunk + 1) * kChunk); ++s) {
             if (!candidate[s] || before[s]) continue;
+            if (grid.copy_of_previous(static_cast<std::size_t>(s)) && candidate[s - 1] &&
+                !before[s - 1]) {
+                // A new candidate too, whose links are these.
+                sets.unite(static_cast<std::uint32_t>(s), static_cast<std::uint32_t>(s - 1));
+                continue;
+            }
             if (grid.cell[s] != current) {
                 current = grid.cell[s];
                 k = grid.neighbours(current, around);
@@ -145,6 +151,10 @@ void label_components(const CellGrid& grid, const GridGroundParams& params,
     sets.reset(grid.p.size());
     for_each_candidate(
         grid, candidate, parallel, [&](std::size_t s, const std::ptrdiff_t* around, int k) {
+            if (grid.copy_of_previous(s) && candidate[s - 1]) {  // its links are those
+                sets.unite(static_cast<std::uint32_t>(s), static_cast<std::uint32_t>(s - 1));
+                return;
+            }
             // From a pseudo-random one of the cells and place in it, round the lists:
             // the sampled links then run in every direction and join points of all
             // heights. (The cells in a fixed order made every point link into its
@@ -179,6 +189,8 @@ void label_components(const CellGrid& grid, const GridGroundParams& params,
         // from its smaller position.
         for_each_candidate(
             grid, candidate, parallel, [&](std::size_t s, const std::ptrdiff_t* around, int k) {
+                // A copy's pairs are its predecessor's, which also pairs with the copy.
+                if (grid.copy_of_previous(s) && candidate[s - 1]) return;
                 for (int a = 0; a < k; ++a) {
                     const auto [first, last] = within_reach(grid, around[a], grid.p[s].z, reach);
                     for (std::size_t q = std::max(first, s + 1); q < last; ++q)
@@ -203,7 +215,8 @@ void label_components(const CellGrid& grid, const GridGroundParams& params,
     }
     for_each_candidate(
         grid, candidate, parallel, [&](std::size_t s, const std::ptrdiff_t* around, int k) {
-            if (root[s] == giant) return;
+            // A copy shares its predecessor's root (joined above): that one is tested.
+            if (root[s] == giant || (grid.copy_of_previous(s) && candidate[s - 1])) return;
             for (int a = 0; a < k; ++a) {
                 const auto [first, last] = within_reach(grid, around[a], grid.p[s].z, reach);
                 for (std::size_t q = first; q < last; ++q)

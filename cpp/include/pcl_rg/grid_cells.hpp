@@ -48,6 +48,14 @@ struct CellGrid {
 
     std::size_t cells() const { return start.size() - 1; }
 
+    // Whether the point at position s is a copy of the one before it. A point's copies
+    // share its cell and, when the cells are sorted by height, lie next to it: every
+    // verdict of the filter and every link is then the previous point's, so the passes
+    // take it from there instead of testing the copy against its whole neighbourhood.
+    bool copy_of_previous(std::size_t s) const {
+        return s > 0 && p[s].x == p[s - 1].x && p[s].y == p[s - 1].y && p[s].z == p[s - 1].z;
+    }
+
     std::pair<std::int64_t, std::int64_t> cell_xy(std::size_t c) const {
         if (dense)
             return {static_cast<std::int64_t>(c) % width, static_cast<std::int64_t>(c) / width};
