@@ -64,8 +64,9 @@ CellGrid build_grid(PointsView points, const GridGroundParams& params,
     // The points by cell and, with the pre-filter or the low-outlier test, within a cell
     // by height, then x, then y (ties: input index): the pre-filter then meets a cell's
     // low points first and stops at the first one it cannot fail against, the links look
-    // only at heights within reach, and copies of a point lie next to each other for the
-    // low-outlier test. Nothing else depends on the order within a cell (grid_ground.cpp);
+    // only at heights within reach, and copies of a point lie next to each other
+    // (CellGrid::copy_of_previous: decided once by the pre-filter, the low-outlier test
+    // and the links). Nothing else depends on the order within a cell (grid_ground.cpp);
     // without either it is the input order. Two steps that each touch memory in order, not
     // a gather from the input (whose order may be random): (1) every point moves, in
     // input order, straight into the grid's arrays at its band of consecutive cells, a

@@ -179,9 +179,7 @@ void low_outliers(const CellGrid& grid, double depth, std::vector<unsigned char>
         for (std::size_t s = grid.start[c], copies_end; s < end; s = copies_end) {
             const Local& self = grid.p[s];
             copies_end = s + 1;
-            while (copies_end < end && grid.p[copies_end].x == self.x &&
-                   grid.p[copies_end].y == self.y && grid.p[copies_end].z == self.z)
-                ++copies_end;
+            while (copies_end < end && grid.copy_of_previous(copies_end)) ++copies_end;
             bool near = false;
             for (int a = 0; a < k && !near; ++a)
                 for (std::size_t q = grid.start[around[a]]; q < grid.start[around[a] + 1]; ++q) {

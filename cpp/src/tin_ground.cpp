@@ -101,75 +101,13 @@
 #include "pcl_rg/tin_seeds.hpp"
 #include "pcl_rg/unfilled_vector.hpp"
 #include "tin_acceptance.hpp"
+#include "tin_idle_iterations.hpp"
 
 namespace pcl_rg {
 
 namespace {
 
 using namespace tin_acceptance;  // Limits, Facet, Verdict, facet, evaluate, kDegToRad
-
-// Whether grid point (x, y) is a vertex of triangle t: inserting it then adds nothing.
-bool on_vertex(const Delaunay& tin, std::int32_t t, std::int32_t x, std::int32_t y) {
-    for (int k = 0; k < 3; ++k) {
-        const std::int32_t v = tin.triangle_vertex(t, k);
-        if (tin.vertex_x(v) == x && tin.vertex_y(v) == y) return true;
-    }
-    return false;
-}
-
-// The iterations that would leave the TIN as it is, done at once. When every point
-// chosen in an iteration equals a vertex of its triangle in XY, inserting them adds
-// nothing, so the next iteration tests the other accepted points against the same TIN,
-// reaches the same verdicts and chooses each triangle's next point by (d, index); so it
-// goes on until some triangle's choice is a new vertex (thousands of copies of one point
-// took an iteration each, every copy tested each time: quadratic). Here the points
-// waiting in each triangle (accepted, not chosen) are ranked once, the chosen one at 0:
-// with J the first rank at which some triangle's point is a new vertex, the points ranked
-// below J become ground and those ranked J are the choices, as J iterations one by one
-// would leave them; the others wait. `waiting` (sorted positions) is taken apart, and
-// `chosen` then holds the rank-J points in sorted order.
-struct IdleIterations {
-    std::int64_t ground = 0;      // points that became ground
-    std::int64_t iterations = 0;  // iterations of the definition done besides this one
-};
-template <class Positions, class Order, class Grid>
-IdleIterations skip_idle_iterations(const Delaunay& tin, const Grid& sx, const Grid& sy,
-                                    const std::vector<std::int32_t>& tri,
-                                    const std::vector<double>& dist, const Order& order,
-                                    std::vector<std::uint32_t>& waiting,
-                                    std::vector<std::uint64_t>& retest,
-                                    std::vector<std::uint8_t>& is_ground, Positions& chosen) {
-    std::sort(waiting.begin(), waiting.end(), [&](std::uint32_t a, std::uint32_t b) {
-        if (tri[a] != tri[b]) return tri[a] < tri[b];
-        if (dist[a] != dist[b]) return dist[a] < dist[b];
-        return order[a] < order[b];
-    });
-    std::size_t first_new = std::numeric_limits<std::size_t>::max();  // J
-    std::size_t last_rank = 0;
-    for (std::size_t k = 0, rank = 1; k < waiting.size(); ++k) {
-        const std::uint32_t s = waiting[k];
-        rank = k > 0 && tri[waiting[k - 1]] == tri[s] ? rank + 1 : 1;
-        last_rank = std::max(last_rank, rank);
-        if (rank < first_new && !on_vertex(tin, tri[s], sx[s], sy[s])) first_new = rank;
-    }
-    chosen.clear();
-    // This iteration was rank 0's; ranks 1 .. J each had one of their own (with no new
-    // vertex anywhere, every rank did, and the next iteration, if a point is left,
-    // adds nothing).
-    IdleIterations done;
-    done.iterations = static_cast<std::int64_t>(std::min(first_new, last_rank));
-    for (std::size_t k = 0, rank = 1; k < waiting.size(); ++k) {
-        const std::uint32_t s = waiting[k];
-        rank = k > 0 && tri[waiting[k - 1]] == tri[s] ? rank + 1 : 1;
-        if (rank > first_new) continue;  // tested again next iteration
-        is_ground[s] = 1;
-        unmark(retest, s);
-        ++done.ground;
-        if (rank == first_new) chosen.push_back(s);
-    }
-    std::sort(chosen.begin(), chosen.end());
-    return done;
-}
 
 }  // namespace
 
