@@ -43,7 +43,10 @@ def _clouds() -> dict[str, np.ndarray]:
     airborne = datasets.synthetic_scene(seed=3, size=360.0, density=4.0).points  # ~520 k
     uniform = np.random.default_rng(11).uniform(0.0, 100.0, (300_000, 3))
     surfaces = pcl_rg.voxel_grid(airborne[:150_000], leaf_size=0.6).centroids
-    return {"airborne": airborne, "uniform": uniform, "surfaces": surfaces}
+    # Stacks of 50 copies of every 1000th point: the copy shortcuts of the ground filters
+    # (CellGrid::copy_of_previous, skip_idle_iterations) run in their parallel passes.
+    stacked = np.vstack([airborne, np.repeat(airborne[::1000], 50, axis=0)])
+    return {"airborne": airborne, "uniform": uniform, "surfaces": surfaces, "stacked": stacked}
 
 
 def _jobs(c: dict[str, np.ndarray]) -> dict[str, Callable[[], str]]:
@@ -78,6 +81,8 @@ def _jobs(c: dict[str, np.ndarray]) -> dict[str, Callable[[], str]]:
         ),
         "delaunay_insert_batch": delaunay_batch,
         "grid_ground": lambda: _digest(pcl_rg.grid_ground(air)),
+        "grid_ground_copies": lambda: _digest(pcl_rg.grid_ground(c["stacked"])),
+        "tin_ground_copies": lambda: _digest(pcl_rg.tin_ground(c["stacked"])),
         "point_spacing": lambda: _digest(np.array([pcl_rg.point_spacing(air)])),
         "tin_ground": lambda: _digest(pcl_rg.tin_ground(air)),
         "tin_ground_lidar360": lambda: _digest(
