@@ -17,7 +17,7 @@ from conftest import ISPRS_SAMPLES, examples
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
-from tin_ground_helpers import ISPRS, ISPRS_FIXED, LIDAR360, isprs, run_core, scene
+from tin_ground_helpers import GRID, ISPRS, ISPRS_FIXED, LIDAR360, isprs, run_core, scene
 
 import pcl_rg
 from pcl_rg import _core, reference
@@ -27,16 +27,6 @@ from pcl_rg.reference.tin_ground import seeds
 
 # --------------------------------------------------------------------------
 # core vs reference
-
-GRID = [
-    LIDAR360,
-    ISPRS,
-    pcl_rg.TinGroundParams.lidar360(iteration_angle=25.0, reduce_angle_edge=3.0, stop_edge=1.0),
-    pcl_rg.TinGroundParams.lidar360(
-        max_building_size=15.0, iteration_distance=0.5, iteration_angle=45.0, max_terrain_angle=60.0
-    ),
-    pcl_rg.TinGroundParams.lidar360(seed_cell=3.0, seed_tolerance=0.3, near_vertex_distance=0.5),
-]
 
 
 @pytest.mark.parametrize("seed", [0, 1])
@@ -63,68 +53,6 @@ def test_core_equals_reference_with_sparse_seed_cells() -> None:
         np.testing.assert_array_equal(
             pcl_rg.tin_ground(points, params=params), reference.tin_ground(points, params=params)
         )
-
-
-def reference_iterations(monkeypatch) -> list[int]:
-    """A counter of the reference's iterations (one TIN per iteration), reset per call."""
-    module = sys.modules["pcl_rg.reference.tin_ground"]
-    count = [0]
-    real = module.triangulate
-
-    def counting(*args, **kwargs):
-        count[0] += 1
-        return real(*args, **kwargs)
-
-    monkeypatch.setattr(module, "triangulate", counting)
-    return count
-
-
-@pytest.mark.parametrize("params", GRID[:3], ids=[str(i) for i in range(3)])
-def test_copies_of_points_give_the_references_mask_and_iterations(params, monkeypatch) -> None:
-    # A copy of a vertex is accepted one per triangle per iteration and adds no vertex,
-    # so the definition spends iterations that leave the TIN as it was; the core does
-    # them at once (skip_idle_iterations) and must still count them and end with the
-    # reference's mask. Copies of 40 points (2 to 39 each), and points stacked on 10
-    # of them at other heights.
-    rng = np.random.default_rng(3)
-    points = scene(1).points
-    picked = rng.choice(len(points), 40, replace=False)
-    copies = np.repeat(points[picked], rng.integers(2, 40, 40), axis=0)
-    stacked = np.repeat(points[picked[:10]], 5, axis=0)
-    stacked[:, 2] += rng.uniform(-0.3, 0.3, len(stacked))
-    cloud = np.r_[points, copies, stacked][rng.permutation(len(points) + len(copies) + 50)]
-    count = reference_iterations(monkeypatch)
-    with pcl_rg.collect_diagnostics() as diagnostics:
-        core = pcl_rg.tin_ground(cloud, params=params)
-    np.testing.assert_array_equal(core, reference.tin_ground(cloud, params=params))
-    assert diagnostics["tin_ground"]["iterations"] == count[0]
-
-
-def test_many_copies_of_one_point_are_not_tested_once_per_iteration(monkeypatch) -> None:
-    # 600 copies of one point and 10 others: the definition takes about one iteration
-    # per copy. Testing every waiting copy in each of them was quadratic (2e8 tests for
-    # 20,000 copies); the core tests each point a few times.
-    points = np.zeros((610, 3))
-    points[600:] = np.random.default_rng(0).uniform(0.0, 10.0, (10, 3))
-    count = reference_iterations(monkeypatch)
-    with pcl_rg.collect_diagnostics() as diagnostics:
-        core = pcl_rg.tin_ground(points)
-    np.testing.assert_array_equal(core, reference.tin_ground(points))
-    assert diagnostics["tin_ground"]["iterations"] == count[0] > 590
-    assert diagnostics["tin_ground"]["tests"] <= 2 * len(points)
-
-
-@pytest.mark.parametrize("copies", [0, 5])
-def test_iterations_end_when_every_point_is_ground(copies, monkeypatch) -> None:
-    # The reference stops as soon as no point is left to test; so must the core's count.
-    corners = [[0.0, 0.0, 0.0], [10.0, 0.0, 0.0], [0.0, 10.0, 0.0], [10.0, 10.0, 0.0]]
-    points = np.array(corners + [[3.0, 3.0, 0.0]] * (1 + copies))
-    count = reference_iterations(monkeypatch)
-    with pcl_rg.collect_diagnostics() as diagnostics:
-        core = pcl_rg.tin_ground(points, params=LIDAR360)
-    np.testing.assert_array_equal(core, reference.tin_ground(points, params=LIDAR360))
-    assert core.all()
-    assert diagnostics["tin_ground"]["iterations"] == count[0]
 
 
 @pytest.mark.parametrize("sample", ["samp21", "samp41"])

@@ -20,6 +20,17 @@ ISPRS_FIXED = dataclasses.replace(
     ISPRS, stop_edge=2.0, near_vertex_distance=1.0, seed_cell=2.0, final_cell=3.0
 )
 
+# Parameter sets on which the core must equal the reference (test_tin_ground*.py).
+GRID = [
+    LIDAR360,
+    ISPRS,
+    pcl_rg.TinGroundParams.lidar360(iteration_angle=25.0, reduce_angle_edge=3.0, stop_edge=1.0),
+    pcl_rg.TinGroundParams.lidar360(
+        max_building_size=15.0, iteration_distance=0.5, iteration_angle=45.0, max_terrain_angle=60.0
+    ),
+    pcl_rg.TinGroundParams.lidar360(seed_cell=3.0, seed_tolerance=0.3, near_vertex_distance=0.5),
+]
+
 
 def scene(seed: int, size: float = 70.0, density: float = 1.0):
     return synthetic_scene(seed=seed, size=size, density=density, n_buildings=1, n_trees=6)

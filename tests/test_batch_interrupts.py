@@ -1,0 +1,73 @@
+"""Ctrl-C during ``pcl-rg batch`` and pcl_rg.batch: the run stops, and no partial or
+temporary file, nor the scratch folder, is left behind."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import time
+
+import pytest
+from conftest import CLI_WITH_SIGINT
+
+from pcl_rg import batch
+from pcl_rg.datasets import synthetic_survey
+from pcl_rg.io import read_points
+
+
+def test_ctrl_c_stops_the_run_and_leaves_no_partial_file(tmp_path):
+    # About 4M points: the TIN filter keeps both workers busy for seconds after the
+    # first tile is written, so the signal lands mid-run.
+    source = synthetic_survey(tmp_path / "in", tiles=(4, 4), tile_size=250.0, seed=9)
+    out = tmp_path / "out"
+    proc = subprocess.Popen(
+        [
+            *CLI_WITH_SIGINT,
+            "batch",
+            "ground",
+            *source.paths,
+            "--out",
+            str(out),
+            "--workers",
+            "2",
+            "--method",
+            "tin",
+            "--quiet",
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    deadline = time.time() + 120
+    while time.time() < deadline and not (
+        out.exists() and any(n.endswith(".laz") for n in os.listdir(out))
+    ):
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err
+    assert "interrupted" in err
+    left = os.listdir(out)
+    assert len([n for n in left if n.endswith(".laz")]) < len(source.paths)
+    assert not [n for n in left if n.endswith(".tmp") or n.startswith(".pcl_rg-scratch")]
+    for name in left:
+        if name.endswith(".laz"):
+            assert len(read_points(out / name)) > 0  # complete files only
+
+
+def test_an_interrupt_as_the_scratch_folder_is_made_leaves_nothing(tmp_path, survey, monkeypatch):
+    # Ctrl-C handled as mkdir returns, before its result is stored (CPython runs signal
+    # handlers right after a call): the folder exists and must still be removed.
+    real_mkdir = os.mkdir
+
+    def mkdir_then_interrupt(path, *args, **kwargs):
+        real_mkdir(path, *args, **kwargs)
+        if "pcl_rg-scratch" in os.fspath(path):
+            raise KeyboardInterrupt
+
+    monkeypatch.setattr(batch._engine.os, "mkdir", mkdir_then_interrupt)
+    out = tmp_path / "out"
+    with pytest.raises(KeyboardInterrupt):
+        batch.ground(survey.paths, out)
+    assert not [n for n in os.listdir(out) if n.startswith(".pcl_rg-scratch")]
