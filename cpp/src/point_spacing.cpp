@@ -18,17 +18,13 @@ double point_spacing(PointsView points) {
     return point_spacing(points, lower, upper_corner(points, lower));
 }
 
-double point_spacing(PointsView points, const std::array<double, 3>& lower,
-                     const std::array<double, 3>& upper) {
+namespace {
+
+// The number of cells of side c, anchored at (xmin, ymin), that hold a point; c is at
+// least max(w, h) / 2^31, so a cell's column and row fit 32 bits and its key 64.
+std::uint64_t occupied_cells(PointsView points, double xmin, double ymin, double w, double h,
+                             double c) {
     const std::size_t n = points.size;
-    if (n < 2) return std::numeric_limits<double>::quiet_NaN();
-    const double xmin = lower[0], xmax = upper[0], ymin = lower[1], ymax = upper[1];
-    const double w = xmax - xmin, h = ymax - ymin;
-    // No XY area (a vertical wall, a line along an axis): no density to measure.
-    if (!(w * h > 0.0)) return std::numeric_limits<double>::quiet_NaN();
-    const auto count = static_cast<double>(n);
-    const double c = std::max(3.0 * std::sqrt(w * h / count), std::max(w, h) / 65536.0);
-    // At most 65537 cells per axis (c >= max(w, h) / 65536): keys fit 64 bits.
     const auto nx = static_cast<std::uint64_t>(std::floor(w / c)) + 1;
     const auto ny = static_cast<std::uint64_t>(std::floor(h / c)) + 1;
     const auto key = [&](std::size_t i) {
@@ -37,7 +33,7 @@ double point_spacing(PointsView points, const std::array<double, 3>& lower,
         return ix * ny + iy;
     };
     std::uint64_t occupied = 0;
-    if (nx * ny <= 64 * static_cast<std::uint64_t>(n) + 4096) {
+    if (nx * ny <= 16 * static_cast<std::uint64_t>(n) + 4096) {
         // The usual case (about N / 9 cells): one flag per cell, set in parallel (the
         // same flags whatever the threads), then counted.
         const std::size_t cells = nx * ny;
@@ -48,21 +44,55 @@ double point_spacing(PointsView points, const std::array<double, 3>& lower,
 #pragma omp parallel if (parallel)
         {
 #pragma omp for schedule(static)
-            for (std::ptrdiff_t c = 0; c < cell_count; ++c)
-                seen[c].store(0, std::memory_order_relaxed);
+            for (std::ptrdiff_t k = 0; k < cell_count; ++k)
+                seen[k].store(0, std::memory_order_relaxed);
 #pragma omp for schedule(static)
             for (std::ptrdiff_t i = 0; i < points_count; ++i)
                 seen[key(static_cast<std::size_t>(i))].store(1, std::memory_order_relaxed);
 #pragma omp for schedule(static) reduction(+ : occupied)
-            for (std::ptrdiff_t c = 0; c < cell_count; ++c)
-                occupied += seen[c].load(std::memory_order_relaxed);
+            for (std::ptrdiff_t k = 0; k < cell_count; ++k)
+                occupied += seen[k].load(std::memory_order_relaxed);
         }
     } else {
-        // A slim or very uneven cloud: sort the keys instead.
+        // A slim, very uneven or mostly empty box: sort the keys instead.
         std::vector<std::uint64_t> keys(n);
         for (std::size_t i = 0; i < n; ++i) keys[i] = key(i);
         std::sort(keys.begin(), keys.end());
         occupied = static_cast<std::uint64_t>(std::unique(keys.begin(), keys.end()) - keys.begin());
+    }
+    return occupied;
+}
+
+}  // namespace
+
+double point_spacing(PointsView points, const std::array<double, 3>& lower,
+                     const std::array<double, 3>& upper) {
+    const std::size_t n = points.size;
+    if (n < 2) return std::numeric_limits<double>::quiet_NaN();
+    const double xmin = lower[0], xmax = upper[0], ymin = lower[1], ymax = upper[1];
+    const double w = xmax - xmin, h = ymax - ymin;
+    // No XY area (a vertical wall, a line along an axis): no density to measure.
+    if (!(w * h > 0.0)) return std::numeric_limits<double>::quiet_NaN();
+    const auto count = static_cast<double>(n);
+    // At most 65537 cells per axis (c >= max(w, h) / 65536).
+    double c = std::max(3.0 * std::sqrt(w * h / count), std::max(w, h) / 65536.0);
+    std::uint64_t occupied = occupied_cells(points, xmin, ymin, w, h, c);
+    // A box less than a quarter occupied at this cell (more than 36 points per occupied
+    // cell, against 9 when it is covered) is set by points far from the rest, or by data
+    // in a corner or along a diagonal of it: the cell follows the occupied area instead,
+    // 3 x the spacing it gives (at most half the cell), again until the cells are fine
+    // enough. Not past a quarter of the distinct positions (cells of `finest`): where
+    // many points share a position (copies), finer cells would only shrink with them.
+    const double finest = std::max(w, h) / 0x1p31;
+    std::uint64_t positions = 0;  // counted when first needed: a sort
+    while (count > 36.0 * static_cast<double>(occupied)) {
+        if (positions == 0) positions = occupied_cells(points, xmin, ymin, w, h, finest);
+        if (!(4 * occupied < positions)) break;
+        const double finer =
+            std::max(3.0 * std::sqrt(static_cast<double>(occupied) * c * c / count), finest);
+        if (!(finer < c)) break;
+        c = finer;
+        occupied = occupied_cells(points, xmin, ymin, w, h, c);
     }
     return std::sqrt(static_cast<double>(occupied) * c * c / count);
 }

@@ -2,11 +2,14 @@
 #include "pcl_rg/tin_seeds.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <stdexcept>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "pcl_rg/cell_lowest.hpp"
 #include "pcl_rg/check.hpp"
@@ -156,6 +159,70 @@ void drop_low_outliers(std::vector<double>& height, std::int64_t ncx, std::int64
     }
 }
 
+// The seed cells as a raster of ncx x ncy cells, row-major by column then row, with the
+// lowest point (ties: smallest index) of each, -1 where empty.
+struct SeedRaster {
+    std::int64_t ncx = 0, ncy = 0;
+    std::vector<std::int64_t> lowest;
+};
+
+// The occupied columns (or rows) `occupied`, sorted and distinct, renumbered from 0 with
+// every run of more than `reach` empty ones between two of them cut to `reach` + 1
+// steps; `place[j]` is occupied[j]'s new number.
+std::vector<std::int64_t> close_gaps(const std::vector<std::int64_t>& occupied,
+                                     std::int64_t reach) {
+    std::vector<std::int64_t> place(occupied.size(), 0);
+    for (std::size_t j = 1; j < occupied.size(); ++j)
+        place[j] = place[j - 1] + std::min(occupied[j] - occupied[j - 1], reach + 1);
+    return place;
+}
+
+// The seed raster with its empty gaps closed (close_gaps), for points whose box is
+// mostly empty, such as a cloud with a few points far from the rest, whose full raster
+// would not fit in memory. A cell's verdict (the low-outlier test, the opening) reads
+// only the cells within `reach` columns and rows of it, and close_gaps keeps each
+// occupied cell's offset to every occupied cell within that reach, and keeps the others
+// beyond it, so every occupied cell sees the same neighbourhood as in the full raster:
+// the seeds are the same. Empty = too large: ncx * ncy > limit.
+SeedRaster closed_raster(PointsView points, const std::array<double, 3>& origin, double cell,
+                         std::int64_t reach, double limit) {
+    const std::size_t n = points.size;
+    std::vector<std::int64_t> column(n), row(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        column[i] = floor_to_int((points.coord(i, 0) - origin[0]) / cell);
+        row[i] = floor_to_int((points.coord(i, 1) - origin[1]) / cell);
+    }
+    const auto distinct = [](std::vector<std::int64_t> values) {
+        std::sort(values.begin(), values.end());
+        values.erase(std::unique(values.begin(), values.end()), values.end());
+        return values;
+    };
+    const Interruption interruption;
+    interruption.check_now();
+    const std::vector<std::int64_t> columns = distinct(column), rows = distinct(row);
+    interruption.check_now();
+    const std::vector<std::int64_t> column_place = close_gaps(columns, reach);
+    const std::vector<std::int64_t> row_place = close_gaps(rows, reach);
+    SeedRaster raster;
+    raster.ncx = column_place.back() + 1;
+    raster.ncy = row_place.back() + 1;
+    if (!(static_cast<double>(raster.ncx) * static_cast<double>(raster.ncy) <= limit))
+        return SeedRaster{};
+    const auto place = [](const std::vector<std::int64_t>& values,
+                          const std::vector<std::int64_t>& places, std::int64_t value) {
+        return places[std::lower_bound(values.begin(), values.end(), value) - values.begin()];
+    };
+    raster.lowest.assign(static_cast<std::size_t>(raster.ncx * raster.ncy), -1);
+    for (std::size_t i = 0; i < n; ++i) {
+        std::int64_t& lowest = raster.lowest[static_cast<std::size_t>(
+            place(columns, column_place, column[i]) * raster.ncy + place(rows, row_place, row[i]))];
+        // Lowest z, then smallest index, as lowest_in_cells (z0 = 0) keeps it.
+        if (lowest < 0 || points.coord(i, 2) < points.coord(static_cast<std::size_t>(lowest), 2))
+            lowest = static_cast<std::int64_t>(i);
+    }
+    return raster;
+}
+
 // Zhao-style seeds (TinGroundParams::seed_cell): lowest points of seed_cell cells close
 // to the grey opening of their heights, after dropping low outliers (rank test).
 std::vector<std::uint32_t> morphological_seeds(PointsView points,
@@ -163,17 +230,29 @@ std::vector<std::uint32_t> morphological_seeds(PointsView points,
                                                double ey, const TinGroundParams& params) {
     const double cell = *params.seed_cell;
     const double limit = 4.0 * static_cast<double>(points.size) + 4194304.0;
-    if (!((std::floor(ex / cell) + 1.0) * (std::floor(ey / cell) + 1.0) <= limit))
-        throw std::invalid_argument(
-            "seed_cell is too small for the XY extent of the points (" + check::format_value(ex) +
-            " x " + check::format_value(ey) + " m: more than 4 cells per point), got " +
-            check::format_value(cell) +
-            "; points far from the rest make the extent this large (drop them), or set a "
-            "larger seed_cell");
-    const auto ncx = static_cast<std::int64_t>(std::floor(ex / cell)) + 1;
-    const auto ncy = static_cast<std::int64_t>(std::floor(ey / cell)) + 1;
-    const std::vector<std::int64_t> lowest =
-        lowest_in_cells(points, CellLattice{origin[0], origin[1], 0.0, cell, ncx, ncy});
+    // Half-width of the opening's windows, in cells.
+    const auto r = static_cast<std::int64_t>(std::floor(params.max_building_size / (2.0 * cell)));
+    SeedRaster raster;
+    if ((std::floor(ex / cell) + 1.0) * (std::floor(ey / cell) + 1.0) <= limit) {
+        raster.ncx = static_cast<std::int64_t>(std::floor(ex / cell)) + 1;
+        raster.ncy = static_cast<std::int64_t>(std::floor(ey / cell)) + 1;
+        raster.lowest = lowest_in_cells(
+            points, CellLattice{origin[0], origin[1], 0.0, cell, raster.ncx, raster.ncy});
+    } else {
+        // The opening reads 2r cells away (an erosion, then a dilation), the outlier test 2;
+        // columns and rows beyond 2^62 would not fit the cells' numbers.
+        if (ex / cell < 0x1p62 && ey / cell < 0x1p62)
+            raster = closed_raster(points, origin, cell, std::max<std::int64_t>(2 * r, 2), limit);
+        if (raster.lowest.empty())
+            throw std::invalid_argument(
+                "seed_cell is too small for the XY extent of the points (" +
+                check::format_value(ex) + " x " + check::format_value(ey) +
+                " m: more than 4 cells per point, even with the empty rows and columns of "
+                "cells between them cut short), got " +
+                check::format_value(cell) + "; set a larger seed_cell");
+    }
+    const std::int64_t ncx = raster.ncx, ncy = raster.ncy;
+    const std::vector<std::int64_t>& lowest = raster.lowest;
     const double none = std::numeric_limits<double>::infinity();
     std::vector<double> height(lowest.size());
     const auto cells = static_cast<std::ptrdiff_t>(lowest.size());
@@ -188,7 +267,6 @@ std::vector<std::uint32_t> morphological_seeds(PointsView points,
         // until none is found, so that clusters of outliers are peeled from the rim in.
         drop_low_outliers(height, ncx, ncy, params.outlier_depth);
     }
-    const auto r = static_cast<std::int64_t>(std::floor(params.max_building_size / (2.0 * cell)));
     const std::vector<double> opened =
         square_filter(square_filter(height, ncx, ncy, r, false), ncx, ncy, r, true);
     std::vector<std::uint32_t> seeds;

@@ -52,6 +52,16 @@ def point_spacing(points: npt.ArrayLike) -> float:
     tile has the spacing of its points, not of its box. Every return counts:
     vegetation and walls make it smaller than the spacing of the ground alone.
 
+    A box less than a quarter occupied (more than 36 points per occupied cell,
+    against 9 when the box is covered) does not set the cell: a few points far
+    from the rest (a bad GPS fix, a point at (0, 0, 0)) or data along the box's
+    diagonal would make it far too coarse. The cell then becomes 3 times the
+    spacing so measured, at least halving it, and the count is taken again,
+    while the box stays less than a quarter occupied at that cell and the
+    occupied cells are fewer than a quarter of the distinct XY positions
+    (where most points are copies of a few, finer cells would only shrink with
+    them). One point 700 km from an ISPRS sample moves its spacing by at most 5 %.
+
     The unset lengths of :class:`TinGroundParams` (``stop_edge``,
     ``near_vertex_distance``, ``seed_cell``, ``final_cell``: the ISPRS
     lengths, capped at a multiple of this) and :class:`GridGroundParams`

@@ -414,6 +414,14 @@ def tin_ground(
     TIN's snapping grid (step 2) stays at the minimum corner: its step depends
     on the extent, and it moves points by micrometres.
 
+    A few points far from the rest (a bad GPS fix, a point at (0, 0, 0)) are
+    taken: the spacing follows the occupied cells, not the box, and the seed
+    raster leaves out the long empty runs of cells between them, which changes
+    no seed. They join the TIN as seeds, though, and its triangles along the
+    border of the data then reach them: on the seven ISPRS samples one point
+    700 km away raises the mean total error from 3.33 to 3.70 %. Drop such
+    points first (:func:`statistical_outlier_removal`, ``pcl-rg denoise``).
+
     The result does not depend on the order of the points except through ties
     broken by index, nor on the number of threads. The C++ core runs with the
     GIL released; the float64 input is shifted to a local origin first.

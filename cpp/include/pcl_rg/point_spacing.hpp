@@ -17,7 +17,12 @@ namespace pcl_rg {
 /// counts the cells that hold a point. Empty cells (water, gaps wider than about 3
 /// spacings, the outside of an irregular outline) do not count, so a half-empty tile has
 /// the spacing of its points, not of its box. Every return counts, so vegetation and
-/// walls make the spacing smaller than that of the ground alone. NaN when undefined:
+/// walls make the spacing smaller than that of the ground alone. A box less than a
+/// quarter occupied (N > 36 M: points far from the rest, data along its diagonal) does
+/// not set the cell: then c = max(3 x the spacing measured, max(w, h) / 2^31), measured
+/// again, while N > 36 M and 4 M is below the number of distinct XY positions (cells of
+/// max(w, h) / 2^31; copies would otherwise shrink the cells without end), each round
+/// halving c at least. NaN when undefined:
 /// fewer than 2 points, or no XY area (w * h == 0: all on one line along x or y, such
 /// as a vertical wall). Deterministic, O(N); NumPy twin: pcl_rg.reference.point_spacing.
 double point_spacing(PointsView points);

@@ -15,7 +15,10 @@ namespace pcl_rg {
 /// The seeds of tin_ground, sorted by index: the lowest point of each max_building_size
 /// cell, or the morphological seeds when params.seed_cell > 0; the cells lie on the world
 /// lattice of their size. `origin` (the minimum corner) and `upper` bound the points' box.
-/// `params` must have seed_cell set (tin_ground passes with_spacing(...)).
+/// `params` must have seed_cell set (tin_ground passes with_spacing(...)). The
+/// morphological seeds' raster leaves out long empty runs of cells when the full one
+/// would exceed 4 cells per point (a few points far from the rest), which changes no
+/// seed; it throws std::invalid_argument when even that raster is too large.
 std::vector<std::uint32_t> tin_seeds(PointsView points, const TinGroundParams& params,
                                      const std::array<double, 3>& origin,
                                      const std::array<double, 3>& upper);

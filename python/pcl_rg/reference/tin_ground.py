@@ -181,22 +181,44 @@ def _lowest_in_cells(xyz: np.ndarray, local: np.ndarray, cell: float, ncy: int) 
     return key, first, key[first]
 
 
+def _close_gaps(index: np.ndarray, reach: int) -> tuple[np.ndarray, int]:
+    """Each value's place once every run of more than `reach` unused values between two
+    used ones is cut to `reach` + 1 steps, and how many places there are."""
+    used, inverse = np.unique(index, return_inverse=True)
+    place = np.r_[0, np.cumsum(np.minimum(np.diff(used), reach + 1))]
+    return place[inverse.ravel()], int(place[-1]) + 1
+
+
 def _morphological_seeds(
     xyz: np.ndarray, local: np.ndarray, ex: float, ey: float, p: TinGroundParams
 ) -> np.ndarray:
-    """Seeds of the ``seed_cell`` option (``morphological_seeds`` in tin_ground.cpp)."""
+    """Seeds of the ``seed_cell`` option (``morphological_seeds`` in tin_seeds.cpp).
+
+    The raster keeps the occupied columns and rows of cells with every longer run of
+    empty ones between them cut to the reach of the windows + 1 (the opening reads 2r
+    cells away, the outlier test 2), which gives each occupied cell the neighbourhood it
+    has in the full raster: the same seeds, and a raster that fits when a few points lie
+    far from the rest. The C++ core builds the full raster when that fits.
+    """
     cell = p.seed_cell
-    if (
-        not (math.floor(ex / cell) + 1.0) * (math.floor(ey / cell) + 1.0)
-        <= 4.0 * len(xyz) + 4194304.0
-    ):
+    r = math.floor(p.max_building_size / (2.0 * cell))
+    limit = 4.0 * len(xyz) + 4194304.0
+    full = (math.floor(ex / cell) + 1.0) * (math.floor(ey / cell) + 1.0)
+    fits = full <= limit or (ex / cell < 2.0**62 and ey / cell < 2.0**62)
+    if fits:
+        column, ncx = _close_gaps(np.floor(local[:, 0] / cell).astype(np.int64), max(2 * r, 2))
+        row, ncy = _close_gaps(np.floor(local[:, 1] / cell).astype(np.int64), max(2 * r, 2))
+        fits = float(ncx) * float(ncy) <= limit
+    if not fits:
         raise ValueError(
             f"seed_cell is too small for the XY extent of the points ({ex:g} x {ey:g} m: more "
-            f"than 4 cells per point), got {cell:g}; points far from the rest make the extent "
-            "this large (drop them), or set a larger seed_cell"
+            "than 4 cells per point, even with the empty rows and columns of cells between "
+            f"them cut short), got {cell:g}; set a larger seed_cell"
         )
-    ncx, ncy = math.floor(ex / cell) + 1, math.floor(ey / cell) + 1
-    _, lowest, cells = _lowest_in_cells(xyz, local, cell, ncy)
+    key = column * ncy + row
+    by_cell = np.lexsort((np.arange(len(xyz)), xyz[:, 2], key))
+    lowest = by_cell[np.r_[True, key[by_cell][1:] != key[by_cell][:-1]]]
+    cells = key[lowest]
     height = np.full(ncx * ncy, np.inf)
     height[cells] = local[lowest, 2]
     height = height.reshape(ncx, ncy)
@@ -207,7 +229,7 @@ def _morphological_seeds(
             if not bad.any():
                 break
             height[bad] = np.inf
-    size = 2 * math.floor(p.max_building_size / (2.0 * cell)) + 1
+    size = 2 * r + 1
     eroded = ndimage.minimum_filter(height, size=size, mode="constant", cval=np.inf)
     opened = ndimage.maximum_filter(
         np.where(np.isinf(eroded), -np.inf, eroded), size=size, mode="constant", cval=-np.inf

@@ -1,0 +1,209 @@
+"""Points far from the rest: a stray return, a bad GPS fix, a point at (0, 0, 0).
+
+A few such points make the bounding box huge and mostly empty. The measured spacing
+then follows the occupied cells, not the box (pcl_rg.point_spacing), so the lengths
+that follow it stay those of the data; and tin_ground's seed raster leaves out the long
+empty runs of cells between the points, whose seeds are those of the full raster, so it
+no longer refuses such a cloud. Core against reference, exactly, and against the same
+cloud without the stray points.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from conftest import shared_data
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import pcl_rg
+from pcl_rg import reference
+from pcl_rg.datasets import load_isprs
+from pcl_rg.evaluation import ground_errors
+from pcl_rg.reference.tin_ground import seeds
+
+
+def terrain(n: int, side: float, seed: int = 0) -> np.ndarray:
+    """A gently rolling surface of n random points on a side x side square."""
+    rng = np.random.default_rng(seed)
+    xy = rng.uniform(0.0, side, (n, 2))
+    z = 2.0 * np.sin(xy[:, 0] / 17.0) + np.cos(xy[:, 1] / 23.0) + rng.normal(0.0, 0.05, n)
+    return np.c_[xy, z] + [500_000.0, 5_400_000.0, 300.0]
+
+
+STRAYS = {
+    "10 km east": [[510_000.0, 5_400_050.0, 300.0]],
+    "100 km north-east": [[600_000.0, 5_500_000.0, 310.0]],
+    "700 km diagonal": [[0.0, 4_700_000.0, 300.0]],
+    "at the origin": [[0.0, 0.0, 0.0]],
+    "three, far apart": [[0.0, 0.0, 0.0], [2e6, 9e6, 900.0], [500_050.0, 5e6, 280.0]],
+}
+
+
+# ------------------------------------------------------------------ the spacing
+
+
+@pytest.mark.parametrize("strays", STRAYS.values(), ids=STRAYS.keys())
+def test_stray_points_barely_move_the_spacing(strays: list) -> None:
+    points = terrain(40_000, 200.0)
+    alone = pcl_rg.point_spacing(points)
+    with_strays = pcl_rg.point_spacing(np.r_[points, strays])
+    assert with_strays == reference.point_spacing(np.r_[points, strays])
+    # The box is at least 50 times wider: measured on the box, the spacing would be
+    # more than 10 times too large. On the occupied cells it moves by a few per cent.
+    assert with_strays == pytest.approx(alone, rel=0.1)
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    n=st.integers(50, 3000),
+    far=st.floats(1e3, 1e8),
+    angle=st.floats(0.0, 2.0 * math.pi),
+    strays=st.integers(1, 5),
+    copies=st.integers(1, 60),
+)
+def test_core_equals_reference_with_stray_points_and_copies(
+    n: int, far: float, angle: float, strays: int, copies: int
+) -> None:
+    # Every branch of the refinement: boxes nearly empty, copies that end it early.
+    points = np.repeat(terrain(n, 100.0), copies, axis=0)
+    offsets = far * np.c_[np.cos(angle + np.arange(strays)), np.sin(angle + np.arange(strays))]
+    cloud = np.r_[points, np.c_[points[0, :2] + offsets, np.full(strays, 300.0)]]
+    assert pcl_rg.point_spacing(cloud) == reference.point_spacing(cloud)
+
+
+def test_copies_still_end_the_refinement() -> None:
+    # 60,000 copies of one point and 10 others: finer cells would only shrink the
+    # spacing with the copies; the refinement stops at a quarter of the positions.
+    points = np.zeros((60_000, 3))
+    points[-10:] = np.random.default_rng(0).uniform(0.0, 10.0, (10, 3))
+    spacing = pcl_rg.point_spacing(points)
+    assert spacing == reference.point_spacing(points)
+    assert 1e-3 < spacing < 3e-3
+
+
+def test_a_diagonal_corridor_gets_the_spacing_of_its_points() -> None:
+    # A 2 km corridor 40 m wide along the diagonal: 2 % of its box. Measured on the box
+    # its cells would be 3.4 m against a spacing of 0.5 m; refined, they follow the
+    # occupied area.
+    rng = np.random.default_rng(1)
+    along, across = rng.uniform(0.0, 2000.0, 320_000), rng.uniform(-20.0, 20.0, 320_000)
+    diagonal = np.sqrt(0.5)
+    cloud = np.c_[(along - across) * diagonal, (along + across) * diagonal, np.zeros(len(along))]
+    spacing = pcl_rg.point_spacing(cloud)
+    assert spacing == reference.point_spacing(cloud)
+    assert spacing == pytest.approx(math.sqrt(2000.0 * 40.0 / 320_000), rel=0.1)
+
+
+# ------------------------------------------------------------------ tin_ground
+
+
+@pytest.mark.parametrize("strays", STRAYS.values(), ids=STRAYS.keys())
+def test_tin_ground_takes_stray_points_with_the_reference_seeds(strays: list) -> None:
+    # The full seed raster would have 10^8 cells and more: the core closes its empty
+    # runs, the reference always does; the seeds are the same.
+    points = np.r_[terrain(3000, 120.0), strays]
+    params = pcl_rg.TinGroundParams().at_spacing(pcl_rg.point_spacing(points))
+    with pcl_rg.collect_diagnostics() as diagnostics:
+        ground = pcl_rg.tin_ground(points, params=params)
+    assert diagnostics["tin_ground"]["seeds"] == len(seeds(points, params))
+    assert ground[:3000].mean() > 0.95  # the terrain is ground
+
+
+@pytest.mark.parametrize("strays", ["10 km east", "100 km north-east", "700 km diagonal"])
+def test_tin_ground_with_stray_points_equals_the_reference(strays: str) -> None:
+    # Whole classes, where qhull (the reference's TIN) resolves the grid of the extent:
+    # not for extents of thousands of km, whose grid step it cannot separate.
+    points = np.r_[terrain(3000, 120.0), STRAYS[strays]]
+    params = pcl_rg.TinGroundParams().at_spacing(pcl_rg.point_spacing(points))
+    np.testing.assert_array_equal(
+        pcl_rg.tin_ground(points, params=params), reference.tin_ground(points, params=params)
+    )
+
+
+def patches(rng: np.random.Generator) -> np.ndarray:
+    """2 to 4 square patches of random size, place and level (0, 6 or 12 m) in 50 m."""
+    parts = []
+    for _ in range(rng.integers(2, 5)):
+        side, x, y = rng.uniform(1.0, 10.0), rng.uniform(0.0, 40.0), rng.uniform(0.0, 40.0)
+        m = int(2 * side * side) + 1
+        parts.append(
+            np.c_[
+                rng.uniform(x, x + side, m),
+                rng.uniform(y, y + side, m),
+                rng.choice([0.0, 6.0, 12.0]) + rng.normal(0.0, 0.05, m),
+            ]
+        )
+    return np.concatenate(parts)
+
+
+@pytest.mark.parametrize("stray", [False, True], ids=["full raster", "closed raster"])
+def test_closing_the_gaps_of_the_seed_raster_keeps_the_seeds(stray: bool) -> None:
+    # The reference always closes the raster's empty runs longer than the windows'
+    # reach (2r for the opening, 2 for the outlier test). On these small clouds the core
+    # builds the full raster; with a point 100 km away it closes the gaps too. The seeds
+    # and classes must be equal either way. Checked to fail with a reach one cell short
+    # (4 of these 80 clouds differ) or half as long (5), in the reference, and with
+    # the runs cut one cell shorter in the core.
+    rng = np.random.default_rng(0)
+    differ = []
+    for k in range(80):
+        points = patches(rng)
+        if stray:
+            points = np.r_[points, [[1e5, 7e4, 3.0]]]
+        params = pcl_rg.TinGroundParams(
+            max_building_size=float(rng.choice([1.0, 3.0, 12.0])),
+            seed_cell=1.0,
+            outlier_depth=float(rng.choice([0.0, 3.0])),
+        )
+        with pcl_rg.collect_diagnostics() as diagnostics:
+            ground = pcl_rg.tin_ground(points, params=params)
+        if diagnostics["tin_ground"]["seeds"] != len(seeds(points, params)) or not np.array_equal(
+            ground, reference.tin_ground(points, params=params)
+        ):
+            differ.append(k)
+    assert differ == []
+
+
+def test_points_scattered_far_apart_are_still_refused() -> None:
+    # 600 points 1 km apart along the diagonal: even with every empty run cut short,
+    # the raster would hold 10^9 cells.
+    k = np.arange(600.0)
+    points = np.c_[k * 1000.0, k * 1000.0 + (k % 3), np.zeros(600)]
+    for function in (pcl_rg.tin_ground, reference.tin_ground):
+        with pytest.raises(ValueError, match=r"seed_cell is too small .* cut short"):
+            function(points, seed_cell=1.0)
+
+
+def test_extreme_extents_are_still_refused() -> None:
+    points = np.random.default_rng(0).random((500, 3)) * [50.0, 50.0, 5.0]
+    for function in (pcl_rg.tin_ground, reference.tin_ground):
+        with pytest.raises(ValueError, match=r"collinear .* far from the rest coarsen it"):
+            function(np.r_[points, [[1e15, 1e15, 0.0]]])
+
+
+# ------------------------------------------------------------------ on ISPRS
+
+
+def test_a_stray_point_barely_changes_the_ground_filters_on_isprs() -> None:
+    # One point 700 km away (a bad GPS fix) in each of the seven samples. Measured on
+    # its box, the spacing was 56-190 m, and grid_ground's mean total error went from
+    # 4.4 to 10.9 %; tin_ground refused the cloud. Now grid_ground's lengths stay those
+    # of the data; tin_ground's TIN reaches the stray point along the samples' borders.
+    data = shared_data("isprs")
+    totals: dict[str, list[float]] = {"grid": [], "grid stray": [], "tin": [], "tin stray": []}
+    for name in ("samp11", "samp21", "samp31", "samp41", "samp51", "samp52", "samp61"):
+        sample = load_isprs(data / f"{name}-utm.pcd", data / f"{name}-utm-ground.pcd")
+        points, n = sample.points, len(sample.points)
+        stray = np.r_[points, [points.mean(axis=0) - [5e5, 5e5, 0.0]]]
+        assert pcl_rg.point_spacing(stray) == pytest.approx(pcl_rg.point_spacing(points), rel=0.06)
+        for method, function in (("grid", pcl_rg.grid_ground), ("tin", pcl_rg.tin_ground)):
+            totals[method].append(ground_errors(sample.ground, function(points)).total)
+            totals[f"{method} stray"].append(
+                ground_errors(sample.ground, function(stray)[:n]).total
+            )
+    mean = {key: float(np.mean(values)) for key, values in totals.items()}
+    assert mean["grid stray"] == pytest.approx(mean["grid"], abs=0.3)
+    assert mean["tin stray"] < mean["tin"] + 0.7
