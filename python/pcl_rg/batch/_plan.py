@@ -8,6 +8,8 @@ import os
 from collections.abc import Sequence
 from typing import NamedTuple
 
+import numpy as np
+
 from ..io import EXTENSIONS, Extent
 
 __all__ = [
@@ -15,6 +17,7 @@ __all__ = [
     "box_of",
     "covers",
     "expand_inputs",
+    "footprint",
     "grow",
     "meets",
     "neighbours",
@@ -88,16 +91,31 @@ def box_of(extent: Extent) -> Box:
     return Box(extent.xmin, extent.ymin, extent.xmax, extent.ymax)
 
 
+#: A tile whose header spacing, sqrt(box area / points), exceeds this multiple of the
+#: smallest tile's is left out of the survey's spacing: its box is mostly empty (a
+#: stray point far away, a sliver of data at the survey's edge).
+SPARSE_TILE = 4.0
+
+
 def survey_spacing(extents: Sequence[Extent]) -> float:
     """The nominal point spacing of a survey from its tiles' headers:
     sqrt(sum of the tiles' XY box areas / their number of points), NaN when undefined.
 
     The unset lengths of the ground filters take one spacing for all tiles from this,
-    so that every tile of a survey runs with the same parameters.
+    so that every tile of a survey runs with the same parameters. Tiles whose own
+    spacing (the same on their box alone) is more than SPARSE_TILE times the smallest
+    tile's do not count: one point 700 km from a tile would make its box, and so the
+    survey's spacing, hundreds of times too large. Tiles without area count with
+    their points, as before.
     """
-    area = sum((e.xmax - e.xmin) * (e.ymax - e.ymin) for e in extents)
-    points = sum(e.points for e in extents)
-    return math.sqrt(area / points) if points and area > 0.0 else math.nan
+    tiles = [((e.xmax - e.xmin) * (e.ymax - e.ymin), e.points) for e in extents if e.points]
+    spacings = [area / points for area, points in tiles if area > 0.0]
+    if not spacings:
+        return math.nan
+    kept = [
+        (area, points) for area, points in tiles if area / points <= SPARSE_TILE**2 * min(spacings)
+    ]
+    return math.sqrt(sum(area for area, _ in kept) / sum(points for _, points in kept))
 
 
 def grow(box: Box, margin: float) -> Box:
@@ -142,3 +160,35 @@ def survey_box(boxes: Sequence[Box | None]) -> Box | None:
         max(b.xmax for b in present),
         max(b.ymax for b in present),
     )
+
+
+#: Gaps between a tile's points wider than this (m) split its footprint: wider than
+#: the tiles of an ordinary survey, so that only points far from the rest (a stray
+#: return, a bad GPS fix) get boxes of their own.
+FOOTPRINT_GAP = 1000.0
+
+
+def footprint(xy: np.ndarray, gap: float = FOOTPRINT_GAP) -> list[Box]:
+    """Boxes that together hold the points `xy` ((N, 2)), each bounding its points.
+
+    One box, their bounding box, unless they span more than `gap` on an axis; then
+    the points split on each axis where consecutive coordinates lie more than `gap`
+    apart, and every pair of an x part and a y part that holds points gets a box. A
+    tile's buffer then surrounds its points: a stray point far away adds a small box
+    instead of stretching one box over the whole survey.
+    """
+    if not len(xy):
+        return []
+    low, high = xy.min(axis=0), xy.max(axis=0)
+    if (high - low <= gap).all():
+        return [Box(float(low[0]), float(low[1]), float(high[0]), float(high[1]))]
+    key = np.zeros(len(xy), np.int64)
+    for axis in (0, 1):
+        values = np.sort(xy[:, axis])
+        starts = values[1:][np.diff(values) > gap]  # the first coordinate of each later part
+        key = key * (len(starts) + 1) + np.searchsorted(starts, xy[:, axis], side="right")
+    order = np.argsort(key, kind="stable")
+    first = np.flatnonzero(np.r_[True, np.diff(key[order]) != 0])
+    lows = np.minimum.reduceat(xy[order], first)
+    highs = np.maximum.reduceat(xy[order], first)
+    return [Box(float(a), float(b), float(c), float(d)) for (a, b), (c, d) in zip(lows, highs)]

@@ -33,7 +33,7 @@ from .._classification import (
 )
 from ..io import PointFile, read_extent, read_points, write_points
 from ._headers import check_header_box, crs_codes
-from ._plan import Box, covers, grow, meets
+from ._plan import FOOTPRINT_GAP, Box, covers, footprint, grow, meets
 
 __all__ = [
     "Job",
@@ -126,8 +126,10 @@ def _context_rows(job: Job, cloud: PointFile) -> np.ndarray:
 def cache_tile(job: Job, tile: Tile) -> dict[str, Any]:
     """Stage 1: decode the tile and store points, fields and layout for stage 2.
 
-    Also an index of the context rows by cell of a 32 x 32 grid over the tile's
-    box (``cell_rows.npy`` sorted by cell, ``cell_start.npy``), so a neighbour
+    Also the footprint of the context rows (:func:`footprint`: their box, or a few
+    boxes when some lie far from the rest), and an index of those rows by cell of a
+    32 x 32 grid over the footprint's largest box (``cell_rows.npy`` sorted by cell,
+    ``cell_start.npy``; rows outside it fall in its border cells), so a neighbour
     reads the cells near its buffer and not the whole tile.
     """
 
@@ -142,8 +144,10 @@ def cache_tile(job: Job, tile: Tile) -> dict[str, Any]:
             np.save(os.path.join(folder, f"field{k}.npy"), np.asarray(cloud.fields[name]))
         rows = _context_rows(job, cloud)
         xy = cloud.points[rows, :2]
-        low = xy.min(axis=0) if len(rows) else np.zeros(2)
-        high = xy.max(axis=0) if len(rows) else np.zeros(2)
+        boxes = footprint(xy)
+        largest = max(boxes, key=lambda b: b.xmax - b.xmin + b.ymax - b.ymin, default=None)
+        low = np.array(largest[:2]) if largest else np.zeros(2)
+        high = np.array(largest[2:]) if largest else np.zeros(2)
         size = np.maximum((high - low) / INDEX_CELLS, 1e-9)
         cell_xy = np.clip(((xy - low) / size).astype(np.int64), 0, INDEX_CELLS - 1)
         cell = cell_xy[:, 1] * INDEX_CELLS + cell_xy[:, 0]
@@ -152,7 +156,7 @@ def cache_tile(job: Job, tile: Tile) -> dict[str, Any]:
         starts = np.searchsorted(cell[order], np.arange(INDEX_CELLS * INDEX_CELLS + 1))
         np.save(os.path.join(folder, "cell_start.npy"), starts)
         with open(os.path.join(folder, "layout.pkl"), "wb") as stream:
-            pickle.dump((cloud.format, cloud.header, names, low, size), stream)
+            pickle.dump((cloud.format, cloud.header, names, low, size, boxes), stream)
         return {"points": len(cloud)}
 
     return _guarded(work)
@@ -161,7 +165,7 @@ def cache_tile(job: Job, tile: Tile) -> dict[str, Any]:
 def _load(job: Job, tile: Tile, mmap: bool = False) -> PointFile:
     folder = _folder(job, tile)
     with open(os.path.join(folder, "layout.pkl"), "rb") as stream:
-        fmt, header, names, _, _ = pickle.load(stream)
+        fmt, header, names, *_ = pickle.load(stream)
     mode = "r" if mmap else None
     points = np.load(os.path.join(folder, "points.npy"), mmap_mode=mode)
     fields = {
@@ -179,37 +183,57 @@ def _inside(points: np.ndarray, box: Box) -> np.ndarray:
     return (x >= box.xmin) & (x <= box.xmax) & (y >= box.ymin) & (y <= box.ymax)
 
 
-def _context(
-    job: Job, neighbours: list[Tile], box: Box, fields: bool = False
-) -> list[tuple[int, np.ndarray, PointFile]]:
-    """(tile, rows, rows' points and fields) of each neighbour's context rows in `box`.
+def _layout(job: Job, tile: Tile) -> tuple:
+    with open(os.path.join(_folder(job, tile), "layout.pkl"), "rb") as stream:
+        return pickle.load(stream)
 
-    Through the cell index of stage 1, only the cells that meet `box` are read from
-    the memory-mapped arrays, so a task holds its own tile and its buffer rows.
+
+def _region(job: Job, tile: Tile) -> list[Box]:
+    """Where a tile's buffer reaches: its box grown by the buffer, or, when its points
+    lie far inside that box or apart (a stray point far away stretches the header's
+    box), its footprint's boxes grown by the buffer."""
+    boxes = _layout(job, tile)[5]
+    if len(boxes) == 1 and covers(grow(boxes[0], FOOTPRINT_GAP), tile.box):
+        return [grow(tile.box, job.buffer)]
+    return [grow(box, job.buffer) for box in boxes]
+
+
+def _context(
+    job: Job, neighbours: list[Tile], region: list[Box], fields: bool = False
+) -> list[tuple[int, np.ndarray, PointFile]]:
+    """(tile, rows, rows' points and fields) of each neighbour's context rows in `region`.
+
+    Through the cell index of stage 1, only the cells that meet a box of `region` are
+    read from the memory-mapped arrays, so a task holds its own tile and its buffer rows.
     """
     parts = []
     for tile in neighbours:
+        if not any(meets(box, tile.box) for box in region):
+            continue
         folder = _folder(job, tile)
-        with open(os.path.join(folder, "layout.pkl"), "rb") as stream:
-            _, _, _, low, size = pickle.load(stream)
-        first = np.floor((np.array([box.xmin, box.ymin]) - low) / size).astype(np.int64)
-        last = np.floor((np.array([box.xmax, box.ymax]) - low) / size).astype(np.int64)
-        first, last = np.clip(first, 0, INDEX_CELLS - 1), np.clip(last, 0, INDEX_CELLS - 1)
+        _, _, _, low, size, _ = _layout(job, tile)
         starts = np.load(os.path.join(folder, "cell_start.npy"))
         cell_rows = np.load(os.path.join(folder, "cell_rows.npy"), mmap_mode="r")
-        # Cells of one grid row are consecutive: one slice per row of cells.
-        pieces = [
-            np.asarray(
-                cell_rows[
-                    starts[r * INDEX_CELLS + first[0]] : starts[r * INDEX_CELLS + last[0] + 1]
-                ]
-            )
-            for r in range(first[1], last[1] + 1)
-        ]
-        candidates = np.sort(np.concatenate(pieces)) if pieces else np.empty(0, np.int64)
+        pieces = []
+        for box in region:
+            first = np.floor((np.array([box.xmin, box.ymin]) - low) / size).astype(np.int64)
+            last = np.floor((np.array([box.xmax, box.ymax]) - low) / size).astype(np.int64)
+            first, last = np.clip(first, 0, INDEX_CELLS - 1), np.clip(last, 0, INDEX_CELLS - 1)
+            # Cells of one grid row are consecutive: one slice per row of cells.
+            pieces += [
+                np.asarray(
+                    cell_rows[
+                        starts[r * INDEX_CELLS + first[0]] : starts[r * INDEX_CELLS + last[0] + 1]
+                    ]
+                )
+                for r in range(first[1], last[1] + 1)
+            ]
+        candidates = np.unique(np.concatenate(pieces)) if pieces else np.empty(0, np.int64)
         cloud = _load(job, tile, mmap=True)
         xyz = np.asarray(cloud.points[candidates])
-        inside = _inside(xyz, box)
+        inside = np.zeros(len(candidates), bool)
+        for box in region:
+            inside |= _inside(xyz, box)
         chosen = candidates[inside]
         subset = PointFile(
             xyz[inside],
@@ -260,7 +284,7 @@ def ground_tile(
     def work(neighbours: list[Tile]) -> dict[str, Any]:
         own = _load(job, tile)
         work_rows = _ground_work(own)
-        parts = _context(job, neighbours, grow(tile.box, job.buffer))
+        parts = _context(job, neighbours, _region(job, tile))
         xyz = np.concatenate([own.points[work_rows]] + [p.points for _, _, p in parts])
         ground = GROUND_METHODS[job.method](xyz, params=job.params)[: int(work_rows.sum())]
         classes = ground_classes(own, work_rows, ground)
@@ -313,7 +337,7 @@ def denoise_distances(job: Job, tile: Tile, survey: Box, others: list[Tile]) -> 
         while True:
             reach = grow(tile.box, margin)
             near = [other for other in others if meets(reach, other.box)]
-            parts = _context(job, near, reach)
+            parts = _context(job, near, [reach])
             xyz = np.concatenate([mine] + [p.points for _, _, p in parts])
             whole = covers(reach, survey)
             if not len(mine):
@@ -413,7 +437,7 @@ def downsample_tile(
     def work(neighbours: list[Tile]) -> dict[str, Any]:
         own = _load(job, tile)
         rows = np.flatnonzero(_valid(own))
-        parts = _context(job, neighbours, grow(tile.box, job.buffer), fields=True)
+        parts = _context(job, neighbours, _region(job, tile), fields=True)
         parts.append((tile.index, rows, own.take(rows)))
         parts.sort(key=lambda part: part[0])
         xyz = np.concatenate([p.points for _, _, p in parts])

@@ -1,0 +1,101 @@
+"""Batch runs on a survey where one tile holds a stray point far away (a bad GPS fix).
+
+The stray point stretches its tile's header box over hundreds of km. It must not set
+the survey's spacing (and so every tile's lengths), nor make its tile's buffer the
+whole survey: the tile's buffer surrounds its points (batch._plan.footprint).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import pcl_rg
+from pcl_rg import batch
+from pcl_rg.batch._plan import FOOTPRINT_GAP, Box, footprint, survey_spacing
+from pcl_rg.datasets import synthetic_survey
+from pcl_rg.io import Extent, read_points
+
+
+def add_stray_point(path, classification: int) -> None:
+    """Append one point 500 km west and 500 km south of the tile's corner."""
+    import laspy
+
+    las = laspy.read(path)
+    n = len(las.points)
+    points = laspy.ScaleAwarePointRecord.zeros(n + 1, header=las.header)
+    points.array[:n] = las.points.array
+    points.x[n] = float(np.min(np.asarray(las.x))) - 5e5
+    points.y[n] = float(np.min(np.asarray(las.y))) - 5e5
+    points.z[n] = float(np.mean(np.asarray(las.z)))
+    points.classification[n] = classification
+    las.points = points
+    las.update_header()
+    las.write(path)
+
+
+def extent(xmin: float, ymin: float, xmax: float, ymax: float, points: int) -> Extent:
+    return Extent(xmin, ymin, 0.0, xmax, ymax, 1.0, points, True)
+
+
+def test_a_tile_with_a_mostly_empty_box_does_not_set_the_survey_spacing() -> None:
+    tiles = [extent(100.0 * i, 0.0, 100.0 * i + 100.0, 100.0, 40_000) for i in range(3)]
+    regular = survey_spacing(tiles)
+    assert regular == 0.5
+    stray = extent(-5e5, -5e5, 300.0, 100.0, 40_001)  # 40,000 points and one far away
+    assert survey_spacing([*tiles, stray]) == regular
+    # A sparser tile still counts up to 4 x the densest tile's spacing (16 x fewer
+    # points per m^2), and points on a line (no area) count as before.
+    sparse = extent(300.0, 0.0, 400.0, 100.0, 2_500)
+    line = extent(400.0, 0.0, 400.0, 100.0, 500)
+    assert survey_spacing([*tiles, sparse, line]) == math.sqrt(40_000 / 123_000)
+    assert survey_spacing([*tiles, extent(300.0, 0.0, 400.0, 100.0, 2_499)]) == regular
+
+
+def test_the_footprint_splits_only_at_wide_gaps() -> None:
+    rng = np.random.default_rng(0)
+    xy = rng.uniform(0.0, 900.0, (5000, 2)) + [500_000.0, 5_000_000.0]
+    assert footprint(xy) == [Box(*xy.min(axis=0), *xy.max(axis=0))]
+    assert footprint(np.empty((0, 2))) == []
+    far = np.r_[xy, [[0.0, 0.0], [xy[0, 0], 0.0]]]  # two strays, one under the tile in x
+    boxes = footprint(far)
+    assert len(boxes) == 3 and Box(0.0, 0.0, 0.0, 0.0) in boxes
+    assert Box(*xy.min(axis=0), *xy.max(axis=0)) in boxes
+    # Every point lies in a box; the boxes are more than the gap apart on some axis.
+    for point in far:
+        assert any(b.xmin <= point[0] <= b.xmax and b.ymin <= point[1] <= b.ymax for b in boxes)
+    for a in boxes:
+        for b in boxes:
+            if a != b:
+                assert max(b.xmin - a.xmax, a.xmin - b.xmax, b.ymin - a.ymax, a.ymin - b.ymax) > (
+                    FOOTPRINT_GAP
+                )
+
+
+@pytest.mark.parametrize("classification", [1, 7], ids=["unclassified", "noise"])
+def test_a_stray_point_changes_no_other_label_nor_the_tiles_buffer(
+    classification, tmp_path, scheduler
+) -> None:
+    source = synthetic_survey(tmp_path / "in", tiles=(3, 3), tile_size=40.0, seed=5)
+    params = pcl_rg.GridGroundParams().at_spacing(batch.survey_spacing(source.paths))
+    run = {"params": params, "buffer": 5.0, "scheduler": scheduler}  # a buffer within the tiles
+    clean = batch.ground(source.paths, tmp_path / "clean", **run)
+    add_stray_point(source.paths[4], classification)  # the middle tile
+    assert batch.survey_spacing(source.paths) == pytest.approx(
+        pcl_rg.point_spacing(np.concatenate([read_points(p).points[:-1] for p in source.paths])),
+        rel=0.1,
+    )
+    report = batch.ground(source.paths, tmp_path / "stray", **run)
+    assert [t.status for t in report.tiles] == ["done"] * 9
+    for before, after in zip(clean.tiles, report.tiles, strict=True):
+        labels = read_points(after.output).classification
+        np.testing.assert_array_equal(
+            labels[: before.points], read_points(before.output).classification
+        )
+    # The middle tile's buffer is that of its points, not of its 700 km box (which
+    # would take every point of the 8 tiles around it).
+    buffer = clean.tiles[4].details["buffer_points"]
+    assert 0 < buffer < sum(t.points for t in clean.tiles) / 4
+    assert report.tiles[4].details["buffer_points"] == buffer
