@@ -46,12 +46,25 @@ def test_a_tile_with_a_mostly_empty_box_does_not_set_the_survey_spacing() -> Non
     assert regular == 0.5
     stray = extent(-5e5, -5e5, 300.0, 100.0, 40_001)  # 40,000 points and one far away
     assert survey_spacing([*tiles, stray]) == regular
-    # A sparser tile still counts up to 4 x the densest tile's spacing (16 x fewer
-    # points per m^2), and points on a line (no area) count as before.
-    sparse = extent(300.0, 0.0, 400.0, 100.0, 2_500)
+    # Up to twice the median tile's spacing (4 x its area per point) a tile counts;
+    # points on a line (no area) count as before.
+    sparse = extent(300.0, 0.0, 400.0, 100.0, 10_000)
     line = extent(400.0, 0.0, 400.0, 100.0, 500)
-    assert survey_spacing([*tiles, sparse, line]) == math.sqrt(40_000 / 123_000)
-    assert survey_spacing([*tiles, extent(300.0, 0.0, 400.0, 100.0, 2_499)]) == regular
+    assert survey_spacing([*tiles, sparse, line]) == math.sqrt(40_000 / 130_500)
+    assert survey_spacing([*tiles, extent(300.0, 0.0, 400.0, 100.0, 9_999)]) == regular
+
+
+def test_denser_tiles_and_slivers_push_no_tile_out() -> None:
+    # Only tiles above the median are left out: a sliver of 200 points 2 cm wide, or a
+    # tile 20 times as dense, counts as it did, and the others still count.
+    tiles = [extent(100.0 * i, 0.0, 100.0 * i + 100.0, 100.0, 40_000) for i in range(8)]
+    sliver = extent(800.0, 0.0, 800.02, 100.0, 200)
+    dense = extent(900.0, 0.0, 1000.0, 100.0, 800_000)
+    for extra in (sliver, dense):
+        area = 80_000.0 + (extra.xmax - extra.xmin) * 100.0
+        assert survey_spacing([*tiles, extra]) == pytest.approx(
+            math.sqrt(area / (320_000 + extra.points)), rel=1e-12
+        )
 
 
 def test_the_footprint_splits_only_at_wide_gaps() -> None:
@@ -99,3 +112,20 @@ def test_a_stray_point_changes_no_other_label_nor_the_tiles_buffer(
     buffer = clean.tiles[4].details["buffer_points"]
     assert 0 < buffer < sum(t.points for t in clean.tiles) / 4
     assert report.tiles[4].details["buffer_points"] == buffer
+
+
+def test_a_stray_point_leaves_the_survey_lengths_alone(tmp_path, scheduler) -> None:
+    # The engine's own spacing (default params, lengths unset): as on the clean survey.
+    source = synthetic_survey(tmp_path / "in", tiles=(3, 3), tile_size=40.0, seed=6)
+    clean = batch.ground(source.paths, tmp_path / "clean", buffer=5.0, scheduler=scheduler)
+    add_stray_point(source.paths[2], 1)
+    report = batch.ground(source.paths, tmp_path / "stray", buffer=5.0, scheduler=scheduler)
+    assert report.parameters == clean.parameters
+    changed = []
+    for before, after in zip(clean.tiles, report.tiles, strict=True):
+        labels = read_points(after.output).classification[: before.points]
+        changed.append(int((labels != read_points(before.output).classification).sum()))
+    # The corner tile holding the stray point: its final pass's TIN joins the point to
+    # the survey's border there (3 of its 6,980 points change, as on one file).
+    assert changed[2] < 0.002 * clean.tiles[2].points
+    assert changed[:2] + changed[3:] == [0] * 8

@@ -11,6 +11,7 @@ cloud without the stray points.
 from __future__ import annotations
 
 import math
+import sys
 
 import numpy as np
 import pytest
@@ -165,6 +166,61 @@ def test_closing_the_gaps_of_the_seed_raster_keeps_the_seeds(stray: bool) -> Non
         ):
             differ.append(k)
     assert differ == []
+
+
+def full_raster_seeds(
+    points: np.ndarray, params: pcl_rg.TinGroundParams, monkeypatch: pytest.MonkeyPatch
+) -> np.ndarray:
+    """The reference's seeds with no empty run cut and no size limit: the oracle."""
+    module = sys.modules["pcl_rg.reference.tin_ground"]
+    closing = module._close_gaps
+    with monkeypatch.context() as patch:
+        patch.setattr(module, "_close_gaps", lambda index, reach: closing(index, 2**62))
+        patch.setattr(module, "_raster_limit", lambda points: math.inf)
+        return seeds(points, params)
+
+
+def test_the_closed_raster_gives_the_full_rasters_seeds(monkeypatch: pytest.MonkeyPatch) -> None:
+    # A point 2.2 km away: the full raster (4.8 million cells of 1 m) is just over the
+    # core's limit, so the core closes it, and small enough for the oracle.
+    rng = np.random.default_rng(1)
+    for k in range(4):
+        points = np.r_[patches(rng), [[2200.0, 2200.0, 3.0]]]
+        params = pcl_rg.TinGroundParams(
+            max_building_size=[1.0, 3.0, 12.0, 12.0][k], seed_cell=1.0, outlier_depth=[0, 3][k % 2]
+        )
+        with pcl_rg.collect_diagnostics() as diagnostics:
+            pcl_rg.tin_ground(points, params=params)
+        oracle = full_raster_seeds(points, params, monkeypatch)
+        np.testing.assert_array_equal(seeds(points, params), oracle)
+        assert diagnostics["tin_ground"]["seeds"] == len(oracle)
+
+
+def test_the_raster_border_counts_as_empty_cells(monkeypatch: pytest.MonkeyPatch) -> None:
+    # The seed cells start at a multiple of seed_cell at or below the minimum x; here
+    # rounding leaves the first column empty. The full raster keeps that column, whose
+    # eroded value the opening reads: the closed raster must keep it too (a review
+    # found 56 seeds in the core against 48 in the reference).
+    cell, xmin = 0.41116543133067146, 78747.22573931285
+    corner = reference.lattice_floor(xmin, cell)
+    assert math.floor((xmin - corner) / cell) == 1
+    columns = [xmin] + [corner + (c + 0.5) * cell for c in range(2, 8)]
+    points = np.array(
+        [
+            [x, (row + 0.5) * cell, 5.0 if c == 0 else 0.0]
+            for c, x in enumerate(columns)
+            for row in range(8)
+        ]
+    )
+    params = pcl_rg.TinGroundParams(max_building_size=3 * cell, seed_cell=cell, outlier_depth=0.0)
+    for cloud in (points, np.r_[points, [[xmin + 1e5, 7e4, 0.0]]]):  # full, then closed
+        with pcl_rg.collect_diagnostics() as diagnostics:
+            ground = pcl_rg.tin_ground(cloud, params=params)
+        assert diagnostics["tin_ground"]["seeds"] == len(seeds(cloud, params))
+        np.testing.assert_array_equal(ground, reference.tin_ground(cloud, params=params))
+    np.testing.assert_array_equal(
+        seeds(points, params), full_raster_seeds(points, params, monkeypatch)
+    )
 
 
 def test_points_scattered_far_apart_are_still_refused() -> None:

@@ -10,6 +10,8 @@
 #include <limits>
 #include <vector>
 
+#include "pcl_rg/interrupt.hpp"
+
 namespace pcl_rg {
 
 double point_spacing(PointsView points) {
@@ -86,6 +88,7 @@ double point_spacing(PointsView points, const std::array<double, 3>& lower,
     const double finest = std::max(w, h) / 0x1p31;
     std::uint64_t positions = 0;  // counted when first needed: a sort
     while (count > 36.0 * static_cast<double>(occupied)) {
+        poll_interrupt();  // each round sorts the points' cells
         if (positions == 0) positions = occupied_cells(points, xmin, ymin, w, h, finest);
         if (!(4 * occupied < positions)) break;
         const double finer =

@@ -166,14 +166,16 @@ struct SeedRaster {
     std::vector<std::int64_t> lowest;
 };
 
-// The occupied columns (or rows) `occupied`, sorted and distinct, renumbered from 0 with
-// every run of more than `reach` empty ones between two of them cut to `reach` + 1
-// steps; `place[j]` is occupied[j]'s new number.
+// The occupied columns (or rows) `occupied`, sorted, distinct and >= 0, renumbered with
+// every run of more than `reach` empty ones cut to `reach` + 1 steps, the run before
+// the first (from column 0, the full raster's border) included; `place[j]` is
+// occupied[j]'s new number.
 std::vector<std::int64_t> close_gaps(const std::vector<std::int64_t>& occupied,
                                      std::int64_t reach) {
     std::vector<std::int64_t> place(occupied.size(), 0);
-    for (std::size_t j = 1; j < occupied.size(); ++j)
-        place[j] = place[j - 1] + std::min(occupied[j] - occupied[j - 1], reach + 1);
+    for (std::size_t j = 0; j < occupied.size(); ++j)
+        place[j] =
+            (j ? place[j - 1] : 0) + std::min(occupied[j] - (j ? occupied[j - 1] : 0), reach + 1);
     return place;
 }
 
@@ -214,6 +216,7 @@ SeedRaster closed_raster(PointsView points, const std::array<double, 3>& origin,
     };
     raster.lowest.assign(static_cast<std::size_t>(raster.ncx * raster.ncy), -1);
     for (std::size_t i = 0; i < n; ++i) {
+        if (i % 65536 == 0) interruption.check_now();
         std::int64_t& lowest = raster.lowest[static_cast<std::size_t>(
             place(columns, column_place, column[i]) * raster.ncy + place(rows, row_place, row[i]))];
         // Lowest z, then smallest index, as lowest_in_cells (z0 = 0) keeps it.
@@ -230,8 +233,10 @@ std::vector<std::uint32_t> morphological_seeds(PointsView points,
                                                double ey, const TinGroundParams& params) {
     const double cell = *params.seed_cell;
     const double limit = 4.0 * static_cast<double>(points.size) + 4194304.0;
-    // Half-width of the opening's windows, in cells.
-    const auto r = static_cast<std::int64_t>(std::floor(params.max_building_size / (2.0 * cell)));
+    // Half-width of the opening's windows, in cells; beyond 2^40 (wider than any raster
+    // that fits) the result is the same, and the cast stays defined.
+    const auto r = static_cast<std::int64_t>(
+        std::min(std::floor(params.max_building_size / (2.0 * cell)), 0x1p40));
     SeedRaster raster;
     if ((std::floor(ex / cell) + 1.0) * (std::floor(ey / cell) + 1.0) <= limit) {
         raster.ncx = static_cast<std::int64_t>(std::floor(ex / cell)) + 1;

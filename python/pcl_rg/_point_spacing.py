@@ -67,8 +67,9 @@ def point_spacing(points: npt.ArrayLike) -> float:
     lengths, capped at a multiple of this) and :class:`GridGroundParams`
     (``cell_size``: at most 2 of this) follow it (1 m where it is NaN),
     measured on the points of each call; the value used is in
-    :func:`collect_diagnostics`. The C++ core computes it in O(N), equal to the
-    NumPy reference :func:`pcl_rg.reference.point_spacing`.
+    :func:`collect_diagnostics`. The C++ core computes it in O(N) (a sort of the
+    cells per round of refinement), equal to the NumPy reference
+    :func:`pcl_rg.reference.point_spacing`.
 
     It is the airborne ground filters' measure, 2-D and per m^2 of ground
     plan; :func:`pcl_rg.point_scale` is another, for

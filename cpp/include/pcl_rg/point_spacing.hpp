@@ -24,7 +24,8 @@ namespace pcl_rg {
 /// max(w, h) / 2^31; copies would otherwise shrink the cells without end), each round
 /// halving c at least. NaN when undefined:
 /// fewer than 2 points, or no XY area (w * h == 0: all on one line along x or y, such
-/// as a vertical wall). Deterministic, O(N); NumPy twin: pcl_rg.reference.point_spacing.
+/// as a vertical wall). Deterministic; O(N) on a box mostly occupied, a sort of the
+/// cells per refinement round otherwise. NumPy twin: pcl_rg.reference.point_spacing.
 double point_spacing(PointsView points);
 
 /// The same on the points' bounding box `lower` (local_origin) and `upper`

@@ -77,10 +77,10 @@ def survey_spacing(inputs: Inputs) -> float:
         tiles agree; a single call of :func:`pcl_rg.tin_ground` on the merged
         cloud measures :func:`pcl_rg.point_spacing` instead, which differs a
         little: pass ``params.at_spacing(survey_spacing(inputs))`` to it to
-        compare. A tile whose own header spacing is more than 4 times the
-        densest tile's is left out (its box is mostly empty: a stray point far
-        away, a sliver at the survey's edge), so one bad point cannot set the
-        lengths of every tile.
+        compare. A tile whose own header spacing is more than twice the
+        median tile's is left out: its box is mostly empty, as when a stray
+        point lies a tile's width away or farther, and one bad point must not
+        set the lengths of every tile.
 
     Examples
     --------

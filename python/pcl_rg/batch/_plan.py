@@ -92,9 +92,9 @@ def box_of(extent: Extent) -> Box:
 
 
 #: A tile whose header spacing, sqrt(box area / points), exceeds this multiple of the
-#: smallest tile's is left out of the survey's spacing: its box is mostly empty (a
-#: stray point far away, a sliver of data at the survey's edge).
-SPARSE_TILE = 4.0
+#: median tile's is left out of the survey's spacing: its box is mostly empty (a stray
+#: point far away).
+SPARSE_TILE = 2.0
 
 
 def survey_spacing(extents: Sequence[Extent]) -> float:
@@ -103,18 +103,18 @@ def survey_spacing(extents: Sequence[Extent]) -> float:
 
     The unset lengths of the ground filters take one spacing for all tiles from this,
     so that every tile of a survey runs with the same parameters. Tiles whose own
-    spacing (the same on their box alone) is more than SPARSE_TILE times the smallest
+    spacing (the same on their box alone) is more than SPARSE_TILE times the median
     tile's do not count: one point 700 km from a tile would make its box, and so the
-    survey's spacing, hundreds of times too large. Tiles without area count with
-    their points, as before.
+    survey's spacing, hundreds of times too large. Only tiles above the median are
+    left out, so denser tiles, and slivers of a few points, never push the others
+    out; tiles without area count with their points, as before.
     """
     tiles = [((e.xmax - e.xmin) * (e.ymax - e.ymin), e.points) for e in extents if e.points]
-    spacings = [area / points for area, points in tiles if area > 0.0]
-    if not spacings:
+    spaced = sorted(area / points for area, points in tiles if area > 0.0)
+    if not spaced:
         return math.nan
-    kept = [
-        (area, points) for area, points in tiles if area / points <= SPARSE_TILE**2 * min(spacings)
-    ]
+    median = spaced[(len(spaced) - 1) // 2]  # of the area per point; the lower one
+    kept = [(area, points) for area, points in tiles if area / points <= SPARSE_TILE**2 * median]
     return math.sqrt(sum(area for area, _ in kept) / sum(points for _, points in kept))
 
 

@@ -182,11 +182,17 @@ def _lowest_in_cells(xyz: np.ndarray, local: np.ndarray, cell: float, ncy: int) 
 
 
 def _close_gaps(index: np.ndarray, reach: int) -> tuple[np.ndarray, int]:
-    """Each value's place once every run of more than `reach` unused values between two
-    used ones is cut to `reach` + 1 steps, and how many places there are."""
+    """Each value's place (values >= 0) once every run of more than `reach` unused
+    values is cut to `reach` + 1 steps, the run before the first used one (from 0, the
+    full raster's border) included, and how many places there are."""
     used, inverse = np.unique(index, return_inverse=True)
-    place = np.r_[0, np.cumsum(np.minimum(np.diff(used), reach + 1))]
+    place = np.cumsum(np.minimum(np.diff(used, prepend=0), reach + 1))
     return place[inverse.ravel()], int(place[-1]) + 1
+
+
+def _raster_limit(points: int) -> float:
+    """The most cells the seed raster may have, as in the core: 4 per point + 2^22."""
+    return 4.0 * points + 4194304.0
 
 
 def _morphological_seeds(
@@ -201,8 +207,8 @@ def _morphological_seeds(
     far from the rest. The C++ core builds the full raster when that fits.
     """
     cell = p.seed_cell
-    r = math.floor(p.max_building_size / (2.0 * cell))
-    limit = 4.0 * len(xyz) + 4194304.0
+    r = min(math.floor(p.max_building_size / (2.0 * cell)), 2**40)  # as the core caps it
+    limit = _raster_limit(len(xyz))
     full = (math.floor(ex / cell) + 1.0) * (math.floor(ey / cell) + 1.0)
     fits = full <= limit or (ex / cell < 2.0**62 and ey / cell < 2.0**62)
     if fits:
