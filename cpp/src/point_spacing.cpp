@@ -8,9 +8,8 @@
 #include <cstddef>
 #include <cstdint>
 #include <limits>
+#include <utility>
 #include <vector>
-
-#include "pcl_rg/interrupt.hpp"
 
 namespace pcl_rg {
 
@@ -65,6 +64,20 @@ std::uint64_t occupied_cells(PointsView points, double xmin, double ymin, double
     return occupied;
 }
 
+// The coordinates of rank `trim` and n - 1 - `trim` (from 0, in ascending order) along
+// `axis`: exact order statistics, O(N).
+std::pair<double, double> ranked(PointsView points, int axis, std::size_t trim) {
+    const std::size_t n = points.size;
+    std::vector<double> values(n);
+    for (std::size_t i = 0; i < n; ++i) values[i] = points.coord(i, axis);
+    std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(trim),
+                     values.end());
+    const double low = values[trim];
+    std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(n - 1 - trim),
+                     values.end());
+    return {low, values[n - 1 - trim]};
+}
+
 }  // namespace
 
 double point_spacing(PointsView points, const std::array<double, 3>& lower,
@@ -80,22 +93,19 @@ double point_spacing(PointsView points, const std::array<double, 3>& lower,
     double c = std::max(3.0 * std::sqrt(w * h / count), std::max(w, h) / 65536.0);
     std::uint64_t occupied = occupied_cells(points, xmin, ymin, w, h, c);
     // A box less than a quarter occupied at this cell (more than 36 points per occupied
-    // cell, against 9 when it is covered) is set by points far from the rest, or by data
-    // in a corner or along a diagonal of it: the cell follows the occupied area instead,
-    // 3 x the spacing it gives (at most half the cell), again until the cells are fine
-    // enough. Not past a quarter of the distinct positions (cells of `finest`): where
-    // many points share a position (copies), finer cells would only shrink with them.
-    const double finest = std::max(w, h) / 0x1p31;
-    std::uint64_t positions = 0;  // counted when first needed: a sort
-    while (count > 36.0 * static_cast<double>(occupied)) {
-        poll_interrupt();  // each round sorts the points' cells
-        if (positions == 0) positions = occupied_cells(points, xmin, ymin, w, h, finest);
-        if (!(4 * occupied < positions)) break;
-        const double finer =
-            std::max(3.0 * std::sqrt(static_cast<double>(occupied) * c * c / count), finest);
-        if (!(finer < c)) break;
-        c = finer;
-        occupied = occupied_cells(points, xmin, ymin, w, h, c);
+    // cell, against 9 when it is covered) may be set by a few points far from the rest:
+    // then the cell follows the box of the bulk instead, from the 1st to the 99th
+    // percentile on each axis, when that is less than a sixteenth of the box.
+    const std::size_t trim = n / 100;
+    if (count > 36.0 * static_cast<double>(occupied) && trim > 0) {
+        const auto [xlow, xhigh] = ranked(points, 0, trim);
+        const auto [ylow, yhigh] = ranked(points, 1, trim);
+        const double bulk = (xhigh - xlow) * (yhigh - ylow);
+        if (bulk > 0.0 && 16.0 * bulk < w * h) {
+            c = std::max({3.0 * std::sqrt(bulk / count),
+                          std::max(xhigh - xlow, yhigh - ylow) / 65536.0, std::max(w, h) / 0x1p31});
+            occupied = occupied_cells(points, xmin, ymin, w, h, c);
+        }
     }
     return std::sqrt(static_cast<double>(occupied) * c * c / count);
 }

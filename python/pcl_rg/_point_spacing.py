@@ -53,22 +53,24 @@ def point_spacing(points: npt.ArrayLike) -> float:
     vegetation and walls make it smaller than the spacing of the ground alone.
 
     A box less than a quarter occupied (more than 36 points per occupied cell,
-    against 9 when the box is covered) does not set the cell: a few points far
-    from the rest (a bad GPS fix, a point at (0, 0, 0)) or data along the box's
-    diagonal would make it far too coarse. The cell then becomes 3 times the
-    spacing so measured, at least halving it, and the count is taken again,
-    while the box stays less than a quarter occupied at that cell and the
-    occupied cells are fewer than a quarter of the distinct XY positions
-    (where most points are copies of a few, finer cells would only shrink with
-    them). One point 700 km from an ISPRS sample moves its spacing by at most 5 %.
+    against 9 when the box is covered) may be set by a few points far from the
+    rest (a bad GPS fix, a point at (0, 0, 0)), which would make the cells far
+    too coarse. When the bulk of the points, from the 1st to the 99th
+    percentile of x and of y (with 100 points or more), spans less than a
+    sixteenth of the box, the cells follow its box instead:
+    ``c = max(3 * sqrt(bulk area / N), its larger side / 65536, max(w, h) / 2**31)``,
+    and M is counted again. One point 700 km from an ISPRS sample moves its
+    spacing by at most 2 %. Data that fill little of their box for other
+    reasons (a corridor along its diagonal, scattered clusters) keep the
+    measure on the box.
 
     The unset lengths of :class:`TinGroundParams` (``stop_edge``,
     ``near_vertex_distance``, ``seed_cell``, ``final_cell``: the ISPRS
     lengths, capped at a multiple of this) and :class:`GridGroundParams`
     (``cell_size``: at most 2 of this) follow it (1 m where it is NaN),
     measured on the points of each call; the value used is in
-    :func:`collect_diagnostics`. The C++ core computes it in O(N) (a sort of the
-    cells per round of refinement), equal to the NumPy reference
+    :func:`collect_diagnostics`. The C++ core computes it in O(N) (and a sort
+    of the cells when the bulk sets them), equal to the NumPy reference
     :func:`pcl_rg.reference.point_spacing`.
 
     It is the airborne ground filters' measure, 2-D and per m^2 of ground

@@ -18,14 +18,13 @@ namespace pcl_rg {
 /// spacings, the outside of an irregular outline) do not count, so a half-empty tile has
 /// the spacing of its points, not of its box. Every return counts, so vegetation and
 /// walls make the spacing smaller than that of the ground alone. A box less than a
-/// quarter occupied (N > 36 M: points far from the rest, data along its diagonal) does
-/// not set the cell: then c = max(3 x the spacing measured, max(w, h) / 2^31), measured
-/// again, while N > 36 M and 4 M is below the number of distinct XY positions (cells of
-/// max(w, h) / 2^31; copies would otherwise shrink the cells without end), each round
-/// halving c at least. NaN when undefined:
+/// quarter occupied (N > 36 M) whose bulk, from the 1st to the 99th percentile of x and
+/// of y (N >= 100), spans less than a sixteenth of it is set by a few points far from
+/// the rest: then c = max(3 * sqrt(bulk area / N), its larger side / 65536, max(w, h) /
+/// 2^31) and M is counted again. NaN when undefined:
 /// fewer than 2 points, or no XY area (w * h == 0: all on one line along x or y, such
-/// as a vertical wall). Deterministic; O(N) on a box mostly occupied, a sort of the
-/// cells per refinement round otherwise. NumPy twin: pcl_rg.reference.point_spacing.
+/// as a vertical wall). Deterministic, O(N) (and a sort of the cells when the bulk sets
+/// them). NumPy twin: pcl_rg.reference.point_spacing.
 double point_spacing(PointsView points);
 
 /// The same on the points' bounding box `lower` (local_origin) and `upper`

@@ -25,20 +25,20 @@ def point_spacing(points: npt.ArrayLike) -> float:
         return math.nan
     c = max(3.0 * math.sqrt(w * h / n), max(w, h) / 65536.0)
     occupied = _occupied_cells(x - xmin, y - ymin, h, c)
-    # A box less than a quarter occupied: cells of 3 x the spacing of the occupied area,
-    # until fine enough, and not past a quarter of the distinct positions (copies).
-    finest = max(w, h) / 2.0**31
-    positions = 0  # counted when first needed
-    while n > 36.0 * occupied:
-        if positions == 0:
-            positions = _occupied_cells(x - xmin, y - ymin, h, finest)
-        if not 4 * occupied < positions:
-            break
-        finer = max(3.0 * math.sqrt(occupied * c * c / n), finest)
-        if not finer < c:
-            break
-        c = finer
-        occupied = _occupied_cells(x - xmin, y - ymin, h, c)
+    # A box less than a quarter occupied: the cell may follow the box of the bulk, from
+    # the 1st to the 99th percentile on each axis, when that is under 1/16 of the box.
+    trim = n // 100
+    if n > 36.0 * occupied and trim > 0:
+        xlow, xhigh = np.partition(x, [trim, n - 1 - trim])[[trim, n - 1 - trim]]
+        ylow, yhigh = np.partition(y, [trim, n - 1 - trim])[[trim, n - 1 - trim]]
+        bulk = float(xhigh - xlow) * float(yhigh - ylow)
+        if bulk > 0.0 and 16.0 * bulk < w * h:
+            c = max(
+                3.0 * math.sqrt(bulk / n),
+                max(float(xhigh - xlow), float(yhigh - ylow)) / 65536.0,
+                max(w, h) / 2.0**31,
+            )
+            occupied = _occupied_cells(x - xmin, y - ymin, h, c)
     return math.sqrt(occupied * c * c / n)
 
 
