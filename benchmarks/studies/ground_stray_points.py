@@ -5,16 +5,16 @@ Usage: python benchmarks/studies/ground_stray_points.py [--write]
 Each of the seven samples of ../shared/data/isprs is filtered as it is and with one
 point added 500 km west and 500 km south of its centroid, at its mean height. The
 table gives the measured spacing (pcl_rg.point_spacing), the spacing the box alone
-would give (the former rule: cells of 3 x sqrt(box area / N), no refinement), and
-each filter's total error on the sample's own points, both defaults. The stray point
-makes the box about 700 km wide: measured on the box, the spacing (and grid_ground's
-cell of 2 spacings) grew a hundredfold, and tin_ground's seed raster did not fit.
+would give (the former rule, pcl_rg.reference.box_spacing: cells of 3 x sqrt(box
+area / N)), and each filter's total error on the sample's own points, both defaults.
+The stray point makes the box about 700 km wide: measured on the box, the spacing
+(and grid_ground's cell of 2 spacings) grew a hundredfold, and tin_ground's seed
+raster did not fit.
 """
 
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 from pathlib import Path
 
@@ -25,19 +25,11 @@ from _common import publish_report  # noqa: E402
 from ground_isprs import load_samples  # noqa: E402  (same folder)
 
 import pcl_rg  # noqa: E402
+from pcl_rg import reference  # noqa: E402
 from pcl_rg.evaluation import ground_errors  # noqa: E402
 
 SECTION = "## Ground filters on ISPRS with a stray point 700 km away"
 OFFSET = np.array([-5e5, -5e5, 0.0])
-
-
-def spacing_of_the_box(points: np.ndarray) -> float:
-    """The spacing measured with cells set by the bounding box alone (the former rule)."""
-    x, y = points[:, 0] - points[:, 0].min(), points[:, 1] - points[:, 1].min()
-    w, h, n = float(x.max()), float(y.max()), len(points)
-    c = max(3.0 * math.sqrt(w * h / n), max(w, h) / 65536.0)
-    cells = np.floor(x / c).astype(np.int64) * (math.floor(h / c) + 1) + np.floor(y / c)
-    return math.sqrt(np.unique(cells).size * c * c / n)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -49,7 +41,7 @@ def main(argv: list[str] | None = None) -> int:
         n = len(points)
         stray = np.r_[points, [points.mean(axis=0) + OFFSET]]
         figures = [pcl_rg.point_spacing(points), pcl_rg.point_spacing(stray)]
-        figures.append(spacing_of_the_box(stray))
+        figures.append(reference.box_spacing(stray))
         for function in (pcl_rg.grid_ground, pcl_rg.tin_ground):
             figures.append(100 * ground_errors(truth, function(points)).total)
             figures.append(100 * ground_errors(truth, function(stray)[:n]).total)

@@ -8,22 +8,21 @@ They need SciPy, the ``reference`` extra: ``pip install 'pcl_rg[reference]'``.
 try:
     import scipy  # noqa: F401  (checked here, used by the modules below)
 except ImportError as error:  # pragma: no cover - depends on the environment
-    raise ImportError(
-        "pcl_rg.reference needs SciPy: pip install 'pcl_rg[reference]'"
-    ) from error
+    raise ImportError("pcl_rg.reference needs SciPy: pip install 'pcl_rg[reference]'") from error
 
 from ._lattice import lattice_floor
 from .convex_segmentation import convex_segmentation
 from .grid_ground import grid_ground
 from .normals import normals
 from .point_scale import point_scale
-from .point_spacing import point_spacing
+from .point_spacing import box_spacing, point_spacing
 from .region_growing import region_growing
 from .statistical_outlier_removal import statistical_outlier_removal
 from .tin_ground import tin_ground
 from .voxel_grid import voxel_grid
 
 __all__ = [
+    "box_spacing",
     "convex_segmentation",
     "grid_ground",
     "lattice_floor",

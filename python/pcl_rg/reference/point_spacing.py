@@ -9,22 +9,20 @@ import numpy.typing as npt
 
 from .._validation import as_points
 
-__all__ = ["point_spacing"]
+__all__ = ["box_spacing", "point_spacing"]
 
 
 def point_spacing(points: npt.ArrayLike) -> float:
     """Mean XY spacing from the occupied cells; see :func:`pcl_rg.point_spacing`."""
     xyz = as_points(points)
     n = len(xyz)
-    if n < 2:
+    box = _box_cells(xyz)
+    if box is None:
         return math.nan
+    c, occupied = box
     x, y = xyz[:, 0], xyz[:, 1]
     xmin, ymin = float(x.min()), float(y.min())
     w, h = float(x.max()) - xmin, float(y.max()) - ymin
-    if not w * h > 0.0:  # no XY area: no density to measure
-        return math.nan
-    c = max(3.0 * math.sqrt(w * h / n), max(w, h) / 65536.0)
-    occupied = _occupied_cells(x - xmin, y - ymin, h, c)
     # A box less than a quarter occupied: the cell may follow the box of the bulk, from
     # the 1st to the 99th percentile on each axis, when that is under 1/16 of the box.
     trim = n // 100
@@ -40,6 +38,29 @@ def point_spacing(points: npt.ArrayLike) -> float:
             )
             occupied = _occupied_cells(x - xmin, y - ymin, h, c)
     return math.sqrt(occupied * c * c / n)
+
+
+def box_spacing(points: npt.ArrayLike) -> float:
+    """The spacing with the cells set by the bounding box alone: the measure of
+    :func:`pcl_rg.point_spacing` before the bulk's box may replace it (its result on any
+    box at least a quarter occupied), as it was before that rule (NaN when undefined)."""
+    xyz = as_points(points)
+    box = _box_cells(xyz)
+    return math.nan if box is None else math.sqrt(box[1] * box[0] ** 2 / len(xyz))
+
+
+def _box_cells(xyz: np.ndarray) -> tuple[float, int] | None:
+    """(cell side, occupied cells) of the cells set by the box; None when undefined."""
+    n = len(xyz)
+    if n < 2:
+        return None
+    x, y = xyz[:, 0], xyz[:, 1]
+    xmin, ymin = float(x.min()), float(y.min())
+    w, h = float(x.max()) - xmin, float(y.max()) - ymin
+    if not w * h > 0.0:  # no XY area: no density to measure
+        return None
+    c = max(3.0 * math.sqrt(w * h / n), max(w, h) / 65536.0)
+    return c, _occupied_cells(x - xmin, y - ymin, h, c)
 
 
 def _occupied_cells(dx: np.ndarray, dy: np.ndarray, h: float, c: float) -> int:
