@@ -16,6 +16,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from pcl_rg import _core
+from pcl_rg.reference.tin_ground import triangulate as reference_triangulate
 
 
 def orient(a, b, c):
@@ -324,3 +325,17 @@ def test_hypothesis_any_point_set_gives_a_valid_delaunay_tin(points) -> None:
     check_triangulation(tin)
     check_vertices(tin, xy, ids)
     located_in_closure(tin, tin.to_grid(xy), tin.locate(xy))
+
+
+@pytest.mark.parametrize("seed", [5, 6])
+def test_the_reference_triangulation_is_the_cores_on_cocircular_points(seed: int) -> None:
+    # qhull picks any diagonal where four vertices are co-circular; the reference then
+    # flips to the core's choice (reference._delaunay): the same triangles, box included.
+    tin, _ = build(cocircular_cloud(12, 60, seed=seed), upper=(13.0, 13.0))
+    vertices = tin.vertices.astype(np.int64)
+    tri, _, _ = reference_triangulate(vertices[:, 0], vertices[:, 1], 1.0)
+    corners = vertices[tri]
+    key = corners[..., 0] * (1 << 31) + corners[..., 1]
+    turn = (np.argmin(key, axis=1)[:, None] + np.arange(3)) % 3
+    rows = np.take_along_axis(corners, turn[..., None], axis=1).reshape(-1, 6)
+    np.testing.assert_array_equal(rows[np.lexsort(rows.T[::-1])], triangles_by_position(tin))

@@ -3,9 +3,9 @@
 Every point is classified again by its height above a TIN of the lowest ground
 point of each cell: TerraScan's "classify by distance to ground TIN", with the
 slope-adaptive threshold of Zhao et al. 2016. The TIN comes from qhull
-(:func:`pcl_rg.reference.tin_ground.triangulate`) on the same snapped grid as the
-core's, so the two agree point for point wherever the Delaunay triangulation is
-unique (it is not where four or more vertices are co-circular).
+(:func:`pcl_rg.reference.tin_ground.triangulate`, qhull with co-circular vertices
+given the core's diagonals) on the same snapped grid as the core's, so the two
+agree point for point.
 """
 
 from __future__ import annotations

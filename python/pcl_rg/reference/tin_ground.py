@@ -5,9 +5,10 @@ Follows section 4 of the algorithms document and the choices stated in
 :class:`scipy.spatial.Delaunay` (qhull) in every iteration instead of inserting
 points, and tests every unclassified point in every iteration. The floating-point
 formulas are the core's, operation for operation, on the same snapped grid, so
-the two agree point for point whenever qhull picks the same Delaunay
-triangulation; they can differ only where it is not unique (four or more
-co-circular vertices, frequent on gridded data such as the ISPRS samples).
+the two agree point for point. Where four or more vertices are co-circular
+(frequent on gridded data such as the ISPRS samples) the Delaunay triangulation
+is not unique: qhull's diagonals are then flipped to the core's, which follow a
+symbolic perturbation (:mod:`pcl_rg.reference._delaunay`).
 qhull works in floating point: vertices a few grid steps apart in a large
 extent, which the core's exact predicates tell apart, it may merge, and then
 :class:`QhullPrecisionError` is raised instead of an answer.
@@ -26,6 +27,7 @@ from .._params import resolve_arguments
 from .._point_spacing import with_spacing_lengths
 from .._tin_ground import TinGroundParams
 from .._validation import as_points
+from ._delaunay import follow_perturbation, triangle_neighbours
 from ._lattice import lattice_floor
 from .point_spacing import point_spacing
 
@@ -75,9 +77,8 @@ def triangulate(vx: np.ndarray, vy: np.ndarray, quantum: float) -> tuple:
     Returns ``(tri, neighbors, vertex_to_simplex)``: the triangles (T, 3)
     counter-clockwise, each starting at its lexicographically smallest (x, y) vertex,
     the triangle across the edge opposite each vertex (-1 on the hull), and one
-    triangle per vertex. qhull's triangulated output may hold zero-area rows where
-    four or more points are co-circular; they are kept for walking but can hold no
-    point.
+    triangle per vertex. Where four or more vertices are co-circular, qhull's
+    diagonals are flipped to the core's (``follow_perturbation``).
 
     Raises
     ------
@@ -92,15 +93,18 @@ def triangulate(vx: np.ndarray, vy: np.ndarray, quantum: float) -> tuple:
             "extent); this NumPy reference cannot build that TIN exactly (the core can)"
         )
     s = dt.simplices.astype(np.int64)
-    nb = dt.neighbors.astype(np.int64)
     o = _orient(vx[s[:, 0]], vy[s[:, 0]], vx[s[:, 1]], vy[s[:, 1]], vx[s[:, 2]], vy[s[:, 2]])
     cw = o < 0
     s[cw] = s[cw][:, [0, 2, 1]]
-    nb[cw] = nb[cw][:, [0, 2, 1]]
+    # Co-circular vertices: the core's diagonals (its perturbed in-circle test).
+    s = follow_perturbation(s, vx, vy)
+    nb = triangle_neighbours(s)
     key = vx[s] * (1 << 31) + vy[s]  # lexicographic (x, y); vx < 2^31
     turn = (np.argmin(key, axis=1)[:, None] + np.arange(3)) % 3
     rows = np.arange(len(s))[:, None]
-    return s[rows, turn], nb[rows, turn], dt.vertex_to_simplex.astype(np.int64)
+    vertex_to_simplex = np.full(len(vx), -1, dtype=np.int64)
+    vertex_to_simplex[s.ravel()] = np.repeat(np.arange(len(s)), 3)
+    return s[rows, turn], nb[rows, turn], vertex_to_simplex
 
 
 def locate(
