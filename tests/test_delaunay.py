@@ -339,3 +339,24 @@ def test_the_reference_triangulation_is_the_cores_on_cocircular_points(seed: int
     turn = (np.argmin(key, axis=1)[:, None] + np.arange(3)) % 3
     rows = np.take_along_axis(corners, turn[..., None], axis=1).reshape(-1, 6)
     np.testing.assert_array_equal(rows[np.lexsort(rows.T[::-1])], triangles_by_position(tin))
+
+
+def test_the_flips_end_on_many_points_on_one_circle() -> None:
+    # The 16 lattice points with x^2 + y^2 = 125, without box corners: qhull's 14
+    # triangles need up to 16 rounds of flips in some orders (a review found the former
+    # bound of one round per triangle too tight). Any order ends in one triangulation.
+    from scipy.spatial import Delaunay
+
+    from pcl_rg.reference._delaunay import follow_perturbation
+
+    circle = [(x, y) for x in range(-12, 13) for y in range(-12, 13) if x * x + y * y == 125]
+    xy = np.array(circle, dtype=np.int64) + 100
+    results = set()
+    for seed in range(12):
+        order = np.random.default_rng(seed).permutation(len(xy))
+        tri = order[Delaunay(xy[order].astype(float)).simplices].astype(np.int64)
+        flipped = orient(xy[tri[:, 0]].T, xy[tri[:, 1]].T, xy[tri[:, 2]].T) < 0
+        tri[flipped] = tri[flipped][:, [0, 2, 1]]
+        done = follow_perturbation(tri, xy[:, 0], xy[:, 1])
+        results.add(tuple(sorted(tuple(sorted(row)) for row in done.tolist())))
+    assert len(results) == 1

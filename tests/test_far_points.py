@@ -58,6 +58,14 @@ def test_stray_points_barely_move_the_spacing(strays: list) -> None:
     assert with_strays == pytest.approx(alone, rel=0.1)
 
 
+def test_the_box_measure_is_the_spacing_of_a_covered_box() -> None:
+    # reference.box_spacing rounds as point_spacing does (a review found one unit in
+    # the last place apart on 14 % of such clouds when it squared the cell first).
+    for seed in range(50):
+        points = np.random.default_rng(seed).uniform(0.0, 100.0, (500, 3))
+        assert reference.box_spacing(points) == pcl_rg.point_spacing(points)
+
+
 @settings(max_examples=40, deadline=None)
 @given(
     n=st.integers(50, 3000),

@@ -72,7 +72,9 @@ def follow_perturbation(tri: np.ndarray, vx: np.ndarray, vy: np.ndarray) -> np.n
     """
     tri = tri.copy()
     x, y = vx.astype(np.float64), vy.astype(np.float64)
-    for _ in range(len(tri) + 1):
+    # Each round flips at least one edge, and Lawson's flips never undo one another (the
+    # lifted surface only goes down): at most one flip per pair of vertices in all.
+    for _ in range(len(vx) * len(vx) + 1):
         nb = triangle_neighbours(tri)
         t, k = np.nonzero(nb >= 0)
         u = nb[t, k]

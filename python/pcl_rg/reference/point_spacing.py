@@ -41,12 +41,15 @@ def point_spacing(points: npt.ArrayLike) -> float:
 
 
 def box_spacing(points: npt.ArrayLike) -> float:
-    """The spacing with the cells set by the bounding box alone: the measure of
-    :func:`pcl_rg.point_spacing` before the bulk's box may replace it (its result on any
-    box at least a quarter occupied), as it was before that rule (NaN when undefined)."""
+    """The spacing with the cells set by the bounding box alone: the first measure of
+    :func:`pcl_rg.point_spacing`, and its result on any box at least a quarter
+    occupied, before the bulk's box may replace it (NaN when undefined)."""
     xyz = as_points(points)
     box = _box_cells(xyz)
-    return math.nan if box is None else math.sqrt(box[1] * box[0] ** 2 / len(xyz))
+    if box is None:
+        return math.nan
+    c, occupied = box
+    return math.sqrt(occupied * c * c / len(xyz))  # as point_spacing rounds it
 
 
 def _box_cells(xyz: np.ndarray) -> tuple[float, int] | None:
