@@ -256,6 +256,18 @@ def test_extreme_extents_are_still_refused() -> None:
             function(np.r_[points, [[1e15, 1e15, 0.0]]])
 
 
+def test_sor_flags_only_a_far_point_and_a_second_run_the_ordinary_noise() -> None:
+    # As the docstring and README say: the far point raises the deviation of all mean
+    # distances until it alone is an outlier (PCL's definition, to the bit).
+    points = terrain(20_000, 100.0)
+    points[::500, 2] += 3.0  # 40 points well above the surface
+    clean = pcl_rg.statistical_outlier_removal(points)
+    stray = np.r_[points, [points.mean(axis=0) - [5e5, 5e5, 0.0]]]
+    first = pcl_rg.statistical_outlier_removal(stray)
+    assert (~clean).sum() >= 40 and np.flatnonzero(~first).tolist() == [len(points)]
+    np.testing.assert_array_equal(pcl_rg.statistical_outlier_removal(stray[first]), clean)
+
+
 # ------------------------------------------------------------------ on ISPRS
 
 

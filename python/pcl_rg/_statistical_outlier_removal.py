@@ -79,6 +79,11 @@ def statistical_outlier_removal(
     the same order and precision. Neighbour queries run in parallel on an
     exact k-d tree (nanoflann) with the GIL released.
 
+    mu and sigma are taken over every point, outliers included, so a few
+    points very far from the rest (a bad GPS fix hundreds of km away) raise
+    the threshold until only they are outliers: remove them, then run it
+    again for the ordinary noise (as PCL's class behaves).
+
     References
     ----------
     Seed 004 (Wang et al., ISPRS Archives XLII-3/W10, 2020), section 2.1;
