@@ -162,10 +162,15 @@ def cache_tile(job: Job, tile: Tile) -> dict[str, Any]:
     return _guarded(work)
 
 
+def _layout(job: Job, tile: Tile) -> tuple:
+    """Stage 1's layout.pkl: format, header, field names, index origin and cell, footprint."""
+    with open(os.path.join(_folder(job, tile), "layout.pkl"), "rb") as stream:
+        return pickle.load(stream)
+
+
 def _load(job: Job, tile: Tile, mmap: bool = False) -> PointFile:
     folder = _folder(job, tile)
-    with open(os.path.join(folder, "layout.pkl"), "rb") as stream:
-        fmt, header, names, *_ = pickle.load(stream)
+    fmt, header, names, *_ = _layout(job, tile)
     mode = "r" if mmap else None
     points = np.load(os.path.join(folder, "points.npy"), mmap_mode=mode)
     fields = {
@@ -181,11 +186,6 @@ def _load(job: Job, tile: Tile, mmap: bool = False) -> PointFile:
 def _inside(points: np.ndarray, box: Box) -> np.ndarray:
     x, y = points[:, 0], points[:, 1]
     return (x >= box.xmin) & (x <= box.xmax) & (y >= box.ymin) & (y <= box.ymax)
-
-
-def _layout(job: Job, tile: Tile) -> tuple:
-    with open(os.path.join(_folder(job, tile), "layout.pkl"), "rb") as stream:
-        return pickle.load(stream)
 
 
 def _region(job: Job, tile: Tile) -> list[Box]:

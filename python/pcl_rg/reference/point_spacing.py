@@ -19,10 +19,8 @@ def point_spacing(points: npt.ArrayLike) -> float:
     box = _box_cells(xyz)
     if box is None:
         return math.nan
-    c, occupied = box
+    c, occupied, xmin, ymin, w, h = box
     x, y = xyz[:, 0], xyz[:, 1]
-    xmin, ymin = float(x.min()), float(y.min())
-    w, h = float(x.max()) - xmin, float(y.max()) - ymin
     # A box less than a quarter occupied: the cell may follow the box of the bulk, from
     # the 1st to the 99th percentile on each axis, when that is under 1/16 of the box.
     trim = n // 100
@@ -48,12 +46,13 @@ def box_spacing(points: npt.ArrayLike) -> float:
     box = _box_cells(xyz)
     if box is None:
         return math.nan
-    c, occupied = box
+    c, occupied = box[:2]
     return math.sqrt(occupied * c * c / len(xyz))  # as point_spacing rounds it
 
 
-def _box_cells(xyz: np.ndarray) -> tuple[float, int] | None:
-    """(cell side, occupied cells) of the cells set by the box; None when undefined."""
+def _box_cells(xyz: np.ndarray) -> tuple[float, int, float, float, float, float] | None:
+    """(cell side, occupied cells, xmin, ymin, w, h) of the cells set by the box; None
+    when undefined (fewer than 2 points, no XY area)."""
     n = len(xyz)
     if n < 2:
         return None
@@ -63,7 +62,7 @@ def _box_cells(xyz: np.ndarray) -> tuple[float, int] | None:
     if not w * h > 0.0:  # no XY area: no density to measure
         return None
     c = max(3.0 * math.sqrt(w * h / n), max(w, h) / 65536.0)
-    return c, _occupied_cells(x - xmin, y - ymin, h, c)
+    return c, _occupied_cells(x - xmin, y - ymin, h, c), xmin, ymin, w, h
 
 
 def _occupied_cells(dx: np.ndarray, dy: np.ndarray, h: float, c: float) -> int:

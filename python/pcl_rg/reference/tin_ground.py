@@ -175,14 +175,12 @@ def with_corners(
     )
 
 
-def _lowest_in_cells(xyz: np.ndarray, local: np.ndarray, cell: float, ncy: int) -> tuple:
-    """(cell key per point, lowest point (ties: index) of each occupied cell, its key)."""
-    key = np.floor(local[:, 0] / cell).astype(np.int64) * ncy + np.floor(local[:, 1] / cell).astype(
-        np.int64
-    )
+def _lowest_in_cells(xyz: np.ndarray, key: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(lowest point (ties: index) of each occupied cell, its cell key); `key`: each
+    point's cell."""
     by_cell = np.lexsort((np.arange(len(xyz)), xyz[:, 2], key))
     first = by_cell[np.r_[True, key[by_cell][1:] != key[by_cell][:-1]]]
-    return key, first, key[first]
+    return first, key[first]
 
 
 def _close_gaps(index: np.ndarray, reach: int) -> tuple[np.ndarray, int]:
@@ -225,10 +223,7 @@ def _morphological_seeds(
             "than 4 cells per point, even with the empty rows and columns of cells between "
             f"them cut short), got {cell:g}; set a larger seed_cell"
         )
-    key = column * ncy + row
-    by_cell = np.lexsort((np.arange(len(xyz)), xyz[:, 2], key))
-    lowest = by_cell[np.r_[True, key[by_cell][1:] != key[by_cell][:-1]]]
-    cells = key[lowest]
+    lowest, cells = _lowest_in_cells(xyz, column * ncy + row)
     height = np.full(ncx * ncy, np.inf)
     height[cells] = local[lowest, 2]
     height = height.reshape(ncx, ncy)
@@ -269,7 +264,11 @@ def _seeds(xyz: np.ndarray, ex: float, ey: float, p: TinGroundParams) -> np.ndar
         raise ValueError("points: the XY extent is too large (not finite in float64)")
     if p.seed_cell > 0:
         return _morphological_seeds(xyz, local, sex, sey, p)
-    return np.sort(_lowest_in_cells(xyz, local, cell, math.floor(sey / cell) + 1)[1])
+    ncy = math.floor(sey / cell) + 1
+    key = np.floor(local[:, 0] / cell).astype(np.int64) * ncy + np.floor(local[:, 1] / cell).astype(
+        np.int64
+    )
+    return np.sort(_lowest_in_cells(xyz, key)[0])
 
 
 def seeds(points: npt.ArrayLike, params: TinGroundParams) -> np.ndarray:
