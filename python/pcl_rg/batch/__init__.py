@@ -41,6 +41,7 @@ from .._grid_ground import GridGroundParams
 from .._statistical_outlier_removal import StatisticalOutlierRemovalParams
 from .._tin_ground import TinGroundParams
 from .._voxel_grid import VoxelGridParams
+from ..io._crs import GIVEN_UNITS
 from . import _engine, _plan, _tasks
 from ._engine import BatchReport, TileReport
 
@@ -133,7 +134,7 @@ def default_buffer(operation: str, params: Any) -> float:
 
 
 #: The keywords every operation passes on to the engine unchanged.
-_ENGINE_OPTIONS = ("buffer", "workers", "scheduler", "progress", "resume", "on_dashboard")
+_ENGINE_OPTIONS = ("buffer", "units", "workers", "scheduler", "progress", "resume", "on_dashboard")
 
 
 def _engine_options(arguments: dict[str, Any]) -> dict[str, Any]:
@@ -149,6 +150,7 @@ def _run(
     *,
     method: str = "grid",
     buffer: float | None,
+    units: str | None,
     workers: int | None,
     scheduler: str | None,
     progress: bool,
@@ -172,7 +174,9 @@ def _run(
         raise ValueError(f"workers must be >= 1, got {workers}")
     if isinstance(inputs, (str, os.PathLike)):
         inputs = [inputs]
-    job = _tasks.Job(operation, params, buffer, scratch="", method=method)
+    if units is not None and units not in GIVEN_UNITS:
+        raise ValueError(f"units must be one of {sorted(GIVEN_UNITS)}, got {units!r}")
+    job = _tasks.Job(operation, params, buffer, scratch="", method=method, units=units)
     return _engine.run(
         job,
         inputs,
@@ -192,6 +196,7 @@ def ground(
     method: str = "grid",
     params: GridGroundParams | TinGroundParams | None = None,
     buffer: float | None = None,
+    units: str | None = None,
     workers: int | None = None,
     scheduler: str | None = None,
     progress: bool = False,
@@ -213,6 +218,11 @@ def ground(
     buffer : float, optional
         Metres of neighbouring points each tile sees (default
         :func:`default_buffer`).
+    units : {"m", "ft", "us-ft"}, optional
+        Units of the tiles' x, y and z. Default: what the LAS/LAZ tiles'
+        coordinate systems state (they must agree; longitude and latitude are
+        refused), else metres. Every length is in metres: the points are scaled
+        to metres for the work, and written back in their own units.
     workers : int, optional
         Processes of the local cluster (default: the core count).
     scheduler : str, optional
@@ -269,6 +279,7 @@ def denoise(
     *,
     params: StatisticalOutlierRemovalParams | None = None,
     buffer: float | None = None,
+    units: str | None = None,
     workers: int | None = None,
     scheduler: str | None = None,
     progress: bool = False,
@@ -305,6 +316,7 @@ def downsample(
     *,
     params: VoxelGridParams,
     buffer: float | None = None,
+    units: str | None = None,
     workers: int | None = None,
     scheduler: str | None = None,
     progress: bool = False,

@@ -28,7 +28,7 @@ from .. import __version__
 from .._point_spacing import with_spacing_lengths
 from ..io import Extent
 from . import _tasks
-from ._headers import check_one_crs
+from ._headers import check_one_crs, survey_units
 from ._manifest import Manifest, file_signature
 from ._plan import (
     Box,
@@ -273,6 +273,9 @@ def _run_on(
 
     extents = client.gather(client.map(_tasks.tile_extent, paths, pure=False))
     check_one_crs(paths, extents)
+    scale = survey_units(paths, extents, job.units)
+    if scale != job.scale:  # every length is metres: the tiles' units from here on
+        job = dataclasses.replace(job, scale=scale, buffer=job.buffer / scale[0])
     boxes: list[Box | None] = []
     for i, (report, extent) in enumerate(zip(reports, extents, strict=True)):
         if not extent["ok"]:
@@ -288,7 +291,9 @@ def _run_on(
         # Lengths that follow the point spacing: one spacing for the whole survey, so that
         # every tile runs with the same parameters (a tile's own would differ a little).
         in_survey = [Extent(*extents[i]["extent"]) for i in readable if boxes[i]]
-        params = with_spacing_lengths(job.params, lambda: survey_spacing(in_survey))
+        params = with_spacing_lengths(
+            job.params, lambda: survey_spacing(in_survey) * job.scale[0]
+        )
         if params != job.params:
             job = dataclasses.replace(job, params=params)
             parameters = _plain(dataclasses.asdict(job.params))
@@ -319,6 +324,7 @@ def _run_on(
                 "method": job.method,
                 "parameters": parameters,
                 "buffer": job.buffer,
+                "metres_per_unit": job.scale,
                 "version": __version__,
                 "position": i,
                 "input": signatures[i],

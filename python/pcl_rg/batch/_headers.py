@@ -8,27 +8,22 @@ checks that its header's box is its points' (`check_header_box`).
 from __future__ import annotations
 
 import os
-import re
 from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 
 from ..io import PointFile
+from ..io._crs import CoordinateUnits, crs_codes_of, metre_factors, units_of
 from ._plan import Box
 
-__all__ = ["check_header_box", "check_one_crs", "crs_codes"]
-
-
-# GeoTIFF keys of the horizontal CRS, projected first (GeoTIFF 1.0, section 6.3).
-_PROJECTED_KEY, _GEOGRAPHIC_KEY = 3072, 2048
-_USER_DEFINED = 32767
-# WKT 1 and WKT 2 keywords of a projected, then a geographic or geodetic, CRS.
-_WKT_CRS = (
-    ("PROJCS", "PROJCRS", "PROJECTEDCRS"),
-    ("GEOGCS", "GEOGCRS", "GEOGRAPHICCRS", "GEODCRS", "GEODETICCRS"),
-)
-_WKT_EPSG = re.compile(r'(?:AUTHORITY|ID)\s*[\[(]\s*"EPSG"\s*,\s*"?(\d+)', re.IGNORECASE)
+__all__ = [
+    "check_header_box",
+    "check_one_crs",
+    "crs_codes",
+    "crs_records",
+    "survey_units",
+]
 
 
 def crs_codes(path: str) -> list[int]:
@@ -39,55 +34,42 @@ def crs_codes(path: str) -> list[int]:
     without GeoTIFF keys, other citations), and only different codes say that two
     tiles are in different systems.
     """
+    return crs_records(path)[0]
+
+
+def crs_records(path: str) -> tuple[list[int], CoordinateUnits]:
+    """A LAS/LAZ file's EPSG codes (as :func:`crs_codes`) and the units its CRS
+    records state, from its header alone."""
     import laspy
-    from laspy.vlrs.known import GeoKeyDirectoryVlr, WktCoordinateSystemVlr
 
     with laspy.open(path) as reader:
-        records = [*reader.header.vlrs, *(reader.header.evlrs or [])]
-    codes = set()
-    for record in records:
-        if isinstance(record, GeoKeyDirectoryVlr):
-            keys = {key.id: key for key in record.geo_keys}
-            for key_id in (_PROJECTED_KEY, _GEOGRAPHIC_KEY):
-                key = keys.get(key_id)
-                if key is not None and key.tiff_tag_location == 0:
-                    if 0 < key.value_offset < _USER_DEFINED:
-                        codes.add(int(key.value_offset))
-                    break
-        elif isinstance(record, WktCoordinateSystemVlr):
-            code = _wkt_epsg(record.string)
-            if code is not None:
-                codes.add(code)
-    return sorted(codes)
+        return crs_codes_of(reader.header), units_of(reader.header)
 
 
-def _wkt_epsg(wkt: str) -> int | None:
-    """The EPSG code of a WKT's horizontal CRS: the AUTHORITY (WKT 1) or ID (WKT 2)
-    clause at the top level of its first projected, else geographic, CRS object."""
-    for keywords in _WKT_CRS:
-        found = re.search(r"\b(?:" + "|".join(keywords) + r")\s*[\[(]", wkt, re.IGNORECASE)
-        if not found:
+def survey_units(
+    paths: Sequence[str], extents: Sequence[dict[str, Any]], given: str | None
+) -> tuple[float, float, float]:
+    """Metres per unit of x, y and z of the whole survey: `given` (a key of
+    GIVEN_UNITS), else what the tiles' records state, which must agree. ValueError
+    before any work for tiles in degrees, records that cannot be read, or tiles in
+    different units: each tile's lengths would mean other distances."""
+    if given is not None:
+        return metre_factors(CoordinateUnits(), given)[0]
+    found: dict[tuple[float, float, float], str] = {}
+    for path, extent in zip(paths, extents, strict=True):
+        if not extent["ok"]:
             continue
-        depth, i = 0, found.end() - 1
-        while i < len(wkt):
-            c = wkt[i]
-            if c == '"':  # a quoted name may hold brackets; "" is an escaped quote
-                i = wkt.find('"', i + 1)
-                if i < 0:
-                    return None
-            elif c in "[(":
-                depth += 1
-            elif c in "])":
-                depth -= 1
-                if depth == 0:
-                    return None
-            elif depth == 1 and c in "AaIi":
-                clause = _WKT_EPSG.match(wkt, i)
-                if clause:
-                    return int(clause.group(1))
-            i += 1
-        return None
-    return None
+        try:
+            factors, where = metre_factors(CoordinateUnits(*extent["units"]))
+        except ValueError as error:
+            raise ValueError(f"{os.path.basename(path)!r}: {error}") from None
+        found.setdefault(factors, f"{os.path.basename(path)!r} in {where}")
+    if len(found) > 1:
+        raise ValueError(
+            f"the tiles are not in one unit: {' and '.join(found.values())}; run each "
+            "unit's tiles on their own"
+        )
+    return next(iter(found), (1.0, 1.0, 1.0))
 
 
 def check_one_crs(paths: Sequence[str], extents: Sequence[dict[str, Any]]) -> None:

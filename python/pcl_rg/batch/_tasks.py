@@ -31,8 +31,8 @@ from .._classification import (
     valid_points,
     voxel_attributes,
 )
-from ..io import PointFile, read_extent, read_points, write_points
-from ._headers import check_header_box, crs_codes
+from ..io import CoordinateUnits, PointFile, read_extent, read_points, write_points
+from ._headers import check_header_box, crs_records
 from ._plan import FOOTPRINT_GAP, Box, covers, footprint, grow, meets
 
 __all__ = [
@@ -56,9 +56,11 @@ class Job:
 
     operation: str  # "ground", "denoise" or "downsample"
     params: Any  # the operation's params dataclass
-    buffer: float  # m
+    buffer: float  # in the units of x and y (metres until the engine reads the tiles)
     scratch: str  # folder of the stage-1 arrays
     method: str = "grid"  # ground only
+    units: str | None = None  # as given by the caller (GIVEN_UNITS), else the tiles'
+    scale: tuple[float, float, float] = (1.0, 1.0, 1.0)  # metres per unit of x, y, z
 
 
 class Tile(NamedTuple):
@@ -95,11 +97,13 @@ def passed_on(result: dict[str, Any]) -> dict[str, Any]:
 
 
 def tile_extent(path: str) -> dict[str, Any]:
-    """Stage 0: the tile's box, from the header for LAS/LAZ, and its CRS's EPSG codes."""
+    """Stage 0: the tile's box, from the header for LAS/LAZ, its CRS's EPSG codes and
+    the units its CRS records state."""
 
     def work() -> dict[str, Any]:
         extent = read_extent(path)
-        return {"extent": tuple(extent), "crs": crs_codes(path) if extent.from_header else []}
+        codes, units = crs_records(path) if extent.from_header else ([], CoordinateUnits())
+        return {"extent": tuple(extent), "crs": codes, "units": tuple(units)}
 
     return _guarded(work)
 
@@ -245,6 +249,12 @@ def _context(
     return parts
 
 
+def _metres(job: Job, xyz: np.ndarray) -> np.ndarray:
+    """Points in metres for the methods, whose lengths are metres."""
+    scale = np.asarray(job.scale)
+    return xyz if (scale == 1.0).all() else xyz * scale
+
+
 def _ground_work(cloud: PointFile) -> np.ndarray:
     """The points a ground filter sees: finite and not already noise (as pcl-rg ground)."""
     return valid_points(cloud.points) & ~noise_mask(existing_classes(cloud), len(cloud))
@@ -286,7 +296,8 @@ def ground_tile(
         work_rows = _ground_work(own)
         parts = _context(job, neighbours, _region(job, tile))
         xyz = np.concatenate([own.points[work_rows]] + [p.points for _, _, p in parts])
-        ground = GROUND_METHODS[job.method](xyz, params=job.params)[: int(work_rows.sum())]
+        ground = GROUND_METHODS[job.method](_metres(job, xyz), params=job.params)
+        ground = ground[: int(work_rows.sum())]
         classes = ground_classes(own, work_rows, ground)
         write_points(
             tile.output, own.points, dict(own.fields, classification=classes), template=own
@@ -351,8 +362,11 @@ def denoise_distances(job: Job, tile: Tile, survey: Box, others: list[Tile]) -> 
                     )
                 margin = max(2.0 * margin, 1.0)  # from a zero buffer too
                 continue
-            _, distance, _, farthest = _core.statistical_outlier_removal(xyz, job.params.to_core())
-            distance, farthest = distance[: len(mine)], farthest[: len(mine)]
+            _, distance, _, farthest = _core.statistical_outlier_removal(
+                _metres(job, xyz), job.params.to_core()
+            )
+            # Distances in metres; farthest as a bound on x, y offsets in their unit.
+            distance, farthest = distance[: len(mine)], farthest[: len(mine)] / job.scale[0]
             short = farthest > _room(mine, reach, survey)
             if not short.any() or whole:
                 break
@@ -446,14 +460,14 @@ def downsample_tile(
             name: np.concatenate([_field(p, name, values) for _, _, p in parts])
             for name, values in own.fields.items()
         }
-        grid = voxel_grid(xyz, params=job.params)
+        grid = voxel_grid(_metres(job, xyz), params=job.params)
         member = np.flatnonzero(grid.voxel_of_point >= 0)
         voxel = grid.voxel_of_point[member]
         owner = np.full(len(grid.counts), np.iinfo(np.int64).max)
         np.minimum.at(owner, voxel, tile_of[member])
         mine = owner == tile.index
         attributes = voxel_attributes(fields, member, voxel, grid.counts)
-        centroids = grid.centroids[mine]
+        centroids = grid.centroids[mine] / np.asarray(job.scale)  # in the tile's units
         write_points(
             tile.output, centroids, {n: v[mine] for n, v in attributes.items()}, template=own
         )

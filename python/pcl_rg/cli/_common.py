@@ -28,6 +28,7 @@ from .._classification import (
     valid_points,
 )
 from ..io import EXTENSIONS, PointFile, read_points, write_points
+from ..io._crs import GIVEN_UNITS, metre_factors
 from ._flags import EXIT_FAILURE, CliError, float_type, line_type
 from ._run import Run
 
@@ -41,6 +42,7 @@ __all__ = [
     "add_io_arguments",
     "add_output_options",
     "add_plot_options",
+    "add_units_option",
     "check_extension",
     "check_paths",
     "check_plots",
@@ -52,6 +54,7 @@ __all__ = [
     "noise_mask",
     "percent",
     "plots",
+    "points_in_metres",
     "read",
     "read_input",
     "say_written",
@@ -81,6 +84,18 @@ def add_io_arguments(parser: argparse.ArgumentParser, drop: str | None) -> None:
     )
     if drop is not None:
         parser.add_argument("--drop", action="store_true", help=drop)
+    add_units_option(parser)
+
+
+def add_units_option(parser: argparse.ArgumentParser | argparse._ArgumentGroup) -> None:
+    parser.add_argument(
+        "--units",
+        choices=sorted(GIVEN_UNITS),
+        help="units of the input's x, y and z, for files that do not state them or state "
+        "them wrongly (default: what a LAS/LAZ file's coordinate system says, else m); "
+        "every length option is in metres, and the points are scaled to metres for "
+        "the work",
+    )
 
 
 def add_plot_options(parser: argparse.ArgumentParser) -> None:
@@ -235,6 +250,27 @@ def read_input(
     if neighbours is not None:
         _check_neighbours(*neighbours, int(valid.sum()))
     return cloud, valid
+
+
+def points_in_metres(
+    run: Run, args: argparse.Namespace, cloud: PointFile
+) -> tuple[np.ndarray, np.ndarray]:
+    """INPUT's points scaled to metres (the points themselves when they are), and the
+    metres per unit of x, y and z: every length option is in metres.
+
+    Refuses longitude and latitude, geocentric coordinates and coordinate-system
+    records that cannot be read, unless --units says what the units are.
+    """
+    try:
+        factors, where = metre_factors(cloud.units, args.units)
+    except ValueError as error:
+        raise CliError(f"{args.input}: {error} (--units)") from None
+    run.result["units"] = {"metres_per_unit": list(factors), "source": where}
+    scale = np.asarray(factors)
+    if (scale == 1.0).all():
+        return cloud.points, scale
+    run.say(f"coordinates in {where}: the work is done in metres")
+    return cloud.points * scale, scale
 
 
 def say_written(run: Run, args: argparse.Namespace, n: int, what: str) -> None:

@@ -38,12 +38,14 @@ from numpy.typing import ArrayLike
 
 from . import _las, _pcd, _ply, _xyz
 from ._columns import check_columns, check_path, check_xyz
+from ._crs import CoordinateUnits, units_of
 from ._extent import Extent, read_extent
 from ._formats import EXTENSIONS, check_magic, format_of
 from ._pcd import write_pcd
 
 __all__ = [
     "EXTENSIONS",
+    "CoordinateUnits",
     "PcdLayout",
     "PlyLayout",
     "PointFile",
@@ -133,6 +135,26 @@ class PointFile:
             f"<PointFile {self.format}{where}: {len(self.points)} points, "
             f"fields {list(self.fields)}>"
         )
+
+    @property
+    def units(self) -> CoordinateUnits:
+        """The units of ``points`` as the file's coordinate-system records state them.
+
+        LAS/LAZ: its OGC WKT, else its GeoTIFF keys (US survey feet, say, or
+        longitude and latitude). PLY, PCD and XYZ text state none: every field of
+        the result is then empty. The package's lengths are metres: scale points
+        in other units before filtering them (the command line does it).
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from pcl_rg.io import PointFile
+        >>> PointFile(np.zeros((1, 3)), {}, "xyz").units.xy is None
+        True
+        """
+        if self.format in ("las", "laz") and self.header is not None:
+            return units_of(self.header)
+        return CoordinateUnits()
 
     @property
     def classification(self) -> np.ndarray | None:

@@ -8,7 +8,7 @@ import sys
 
 import pcl_rg
 
-from .._common import add_common_options
+from .._common import add_common_options, add_units_option
 from .._flags import (
     EXIT_USAGE,
     add_method_flags,
@@ -48,6 +48,7 @@ def _common_arguments(parser: argparse.ArgumentParser) -> None:
         help="metres of neighbouring tiles each tile sees (default: the method's reach, "
         "see pcl_rg.batch.default_buffer)",
     )
+    add_units_option(group)
     group.add_argument(
         "--workers", type=int_type, metavar="N", help="local worker processes (default: cores)"
     )
@@ -89,6 +90,7 @@ def execute(args: argparse.Namespace, run: Run) -> None:
 
     options = dict(
         buffer=args.buffer,
+        units=args.units,
         workers=args.workers,
         scheduler=args.scheduler,
         progress=not (run.quiet or run.json),

@@ -15,6 +15,7 @@ from .._common import (
     noise_classes,
     percent,
     plots,
+    points_in_metres,
     read_input,
     say_written,
     write_output,
@@ -46,7 +47,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
 def execute(args: argparse.Namespace, run: Run) -> None:
     params = params_from_args(args, args.flags, "sor", pcl_rg.StatisticalOutlierRemovalParams)
     cloud, valid = read_input(args, run, ("mean_k", params.mean_k))
-    points = cloud.points
+    points, _ = points_in_metres(run, args, cloud)
     n_valid = int(valid.sum())
     with run.stage(
         "denoise", f"statistical outlier removal on {n_valid:,} points", source=args.input
@@ -73,7 +74,7 @@ def execute(args: argparse.Namespace, run: Run) -> None:
     plots(
         run,
         args,
-        points,
+        cloud.points,
         classes=classes,
         title=f"statistical outlier removal: {os.path.basename(args.input)}",
     )

@@ -14,6 +14,7 @@ from .._common import (
     add_io_arguments,
     add_output_options,
     plots,
+    points_in_metres,
     read_input,
     write,
 )
@@ -40,14 +41,15 @@ def configure(parser: argparse.ArgumentParser) -> None:
 def execute(args: argparse.Namespace, run: Run) -> None:
     params = params_from_args(args, args.flags, "voxel", pcl_rg.VoxelGridParams)
     cloud, valid = read_input(args, run)
-    points = cloud.points
+    points, scale = points_in_metres(run, args, cloud)
     rows = np.flatnonzero(valid)
     with run.stage("downsample", f"voxel grid on {len(rows):,} points", source=args.input):
         grid = pcl_rg.voxel_grid(points[rows], params=params)
     kept = grid.voxel_of_point >= 0
     with run.stage("attributes", "voxel attributes", source=args.input):
         fields = voxel_attributes(cloud.fields, rows[kept], grid.voxel_of_point[kept], grid.counts)
-    write(run, args.output, grid.centroids, fields, cloud)
+    centroids = grid.centroids / scale  # in INPUT's units
+    write(run, args.output, centroids, fields, cloud)
     run.result.update(
         input=os.path.abspath(args.input),
         parameters=params_dict(params),
@@ -64,7 +66,7 @@ def execute(args: argparse.Namespace, run: Run) -> None:
     plots(
         run,
         args,
-        grid.centroids,
+        centroids,
         classes=fields.get("classification"),
         title=f"voxel centroids: {os.path.basename(args.input)}",
     )

@@ -17,6 +17,7 @@ from .._common import (
     noise_mask,
     percent,
     plots,
+    points_in_metres,
     read_input,
     say_written,
     write_output,
@@ -61,7 +62,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
 def execute(args: argparse.Namespace, run: Run) -> None:
     method, params = method_params(args)
     cloud, valid = read_input(args, run)
-    points = cloud.points
+    points, _ = points_in_metres(run, args, cloud)
     noise = noise_mask(existing_classes(cloud), len(cloud))
     work = valid & ~noise
     with run.stage(
@@ -103,7 +104,7 @@ def execute(args: argparse.Namespace, run: Run) -> None:
     plots(
         run,
         args,
-        points,
+        cloud.points,
         classes=classes,
         title=f"ground filter ({method.name}): {os.path.basename(args.input)}",
     )

@@ -64,6 +64,8 @@ def execute(args: argparse.Namespace, run: Run) -> None:
         layout = header._asdict()
         layout["xyz_dtype"] = str(layout["xyz_dtype"])
         info[cloud.format] = layout
+    stated = cloud.units
+    info["units"] = stated._asdict()
     info["fields"] = {}
     for name, values in cloud.fields.items():
         entry: dict[str, Any] = {"dtype": str(values.dtype), "shape": list(values.shape[1:])}
@@ -95,8 +97,21 @@ def execute(args: argparse.Namespace, run: Run) -> None:
     )
     if "bounds" in info:
         lo, hi = info["bounds"]["min"], info["bounds"]["max"]
+        names = [stated.xy_name, stated.xy_name, stated.z_name]
         for i, axis in enumerate("xyz"):
-            run.say(f"{axis + ' range':<14}{lo[i]:.3f} .. {hi[i]:.3f}  ({hi[i] - lo[i]:.3f} m)")
+            unit = names[i] or "units, not stated"
+            run.say(
+                f"{axis + ' range':<14}{lo[i]:.3f} .. {hi[i]:.3f}  ({hi[i] - lo[i]:.3f} {unit})"
+            )
+    if stated.source:
+        run.say(
+            f"{'units':<14}"
+            + (
+                stated.problem
+                or f"x, y {stated.xy_name or 'not stated'}, "
+                f"z {stated.z_name or 'not stated'} ({stated.source})"
+            )
+        )
     if "las" in info:
         run.say(f"{'scale':<14}{' '.join(f'{s:g}' for s in info['las']['scales'])}")
         run.say(f"{'offset':<14}{' '.join(f'{s:g}' for s in info['las']['offsets'])}")
