@@ -210,3 +210,35 @@ def test_info_gives_the_units_and_a_broken_record_stops_the_work(scene_files, tm
     assert "--units" in result.stderr and not (tmp_path / "out.las").exists()
     given = run_pcl_rg("ground", tmp_path / "broken.las", tmp_path / "out.las", "--units", "ft")
     assert given.returncode == 0, given.stderr
+
+
+def test_an_empty_wkt_leaves_the_geotiff_keys_their_say():
+    keys = geokeys_record({1024: 1, 3072: 2263, 3076: 9003})
+    for text in ("", 'VERT_CS["NAVD88",UNIT["US survey foot",0.304800609601219]]'):
+        stated = units([wkt_record(text), *keys])
+        assert stated.source == "GeoTIFF keys" and stated.xy == 1200.0 / 3937.0
+
+
+def test_a_unit_for_z_alone_or_an_implausible_factor_is_refused():
+    with pytest.raises(ValueError, match="unit for z"):
+        metre_factors(units(geokeys_record({1024: 1, 3072: 2263, 4099: 9003})))
+    for text in ('PROJCS["a",UNIT["ft"]]', 'PROJCS["a",UNIT["ft",1e-320]]'):
+        assert units([wkt_record(text)]).problem
+    assert units(geokeys_record({1024: 1, 3076: 32767}, {3077: 1e308})).problem
+
+
+def test_local_systems_in_feet_are_feet():
+    for text in (
+        'LOCAL_CS["site",UNIT["foot",0.3048]]',
+        'ENGCRS["site",LENGTHUNIT["foot",0.3048]]',
+    ):
+        assert metre_factors(units([wkt_record(text)]))[0] == (0.3048,) * 3
+
+
+def test_a_record_laspy_cannot_parse_is_unreadable(tmp_path):
+    import laspy
+
+    raw = laspy.VLR("LASF_Projection", 2112, "wkt", 'PROJCS["caf\xe9"]'.encode("cp1252"))
+    write_las(tmp_path / "latin.las", np.zeros((3, 3)), [raw])
+    stated = read_points(tmp_path / "latin.las").units
+    assert stated.problem == "its WKT cannot be read"

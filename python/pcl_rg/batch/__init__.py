@@ -72,7 +72,9 @@ def survey_spacing(inputs: Inputs) -> float:
     Returns
     -------
     float
-        Metres: ``sqrt(sum of the tiles' XY box areas / their number of points)``
+        In the tiles' x, y unit (metres unless their coordinate system says
+        otherwise; :func:`ground` scales it to metres with the points):
+        ``sqrt(sum of the tiles' XY box areas / their number of points)``
         from the files' headers (NaN for a survey without points or area; 1 m is
         then used). Every tile runs with the lengths of this one spacing, so the
         tiles agree; a single call of :func:`pcl_rg.tin_ground` on the merged

@@ -111,7 +111,7 @@ def add_plot_options(parser: argparse.ArgumentParser) -> None:
         "--profile-line",
         metavar="X0,Y0,X1,Y1",
         type=line_type,
-        help="ends A and B of the profile line in the file's x, y coordinates, metres "
+        help="ends A and B of the profile line in the file's x, y coordinates and units "
         "(default: west to east through the middle of the cloud)",
     )
     group.add_argument(
@@ -119,7 +119,7 @@ def add_plot_options(parser: argparse.ArgumentParser) -> None:
         metavar="M",
         type=float_type,
         default=2.0,
-        help="corridor width around the profile line in metres (default: 2)",
+        help="corridor width around the profile line, in the file's units (default: 2)",
     )
 
 

@@ -52,7 +52,8 @@ class CoordinateUnits(NamedTuple):
 NOT_STATED = CoordinateUnits()
 
 # WKT 1 (with ESRI's VERTCS) and WKT 2 keywords of each kind of CRS (ISO 19162).
-_PROJECTED = {"PROJCS", "PROJCRS", "PROJECTEDCRS"}
+# Local and engineering systems are planar in a length unit too: as projected ones.
+_PROJECTED = {"PROJCS", "PROJCRS", "PROJECTEDCRS", "LOCAL_CS", "ENGCRS", "ENGINEERINGCRS"}
 _GEOGRAPHIC = {"GEOGCS", "GEOGCRS", "GEOGRAPHICCRS"}
 _GEODETIC = {"GEODCRS", "GEODETICCRS"}  # geographic or geocentric, by its CS
 _GEOCENTRIC = {"GEOCCS"}
@@ -60,6 +61,7 @@ _VERTICAL = {"VERT_CS", "VERTCS", "VERTCRS", "VERTICALCRS"}
 _UNITS = {"UNIT", "LENGTHUNIT"}
 _IDS = {"AUTHORITY", "ID"}
 _WRAPPERS = {"BOUNDCRS": "SOURCECRS"}  # a CRS with a transformation: its source CRS
+_PLAUSIBLE = (1e-4, 1e5)  # metres per unit: from a tenth of a millimetre to 100 km
 _MAX_DEPTH = 64  # far above any real CRS; deeper nesting is not a CRS
 
 # GeoTIFF keys (GeoTIFF 1.0, section 6.3): model type (1 projected, 2 geographic,
@@ -162,12 +164,14 @@ def _length_unit(crs: _Node) -> tuple[str, float] | None:
     may give each axis one). Units inside other objects (a parameter's) are not its."""
     for holder in [crs, *_children(crs, {"AXIS"})]:
         for unit in _children(holder, _UNITS):
-            if len(unit.args) >= 2 and isinstance(unit.args[0], str):
+            if len(unit.args) < 2:
+                raise ValueError(f"{unit.keyword} without a factor")
+            if isinstance(unit.args[0], str):
                 try:
                     factor = float(unit.args[1])
                 except (TypeError, ValueError):
                     raise ValueError(f"{unit.keyword} {unit.args[0]!r} has no factor") from None
-                if not 0.0 < factor < float("inf"):
+                if not _PLAUSIBLE[0] <= factor <= _PLAUSIBLE[1]:
                     raise ValueError(f"{unit.keyword} {unit.args[0]!r} has factor {factor}")
                 return unit.args[0], factor
     return None
@@ -245,7 +249,7 @@ def _key_length(code: int | None, size: float | None) -> tuple[str, float] | Non
     if code is None:
         return None
     if code == _USER_DEFINED:
-        if size is None or not 0.0 < size < float("inf"):
+        if size is None or not _PLAUSIBLE[0] <= size <= _PLAUSIBLE[1]:
             raise ValueError("a user-defined linear unit without a valid size")
         return "user-defined", float(size)
     if code not in _EPSG_LENGTHS:
@@ -289,11 +293,23 @@ def units_of(header) -> CoordinateUnits:
         if isinstance(r, GeoDoubleParamsVlr)
         for d in r.doubles
     ]
-    source = "WKT" if wkt else "GeoTIFF keys" if keys else ""
+    for record in records:  # laspy keeps a record it cannot parse as a plain VLR
+        if (
+            getattr(record, "user_id", "") == "LASF_Projection"
+            and getattr(record, "record_id", 0) in (2112, 34735)
+            and not isinstance(record, (WktCoordinateSystemVlr, GeoKeyDirectoryVlr))
+        ):
+            name = "WKT" if record.record_id == 2112 else "GeoTIFF keys"
+            return CoordinateUnits(source=name, problem=f"its {name} cannot be read")
+    source = ""
     try:
         if wkt:
-            return _wkt_units(wkt[0].string)
-        if keys:
+            source = "WKT"
+            stated = _wkt_units(wkt[0].string)
+            if stated.kind is not None or not keys:
+                return stated
+        if keys:  # also when the WKT names no horizontal system (empty, vertical only)
+            source = "GeoTIFF keys"
             return _geokey_units(keys[0], doubles)
     except ValueError as error:
         return CoordinateUnits(source=source, problem=f"its {source} cannot be read: {error}")
@@ -363,11 +379,10 @@ def metre_factors(
     if units.xy is None:
         if units.z is None:
             return (1.0, 1.0, 1.0), "metre (the file states no units)"
-        return (
-            1.0,
-            1.0,
-            units.z,
-        ), f"x, y metre (not stated), z {units.z_name} (the file's {units.source})"
+        raise ValueError(
+            f"the file's {units.source} state a unit for z ({units.z_name}) but none for "
+            "x and y; give its units"
+        )
     z, z_name = (units.z, units.z_name) if units.z is not None else (units.xy, units.xy_name)
     where = f"the file's {units.source}" + ("" if units.z is not None else "; z as x and y")
     if z_name == units.xy_name and z == units.xy:
