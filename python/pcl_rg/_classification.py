@@ -23,8 +23,10 @@ __all__ = [
     "ground_classes",
     "noise_classes",
     "noise_mask",
+    "usable_points",
     "valid_points",
     "voxel_attributes",
+    "withheld_mask",
 ]
 
 # ASPRS classes written by the commands.
@@ -38,6 +40,20 @@ NEVER_CLASSIFIED = 0
 def valid_points(points: np.ndarray) -> np.ndarray:
     """Rows with finite coordinates (the others are skipped and reported)."""
     return np.isfinite(points).all(axis=1)
+
+
+def withheld_mask(cloud: PointFile) -> np.ndarray:
+    """Points whose LAS withheld flag is set: "not to be included in processing" (LAS
+    1.4, the classification flags), so left out like noise, keeping their class."""
+    flag = cloud.fields.get("withheld")
+    if flag is None or np.ndim(flag) != 1:
+        return np.zeros(len(cloud), bool)
+    return np.asarray(flag) != 0
+
+
+def usable_points(cloud: PointFile) -> np.ndarray:
+    """Rows a command works on: finite coordinates and not withheld."""
+    return valid_points(cloud.points) & ~withheld_mask(cloud)
 
 
 def existing_classes(cloud: PointFile) -> np.ndarray | None:

@@ -28,7 +28,7 @@ from .._classification import (
     ground_classes,
     noise_classes,
     noise_mask,
-    valid_points,
+    usable_points,
     voxel_attributes,
 )
 from ..io import CoordinateUnits, PointFile, read_extent, read_points, write_points
@@ -256,12 +256,13 @@ def _metres(job: Job, xyz: np.ndarray) -> np.ndarray:
 
 
 def _ground_work(cloud: PointFile) -> np.ndarray:
-    """The points a ground filter sees: finite and not already noise (as pcl-rg ground)."""
-    return valid_points(cloud.points) & ~noise_mask(existing_classes(cloud), len(cloud))
+    """The points a ground filter sees: finite, not withheld and not already noise (as
+    pcl-rg ground)."""
+    return usable_points(cloud) & ~noise_mask(existing_classes(cloud), len(cloud))
 
 
 def _valid(cloud: PointFile) -> np.ndarray:
-    return valid_points(cloud.points)
+    return usable_points(cloud)
 
 
 def _with_buffer(

@@ -11,7 +11,7 @@ import argparse
 import contextlib
 import os
 from collections.abc import Iterator, Sequence
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -26,6 +26,7 @@ from .._classification import (
     noise_classes,
     noise_mask,
     valid_points,
+    withheld_mask,
 )
 from ..io import EXTENSIONS, PointFile, read_points, write_points
 from ..io._crs import GIVEN_UNITS, metre_factors
@@ -37,6 +38,7 @@ __all__ = [
     "NEVER_CLASSIFIED",
     "NOISE",
     "NOISE_CLASSES",
+    "Input",
     "UNCLASSIFIED",
     "add_common_options",
     "add_io_arguments",
@@ -54,7 +56,6 @@ __all__ = [
     "noise_mask",
     "percent",
     "plots",
-    "points_in_metres",
     "read",
     "read_input",
     "say_written",
@@ -236,31 +237,39 @@ def write_output(
     return len(out)
 
 
+class Input(NamedTuple):
+    """INPUT as a command works on it."""
+
+    cloud: PointFile
+    valid: np.ndarray  # its rows to work on: finite coordinates, not withheld
+    points: np.ndarray  # its points in metres (cloud.points when they are)
+    scale: np.ndarray  # metres per unit of x, y, z
+    finite: np.ndarray  # its rows with finite coordinates
+
+
 def read_input(
     args: argparse.Namespace, run: Run, neighbours: tuple[str, int] | None = None
-) -> tuple[PointFile, np.ndarray]:
-    """INPUT after the checks of INPUT, OUTPUT and figures; and its finite rows.
+) -> Input:
+    """INPUT after the checks of INPUT, OUTPUT and figures; its finite rows; and its
+    points in metres, since every length option is in metres.
 
-    `neighbours`, a (flag name, count) pair, is checked against the finite rows:
-    the count must leave a point out.
+    Points whose LAS withheld flag is set are left out like NaN rows, keeping their
+    class. `neighbours`, a (flag name, count) pair, is checked against the rows left:
+    the count must leave a point out. Longitude and latitude, geocentric coordinates
+    and coordinate-system records that cannot be read are refused, unless --units
+    says what the units are.
     """
     check_paths(args.input, args.output, [args.plot, args.profile])
     cloud = read(run, args.input)
-    valid = valid_points(cloud.points)
+    finite = valid_points(cloud.points)
+    withheld = finite & withheld_mask(cloud)
+    valid = finite & ~withheld
+    if "withheld" in cloud.fields:
+        run.result["skipped_withheld"] = int(withheld.sum())
+    if withheld.any():
+        run.say(f"{int(withheld.sum()):,} withheld points left out (LAS: not to be processed)")
     if neighbours is not None:
         _check_neighbours(*neighbours, int(valid.sum()))
-    return cloud, valid
-
-
-def points_in_metres(
-    run: Run, args: argparse.Namespace, cloud: PointFile
-) -> tuple[np.ndarray, np.ndarray]:
-    """INPUT's points scaled to metres (the points themselves when they are), and the
-    metres per unit of x, y and z: every length option is in metres.
-
-    Refuses longitude and latitude, geocentric coordinates and coordinate-system
-    records that cannot be read, unless --units says what the units are.
-    """
     try:
         factors, where = metre_factors(cloud.units, args.units)
     except ValueError as error:
@@ -268,9 +277,9 @@ def points_in_metres(
     run.result["units"] = {"metres_per_unit": list(factors), "source": where}
     scale = np.asarray(factors)
     if (scale == 1.0).all():
-        return cloud.points, scale
+        return Input(cloud, valid, cloud.points, scale, finite)
     run.say(f"coordinates in {where}: the work is done in metres")
-    return cloud.points * scale, scale
+    return Input(cloud, valid, cloud.points * scale, scale, finite)
 
 
 def say_written(run: Run, args: argparse.Namespace, n: int, what: str) -> None:

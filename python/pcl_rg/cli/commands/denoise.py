@@ -15,7 +15,6 @@ from .._common import (
     noise_classes,
     percent,
     plots,
-    points_in_metres,
     read_input,
     say_written,
     write_output,
@@ -46,8 +45,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 def execute(args: argparse.Namespace, run: Run) -> None:
     params = params_from_args(args, args.flags, "sor", pcl_rg.StatisticalOutlierRemovalParams)
-    cloud, valid = read_input(args, run, ("mean_k", params.mean_k))
-    points, _ = points_in_metres(run, args, cloud)
+    cloud, valid, points, _, finite = read_input(args, run, ("mean_k", params.mean_k))
     n_valid = int(valid.sum())
     with run.stage(
         "denoise", f"statistical outlier removal on {n_valid:,} points", source=args.input
@@ -66,7 +64,7 @@ def execute(args: argparse.Namespace, run: Run) -> None:
         filtered=n_valid,
         noise=n_noise,
         inliers=n_valid - n_noise,
-        skipped_invalid=int((~valid).sum()),
+        skipped_invalid=int((~finite).sum()),
         dropped=bool(args.drop),
     )
     run.say(f"denoise (SOR): {n_valid:,} points, {n_noise:,} noise ({percent(n_noise, n_valid)})")

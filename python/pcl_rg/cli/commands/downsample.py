@@ -14,7 +14,6 @@ from .._common import (
     add_io_arguments,
     add_output_options,
     plots,
-    points_in_metres,
     read_input,
     write,
 )
@@ -40,8 +39,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 def execute(args: argparse.Namespace, run: Run) -> None:
     params = params_from_args(args, args.flags, "voxel", pcl_rg.VoxelGridParams)
-    cloud, valid = read_input(args, run)
-    points, scale = points_in_metres(run, args, cloud)
+    cloud, valid, points, scale, finite = read_input(args, run)
     rows = np.flatnonzero(valid)
     with run.stage("downsample", f"voxel grid on {len(rows):,} points", source=args.input):
         grid = pcl_rg.voxel_grid(points[rows], params=params)
@@ -55,7 +53,7 @@ def execute(args: argparse.Namespace, run: Run) -> None:
         parameters=params_dict(params),
         points_in=len(cloud),
         voxels=len(grid.centroids),
-        skipped_invalid=int((~valid).sum()),
+        skipped_invalid=int((~finite).sum()),
         points_in_dropped_voxels=int((~kept).sum()),
     )
     run.say(

@@ -17,7 +17,6 @@ from .._common import (
     noise_mask,
     percent,
     plots,
-    points_in_metres,
     read_input,
     say_written,
     write_output,
@@ -61,8 +60,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 def execute(args: argparse.Namespace, run: Run) -> None:
     method, params = method_params(args)
-    cloud, valid = read_input(args, run)
-    points, _ = points_in_metres(run, args, cloud)
+    cloud, valid, points, _, finite = read_input(args, run)
     noise = noise_mask(existing_classes(cloud), len(cloud))
     work = valid & ~noise
     with run.stage(
@@ -85,7 +83,7 @@ def execute(args: argparse.Namespace, run: Run) -> None:
         ground=n_ground,
         object=n_work - n_ground,
         skipped_noise=int((valid & noise).sum()),
-        skipped_invalid=int((~valid).sum()),
+        skipped_invalid=int((~finite).sum()),
         dropped=bool(args.drop),
     )
     run.say(
@@ -96,7 +94,7 @@ def execute(args: argparse.Namespace, run: Run) -> None:
             if noise.any()
             else ""
         )
-        + (f"; {int((~valid).sum()):,} invalid (NaN) points skipped" if not valid.all() else "")
+        + (f"; {int((~finite).sum()):,} invalid (NaN) points skipped" if not finite.all() else "")
     )
     say_written(
         run, args, n_written, (", ground only" if args.drop else ", class 2 ground, 1 other")

@@ -12,7 +12,6 @@ from .._common import (
     add_output_options,
     finish_segments,
     noise_classes,
-    points_in_metres,
     read_input,
 )
 from .._flags import (
@@ -53,8 +52,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
 def execute(args: argparse.Namespace, run: Run) -> None:
     options = params_from_args(args, args.flags, "pipeline", args.pipeline_params)
     sor = None if options.sor is None else ("sor_mean_k", options.sor.mean_k)
-    cloud, valid = read_input(args, run, sor)
-    points, _ = points_in_metres(run, args, cloud)
+    cloud, valid, points, _, _ = read_input(args, run, sor)
     stages = "SOR, voxel grid, normals, region growing"
     with run.stage("pipeline", f"{stages} on {int(valid.sum()):,} points", source=args.input):
         result = args.pipeline(

@@ -12,7 +12,6 @@ from .._common import (
     add_io_arguments,
     add_output_options,
     finish_segments,
-    points_in_metres,
     read_input,
 )
 from .._flags import (
@@ -78,8 +77,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 def execute(args: argparse.Namespace, run: Run) -> None:
     method, params = method_params(args)
-    cloud, valid = read_input(args, run, ("k", params.k))
-    points, _ = points_in_metres(run, args, cloud)
+    cloud, valid, points, _, _ = read_input(args, run, ("k", params.k))
     n_valid = int(valid.sum())
     description = f"segmentation ({method.name}) on {n_valid:,} points"
     with run.stage("segment", description, source=args.input):
