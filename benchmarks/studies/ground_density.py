@@ -1,7 +1,7 @@
-"""Ground filters on the ISPRS-like synthetic scene at 2, 8 and 20 points per m^2.
+"""Ground filters on the ISPRS-like synthetic scene at 2, 8, 20 and 50 points per m^2.
 
 Usage: python benchmarks/studies/ground_density.py [--write] [--seeds 0 1 2]
-       [--densities 2 8 20] [--methods NAME ...]
+       [--densities 2 8 20 50] [--methods NAME ...]
 
 The ISPRS samples are 0.1-1 points per m^2; airborne surveys today deliver 8-20 or
 more. pcl_rg.datasets.isprs_like_scene has the ISPRS samples' difficulties (30-60 %
@@ -44,7 +44,7 @@ from pcl_rg.datasets import (  # noqa: E402
 )
 from pcl_rg.evaluation import ground_errors  # noqa: E402
 
-SECTION = "## Ground filters at 2-20 points per m^2 (ISPRS-like synthetic scene)"
+SECTION = "## Ground filters at 2-50 points per m^2 (ISPRS-like synthetic scene)"
 SIZE = 300.0  # m: holds the 60-100 m hall between the road, the channel and the slope
 OFFSET = (500_000.0, 5_000_000.0, 100.0)  # UTM-sized coordinates
 OBJECT_CLASSES = [
@@ -186,7 +186,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--write", action="store_true", help="update RESULTS.md")
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
-    parser.add_argument("--densities", type=float, nargs="+", default=[2.0, 8.0, 20.0])
+    parser.add_argument("--densities", type=float, nargs="+", default=[2.0, 8.0, 20.0, 50.0])
     parser.add_argument("--methods", nargs="*", help="names (prefixes) of METHODS to run")
     args = parser.parse_args(argv)
     methods = [

@@ -21,6 +21,9 @@ Every reader returns one container, :class:`PointFile`:
   :class:`PlyLayout` (encoding, x/y/z dtype, comments), or None for XYZ text;
 - ``path``: the file read.
 
+``PointFile.units`` tells what a LAS/LAZ file's coordinate-system records (OGC
+WKT, GeoTIFF keys) say of its units: every length of the package is in metres.
+
 Every writer goes through a temporary file in the destination folder, renamed
 over the target when complete. The formats live in private modules (``_las``,
 ``_pcd``, ``_ply``, ``_xyz``), which this module dispatches to; ``_formats`` tells
@@ -56,7 +59,6 @@ __all__ = [
     "write_pcd",
     "write_points",
 ]
-
 
 
 class PcdLayout(NamedTuple):
