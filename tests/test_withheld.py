@@ -81,3 +81,14 @@ def test_batch_ground_leaves_withheld_points_out(tmp_path, scheduler):
     expected = np.full(len(points), 5)
     expected[~withheld] = np.where(pcl_rg.grid_ground(points[~withheld], params=params), 2, 1)
     assert agreement(report, expected) >= 0.999
+
+
+def test_a_field_named_withheld_in_another_format_is_data(tmp_path):
+    # Only LAS defines the flag; a PLY property of that name is the user's.
+    points = synthetic_scene(seed=3, size=120.0, density=1).points
+    flag = np.ones(len(points), np.float32)
+    pcl_rg.io.write_points(tmp_path / "a.ply", points, {"withheld": flag})
+    result = run_pcl_rg("ground", tmp_path / "a.ply", tmp_path / "b.ply", "--json")
+    assert result.returncode == 0, result.stderr
+    report = json.loads(result.stdout)
+    assert report["filtered"] == len(points) and "skipped_withheld" not in report

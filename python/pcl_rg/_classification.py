@@ -43,9 +43,10 @@ def valid_points(points: np.ndarray) -> np.ndarray:
 
 
 def withheld_mask(cloud: PointFile) -> np.ndarray:
-    """Points whose LAS withheld flag is set: "not to be included in processing" (LAS
-    1.4, the classification flags), so left out like noise, keeping their class."""
-    flag = cloud.fields.get("withheld")
+    """LAS/LAZ points whose withheld flag is set: "not to be included in processing"
+    (LAS 1.4, the classification flags), so left out like noise, keeping their class.
+    Only LAS defines the flag: a field of that name in another format is data."""
+    flag = cloud.fields.get("withheld") if cloud.format in ("las", "laz") else None
     if flag is None or np.ndim(flag) != 1:
         return np.zeros(len(cloud), bool)
     return np.asarray(flag) != 0

@@ -251,8 +251,9 @@ def ground(
     Notes
     -----
     A tile is filtered together with the points of its neighbours within
-    `buffer` of its box (noise points of classes 7 and 18 and NaN points left
-    out, as ``pcl-rg ground`` leaves them out); only its own points are written.
+    `buffer` of its box (noise points of classes 7 and 18, NaN points and LAS
+    points flagged withheld left out, as ``pcl-rg ground`` leaves them out); only
+    its own points are written.
 
     Examples
     --------

@@ -264,7 +264,7 @@ def read_input(
     finite = valid_points(cloud.points)
     withheld = finite & withheld_mask(cloud)
     valid = finite & ~withheld
-    if "withheld" in cloud.fields:
+    if cloud.format in ("las", "laz"):
         run.result["skipped_withheld"] = int(withheld.sum())
     if withheld.any():
         run.say(f"{int(withheld.sum()):,} withheld points left out (LAS: not to be processed)")

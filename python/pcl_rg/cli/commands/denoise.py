@@ -33,7 +33,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "points keep their class (1 if the file had none), except that a point of class 7 "
         "(an earlier run's noise, or the vendor's) is judged again and becomes 1 when it is "
         "an inlier now, so that a rerun with other parameters replaces the earlier noise "
-        "class."
+        "class. Points with NaN coordinates and LAS points flagged withheld are skipped "
+        "(class 0 if the file had none)."
     )
     add_io_arguments(parser, "write only the inliers")
     flags = add_param_flags(

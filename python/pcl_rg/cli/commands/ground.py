@@ -50,8 +50,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.description = (
         "Classify ground points: class 2 ground, class 1 everything else. "
         "Points already classified as noise (7, 18) are left out and keep their class; "
-        "points with NaN coordinates are skipped (class 0 if the file had none). "
-        + method_summaries(ground_methods)
+        "points with NaN coordinates and LAS points flagged withheld are skipped (class 0 "
+        "if the file had none). " + method_summaries(ground_methods)
     )
     add_io_arguments(parser, "write only the ground points")
     add_method_flags(parser, "ground filter parameters", "ground filter", ground_methods)
@@ -91,7 +91,7 @@ def execute(args: argparse.Namespace, run: Run) -> None:
         f"({percent(n_ground, n_work)}), {n_work - n_ground:,} object"
         + (
             f"; {int((valid & noise).sum()):,} noise points left as they were"
-            if noise.any()
+            if (valid & noise).any()
             else ""
         )
         + (f"; {int((~finite).sum()):,} invalid (NaN) points skipped" if not finite.all() else "")
