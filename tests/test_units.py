@@ -72,9 +72,11 @@ def test_geotiff_keys_units_and_a_user_defined_size():
     assert (stated.xy, stated.z, stated.source) == (1200.0 / 3937.0, 1.0, "GeoTIFF keys")
     user = units(geokeys_record({1024: 1, 3076: 32767}, {3077: 0.5}))
     assert user.xy == 0.5 and user.xy_name == "user-defined"
-    # An EPSG code alone: its units are in a CRS database, not in the file.
+    # An EPSG code alone: its units are in a CRS database, not in the file. Taken
+    # as metres, as before, and said to be assumed.
     assert units(geokeys_record({1024: 1, 3072: 2263})).xy is None
-    assert metre_factors(units(geokeys_record({1024: 1, 3072: 2263})))[0] == (1.0, 1.0, 1.0)
+    factors, where = metre_factors(units(geokeys_record({1024: 1, 3072: 2263})))
+    assert factors == (1.0, 1.0, 1.0) and "assumed" in where
 
 
 @pytest.mark.parametrize(

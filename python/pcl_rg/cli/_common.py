@@ -276,6 +276,8 @@ def read_input(
         raise CliError(f"{args.input}: {error} (--units)") from None
     run.result["units"] = {"metres_per_unit": list(factors), "source": where}
     scale = np.asarray(factors)
+    if "assumed" in where:
+        run.say(f"coordinates in {where}")
     if (scale == 1.0).all():
         return Input(cloud, valid, cloud.points, scale, finite)
     run.say(f"coordinates in {where}: the work is done in metres")

@@ -377,6 +377,11 @@ def metre_factors(
             "reproject the file to a projected system first"
         )
     if units.xy is None:
+        if units.z is None and units.kind == "projected":  # a code, not its unit
+            return (1.0, 1.0, 1.0), (
+                f"metre, assumed: the file's {units.source} name a projected system but "
+                "not its unit (give the units if they are not metres)"
+            )
         if units.z is None:
             return (1.0, 1.0, 1.0), "metre (the file states no units)"
         raise ValueError(
