@@ -99,16 +99,33 @@ def noise_classes(cloud: PointFile, valid: np.ndarray, outlier: np.ndarray) -> n
     return classes
 
 
-def ground_classes(cloud: PointFile, work: np.ndarray, ground: np.ndarray) -> np.ndarray:
+def ground_classes(
+    cloud: PointFile, work: np.ndarray, ground: np.ndarray, keep_classes: bool = False
+) -> np.ndarray:
     """The classification after ground filtering: 2 ground, 1 other filtered points.
 
     `work` marks the points that were filtered (valid and not noise) and `ground` holds
     the filter's answer for them; every other point keeps its class (0 when the file
-    had none).
+    had none). With `keep_classes`, a filtered point that is not ground keeps its class
+    too (a vendor's buildings, vegetation, water), unless that class was ground (2) or
+    says it was never classified or unclassified (0, 1): it becomes 1.
     """
     classes = class_array(cloud, NEVER_CLASSIFIED)
+    if keep_classes:
+        other = work & ~_scatter(ground, work)
+        reset = other & np.isin(classes, (NEVER_CLASSIFIED, UNCLASSIFIED, GROUND))
+        classes[reset] = UNCLASSIFIED
+        classes[work & ~other] = GROUND
+        return classes
     classes[work] = np.where(ground, GROUND, UNCLASSIFIED)
     return classes
+
+
+def _scatter(values: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """`values` of the `rows` marked True, at their places in a full-length mask."""
+    full = np.zeros(len(rows), bool)
+    full[rows] = values
+    return full
 
 
 #: Attributes averaged over a voxel's points (rounded for integer types); every

@@ -151,6 +151,7 @@ def _run(
     out: str | os.PathLike[str],
     *,
     method: str = "grid",
+    keep_classes: bool = False,
     buffer: float | None,
     units: str | None,
     workers: int | None,
@@ -178,7 +179,15 @@ def _run(
         inputs = [inputs]
     if units is not None and units not in GIVEN_UNITS:
         raise ValueError(f"units must be one of {sorted(GIVEN_UNITS)}, got {units!r}")
-    job = _tasks.Job(operation, params, buffer, scratch="", method=method, units=units)
+    job = _tasks.Job(
+        operation,
+        params,
+        buffer,
+        scratch="",
+        method=method,
+        keep_classes=bool(keep_classes),
+        units=units,
+    )
     return _engine.run(
         job,
         inputs,
@@ -197,6 +206,7 @@ def ground(
     *,
     method: str = "grid",
     params: GridGroundParams | TinGroundParams | None = None,
+    keep_classes: bool = False,
     buffer: float | None = None,
     units: str | None = None,
     workers: int | None = None,
@@ -217,6 +227,9 @@ def ground(
         :func:`pcl_rg.grid_ground` or :func:`pcl_rg.tin_ground`.
     params : GridGroundParams or TinGroundParams, optional
         The method's parameters (default: its defaults).
+    keep_classes : bool
+        Non-ground points keep their class (a vendor's buildings, vegetation,
+        water) instead of becoming 1; those of class 0, 1 or 2 become 1.
     buffer : float, optional
         Metres of neighbouring points each tile sees (default
         :func:`default_buffer`).
@@ -273,7 +286,15 @@ def ground(
         params = kind()
     if not isinstance(params, kind):
         raise TypeError(f"params must be a {kind.__name__} for method {method!r}")
-    return _run("ground", params, inputs, out, method=method, **_engine_options(locals()))
+    return _run(
+        "ground",
+        params,
+        inputs,
+        out,
+        method=method,
+        keep_classes=keep_classes,
+        **_engine_options(locals()),
+    )
 
 
 def denoise(

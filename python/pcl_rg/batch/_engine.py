@@ -291,9 +291,7 @@ def _run_on(
         # Lengths that follow the point spacing: one spacing for the whole survey, so that
         # every tile runs with the same parameters (a tile's own would differ a little).
         in_survey = [Extent(*extents[i]["extent"]) for i in readable if boxes[i]]
-        params = with_spacing_lengths(
-            job.params, lambda: survey_spacing(in_survey) * job.scale[0]
-        )
+        params = with_spacing_lengths(job.params, lambda: survey_spacing(in_survey) * job.scale[0])
         if params != job.params:
             job = dataclasses.replace(job, params=params)
             parameters = _plain(dataclasses.asdict(job.params))
@@ -322,6 +320,7 @@ def _run_on(
             {
                 "operation": job.operation,
                 "method": job.method,
+                "keep_classes": job.keep_classes,
                 "parameters": parameters,
                 "buffer": job.buffer,
                 "metres_per_unit": job.scale,

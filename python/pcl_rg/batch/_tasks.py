@@ -59,6 +59,7 @@ class Job:
     buffer: float  # in the units of x and y (metres until the engine reads the tiles)
     scratch: str  # folder of the stage-1 arrays
     method: str = "grid"  # ground only
+    keep_classes: bool = False  # ground only: non-ground points keep their class
     units: str | None = None  # as given by the caller (GIVEN_UNITS), else the tiles'
     scale: tuple[float, float, float] = (1.0, 1.0, 1.0)  # metres per unit of x, y, z
 
@@ -299,7 +300,7 @@ def ground_tile(
         xyz = np.concatenate([own.points[work_rows]] + [p.points for _, _, p in parts])
         ground = GROUND_METHODS[job.method](_metres(job, xyz), params=job.params)
         ground = ground[: int(work_rows.sum())]
-        classes = ground_classes(own, work_rows, ground)
+        classes = ground_classes(own, work_rows, ground, job.keep_classes)
         write_points(
             tile.output, own.points, dict(own.fields, classification=classes), template=own
         )

@@ -19,7 +19,7 @@ from .._flags import (
     params_from_args,
 )
 from .._run import Run
-from .ground import methods
+from .ground import add_keep_classes_option, methods
 
 __all__ = ["configure"]
 
@@ -77,6 +77,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
     for operation in operations.values():
         _common_arguments(operation)
     add_method_flags(operations["ground"], "ground filter parameters", "ground filter", methods())
+    add_keep_classes_option(operations["ground"])
     for name, title, flag_group in (
         ("denoise", "outlier removal parameters", {"sor": pcl_rg.StatisticalOutlierRemovalParams}),
         ("downsample", "voxel grid parameters", {"voxel": pcl_rg.VoxelGridParams}),
@@ -99,7 +100,14 @@ def execute(args: argparse.Namespace, run: Run) -> None:
     )
     if args.operation == "ground":
         method, params = method_params(args)
-        report = batch.ground(args.inputs, args.out, method=method.name, params=params, **options)
+        report = batch.ground(
+            args.inputs,
+            args.out,
+            method=method.name,
+            params=params,
+            keep_classes=args.keep_classes,
+            **options,
+        )
     elif args.operation == "denoise":
         params = params_from_args(args, args.flags, "sor", pcl_rg.StatisticalOutlierRemovalParams)
         report = batch.denoise(args.inputs, args.out, params=params, **options)

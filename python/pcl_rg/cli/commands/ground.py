@@ -24,7 +24,7 @@ from .._common import (
 from .._flags import Method, add_method_flags, method_params, method_summaries, params_dict
 from .._run import Run
 
-__all__ = ["configure", "execute", "methods"]
+__all__ = ["add_keep_classes_option", "configure", "execute", "methods"]
 
 
 def methods() -> dict[str, Method]:
@@ -45,6 +45,15 @@ def methods() -> dict[str, Method]:
     }
 
 
+def add_keep_classes_option(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--keep-classes",
+        action="store_true",
+        help="non-ground points keep their class (a vendor's buildings, vegetation, "
+        "water...) instead of becoming 1; those of class 0, 1 or 2 become 1",
+    )
+
+
 def configure(parser: argparse.ArgumentParser) -> None:
     ground_methods = methods()
     parser.description = (
@@ -54,6 +63,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "if the file had none). " + method_summaries(ground_methods)
     )
     add_io_arguments(parser, "write only the ground points")
+    add_keep_classes_option(parser)
     add_method_flags(parser, "ground filter parameters", "ground filter", ground_methods)
     add_output_options(parser, execute)
 
@@ -67,7 +77,7 @@ def execute(args: argparse.Namespace, run: Run) -> None:
         "ground", f"ground filter ({method.name}) on {int(work.sum()):,} points", source=args.input
     ):
         ground = method.function(points[work], params=params)
-    classes = ground_classes(cloud, work, ground)
+    classes = ground_classes(cloud, work, ground, args.keep_classes)
     n_ground = int(ground.sum())
     n_work = int(work.sum())
     kept = np.zeros(len(cloud), bool)
@@ -85,6 +95,7 @@ def execute(args: argparse.Namespace, run: Run) -> None:
         skipped_noise=int((valid & noise).sum()),
         skipped_invalid=int((~finite).sum()),
         dropped=bool(args.drop),
+        keep_classes=bool(args.keep_classes),
     )
     run.say(
         f"ground ({method.name}): {n_work:,} points filtered, {n_ground:,} ground "
