@@ -9,6 +9,7 @@ import laspy
 import numpy as np
 from conftest import run_pcl_rg
 from test_batch import outputs_of
+from units_files import write_las
 
 from pcl_rg import batch
 from pcl_rg.datasets import synthetic_scene, synthetic_survey
@@ -36,11 +37,7 @@ def check_kept(before, plain, kept):
 
 def test_the_command_keeps_the_vendors_classes(tmp_path):
     points = synthetic_scene(seed=4, size=100.0, density=2).points
-    header = laspy.LasHeader(point_format=1, version="1.2")
-    header.scales, header.offsets = [0.01] * 3, np.floor(points.min(axis=0))
-    las = laspy.LasData(header)
-    las.x, las.y, las.z = points.T
-    las.write(tmp_path / "in.las")
+    write_las(tmp_path / "in.las", points)
     classify_randomly(tmp_path / "in.las", 0)
     before = read_points(tmp_path / "in.las").classification
     assert run_pcl_rg("ground", tmp_path / "in.las", tmp_path / "plain.las").returncode == 0

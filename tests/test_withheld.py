@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 from conftest import run_pcl_rg
 from test_batch import agreement, merged
+from units_files import write_las
 
 import pcl_rg
 from pcl_rg import batch
@@ -32,11 +33,7 @@ def withhold(path, target, rows):
 def scene_file(tmp_path_factory):
     folder = tmp_path_factory.mktemp("withheld")
     points = synthetic_scene(seed=3, size=120.0, density=4).points
-    header = laspy.LasHeader(point_format=1, version="1.2")
-    header.scales, header.offsets = [0.01] * 3, np.floor(points.min(axis=0))
-    las = laspy.LasData(header)
-    las.x, las.y, las.z = points.T
-    las.write(folder / "scene.las")
+    write_las(folder / "scene.las", points)
     rows = np.random.default_rng(0).choice(len(points), 300, replace=False)
     withhold(folder / "scene.las", folder / "withheld.las", rows)
     return folder / "withheld.las"
