@@ -7,7 +7,9 @@ import json
 
 import numpy as np
 import pytest
-from conftest import run_pcl_rg
+from conftest import examples, run_pcl_rg
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from units_files import (
     ESRI_FEET_METRES,
     NEW_YORK_FTUS_WKT1,
@@ -111,6 +113,30 @@ def test_a_wkt_that_cannot_be_read_is_said_so(text):
     with pytest.raises(ValueError, match="cannot be read"):
         metre_factors(stated)
     assert crs_codes_of(Header([wkt_record(text)])) == []
+
+
+# Pieces of CRS records, in any order: a hostile or broken WKT is one of these strings.
+WKT_PIECES = [
+    *("PROJCS[", "GEOGCS[", "COMPD_CS[", "VERT_CS[", "VERTCRS[", "PROJCRS[", "GEODCRS["),
+    *("BOUNDCRS[", "SOURCECRS[", "LOCAL_CS[", "UNIT[", "LENGTHUNIT[", "AXIS[", "CS["),
+    *("AUTHORITY[", "ID[", '"EPSG"', "2263", '"foot"', "0.3048", "-1", "1e308", "x"),
+    *(",", "]", "[", "(", ")", '"', '""', "Cartesian", "\0", " "),
+]
+
+
+@settings(max_examples=examples(300), deadline=None)
+@given(st.lists(st.sampled_from(WKT_PIECES), max_size=80))
+def test_any_wkt_gives_units_or_says_it_cannot_be_read(pieces):
+    text = "".join(pieces)
+    stated = units([wkt_record(text)])
+    assert stated.source == "WKT"
+    try:
+        factors, _ = metre_factors(stated)
+    except ValueError as error:
+        assert str(error)
+    else:
+        assert all(1e-4 <= f <= 1e5 for f in factors)
+    assert all(isinstance(code, int) for code in crs_codes_of(Header([wkt_record(text)])))
 
 
 def test_unknown_geotiff_unit_codes_are_said_so():
