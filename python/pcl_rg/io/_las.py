@@ -48,6 +48,13 @@ def read(path: str) -> tuple[np.ndarray, dict[str, np.ndarray], object]:
         raise _bad_las(path, error) from None
     except Exception as error:  # laspy, lazrs and NumPy raise many kinds on corrupt data
         raise _bad_las(path, error) from None
+    except BaseException as error:
+        # A Rust panic inside lazrs reaches Python as pyo3's PanicException, which
+        # derives from BaseException so that `except Exception` lets it through: on a
+        # damaged file it is the decoder's complaint all the same.
+        if type(error).__name__ != "PanicException":
+            raise
+        raise _bad_las(path, error) from None
 
 
 def _decode_las(path: str) -> tuple[np.ndarray, dict[str, np.ndarray], object]:

@@ -206,6 +206,23 @@ def _check_laz_payload(
     (chunk_size,) = struct.unpack_from("<I", laszip_vlr, 12)
     if chunk_size == 0:
         raise _bad(path, "LASzip VLR gives a chunk size of 0")
+    # The VLR's items (type, size, version: 6 bytes each, from byte 34) describe the
+    # point record field by field, so their sizes add up to the record length; lazrs
+    # divides by that sum and trusts it (LASzip's laszip_dll checks the same).
+    (items,) = struct.unpack_from("<H", laszip_vlr, 32)
+    if items == 0 or len(laszip_vlr) < 34 + 6 * items:
+        raise _bad(
+            path,
+            f"LASzip VLR lists {items} point items in {len(laszip_vlr)} bytes "
+            f"(at least 1, of 6 bytes each after the first 34)",
+        )
+    item_bytes = sum(struct.unpack_from("<H", laszip_vlr, 36 + 6 * k)[0] for k in range(items))
+    if item_bytes != record_length:
+        raise _bad(
+            path,
+            f"LASzip VLR's point items take {item_bytes} bytes, the header's point "
+            f"record {record_length}",
+        )
     head = _read_at(stream, data_offset, 8)
     if len(head) < 8:
         raise _bad(path, "compressed point data is truncated (no chunk table offset)")
