@@ -3,12 +3,14 @@ tiles in degrees or in two units refused before any work."""
 
 from __future__ import annotations
 
+import json
 import os
 
 import numpy as np
 import pytest
+from conftest import run_pcl_rg
 from test_batch import agreement, merged, outputs_of
-from units_files import ESRI_FEET_METRES, NEW_YORK_FTUS_WKT1, WGS84_DEGREES, in_feet
+from units_files import ESRI_FEET_METRES, NEW_YORK_FTUS_WKT1, US_FOOT, WGS84_DEGREES, in_feet
 
 import pcl_rg
 from pcl_rg import batch
@@ -38,6 +40,8 @@ def test_ground_on_feet_tiles_matches_the_merged_run_in_metres(tmp_path, schedul
     paths = feet_survey(tmp_path, NEW_YORK_FTUS_WKT1)
     report = batch.ground(paths, tmp_path / "out", scheduler=scheduler)
     points, factors = metres_of(paths)
+    assert report.units["metres_per_unit"] == list(factors)
+    assert "US survey foot" in report.units["source"]
     spacing = batch.survey_spacing(paths) * factors[0]  # the headers' spacing is in feet
     params = pcl_rg.GridGroundParams().at_spacing(spacing)
     assert report.parameters["cell_size"] == list(params.cell_size)
@@ -90,3 +94,16 @@ def test_degrees_or_two_units_are_refused_before_any_work(tmp_path, scheduler):
         assert not [n for n in os.listdir(tmp_path / folder) if not n.startswith(".")]
     with pytest.raises(ValueError, match="units must be one of"):
         batch.ground(paths, tmp_path / "c", units="yard")
+
+
+def test_the_command_says_the_tiles_units(tmp_path, scheduler):
+    paths = feet_survey(tmp_path, NEW_YORK_FTUS_WKT1)
+    shown = run_pcl_rg(
+        "batch", "ground", *paths, "--out", tmp_path / "out2", "--scheduler", scheduler
+    )
+    assert shown.returncode == 0, shown.stderr
+    assert "coordinates in US survey foot" in shown.stdout + shown.stderr
+    result = run_pcl_rg(
+        "batch", "ground", *paths, "--out", tmp_path / "o3", "--scheduler", scheduler, "--json"
+    )
+    assert json.loads(result.stdout)["units"]["metres_per_unit"][0] == pytest.approx(US_FOOT)

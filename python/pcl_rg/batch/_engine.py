@@ -71,6 +71,9 @@ class BatchReport:
     parameters: dict[str, Any] = dataclasses.field(default_factory=dict)
     """The parameters every tile ran with, lengths left unset filled in from the
     survey's spacing (:func:`pcl_rg.batch.survey_spacing`)."""
+    units: dict[str, Any] = dataclasses.field(default_factory=dict)
+    """``metres_per_unit`` of x, y, z, by which the tiles were scaled for the work
+    (their lengths are metres), and ``source``: where those units come from."""
 
     @property
     def failed(self) -> list[TileReport]:
@@ -228,6 +231,7 @@ def run(
     if not resume:
         manifest.clear()
     parameters = _plain(dataclasses.asdict(job_template.params))
+    units: dict[str, Any] = {}  # filled by _run_on once the tiles' headers are read
     dashboard = None
     try:
         # The scratch folder outlives the workers that write into it.
@@ -240,7 +244,16 @@ def run(
             futures: list[Any] = []
             try:
                 parameters = _run_on(
-                    client, job, paths, outputs, reports, manifest, parameters, progress, futures
+                    client,
+                    job,
+                    paths,
+                    outputs,
+                    reports,
+                    manifest,
+                    parameters,
+                    progress,
+                    futures,
+                    units,
                 )
             except BaseException:
                 client.cancel(futures, force=True)
@@ -255,6 +268,7 @@ def run(
         job_template.buffer,
         dashboard,
         parameters,
+        units,
     )
 
 
@@ -268,12 +282,14 @@ def _run_on(
     parameters: Any,
     progress: bool,
     futures: list[Any],
+    units: dict[str, Any],
 ) -> Any:
     from distributed import as_completed
 
     extents = client.gather(client.map(_tasks.tile_extent, paths, pure=False))
     check_one_crs(paths, extents)
-    scale = survey_units(paths, extents, job.units)
+    scale, where = survey_units(paths, extents, job.units)
+    units["metres_per_unit"], units["source"] = list(scale), where
     if scale != job.scale:  # every length is metres: the tiles' units from here on
         job = dataclasses.replace(job, scale=scale, buffer=job.buffer / scale[0])
     boxes: list[Box | None] = []

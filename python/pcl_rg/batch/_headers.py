@@ -48,14 +48,15 @@ def crs_records(path: str) -> tuple[list[int], CoordinateUnits]:
 
 def survey_units(
     paths: Sequence[str], extents: Sequence[dict[str, Any]], given: str | None
-) -> tuple[float, float, float]:
+) -> tuple[tuple[float, float, float], str]:
     """Metres per unit of x, y and z of the whole survey: `given` (a key of
     GIVEN_UNITS), else what the tiles' records state, which must agree. ValueError
     before any work for tiles in degrees, records that cannot be read, or tiles in
-    different units: each tile's lengths would mean other distances."""
+    different units: each tile's lengths would mean other distances. Also returns a
+    few words on where the units come from."""
     if given is not None:
-        return metre_factors(CoordinateUnits(), given)[0]
-    found: dict[tuple[float, float, float], str] = {}
+        return metre_factors(CoordinateUnits(), given)
+    found: dict[tuple[float, float, float], tuple[str, str]] = {}  # a tile, its words
     for path, extent in zip(paths, extents, strict=True):
         if not extent["ok"]:
             continue
@@ -63,13 +64,16 @@ def survey_units(
             factors, where = metre_factors(CoordinateUnits(*extent["units"]))
         except ValueError as error:
             raise ValueError(f"{os.path.basename(path)!r}: {error}") from None
-        found.setdefault(factors, f"{os.path.basename(path)!r} in {where}")
+        found.setdefault(factors, (os.path.basename(path), where))
     if len(found) > 1:
+        tiles = " and ".join(f"{name!r} in {where}" for name, where in found.values())
         raise ValueError(
-            f"the tiles are not in one unit: {' and '.join(found.values())}; run each "
-            "unit's tiles on their own"
+            f"the tiles are not in one unit: {tiles}; run each unit's tiles on their own"
         )
-    return next(iter(found), (1.0, 1.0, 1.0))
+    if not found:
+        return (1.0, 1.0, 1.0), "metre (no readable tile)"
+    factors, (_, where) = next(iter(found.items()))
+    return factors, where
 
 
 def check_one_crs(paths: Sequence[str], extents: Sequence[dict[str, Any]]) -> None:
