@@ -111,21 +111,13 @@ def ground_classes(
     says it was never classified or unclassified (0, 1): it becomes 1.
     """
     classes = class_array(cloud, NEVER_CLASSIFIED)
+    labels = np.where(ground, GROUND, UNCLASSIFIED)
     if keep_classes:
-        other = work & ~_scatter(ground, work)
-        reset = other & np.isin(classes, (NEVER_CLASSIFIED, UNCLASSIFIED, GROUND))
-        classes[reset] = UNCLASSIFIED
-        classes[work & ~other] = GROUND
-        return classes
-    classes[work] = np.where(ground, GROUND, UNCLASSIFIED)
+        current = classes[work]
+        kept = ~ground & ~np.isin(current, (NEVER_CLASSIFIED, UNCLASSIFIED, GROUND))
+        labels = np.where(kept, current, labels)
+    classes[work] = labels
     return classes
-
-
-def _scatter(values: np.ndarray, rows: np.ndarray) -> np.ndarray:
-    """`values` of the `rows` marked True, at their places in a full-length mask."""
-    full = np.zeros(len(rows), bool)
-    full[rows] = values
-    return full
 
 
 #: Attributes averaged over a voxel's points (rounded for integer types); every

@@ -1,8 +1,9 @@
 """What the tiles' LAS/LAZ headers say, checked: the batch plans a survey from them.
 
-Stage 0 reads each header's coordinate system (`crs_codes`), and the run refuses
-tiles in different systems (`check_one_crs`); stage 1, which decodes a tile anyway,
-checks that its header's box is its points' (`check_header_box`).
+Stage 0 reads each header's coordinate system and units (`crs_records`), and the run
+refuses tiles in different systems (`check_one_crs`) or units (`survey_units`); stage
+1, which decodes a tile anyway, checks that its header's box is its points'
+(`check_header_box`).
 """
 
 from __future__ import annotations
@@ -20,26 +21,20 @@ from ._plan import Box
 __all__ = [
     "check_header_box",
     "check_one_crs",
-    "crs_codes",
     "crs_records",
     "survey_units",
 ]
 
 
-def crs_codes(path: str) -> list[int]:
+def crs_records(path: str) -> tuple[list[int], CoordinateUnits]:
     """The EPSG codes a LAS/LAZ file gives its horizontal CRS, in its GeoTIFF keys and
-    its OGC WKT (VLRs or EVLRs); none when it has no such record or no code in them.
+    its OGC WKT (VLRs or EVLRs), and the units those records state; from its header
+    alone. No code when it has no such record or no code in them.
 
     Codes, not the records' bytes: one CRS is written in many ways (WKT 1 or 2, with or
     without GeoTIFF keys, other citations), and only different codes say that two
     tiles are in different systems.
     """
-    return crs_records(path)[0]
-
-
-def crs_records(path: str) -> tuple[list[int], CoordinateUnits]:
-    """A LAS/LAZ file's EPSG codes (as :func:`crs_codes`) and the units its CRS
-    records state, from its header alone."""
     import laspy
 
     with laspy.open(path) as reader:

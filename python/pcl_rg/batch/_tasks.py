@@ -125,7 +125,7 @@ def _context_rows(job: Job, cloud: PointFile) -> np.ndarray:
     """The rows a neighbour may take as context: those the operation itself would use."""
     if job.operation == "ground":
         return np.flatnonzero(_ground_work(cloud))
-    return np.flatnonzero(_valid(cloud))
+    return np.flatnonzero(usable_points(cloud))
 
 
 def cache_tile(job: Job, tile: Tile) -> dict[str, Any]:
@@ -262,10 +262,6 @@ def _ground_work(cloud: PointFile) -> np.ndarray:
     return usable_points(cloud) & ~noise_mask(existing_classes(cloud), len(cloud))
 
 
-def _valid(cloud: PointFile) -> np.ndarray:
-    return usable_points(cloud)
-
-
 def _with_buffer(
     neighbours: list[Tile],
     ready: list[dict[str, Any]],
@@ -344,7 +340,7 @@ def denoise_distances(job: Job, tile: Tile, survey: Box, others: list[Tile]) -> 
 
     def work() -> dict[str, Any]:
         own = _load(job, tile)
-        valid = _valid(own)
+        valid = usable_points(own)
         mine = np.ascontiguousarray(own.points[valid])
         margin = job.buffer
         while True:
@@ -397,7 +393,7 @@ def denoise_write(
 
     def work() -> dict[str, Any]:
         own = _load(job, tile)
-        valid = _valid(own)
+        valid = usable_points(own)
         distance = np.load(os.path.join(_folder(job, tile), "distance.npy"))
         outlier = np.zeros(len(own), bool)
         outlier[valid] = distance > threshold
@@ -452,7 +448,7 @@ def downsample_tile(
 
     def work(neighbours: list[Tile]) -> dict[str, Any]:
         own = _load(job, tile)
-        rows = np.flatnonzero(_valid(own))
+        rows = np.flatnonzero(usable_points(own))
         parts = _context(job, neighbours, _region(job, tile), fields=True)
         parts.append((tile.index, rows, own.take(rows)))
         parts.sort(key=lambda part: part[0])

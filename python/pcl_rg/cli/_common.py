@@ -58,6 +58,7 @@ __all__ = [
     "plots",
     "read",
     "read_input",
+    "say_units",
     "say_written",
     "segments_summary",
     "valid_points",
@@ -275,13 +276,20 @@ def read_input(
     except ValueError as error:
         raise CliError(f"{args.input}: {error} (--units)") from None
     run.result["units"] = {"metres_per_unit": list(factors), "source": where}
+    say_units(run, factors, where)
     scale = np.asarray(factors)
-    if "assumed" in where:
-        run.say(f"coordinates in {where}")
     if (scale == 1.0).all():
         return Input(cloud, valid, cloud.points, scale, finite)
-    run.say(f"coordinates in {where}: the work is done in metres")
     return Input(cloud, valid, cloud.points * scale, scale, finite)
+
+
+def say_units(run: Run, factors: Sequence[float], where: str) -> None:
+    """Tell the user when the input's points are scaled to metres for the work, or when
+    their units were only assumed (`where` as metre_factors words it)."""
+    if "assumed" in where:
+        run.say(f"coordinates in {where}")
+    elif any(factor != 1.0 for factor in factors):
+        run.say(f"coordinates in {where}: the work is done in metres")
 
 
 def say_written(run: Run, args: argparse.Namespace, n: int, what: str) -> None:

@@ -8,7 +8,7 @@ import sys
 
 import pcl_rg
 
-from .._common import add_common_options, add_units_option
+from .._common import add_common_options, add_units_option, say_units
 from .._flags import (
     EXIT_USAGE,
     add_method_flags,
@@ -115,9 +115,8 @@ def execute(args: argparse.Namespace, run: Run) -> None:
         params = params_from_args(args, args.flags, "voxel", pcl_rg.VoxelGridParams)
         report = batch.downsample(args.inputs, args.out, params=params, **options)
     run.result.update(report.to_dict())  # its parameters: those the tiles ran with
-    where = report.units.get("source", "")
-    if report.units.get("metres_per_unit", [1.0] * 3) != [1.0] * 3 or "assumed" in where:
-        run.say(f"coordinates in {where}: the work is done in metres")
+    if report.units:
+        say_units(run, report.units["metres_per_unit"], report.units["source"])
     done = [t for t in report.tiles if t.status == "done"]
     skipped = [t for t in report.tiles if t.status == "skipped"]
     run.say(
