@@ -56,7 +56,11 @@ def test_core_equals_reference_with_sparse_seed_cells() -> None:
 
 
 @pytest.mark.parametrize("sample", ["samp21", "samp41"])
-@pytest.mark.parametrize("params", [LIDAR360, ISPRS], ids=["lidar360", "tuned"])
+@pytest.mark.parametrize(
+    "params",
+    [LIDAR360, ISPRS, dataclasses.replace(ISPRS, opening_rank=2)],
+    ids=["lidar360", "tuned", "rank-2"],
+)
 def test_core_agrees_with_reference_on_isprs(sample: str, params) -> None:
     # ISPRS y is quantised to 0.5 m and x to float32 steps, so four or more TIN vertices
     # often lie on one circle; there the Delaunay triangulation is not unique, and the
@@ -329,6 +333,8 @@ def test_non_finite_points() -> None:
         ("seed_cell", -1.0, "seed_cell must be >= 0"),
         ("seed_tolerance", -1.0, "seed_tolerance must be >= 0"),
         ("outlier_depth", -1.0, "outlier_depth must be >= 0"),
+        ("opening_rank", 0, r"opening_rank must be in \[1, 8\]"),
+        ("opening_rank", 9, r"opening_rank must be in \[1, 8\]"),
         ("iteration_distance", math.inf, "iteration_distance must be finite"),
         ("iteration_angle", math.nan, "iteration_angle must be finite"),
     ],

@@ -29,6 +29,9 @@ GRID = [
         max_building_size=15.0, iteration_distance=0.5, iteration_angle=45.0, max_terrain_angle=60.0
     ),
     pcl_rg.TinGroundParams.lidar360(seed_cell=3.0, seed_tolerance=0.3, near_vertex_distance=0.5),
+    pcl_rg.TinGroundParams.lidar360(
+        max_building_size=12.0, seed_cell=2.0, outlier_depth=0.5, opening_rank=3
+    ),
 ]
 
 

@@ -93,6 +93,98 @@ std::vector<double> square_filter(const std::vector<double>& a, std::int64_t ncx
     return out;
 }
 
+// The `rank` lowest values of the union of two lists of them, each sorted ascending and
+// padded with +inf: a merge, so exact. Taking the rank lowest is associative, so the
+// prefix and suffix scans of van Herk's algorithm apply to such lists as to a minimum.
+void merge_lowest(const double* a, const double* b, double* out, std::int64_t rank) {
+    std::int64_t i = 0, j = 0;
+    for (std::int64_t k = 0; k < rank; ++k) out[k] = b[j] < a[i] ? b[j++] : a[i++];
+}
+
+// The `rank` lowest values of every window [i - r, i + r] of a line of `length` lists
+// (in[i * stride], `width` values each: 1 for single heights, `rank` for lists from a
+// first pass), clipped at its ends, written as lists of `rank` to out[i * out_stride]:
+// van Herk's scans as in window_extreme, on lists. `prefix` and `suffix` are scratch.
+void window_lowest(const double* in, std::int64_t width, std::ptrdiff_t stride, double* out,
+                   std::ptrdiff_t out_stride, std::int64_t length, std::int64_t r,
+                   std::int64_t rank, std::vector<double>& prefix, std::vector<double>& suffix) {
+    const double none = std::numeric_limits<double>::infinity();
+    r = std::min(r, length - 1);
+    const std::int64_t w = 2 * r + 1, padded = length + 2 * r;
+    prefix.assign(static_cast<std::size_t>(padded * rank), none);
+    suffix.assign(static_cast<std::size_t>(padded * rank), none);
+    std::vector<double> value(static_cast<std::size_t>(rank)), merged(value.size());
+    const auto load = [&](std::int64_t j) {  // slot j's list, +inf outside the line
+        std::fill(value.begin(), value.end(), none);
+        if (j >= r && j < r + length)
+            for (std::int64_t k = 0; k < std::min(width, rank); ++k)
+                value[k] = in[(j - r) * stride + k];
+        return value.data();
+    };
+    for (std::int64_t j = 0; j < padded; ++j) {
+        double* at = &prefix[j * rank];
+        if (j % w == 0) {
+            std::copy_n(load(j), rank, at);
+        } else {
+            merge_lowest(at - rank, load(j), merged.data(), rank);
+            std::copy_n(merged.data(), rank, at);
+        }
+    }
+    for (std::int64_t j = padded - 1; j >= 0; --j) {
+        double* at = &suffix[j * rank];
+        if (j % w == w - 1 || j == padded - 1) {
+            std::copy_n(load(j), rank, at);
+        } else {
+            merge_lowest(at + rank, load(j), merged.data(), rank);
+            std::copy_n(merged.data(), rank, at);
+        }
+    }
+    // A window that starts a block is that block: its suffix alone (a list, unlike a
+    // minimum, must not take the same values twice).
+    for (std::int64_t i = 0; i < length; ++i)
+        if (i % w == 0)
+            std::copy_n(&suffix[i * rank], rank, &out[i * out_stride]);
+        else
+            merge_lowest(&suffix[i * rank], &prefix[(i + 2 * r) * rank], &out[i * out_stride],
+                         rank);
+}
+
+// Erosion by the `rank`-th lowest value (rank >= 2) of the square window of half-width r
+// over an ncx x ncy raster, empty cells (+inf) and cells outside the raster counted as
+// +inf; where a window holds fewer than `rank` finite values, its lowest (so an isolated
+// cell keeps its height). Separably: the rank lowest of each column window, then of the
+// row of those lists. Exact, as selections are.
+std::vector<double> rank_erosion(const std::vector<double>& a, std::int64_t ncx, std::int64_t ncy,
+                                 std::int64_t r, std::int64_t rank) {
+    const double none = std::numeric_limits<double>::infinity();
+    // The column windows' lists: `rank` heights per cell, the option's memory.
+    std::vector<double> along_y(a.size() * static_cast<std::size_t>(rank)), out(a.size());
+    const Interruption interruption;
+#pragma omp parallel firstprivate(interruption)
+    {
+        std::vector<double> prefix, suffix, line;
+#pragma omp for schedule(static)
+        for (std::int64_t x = 0; x < ncx; ++x) {
+            if (interruption.requested()) continue;
+            window_lowest(&a[x * ncy], 1, 1, &along_y[x * ncy * rank], rank, ncy, r, rank, prefix,
+                          suffix);
+        }
+#pragma omp for schedule(static)
+        for (std::int64_t y = 0; y < ncy; ++y) {
+            if (interruption.requested()) continue;
+            line.resize(static_cast<std::size_t>(ncx * rank));
+            window_lowest(&along_y[y * rank], rank, ncy * rank, line.data(), rank, ncx, r, rank,
+                          prefix, suffix);
+            for (std::int64_t x = 0; x < ncx; ++x) {
+                const double kth = line[x * rank + rank - 1];
+                out[x * ncy + y] = kth != none ? kth : line[x * rank];
+            }
+        }
+    }
+    interruption.check();
+    return out;
+}
+
 // Whether cell (x, y) of height h (finite) lies more than `depth` below the 9th lowest
 // of the 25 cells of its 5 x 5 window, cells outside the raster and empty ones (+inf)
 // included as +inf: h < v9 - depth. As v - depth is non-decreasing in v, that holds
@@ -272,8 +364,12 @@ std::vector<std::uint32_t> morphological_seeds(PointsView points,
         // until none is found, so that clusters of outliers are peeled from the rim in.
         drop_low_outliers(height, ncx, ncy, params.outlier_depth);
     }
-    const std::vector<double> opened =
-        square_filter(square_filter(height, ncx, ncy, r, false), ncx, ncy, r, true);
+    // The opening: an erosion (by the opening_rank-th lowest cell of each window, so that
+    // fewer low cells than that cannot lower the surface around them), then a dilation.
+    const std::vector<double> eroded = params.opening_rank > 1
+                                           ? rank_erosion(height, ncx, ncy, r, params.opening_rank)
+                                           : square_filter(height, ncx, ncy, r, false);
+    const std::vector<double> opened = square_filter(eroded, ncx, ncy, r, true);
     std::vector<std::uint32_t> seeds;
     for (std::size_t k = 0; k < height.size(); ++k)
         if (height[k] != none && height[k] - opened[k] <= params.seed_tolerance)

@@ -55,6 +55,7 @@ class TinGroundParams:
     seed_cell: float | None
     seed_tolerance: float
     outlier_depth: float
+    opening_rank: int
     final_cell: float | None
     final_above: float
     final_below: float

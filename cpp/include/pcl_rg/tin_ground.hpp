@@ -30,6 +30,9 @@ inline constexpr double kTinFinalCellCap = 3.0;
 inline constexpr double kTinStopEdgePerSpacing = 4.0 / kTinFullLengthSpacing;
 inline constexpr double kTinNearVertexPerSpacing = kTinNearVertexCap / kTinFullLengthSpacing;
 inline constexpr double kTinSeedCellPerSpacing = kTinSeedCellCap / kTinFullLengthSpacing;
+/// The largest opening_rank: the rank erosion keeps that many heights per seed cell
+/// (8 bytes each; the seed raster has at most 4 cells per point + 2^22).
+inline constexpr std::int64_t kTinMaxOpeningRank = 8;
 inline constexpr double kTinFinalCellPerSpacing = kTinFinalCellCap / kTinFullLengthSpacing;
 
 /// The defaults are Python's TinGroundParams.isprs() preset (chosen on the ISPRS
@@ -80,6 +83,13 @@ struct TinGroundParams {
     /// this (m, >= 0) below the 9th lowest of the 25 cells of its 5 x 5 window gives no
     /// seed (low outliers, peeled repeatedly); used only when seed_cell > 0.
     double outlier_depth = 5.0;
+    /// Improvement (1: off): the opening's erosion takes the opening_rank-th lowest of the
+    /// cells of each window (an integer in [1, kTinMaxOpeningRank]; the lowest where a
+    /// window holds fewer finite cells) instead of the lowest, so that a few low cells
+    /// that outlier_depth leaves (true ground in a pit, or outliers shallower than it)
+    /// cannot lower the opened surface, and take the seeds, across a whole window; used
+    /// only when seed_cell > 0.
+    std::int64_t opening_rank = 1;
     /// Final pass (0: off): cell (m, >= 0) of a TIN of the lowest ground point per cell;
     /// every point is then ground when -final_below <= z - z_TIN <= final_above +
     /// final_slope * |grad z_TIN| (final_pass.hpp; TerraScan, Zhao et al. 2016), so ground

@@ -236,6 +236,13 @@ def _morphological_seeds(
             height[bad] = np.inf
     size = 2 * r + 1
     eroded = ndimage.minimum_filter(height, size=size, mode="constant", cval=np.inf)
+    # opening_rank: the rank-th lowest of the window, its lowest where the window holds
+    # fewer finite cells (a window of fewer cells than the rank holds fewer).
+    if 1 < p.opening_rank <= size * size:
+        ranked = ndimage.rank_filter(
+            height, rank=p.opening_rank - 1, size=size, mode="constant", cval=np.inf
+        )
+        eroded = np.where(np.isfinite(ranked), ranked, eroded)
     opened = ndimage.maximum_filter(
         np.where(np.isinf(eroded), -np.inf, eroded), size=size, mode="constant", cval=-np.inf
     )
@@ -361,6 +368,7 @@ def tin_ground(
     seed_cell: float | None = None,
     seed_tolerance: float | None = None,
     outlier_depth: float | None = None,
+    opening_rank: int | None = None,
     final_cell: float | None = None,
     final_above: float | None = None,
     final_below: float | None = None,
