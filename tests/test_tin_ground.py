@@ -55,6 +55,19 @@ def test_core_equals_reference_with_sparse_seed_cells() -> None:
         )
 
 
+def test_core_equals_reference_with_a_rank_window_far_wider_than_the_raster() -> None:
+    # The reference's rank filter must clip its window to the raster: scipy would build
+    # the full footprint (here 2,000,001^2 cells) and run out of memory.
+    rng = np.random.default_rng(17)
+    points = np.c_[rng.uniform(0.0, 30.0, (300, 2)), rng.normal(0.0, 1.0, 300)]
+    params = pcl_rg.TinGroundParams.lidar360(
+        max_building_size=1e6, seed_cell=0.5, outlier_depth=1.0, opening_rank=2
+    )
+    np.testing.assert_array_equal(
+        pcl_rg.tin_ground(points, params=params), reference.tin_ground(points, params=params)
+    )
+
+
 @pytest.mark.parametrize("sample", ["samp21", "samp41"])
 @pytest.mark.parametrize(
     "params",

@@ -44,14 +44,13 @@ SELECTIONS_SECTION = "## tin_ground on ISPRS: selection procedures, cross-valida
 
 SELECTIONS_NOTE = (
     " Selection procedures of the tin search (tin_isprs_params.SELECTIONS), each applied "
-    "in every fold and for the fitted pick: mean, the plain search (lowest mean total "
-    "error over the training samples), the preset's until issue 14's rank-order opening; "
-    "gain, a change of one field is kept only when it lowers that mean by more than 0.1 "
-    "percentage points; trimmed, the mean without the worst training sample; "
-    "trimmed-gain, both; joint, one descent over the densification's and the final "
-    "pass's fields together, so that the densification is scored after the final pass "
-    "(mean's first stage scores it with the pass off); rank-2, the preset's, mean's "
-    "search with opening_rank fixed at 2 (a rank-order opening for the seeds, which the "
+    "in every fold and for the fitted pick: mean, the search of the preset (lowest mean "
+    "total error over the training samples); gain, a change of one field is kept only "
+    "when it lowers that mean by more than 0.1 percentage points; trimmed, the mean "
+    "without the worst training sample; trimmed-gain, both; joint, one descent over the "
+    "densification's and the final pass's fields together, so that the densification is "
+    "scored after the final pass (mean's first stage scores it with the pass off); rank-2, "
+    "mean's search with opening_rank fixed at 2 (a rank-order opening for the seeds, which the "
     "search does not pick on all seven samples when it may). These few candidates were "
     "written after the CV results of mean were known; none was tuned on the CV figures."
 )

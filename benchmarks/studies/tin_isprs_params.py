@@ -102,7 +102,7 @@ SHORT_STOP_EDGES = [0.01, 0.5, 1.0, 2.0]
 # total errors that the descent lowers, least gain of that statistic, in percentage
 # points, for which a trial replaces the best, whether the densification is searched
 # with the final pass on, fields fixed outside the grid). "mean" is the plain search,
-# the preset's procedure until issue 14's rank-order opening; the others
+# the procedure the preset was chosen by; the others
 # damp the pick's dependence on the training samples: "gain" keeps the current values
 # unless a trial lowers the mean clearly, "trimmed" leaves the worst training sample out
 # of the mean (so one hard sample does not steer the pick), "trimmed-gain" does both.
@@ -110,7 +110,7 @@ SHORT_STOP_EDGES = [0.01, 0.5, 1.0, 2.0]
 # pass's fields together, from the final pass's middle start, so the densification is
 # scored by the error after the final pass (as the preset is used) rather than before
 # it. They were compared by ground_isprs_cv.py, after its results for "mean" were known
-# (a handful of candidates, not a search over them). "rank-2", the preset's procedure,
+# (a handful of candidates, not a search over them). "rank-2" (issue 14)
 # is mean's search with a field fixed outside the grid: opening_rank 2, the rank-order
 # opening that a single low cell cannot drag down (the cliff of samp41 between
 # outlier_depth 5 and 6 m, RESULTS.md); with opening_rank in the grid instead, the

@@ -37,8 +37,8 @@
 // lexicographically smallest (x, y), so the result does not depend on how a triangle is
 // stored; sin/cos come from the C library, as Python's math module does.
 //
-// Improvements, each on in the defaults and off in LiDAR360's set, for data such as the ISPRS
-// samples:
+// Improvements, each off in LiDAR360's set and, but for opening_rank, on in the defaults,
+// for data such as the ISPRS samples:
 //   * near_vertex_distance: |p - v_i| counts as at least this in the angle test, so a
 //     point (nearly) above a vertex, common where XY is coarse or repeated, is judged
 //     by its distance to the plane rather than an angle of ~90 deg minus the slope.

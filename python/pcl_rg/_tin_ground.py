@@ -34,11 +34,12 @@ __all__ = ["TinGroundParams", "tin_ground"]
 class TinGroundParams:
     """Parameters of :func:`tin_ground` (mirrors ``pcl_rg::TinGroundParams``).
 
-    The six settings of LiDAR360's "Classify Ground Points" and four
-    improvements. The defaults are the :meth:`isprs` preset, chosen on the ISPRS
-    samples, which gives a complete ground class at 1-20 pts/m^2;
-    :meth:`lidar360` is LiDAR360's own set (the seed's definition), which keeps
-    only a sparse key-point set as ground on such data (see the README).
+    The six settings of LiDAR360's "Classify Ground Points" and five improvements
+    (``opening_rank`` off in the defaults). The defaults are the :meth:`isprs`
+    preset, chosen on the ISPRS samples, which gives a complete ground class at 1-20
+    pts/m^2; :meth:`lidar360` is LiDAR360's own set (the seed's definition), which
+    keeps only a sparse key-point set as ground on such data (see the README).
+
 
     The four lengths that depend on the point spacing, ``stop_edge``,
     ``near_vertex_distance``, ``seed_cell`` and ``final_cell``, are None
@@ -408,22 +409,21 @@ def tin_ground(
        :func:`grid_ground`) classifies every point again by its height above
        the TIN of the lowest ground point of each ``final_cell`` cell.
 
-    The defaults are the :meth:`TinGroundParams.isprs` preset, the one set
-    chosen on the seven ISPRS samples, with the four improvements
-    (``near_vertex_distance``, ``seed_cell``, ``outlier_depth``, ``final_cell``)
-    on; its scores are in ``benchmarks/RESULTS.md``. The lengths ``stop_edge``,
-    ``near_vertex_distance``, ``seed_cell`` and ``final_cell`` are unset there:
-    each call takes the ISPRS preset's lengths (2, 1, 2, 3 m) where the mean
-    spacing of its points (:func:`pcl_rg.point_spacing`, 2-D, airborne; 1 m
-    where undefined) is at least 0.95 m, and shorter ones in proportion to the
-    spacing on denser data (the stop edge only below 0.475 m:
-    :class:`TinGroundParams`), so the preset keeps its
-    ISPRS results and works at 20 points per m^2 too.
-    ``collect_diagnostics()`` reports the spacing (``point_spacing``, NaN when
-    every length was given) and the four lengths used.
-    :meth:`TinGroundParams.lidar360` is
-    LiDAR360's own set: with an 8 degree angle, reduced below 5 m edges, few
-    objects but much ground is missed on 1-3 m spaced data.
+    The defaults are the :meth:`TinGroundParams.isprs` preset, the one set chosen on the
+    seven ISPRS samples, with the four improvements (``near_vertex_distance``,
+    ``seed_cell``, ``outlier_depth``, ``final_cell``) on and ``opening_rank`` off;
+    its scores are in ``benchmarks/RESULTS.md``. The lengths ``stop_edge``,
+    ``near_vertex_distance``, ``seed_cell`` and ``final_cell`` are unset there: each
+    call takes the ISPRS preset's lengths (2, 1, 2, 3 m) where the mean spacing of
+    its points (:func:`pcl_rg.point_spacing`, 2-D, airborne; 1 m where undefined) is
+    at least 0.95 m, and shorter ones in proportion to the spacing on denser data
+    (the stop edge only below 0.475 m: :class:`TinGroundParams`), so the preset
+    keeps its ISPRS results and works at 20 points per m^2 too.
+    ``collect_diagnostics()`` reports the spacing (``point_spacing``, NaN when every
+    length was given) and the four lengths used. :meth:`TinGroundParams.lidar360` is
+    LiDAR360's own set: with an 8 degree angle, reduced below 5 m edges, few objects
+    but much ground is missed on 1-3 m spaced data.
+
 
     The seed cells are anchored at multiples of their size in world
     coordinates so that tiles of a survey share one lattice: cells of

@@ -238,9 +238,12 @@ def _morphological_seeds(
     eroded = ndimage.minimum_filter(height, size=size, mode="constant", cval=np.inf)
     # opening_rank: the rank-th lowest of the window, its lowest where the window holds
     # fewer finite cells (a window of fewer cells than the rank holds fewer).
-    if 1 < p.opening_rank <= size * size:
+    # A window wider than the raster reads only +inf beyond it: clipped to 2n - 1 cells
+    # it takes the same values, at a cost scipy's full footprint would not bound.
+    clipped = (min(size, 2 * ncx - 1), min(size, 2 * ncy - 1))
+    if 1 < p.opening_rank <= clipped[0] * clipped[1]:
         ranked = ndimage.rank_filter(
-            height, rank=p.opening_rank - 1, size=size, mode="constant", cval=np.inf
+            height, rank=p.opening_rank - 1, size=clipped, mode="constant", cval=np.inf
         )
         eroded = np.where(np.isfinite(ranked), ranked, eroded)
     opened = ndimage.maximum_filter(
