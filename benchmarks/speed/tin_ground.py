@@ -66,7 +66,7 @@ def main(argv: list[str] | None = None) -> int:
         ("LiDAR360 defaults", pcl_rg.TinGroundParams.lidar360()),
         ("isprs() (the defaults)", pcl_rg.TinGroundParams.isprs()),
         # the rank-order opening the preset leaves off: the scene's multipath points
-        # cost the plain opening a quarter of its seeds, and the densification time
+        # cost the plain opening a fifth of its seeds, and the densification time
         ("isprs(opening_rank=2)", pcl_rg.TinGroundParams.isprs(opening_rank=2)),
     ]:
         runs = [run_once(scene.points, params) for _ in range(args.repeats)]

@@ -113,7 +113,7 @@ void window_lowest(const double* in, std::int64_t width, std::ptrdiff_t stride, 
     const std::int64_t w = 2 * r + 1, padded = length + 2 * r;
     prefix.assign(static_cast<std::size_t>(padded * rank), none);
     suffix.assign(static_cast<std::size_t>(padded * rank), none);
-    std::vector<double> value(static_cast<std::size_t>(rank)), merged(value.size());
+    std::vector<double> value(static_cast<std::size_t>(rank));
     const auto load = [&](std::int64_t j) {  // slot j's list, +inf outside the line
         std::fill(value.begin(), value.end(), none);
         if (j >= r && j < r + length)
@@ -122,22 +122,18 @@ void window_lowest(const double* in, std::int64_t width, std::ptrdiff_t stride, 
         return value.data();
     };
     for (std::int64_t j = 0; j < padded; ++j) {
-        double* at = &prefix[j * rank];
-        if (j % w == 0) {
+        double* at = &prefix[j * rank];  // merged straight in: it overlaps neither list
+        if (j % w == 0)
             std::copy_n(load(j), rank, at);
-        } else {
-            merge_lowest(at - rank, load(j), merged.data(), rank);
-            std::copy_n(merged.data(), rank, at);
-        }
+        else
+            merge_lowest(at - rank, load(j), at, rank);
     }
     for (std::int64_t j = padded - 1; j >= 0; --j) {
         double* at = &suffix[j * rank];
-        if (j % w == w - 1 || j == padded - 1) {
+        if (j % w == w - 1 || j == padded - 1)
             std::copy_n(load(j), rank, at);
-        } else {
-            merge_lowest(at + rank, load(j), merged.data(), rank);
-            std::copy_n(merged.data(), rank, at);
-        }
+        else
+            merge_lowest(at + rank, load(j), at, rank);
     }
     // A window that starts a block is that block: its suffix alone (a list, unlike a
     // minimum, must not take the same values twice).

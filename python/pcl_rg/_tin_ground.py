@@ -40,7 +40,6 @@ class TinGroundParams:
     pts/m^2; :meth:`lidar360` is LiDAR360's own set (the seed's definition), which
     keeps only a sparse key-point set as ground on such data (see the README).
 
-
     The four lengths that depend on the point spacing, ``stop_edge``,
     ``near_vertex_distance``, ``seed_cell`` and ``final_cell``, are None
     ("unset") by default: each call then takes
@@ -423,7 +422,6 @@ def tin_ground(
     length was given) and the four lengths used. :meth:`TinGroundParams.lidar360` is
     LiDAR360's own set: with an 8 degree angle, reduced below 5 m edges, few objects
     but much ground is missed on 1-3 m spaced data.
-
 
     The seed cells are anchored at multiples of their size in world
     coordinates so that tiles of a survey share one lattice: cells of

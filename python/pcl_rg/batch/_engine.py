@@ -231,7 +231,7 @@ def run(
     if not resume:
         manifest.clear()
     parameters = _plain(dataclasses.asdict(job_template.params))
-    units: dict[str, Any] = {}  # filled by _run_on once the tiles' headers are read
+    units: dict[str, Any] = {}
     dashboard = None
     try:
         # The scratch folder outlives the workers that write into it.
@@ -243,17 +243,8 @@ def run(
             n_workers = len(client.scheduler_info().get("workers", {}))
             futures: list[Any] = []
             try:
-                parameters = _run_on(
-                    client,
-                    job,
-                    paths,
-                    outputs,
-                    reports,
-                    manifest,
-                    parameters,
-                    progress,
-                    futures,
-                    units,
+                parameters, units = _run_on(
+                    client, job, paths, outputs, reports, manifest, parameters, progress, futures
                 )
             except BaseException:
                 client.cancel(futures, force=True)
@@ -282,14 +273,14 @@ def _run_on(
     parameters: Any,
     progress: bool,
     futures: list[Any],
-    units: dict[str, Any],
-) -> Any:
+) -> tuple[Any, dict[str, Any]]:
+    """The stages of a run: (the parameters the tiles ran with, the survey's units)."""
     from distributed import as_completed
 
     extents = client.gather(client.map(_tasks.tile_extent, paths, pure=False))
     check_one_crs(paths, extents)
     scale, where = survey_units(paths, extents, job.units)
-    units["metres_per_unit"], units["source"] = list(scale), where
+    units = {"metres_per_unit": list(scale), "source": where}
     if scale != job.scale:  # every length is metres: the tiles' units from here on
         job = dataclasses.replace(job, scale=scale, buffer=job.buffer / scale[0])
     boxes: list[Box | None] = []
@@ -414,7 +405,7 @@ def _run_on(
     for i, report in enumerate(reports):
         missing = [j for j in near[i] if j in stage1 and not stage1[j]["ok"]]
         report.no_buffer_from = [os.path.basename(paths[j]) for j in missing] + unreadable
-    return parameters
+    return parameters, units
 
 
 def _outcome(future: Any) -> dict[str, Any]:
