@@ -103,6 +103,69 @@ def test_stacks_of_copies_equal_the_reference(params):
     assert 0 < ground.sum() < len(cloud)
 
 
+@pytest.mark.parametrize(
+    "params",
+    [
+        GridGroundParams(cell_size=1.0),
+        GridGroundParams(cell_size=1.0, filter_passes=3),
+        GridGroundParams(cell_size=1.0, grow_across_blocks=False),
+        GridGroundParams(cell_size=1.0, filter_passes=0, outlier_depth=0.0),
+        GridGroundParams(cell_size=1.0, height_tolerance=0.004, slope=0.1),
+    ],
+    ids=["defaults", "three passes", "per block", "no sorting", "tolerance"],
+)
+def test_crowded_cells_equal_the_reference(params):
+    """Cells of hundreds of distinct points (a dense spot on the ground, one floating
+    above it, a pole of returns at one XY, a thin pole, a spot whose points are
+    candidates and not by turns): the labelling samples near each point's height,
+    bounds the heights by the cell's XY box and steps over runs that cannot link
+    (grid_links.cpp, CrowdedCells); the components, so the mask, must stay the
+    reference's."""
+    rng = np.random.default_rng(11)
+    terrain = np.c_[rng.uniform(0.0, 20.0, (900, 2)), rng.normal(0.0, 0.05, 900)]
+    terrain[rng.random(900) < 0.2, 2] += 2.5  # objects
+    spot = rng.uniform(0.0, 0.02, (400, 3)) + [5.3, 5.3, 0.0]
+    floating = rng.uniform(0.0, 0.02, (300, 3)) + [12.4, 7.6, 6.0]
+    pole = np.c_[np.full((250, 2), [15.5, 15.5]), np.linspace(0.0, 4.0, 250)]
+    thin_pole = np.c_[rng.normal([3.5, 16.5], 0.01, (250, 2)), rng.uniform(0.0, 3.0, 250)]
+    # A tree's crown over a ground spot in one cell: low and high points alternate.
+    mixed = np.c_[rng.uniform(9.1, 9.9, (300, 2)), np.where(np.arange(300) % 2, 0.0, 3.0)]
+    mixed[:, 2] += rng.uniform(0.0, 0.3, 300)
+    cloud = np.vstack([terrain, spot, floating, pole, thin_pole, mixed])
+    cloud = cloud[rng.permutation(len(cloud))]
+    ground = assert_core_equals_reference(cloud, params)
+    assert 0 < ground.sum() < len(cloud)
+
+
+@pytest.mark.parametrize("seed", range(4))
+@pytest.mark.parametrize(
+    "params",
+    [
+        GridGroundParams.definition(cell_size=1.0, block_size=4.0, slope=0.1, outlier_depth=50.0),
+        GridGroundParams.definition(
+            cell_size=1.0, block_size=4.0, slope=0.1, outlier_depth=50.0, grow_across_blocks=True
+        ),
+        GridGroundParams(cell_size=1.0, block_size=4.0, slope=0.1, filter_tolerance=2.0),
+    ],
+    ids=["per block", "across", "pre-filter"],
+)
+def test_sparse_links_in_crowded_cells_equal_the_reference(seed, params):
+    """Crowded cells whose points rise over 5 m, so that few of them link (slope 0.1)
+    and many links decide a component: a link the labelling missed in a crowded cell
+    would change the mask."""
+    rng = np.random.default_rng(seed)
+    parts = [np.c_[rng.uniform(0.0, 8.0, (300, 2)), rng.uniform(0.0, 5.0, 300)]]
+    for _ in range(6):
+        corner = rng.integers(0, 8, 2) + rng.uniform(0.0, 0.5, 2)
+        size = rng.uniform(0.0, 0.5, 2)
+        count = int(rng.integers(70, 200))
+        xy = corner + rng.uniform(0.0, 1.0, (count, 2)) * size
+        parts.append(np.c_[xy, rng.uniform(0.0, 5.0, count)])
+    cloud = np.vstack(parts)
+    ground = assert_core_equals_reference(cloud, params)
+    assert 0 < ground.sum() < len(cloud)
+
+
 def test_final_passes_rerun_the_final_pass_on_its_own_ground(scene):
     """Round r + 1 is the final pass (the reference's) on round r's ground (without low
     outliers, which each round would mask afterwards)."""
