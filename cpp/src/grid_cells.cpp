@@ -67,7 +67,8 @@ CellGrid build_grid(PointsView points, const GridGroundParams& params,
     // only at heights within reach, and copies of a point lie next to each other
     // (CellGrid::copy_of_previous: decided once by the pre-filter, the low-outlier test
     // and the links). Nothing else depends on the order within a cell (grid_ground.cpp);
-    // without either it is the input order. Two steps that each touch memory in order, not
+    // without either it is the input order, but for crowded cells (kCrowdedCell), which
+    // the links need by height. Two steps that each touch memory in order, not
     // a gather from the input (whose order may be random): (1) every point moves, in
     // input order, straight into the grid's arrays at its band of consecutive cells, a
     // stable counting sort per chunk of the input as spatial_order.cpp's radix pass
@@ -139,6 +140,8 @@ CellGrid build_grid(PointsView points, const GridGroundParams& params,
     }
     interruption.check();
     UnfilledVector<std::uint32_t>().swap(key);  // freed (assigning {} keeps the capacity)
+    // Per band, its crowded cells and their boxes (written by the band's thread).
+    std::vector<std::vector<std::pair<std::size_t, CellBox>>> crowded_in_band(bands);
 #pragma omp parallel if (parallel) firstprivate(interruption)
     {
         struct Record {
@@ -169,17 +172,29 @@ CellGrid build_grid(PointsView points, const GridGroundParams& params,
                 r.cell = grid.cell[s];
                 if (snap) r.snap_x = grid.snap_x[s], r.snap_y = grid.snap_y[s];
             }
-            if (grid.by_height)
-                for (std::size_t k = 0, from = 0; k < band_cells; from = fill[k++])
-                    if (fill[k] - from > 1)
-                        std::sort(sorted.begin() + static_cast<std::ptrdiff_t>(from),
-                                  sorted.begin() + static_cast<std::ptrdiff_t>(fill[k]),
-                                  [](const Record& a, const Record& b) {
-                                      if (a.p.z != b.p.z) return a.p.z < b.p.z;
-                                      if (a.p.x != b.p.x) return a.p.x < b.p.x;
-                                      if (a.p.y != b.p.y) return a.p.y < b.p.y;
-                                      return a.id < b.id;
-                                  });
+            for (std::size_t k = 0, from = 0; k < band_cells; from = fill[k++]) {
+                const std::size_t size = fill[k] - from;
+                if (size > kCrowdedCell) {
+                    CellBox box{sorted[from].p.x, sorted[from].p.x, sorted[from].p.y,
+                                sorted[from].p.y};
+                    for (std::size_t r = from + 1; r < fill[k]; ++r) {
+                        box.x0 = std::min(box.x0, sorted[r].p.x);
+                        box.x1 = std::max(box.x1, sorted[r].p.x);
+                        box.y0 = std::min(box.y0, sorted[r].p.y);
+                        box.y1 = std::max(box.y1, sorted[r].p.y);
+                    }
+                    crowded_in_band[band].emplace_back(first_cell + k, box);
+                }
+                if (size > 1 && (grid.by_height || size > kCrowdedCell))
+                    std::sort(sorted.begin() + static_cast<std::ptrdiff_t>(from),
+                              sorted.begin() + static_cast<std::ptrdiff_t>(fill[k]),
+                              [](const Record& a, const Record& b) {
+                                  if (a.p.z != b.p.z) return a.p.z < b.p.z;
+                                  if (a.p.x != b.p.x) return a.p.x < b.p.x;
+                                  if (a.p.y != b.p.y) return a.p.y < b.p.y;
+                                  return a.id < b.id;
+                              });
+            }
             for (std::size_t k = 0; k < end - begin; ++k) {
                 const Record& r = sorted[k];
                 grid.p[begin + k] = r.p;
@@ -193,6 +208,11 @@ CellGrid build_grid(PointsView points, const GridGroundParams& params,
         }
     }
     interruption.check();
+    for (const auto& band : crowded_in_band)  // bands in order: the cells ascend
+        for (const auto& [c, box] : band) {
+            grid.crowded.push_back(c);
+            grid.crowded_box.push_back(box);
+        }
 
     // Blocks, numbered densely unless the block grid is far larger than the cloud.
     const std::int64_t nbx = grid_index(extent[0], params.block_size[0]) + 1;

@@ -22,14 +22,15 @@ inline bool linked(const CellGrid& grid, std::size_t s, std::size_t q, double sl
 }
 
 // Positions [first, last) of cell c whose height lies within `reach` of z (all of them
-// unless the cell's points rise, grid_cells.cpp): both ends by bisection on tests that are monotone
-// along the cell, z - z_q > reach for those below and z_q - z > reach for those above, in the
-// floating-point arithmetic of linked(), so that every q outside fails that test.
+// unless the cell's points rise, CellGrid::sorted_by_height): both ends by bisection on tests that
+// are monotone along the cell, z - z_q > reach for those below and z_q - z > reach for those above,
+// in the floating-point arithmetic of linked(), so that every q outside fails that test.
 inline std::pair<std::size_t, std::size_t> within_reach(const CellGrid& grid, std::ptrdiff_t c,
                                                         double z, double reach) {
     const auto begin = grid.p.begin() + static_cast<std::ptrdiff_t>(grid.start[c]);
     const auto end = grid.p.begin() + static_cast<std::ptrdiff_t>(grid.start[c + 1]);
-    if (begin == end || !grid.by_height) return {grid.start[c], grid.start[c + 1]};
+    if (begin == end || !grid.sorted_by_height(static_cast<std::size_t>(c)))
+        return {grid.start[c], grid.start[c + 1]};
     // Mostly the whole cell is within reach: two tests instead of two bisections.
     const auto first =
         !(z - begin->z > reach)
@@ -43,108 +44,67 @@ inline std::pair<std::size_t, std::size_t> within_reach(const CellGrid& grid, st
             static_cast<std::size_t>(last - grid.p.begin())};
 }
 
-// Calls visit(s, around, k) for every candidate position s with the k occupied cells of
-// its 3 x 3 neighbourhood, block by block in parallel: threads then mostly work on
-// disjoint trees of the union-find instead of contending for the same roots.
-// A cell holding more points than this is crowded (a scanner's footprint, a pole of
-// returns): cells are at most two point spacings wide, so ordinary ones hold a few.
-constexpr std::size_t kCrowdedCell = 64;
 // The points of a crowded cell that the sampling tries per candidate.
 constexpr std::size_t kCrowdedTries = 32;
 
-// What the passes know of the crowded cells, so that a dense spot of distinct points
-// costs about as much as as many points spread out, not the square of its size:
-// - the XY box of each one's points, which bounds the heights a point can link with more
-//   tightly than the 3 x 3 cells do (a pole of returns at one XY links only at one height);
-// - for the exact pass, where each run ends: a run is a stretch of positions that are all
-//   non-candidates, or all candidates of one component by the roots' snapshot, and the
-//   pass steps over a run that cannot link in one step.
-class CrowdedCells {
+// The largest |z_s - z_q| with which s can link with a point q of crowded cell c (an
+// upper bound): the link test's own threshold, slope * d + tolerance, at the farthest
+// corner of the cell's XY box, in the same operations as linked(), so that rounding,
+// monotone, keeps it an upper bound. Tighter than the 3 x 3 cells' bound: a pole of
+// returns at one XY links only at its own height.
+double crowded_reach(const CellGrid& grid, std::ptrdiff_t c, std::size_t s, double slope,
+                     double tolerance) {
+    const CellBox& box = grid.box_of_crowded(static_cast<std::size_t>(c));
+    const double dx = std::max(std::abs(grid.p[s].x - box.x0), std::abs(grid.p[s].x - box.x1));
+    const double dy = std::max(std::abs(grid.p[s].y - box.y0), std::abs(grid.p[s].y - box.y1));
+    return slope * std::sqrt(dx * dx + dy * dy) + tolerance;
+}
+
+// Where each run of a crowded cell ends, for the exact pass: a run is a stretch of
+// positions that are all non-candidates, or all candidates of one component by the
+// roots' snapshot, and the pass steps over a run that cannot link in one step (a dense
+// spot is mostly one component: one step, not a test per cell-mate).
+class RunEnds {
    public:
-    explicit CrowdedCells(const CellGrid& grid) {
-        for (std::size_t c = 0; c < grid.cells(); ++c)
-            if (grid.start[c + 1] - grid.start[c] > kCrowdedCell) cells_.push_back(c);
-        boxes_.resize(cells_.size());
-        for (std::size_t i = 0; i < cells_.size(); ++i) {
-            Box& box = boxes_[i];
-            box = {grid.p[grid.start[cells_[i]]].x, grid.p[grid.start[cells_[i]]].x,
-                   grid.p[grid.start[cells_[i]]].y, grid.p[grid.start[cells_[i]]].y};
-            for (std::size_t q = grid.start[cells_[i]]; q < grid.start[cells_[i] + 1]; ++q) {
-                box.x0 = std::min(box.x0, grid.p[q].x), box.x1 = std::max(box.x1, grid.p[q].x);
-                box.y0 = std::min(box.y0, grid.p[q].y), box.y1 = std::max(box.y1, grid.p[q].y);
-            }
-        }
-    }
-
-    static bool crowded(const CellGrid& grid, std::ptrdiff_t c) {
-        return grid.start[c + 1] - grid.start[c] > kCrowdedCell;
-    }
-
-    /// The largest |z_s - z_q| with which s links with any q of crowded cell c: the link
-    /// test's own bound, slope * d + tolerance, at the farthest corner of the cell's box,
-    /// in the same operations, so that rounding (monotone) keeps it an upper bound.
-    double reach(const CellGrid& grid, std::ptrdiff_t c, std::size_t s, double slope,
-                 double tolerance) const {
-        const Box& box = boxes_[index(c)];
-        const double dx = std::max(std::abs(grid.p[s].x - box.x0), std::abs(grid.p[s].x - box.x1));
-        const double dy = std::max(std::abs(grid.p[s].y - box.y0), std::abs(grid.p[s].y - box.y1));
-        return slope * std::sqrt(dx * dx + dy * dy) + tolerance;
-    }
-
-    /// Finds the runs (after the roots' snapshot), in parallel over the crowded cells.
-    void find_runs(const CellGrid& grid, const std::vector<unsigned char>& candidate,
-                   const UnfilledVector<std::uint32_t>& root, bool parallel) {
-        if (cells_.empty()) return;
-        run_end_ = UnfilledVector<std::uint32_t>(grid.p.size());  // read only where written
+    RunEnds(const CellGrid& grid, const std::vector<unsigned char>& candidate,
+            const UnfilledVector<std::uint32_t>& root, bool parallel) {
+        if (grid.crowded.empty()) return;
+        end_ = UnfilledVector<std::uint32_t>(grid.p.size());  // read only where written
         const auto key = [&](std::size_t q) { return candidate[q] ? root[q] : kNone; };
-        const auto count = static_cast<std::ptrdiff_t>(cells_.size());
+        const auto count = static_cast<std::ptrdiff_t>(grid.crowded.size());
 #pragma omp parallel for schedule(dynamic, 1) if (parallel)
         for (std::ptrdiff_t i = 0; i < count; ++i) {
-            const std::size_t first = grid.start[cells_[i]], last = grid.start[cells_[i] + 1];
-            run_end_[last - 1] = static_cast<std::uint32_t>(last);
+            const std::size_t first = grid.start[grid.crowded[i]];
+            const std::size_t last = grid.start[grid.crowded[i] + 1];
+            end_[last - 1] = static_cast<std::uint32_t>(last);
             for (std::size_t q = last - 1; q-- > first;)
-                run_end_[q] =
-                    key(q + 1) == key(q) ? run_end_[q + 1] : static_cast<std::uint32_t>(q + 1);
+                end_[q] = key(q + 1) == key(q) ? end_[q + 1] : static_cast<std::uint32_t>(q + 1);
         }
     }
 
-    /// The first position after q's run (q in a crowded cell, after find_runs).
-    std::size_t run_end(std::size_t q) const { return run_end_[q]; }
+    /// The first position after q's run (q in a crowded cell).
+    std::size_t operator[](std::size_t q) const { return end_[q]; }
 
    private:
-    struct Box {
-        double x0, x1, y0, y1;
-    };
-    std::size_t index(std::ptrdiff_t c) const {
-        return static_cast<std::size_t>(
-            std::lower_bound(cells_.begin(), cells_.end(), static_cast<std::size_t>(c)) -
-            cells_.begin());
-    }
-    std::vector<std::size_t> cells_;  // ascending
-    std::vector<Box> boxes_;
-    UnfilledVector<std::uint32_t> run_end_;
+    UnfilledVector<std::uint32_t> end_;
 };
 
-// The sampling's scan of a crowded cell, within `reach` of s's height. A cell sorted by
-// height holds s's links near s's height, and a scan from a random place crosses every
-// height in between first: on a dense spot of distinct points, most of the cell per
-// candidate. So the points nearest in height come first, alternately above and below
-// (from a random place where the cell is not sorted by height), and only a few: the
-// sampling only saves the exact pass work, and that pass finds every link.
+// The sampling's scan of a crowded cell (sorted by height), within `reach` of s's
+// height. s's links lie near its height, and a scan from a random place would cross
+// every height in between first: on a dense spot of distinct points, most of the cell
+// per candidate. So the points nearest in height come first, alternately above and
+// below, and only a few: the sampling only saves the exact pass work, and that pass
+// finds every link.
 template <class Link>
-void sample_crowded(const CellGrid& grid, std::ptrdiff_t cell, std::size_t s, std::uint32_t hash,
-                    double reach, Link link) {
+void sample_crowded(const CellGrid& grid, std::ptrdiff_t cell, std::size_t s, double reach,
+                    Link link) {
     const auto [first, last] = within_reach(grid, cell, grid.p[s].z, reach);
-    if (first == last) return;
     const double z = grid.p[s].z;
-    const std::size_t middle =
-        grid.by_height
-            ? static_cast<std::size_t>(
-                  std::partition_point(grid.p.begin() + static_cast<std::ptrdiff_t>(first),
-                                       grid.p.begin() + static_cast<std::ptrdiff_t>(last),
-                                       [z](const Local& q) { return q.z < z; }) -
-                  grid.p.begin())
-            : first + hash % (last - first);
+    const auto middle = static_cast<std::size_t>(
+        std::partition_point(grid.p.begin() + static_cast<std::ptrdiff_t>(first),
+                             grid.p.begin() + static_cast<std::ptrdiff_t>(last),
+                             [z](const Local& q) { return q.z < z; }) -
+        grid.p.begin());
     std::size_t above = middle, below = middle;  // next up: above; next down: below - 1
     for (std::size_t tries = 0; tries < kCrowdedTries && (above < last || below > first); ++tries) {
         const bool up = below == first || (above < last && tries % 2 == 0);
@@ -152,6 +112,9 @@ void sample_crowded(const CellGrid& grid, std::ptrdiff_t cell, std::size_t s, st
     }
 }
 
+// Calls visit(s, around, k) for every candidate position s with the k occupied cells of
+// its 3 x 3 neighbourhood, block by block in parallel: threads then mostly work on
+// disjoint trees of the union-find instead of contending for the same roots.
 template <class Visit>
 void for_each_candidate(const CellGrid& grid, const std::vector<unsigned char>& candidate,
                         bool parallel, Visit visit) {
@@ -254,11 +217,10 @@ void label_components(const CellGrid& grid, const GridGroundParams& params,
     const Links links(grid, params, candidate);
     const double reach = links.reach;
     const auto joinable = [&](std::size_t s, std::size_t q) { return links.joinable(s, q); };
-    CrowdedCells crowded(grid);
     // How far in height s can link into cell c.
     const auto reach_in = [&](std::size_t s, std::ptrdiff_t c) {
-        return CrowdedCells::crowded(grid, c)
-                   ? crowded.reach(grid, c, s, links.slope, links.tolerance)
+        return grid.is_crowded(static_cast<std::size_t>(c))
+                   ? crowded_reach(grid, c, s, links.slope, links.tolerance)
                    : reach;
     };
     sets.reset(grid.p.size());
@@ -272,21 +234,21 @@ void label_components(const CellGrid& grid, const GridGroundParams& params,
             // the sampled links then run in every direction and join points of all
             // heights. (The cells in a fixed order made every point link into its
             // lower-left cell's lowest points: diagonal strips, a small giant.)
-            int links = 0;
+            int found = 0;
             // 32-bit remainders: a cell holds far fewer than 2^32 points, and they divide
             // faster than 64-bit ones.
             const auto hash = static_cast<std::uint32_t>((s * std::size_t{2654435761u}) >> 8);
             const auto link = [&](std::size_t q) {
                 if (q == s || !joinable(s, q)) return false;
                 sets.unite(static_cast<std::uint32_t>(s), static_cast<std::uint32_t>(q));
-                return ++links == 2;
+                return ++found == 2;
             };
-            for (int j = 0; j < k && links < 2; ++j) {
+            for (int j = 0; j < k && found < 2; ++j) {
                 const std::ptrdiff_t cell =
                     around[(static_cast<std::uint32_t>(j) + hash) % static_cast<std::uint32_t>(k)];
                 const std::size_t first = grid.start[cell], size = grid.start[cell + 1] - first;
-                if (size > kCrowdedCell) {
-                    sample_crowded(grid, cell, s, hash, reach_in(s, cell), link);
+                if (grid.is_crowded(static_cast<std::size_t>(cell))) {
+                    sample_crowded(grid, cell, s, reach_in(s, cell), link);
                     continue;
                 }
                 const std::size_t offset = hash % static_cast<std::uint32_t>(size);
@@ -298,17 +260,17 @@ void label_components(const CellGrid& grid, const GridGroundParams& params,
     const auto count = static_cast<std::ptrdiff_t>(n);
 #pragma omp parallel for schedule(guided) if (parallel)
     for (std::ptrdiff_t s = 0; s < count; ++s) root[s] = sets.find(static_cast<std::uint32_t>(s));
-    crowded.find_runs(grid, candidate, root, parallel);
+    const RunEnds run_end(grid, candidate, root, parallel);
     // Unites s with every point of cell c from position `from` on, within reach of its
     // height, that it links with and that is not already in its component (by the
     // snapshot): in a crowded cell, runs of such points and of points that are not
     // candidates are passed over in one step each.
     const auto join_cell = [&](std::size_t s, std::ptrdiff_t c, std::size_t from) {
-        const bool runs = CrowdedCells::crowded(grid, c);
+        const bool runs = grid.is_crowded(static_cast<std::size_t>(c));
         const auto [first, last] = within_reach(grid, c, grid.p[s].z, reach_in(s, c));
         for (std::size_t q = std::max(first, from); q < last;) {
             if (root[q] == root[s] || !candidate[q]) {
-                q = runs ? crowded.run_end(q) : q + 1;
+                q = runs ? run_end[q] : q + 1;
                 continue;
             }
             if (joinable(s, q))
@@ -319,10 +281,9 @@ void label_components(const CellGrid& grid, const GridGroundParams& params,
     if (!across) {
         // Many mid-sized components, one or more per block: every unordered pair once,
         // from its smaller position.
+        // A copy's pairs are its predecessor's, which also pairs with the copy.
         for_each_candidate(grid, candidate, parallel,
                            [&](std::size_t s, const std::ptrdiff_t* around, int k) {
-                               // A copy's pairs are its predecessor's, which also pairs with the
-                               // copy.
                                if (grid.copy_of_previous(s) && candidate[s - 1]) return;
                                for (int a = 0; a < k; ++a) join_cell(s, around[a], s + 1);
                            });
@@ -340,10 +301,9 @@ void label_components(const CellGrid& grid, const GridGroundParams& params,
         }
         if (j - i > best) best = j - i, giant = sample[i];
     }
+    // A copy shares its predecessor's root (joined above): that one is tested.
     for_each_candidate(grid, candidate, parallel,
                        [&](std::size_t s, const std::ptrdiff_t* around, int k) {
-                           // A copy shares its predecessor's root (joined above): that one is
-                           // tested.
                            if (root[s] == giant || (grid.copy_of_previous(s) && candidate[s - 1]))
                                return;
                            for (int a = 0; a < k; ++a) join_cell(s, around[a], 0);

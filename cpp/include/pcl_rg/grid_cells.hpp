@@ -26,6 +26,18 @@ struct Local {
     double x, y, z;
 };
 
+// A cell holding more points than this is crowded (a scanner's footprint, a pole of
+// returns): an unset cell_size is at most two point spacings, so ordinary cells hold a
+// few points. A crowded cell is always sorted by height, and the links bound the heights
+// they scan in it by the XY box of its points (grid_links.cpp), so that a dense spot of
+// distinct points is not quadratic.
+constexpr std::size_t kCrowdedCell = 64;
+
+// The XY box of a cell's points, local coordinates.
+struct CellBox {
+    double x0, x1, y0, y1;
+};
+
 // The points in cell order (a CSR grid) with everything the passes read.
 struct CellGrid {
     // The per-position arrays that build_grid writes in full (the scatter, then the block
@@ -38,6 +50,8 @@ struct CellGrid {
     UnfilledVector<std::int32_t> snap_x, snap_y;  // XY on the final pass's grid (if asked)
     std::vector<std::size_t> start;               // positions of cell c: [start[c], start[c + 1])
     bool by_height = false;                       // a cell's points by (z, x, y), else input order
+    std::vector<std::size_t> crowded;             // the crowded cells, ascending
+    std::vector<CellBox> crowded_box;             // and the XY box of each one's points
     std::size_t blocks = 0;
     std::vector<std::size_t> block_start;     // members of block b: block_member[
     std::vector<std::uint32_t> block_member;  //   block_start[b] .. block_start[b + 1])
@@ -47,6 +61,15 @@ struct CellGrid {
     std::vector<std::pair<std::int64_t, std::int64_t>> occupied;  // (cy, cx)
 
     std::size_t cells() const { return start.size() - 1; }
+
+    bool is_crowded(std::size_t c) const { return start[c + 1] - start[c] > kCrowdedCell; }
+    // Whether cell c's points are by (z, x, y): all cells with by_height, else the crowded.
+    bool sorted_by_height(std::size_t c) const { return by_height || is_crowded(c); }
+    // The XY box of crowded cell c.
+    const CellBox& box_of_crowded(std::size_t c) const {
+        return crowded_box[static_cast<std::size_t>(
+            std::lower_bound(crowded.begin(), crowded.end(), c) - crowded.begin())];
+    }
 
     // Whether the point at position s is a copy of the one before it. A point's copies
     // share its cell and, when the cells are sorted by height, lie next to it: every

@@ -71,9 +71,9 @@ class ConcurrentDisjointSets {
 /// terrain is mostly one giant component, the most frequent root of a sample, and points
 /// in it are skipped altogether, which is exact: an edge between the giant and another
 /// point is tested from that point, whose pass visits all its neighbours. Cells of many
-/// points (grid_links.cpp, CrowdedCells) are sampled near each point's height, scanned
-/// within heights their XY box allows and stepped over by runs, so that a dense spot of
-/// distinct points costs about linear time, not quadratic.
+/// points (crowded, grid_cells.hpp) are sampled near each point's height, scanned only
+/// at the heights their XY box allows and stepped over by runs (grid_links.cpp), so that
+/// a dense spot of distinct points does not cost quadratic time.
 void label_components(const CellGrid& grid, const GridGroundParams& params,
                       const std::vector<unsigned char>& candidate, ConcurrentDisjointSets& sets);
 
