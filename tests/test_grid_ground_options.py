@@ -1,4 +1,5 @@
-"""grid_ground's improvements of issue 14: low outliers and final-pass rounds.
+"""grid_ground's improvements of issue 14: low outliers, final-pass rounds, and cells
+crowded with points.
 
 Each option: core == reference, the rule on a hand-made cloud, and its effect.
 (tests/test_grid_ground.py holds the definition and the older options.)
@@ -10,7 +11,10 @@ import dataclasses
 
 import numpy as np
 import pytest
+from conftest import examples
 from grid_ground_helpers import assert_core_equals_reference, small_scene
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import pcl_rg
 from pcl_rg import GridGroundParams
@@ -169,6 +173,47 @@ def test_sparse_links_in_crowded_cells_equal_the_reference(seed, params):
     cloud = np.vstack(parts)
     ground = assert_core_equals_reference(cloud, params)
     assert 0 < ground.sum() < len(cloud)
+
+
+@st.composite
+def crowded_clouds(draw):
+    """A sparse cloud over 6 m x 6 m with one to three cells of 65 to 200 points (more
+    than kCrowdedCell), each in a drawn part of its cell, its heights over a drawn range,
+    on a few levels or not."""
+    rng = np.random.default_rng(draw(st.integers(0, 2**32 - 1)))
+    sparse = draw(st.integers(0, 150))
+    parts = [np.c_[rng.uniform(0.0, 6.0, (sparse, 2)), rng.uniform(0.0, 2.0, sparse)]]
+    for _ in range(draw(st.integers(1, 3))):
+        count = draw(st.integers(65, 200))
+        corner = rng.integers(0, 6, 2) + rng.uniform(0.0, 0.5, 2)
+        size = draw(st.sampled_from([0.0, 0.01, 0.2, 0.5]))
+        rise = draw(st.sampled_from([0.01, 0.5, 3.0]))
+        z = rng.uniform(0.0, rise, count)
+        if draw(st.booleans()):
+            z = np.round(z * 4 / rise) * rise / 4  # five levels
+        parts.append(np.c_[corner + rng.uniform(0.0, size, (count, 2)), z])
+    return np.vstack(parts)
+
+
+crowded_params = st.builds(
+    GridGroundParams,
+    block_size=st.sampled_from([2.0, 4.0, 10.0]),
+    cell_size=st.just(1.0),
+    slope=st.sampled_from([0.0, 0.1, 0.3, 1.0]),
+    height_tolerance=st.sampled_from([0.0, 0.05]),
+    min_seed_component=st.sampled_from([1, 20]),
+    grow_across_blocks=st.booleans(),
+    filter_passes=st.integers(0, 2),
+    filter_tolerance=st.sampled_from([0.1, 2.0]),
+    outlier_depth=st.sampled_from([0.0, 2.0]),
+    final_cell=st.just(0.0),
+)
+
+
+@settings(max_examples=examples(400), deadline=None)
+@given(points=crowded_clouds(), params=crowded_params)
+def test_hypothesis_crowded_cells_equal_the_reference(points, params):
+    assert_core_equals_reference(points, params)
 
 
 def test_final_passes_rerun_the_final_pass_on_its_own_ground(scene):
