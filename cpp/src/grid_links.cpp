@@ -217,12 +217,6 @@ void label_components(const CellGrid& grid, const GridGroundParams& params,
     const Links links(grid, params, candidate);
     const double reach = links.reach;
     const auto joinable = [&](std::size_t s, std::size_t q) { return links.joinable(s, q); };
-    // How far in height s can link into cell c.
-    const auto reach_in = [&](std::size_t s, std::ptrdiff_t c) {
-        return grid.is_crowded(static_cast<std::size_t>(c))
-                   ? crowded_reach(grid, c, s, links.slope, links.tolerance)
-                   : reach;
-    };
     sets.reset(grid.p.size());
     for_each_candidate(
         grid, candidate, parallel, [&](std::size_t s, const std::ptrdiff_t* around, int k) {
@@ -248,7 +242,9 @@ void label_components(const CellGrid& grid, const GridGroundParams& params,
                     around[(static_cast<std::uint32_t>(j) + hash) % static_cast<std::uint32_t>(k)];
                 const std::size_t first = grid.start[cell], size = grid.start[cell + 1] - first;
                 if (grid.is_crowded(static_cast<std::size_t>(cell))) {
-                    sample_crowded(grid, cell, s, reach_in(s, cell), link);
+                    sample_crowded(grid, cell, s,
+                                   crowded_reach(grid, cell, s, links.slope, links.tolerance),
+                                   link);
                     continue;
                 }
                 const std::size_t offset = hash % static_cast<std::uint32_t>(size);
@@ -266,11 +262,13 @@ void label_components(const CellGrid& grid, const GridGroundParams& params,
     // snapshot): in a crowded cell, runs of such points and of points that are not
     // candidates are passed over in one step each.
     const auto join_cell = [&](std::size_t s, std::ptrdiff_t c, std::size_t from) {
-        const bool runs = grid.is_crowded(static_cast<std::size_t>(c));
-        const auto [first, last] = within_reach(grid, c, grid.p[s].z, reach_in(s, c));
+        const bool crowded = grid.is_crowded(static_cast<std::size_t>(c));
+        const auto [first, last] =
+            within_reach(grid, c, grid.p[s].z,
+                         crowded ? crowded_reach(grid, c, s, links.slope, links.tolerance) : reach);
         for (std::size_t q = std::max(first, from); q < last;) {
             if (root[q] == root[s] || !candidate[q]) {
-                q = runs ? run_end[q] : q + 1;
+                q = crowded ? run_end[q] : q + 1;
                 continue;
             }
             if (joinable(s, q))

@@ -111,8 +111,8 @@ void window_lowest(const double* in, std::int64_t width, std::ptrdiff_t stride, 
     const double none = std::numeric_limits<double>::infinity();
     r = std::min(r, length - 1);
     const std::int64_t w = 2 * r + 1, padded = length + 2 * r;
-    prefix.assign(static_cast<std::size_t>(padded * rank), none);
-    suffix.assign(static_cast<std::size_t>(padded * rank), none);
+    prefix.resize(static_cast<std::size_t>(padded * rank));  // every slot written below
+    suffix.resize(static_cast<std::size_t>(padded * rank));
     std::vector<double> value(static_cast<std::size_t>(rank));
     const auto load = [&](std::int64_t j) {  // slot j's list, +inf outside the line
         std::fill(value.begin(), value.end(), none);
