@@ -1,31 +1,105 @@
-// k-nearest-neighbour search on nanoflann (see knn.hpp).
+// k-nearest-neighbour search on nanoflann's k-d tree (see knn.hpp).
 #include "pcl_rg/knn.hpp"
 
+#include <algorithm>
+#include <array>
 #include <limits>
 #include <stdexcept>
+#include <string>
 
 namespace pcl_rg {
 
-namespace {
+// nanoflann's own walk (KDTreeSingleIndexAdaptor::findNeighbors with its searchLevel):
+// the same order of branches, the same float bounds and the same leaf test, so the
+// same lists, ties included. One cut is added. nanoflann enters a branch when its
+// bound is no farther than the list's worst distance, yet a leaf takes only points
+// strictly nearer than the worst. So once the list is full, a branch that lies no
+// nearer than the worst can add nothing, and nanoflann walks it all the same. Among
+// many copies of a point that all lie at the k-th distance (two stacks of repeated
+// returns a centimetre apart, or a point beside such a stack), every query walked
+// every copy: O(n^2). Here such a branch is skipped.
+//
+// The cut needs a bound that is never above the distance a leaf computes for a point
+// of the branch. That distance is float arithmetic: (q - p) per axis, squared, summed
+// over x, y, z in that order (no FMA contraction: CMakeLists.txt). The bound is that
+// same arithmetic on the point of the branch's box nearest to q. Per axis |q - c| <=
+// |q - p| exactly, and rounding, squaring and adding non-negative numbers never
+// reverse an order, so the bound is at most the distance of every point in the box.
+// The box starts as nanoflann's bounding box of all points and is cut at each split
+// by the extent of the child's own points along the split axis (nanoflann's divlow,
+// divhigh).
+struct KnnIndex::Search {
+    using Node = Tree::Node;
+    using List = nanoflann::KNNResultSet<float, std::uint32_t, std::size_t>;
+    static constexpr int kDims = 3;
 
-// nanoflann's k-nearest list, except that a full list whose worst distance is 0 reports
-// a worst distance of -infinity. nanoflann only offers a point to a full list when it is
-// strictly closer than the worst, and enters a branch only when its box is no farther:
-// with the worst at 0 no later leaf can offer anything, yet every branch at distance 0
-// is still entered. Among many identical points that walk visits all of them for every
-// query, O(n^2). Reporting -infinity prunes those branches and offers nothing new, while
-// the leaf being scanned keeps the bound it started with, so the lists are the ones the
-// full walk returns, ties included.
-class NearestList : public nanoflann::KNNResultSet<float, std::uint32_t, std::size_t> {
-   public:
-    using KNNResultSet::KNNResultSet;
-    float worstDist() const {
-        const float worst = KNNResultSet::worstDist();
-        return worst == 0.0f ? -std::numeric_limits<float>::infinity() : worst;
+    const Tree& tree;
+    const float* xyz;
+    const float* query;
+    List& list;
+    std::array<float, kDims> low{}, high{};  // the box of the branch being walked
+    std::array<float, kDims> cut{};          // nanoflann's per-axis part of its bound
+
+    float squared_distance(const float* point) const {
+        float sum = 0.0f;
+        for (int axis = 0; axis < kDims; ++axis) {
+            const float diff = query[axis] - point[axis];
+            sum += diff * diff;
+        }
+        return sum;
+    }
+
+    // True when no point of the current box can enter the full list.
+    bool beyond_worst() const {
+        if (!list.full()) return false;
+        std::array<float, kDims> nearest{};
+        for (int axis = 0; axis < kDims; ++axis)
+            nearest[axis] = std::clamp(query[axis], low[axis], high[axis]);
+        return squared_distance(nearest.data()) >= list.worstDist();
+    }
+
+    void walk(const Node* node, float bound) {
+        if (node->child1 == nullptr && node->child2 == nullptr) {
+            const float worst = list.worstDist();  // fixed for the leaf, as in nanoflann
+            for (auto i = node->node_type.lr.left; i < node->node_type.lr.right; ++i) {
+                const std::uint32_t id = tree.vAcc[i];
+                const float distance = squared_distance(xyz + 3 * static_cast<std::size_t>(id));
+                if (distance < worst) list.addPoint(distance, id);
+            }
+            return;
+        }
+        const auto axis = node->node_type.sub.divfeat;
+        const float value = query[axis];
+        const float below = node->node_type.sub.divlow;   // largest value in child1
+        const float above = node->node_type.sub.divhigh;  // smallest value in child2
+        const bool child1_first = (value - below) + (value - above) < 0;
+        const Node* first = child1_first ? node->child1 : node->child2;
+        const Node* second = child1_first ? node->child2 : node->child1;
+        const float edge = child1_first ? above : below;
+        const float cut_distance = (value - edge) * (value - edge);
+
+        const float saved_low = low[axis], saved_high = high[axis];
+        if (child1_first)
+            high[axis] = std::min(saved_high, below);
+        else
+            low[axis] = std::max(saved_low, above);
+        walk(first, bound);
+        low[axis] = saved_low;
+        high[axis] = saved_high;
+
+        const float saved_cut = cut[axis];
+        const float second_bound = bound + cut_distance - saved_cut;
+        cut[axis] = cut_distance;
+        if (child1_first)
+            low[axis] = std::max(saved_low, above);
+        else
+            high[axis] = std::min(saved_high, below);
+        if (second_bound <= list.worstDist() && !beyond_worst()) walk(second, second_bound);
+        low[axis] = saved_low;
+        high[axis] = saved_high;
+        cut[axis] = saved_cut;
     }
 };
-
-}  // namespace
 
 KnnIndex::KnnIndex(const float* xyz, std::size_t size) : adaptor_{xyz, size} {
     if (size > std::numeric_limits<std::uint32_t>::max())
@@ -37,10 +111,17 @@ KnnIndex::KnnIndex(const float* xyz, std::size_t size) : adaptor_{xyz, size} {
 
 std::size_t KnnIndex::nearest(std::size_t query, std::size_t k, std::uint32_t* indices,
                               float* squared_distances) const {
-    if (k == 0) return 0;  // nanoflann's list reads its last slot
-    NearestList list(k);
+    if (k == 0 || adaptor_.size == 0 || tree_->root_node == nullptr) return 0;
+    Search::List list(k);  // (k = 0 would read the list's last slot)
     list.init(indices, squared_distances);
-    tree_->findNeighbors(list, adaptor_.xyz + 3 * query, nanoflann::SearchParams());
+    Search search{*tree_, adaptor_.xyz, adaptor_.xyz + 3 * query, list};
+    for (int axis = 0; axis < Search::kDims; ++axis) {
+        search.low[axis] = tree_->root_bbox[axis].low;
+        search.high[axis] = tree_->root_bbox[axis].high;
+    }
+    // The query is one of the points, inside the box of them all: nanoflann's initial
+    // bound and its per-axis parts are 0.
+    search.walk(tree_->root_node, 0.0f);
     return list.size();
 }
 

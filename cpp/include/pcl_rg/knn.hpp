@@ -4,8 +4,8 @@
 
 // Among the neighbours returned at equal distance, the lower index comes first.
 // Which of several points tied at the k-th distance is returned is not the lowest
-// index, though: once the list is full nanoflann only takes strictly closer points,
-// so the first one the tree traversal meets stays. The traversal is deterministic
+// index, though: once the list is full the walk (nanoflann's, knn.cpp) only takes
+// strictly closer points, so the first one it meets stays. The traversal is deterministic
 // for a given input, so lists are reproducible; references that compare with us
 // on tied inputs must allow for the other choice at the k-th place.
 #ifndef NANOFLANN_FIRST_MATCH
@@ -45,6 +45,7 @@ class KnnIndex {
     };
     using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, Adaptor>,
                                                      Adaptor, 3, std::uint32_t>;
+    struct Search;  // the walk of nearest() over the tree (knn.cpp)
     Adaptor adaptor_;
     std::unique_ptr<Tree> tree_;
 };
