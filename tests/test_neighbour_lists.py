@@ -1,9 +1,11 @@
 """The core's k-nearest lists on clouds of copies and equal distances.
 
-The core walks nanoflann's k-d tree with one cut of its own (cpp/src/knn.cpp): once a
-list is full, a branch whose box lies no nearer than the list's worst distance is
+The core walks nanoflann's k-d tree as nanoflann does, and a query that visits more
+than a few hundred leaves walks again with one cut of its own (cpp/src/knn.cpp): once
+its list is full, a branch whose box lies no nearer than the list's worst distance is
 skipped. These clouds put many points at exactly that distance, where a wrong cut
-would drop a nearer point and show as a different distance in a list.
+would drop a nearer point and show as a different distance in a list. Small clouds
+take the first walk only; clouds of thousands of copies take the second.
 """
 
 from __future__ import annotations
@@ -40,20 +42,40 @@ def assert_lists_match_reference(points: np.ndarray, k: int) -> None:
     assert all(len(set(row)) == k for row in core.tolist())  # no point twice
 
 
+def assert_lists_are_nearest(points: np.ndarray, k: int) -> None:
+    """Each list holds k distinct points whose distances are the k smallest of its
+    row, ascending, equal distances by index (brute force, float32 as the core)."""
+    core = _core.neighbour_lists(points, NormalsParams(k=k).to_core()).astype(np.intp)
+    assert all(len(set(row)) == k for row in core.tolist())
+    core_d = float32_squared_distances(points, core)
+    local = (points - points.min(axis=0)).astype(np.float32)
+    for start in range(0, len(points), 512):  # brute force, by blocks of rows
+        rows = slice(start, start + 512)
+        d = local[None, :, :] - local[rows, None, :]
+        full = (d[..., 0] * d[..., 0] + d[..., 1] * d[..., 1]) + d[..., 2] * d[..., 2]
+        smallest = np.sort(np.partition(full, k - 1, axis=1)[:, :k], axis=1)
+        np.testing.assert_array_equal(core_d[rows], smallest)
+    index_order = np.lexsort((core, core_d), axis=1)
+    np.testing.assert_array_equal(index_order, np.broadcast_to(np.arange(k), core.shape))
+
+
+def lattice_copies(rng: np.random.Generator, n: int, positions: int, side: int) -> np.ndarray:
+    """n points on `positions` random positions of a 1 cm lattice of side + 1 steps."""
+    lattice = rng.integers(0, side + 1, (positions, 3)) * 0.01
+    return lattice[rng.integers(0, positions, n)] + [4.5e5, 5.4e6, 120.0]
+
+
 @st.composite
 def clouds_of_copies(draw: st.DrawFn) -> tuple[np.ndarray, int]:
     """Up to 400 points on a few positions of a 1 cm lattice (many copies, many equal
     distances), sometimes with one point far off; k from 3 to 40."""
     rng = np.random.default_rng(draw(st.integers(0, 2**32 - 1)))
-    side = draw(st.integers(1, 4))
-    lattice = draw(st.integers(2, 12))  # distinct positions
-    n = draw(st.integers(lattice + 2, 400))
-    positions = rng.integers(0, side + 1, (lattice, 3)) * 0.01
-    points = positions[rng.integers(0, lattice, n)]
+    positions = draw(st.integers(2, 12))
+    n = draw(st.integers(positions + 2, 400))
+    points = lattice_copies(rng, n, positions, side=draw(st.integers(1, 4)))
     if draw(st.booleans()):
-        points[-1] = [0.0, draw(st.sampled_from([0.05, 1.0, 1e3])), 0.0]
-    k = draw(st.integers(3, min(40, n - 1)))
-    return points + [4.5e5, 5.4e6, 120.0], k
+        points[-1, 1] += draw(st.sampled_from([0.05, 1.0, 1e3]))
+    return points, draw(st.integers(3, min(40, n - 1)))
 
 
 @settings(max_examples=examples(150), deadline=None)
@@ -61,6 +83,21 @@ def clouds_of_copies(draw: st.DrawFn) -> tuple[np.ndarray, int]:
 def test_hypothesis_copies_match_reference(case: tuple[np.ndarray, int]) -> None:
     points, k = case
     assert_lists_match_reference(points, k)
+
+
+@settings(max_examples=examples(8), deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), positions=st.integers(2, 5), k=st.integers(3, 40))
+def test_hypothesis_stacks_of_copies_are_nearest(seed: int, positions: int, k: int) -> None:
+    # 6,000 points: stacks of copies of uneven sizes (some smaller than k) on a 1 cm
+    # lattice, and 40 lone points up to 5 cm off them. Lists then end at a distance
+    # that a whole stack shares, reached after a farther stack has filled them, so that
+    # queries outrun the first walk's leaves and take the cut.
+    rng = np.random.default_rng(seed)
+    lattice = rng.integers(0, 3, (positions, 3)) * 0.01
+    sizes = rng.dirichlet(np.full(positions, 0.3))
+    points = lattice[rng.choice(positions, 6000, p=sizes)] + [4.5e5, 5.4e6, 120.0]
+    points[-40:] += rng.uniform(-0.05, 0.05, (40, 3))
+    assert_lists_are_nearest(points, k)
 
 
 def test_two_stacks_beside_a_point() -> None:

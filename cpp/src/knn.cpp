@@ -11,13 +11,20 @@ namespace pcl_rg {
 
 // nanoflann's own walk (KDTreeSingleIndexAdaptor::findNeighbors with its searchLevel):
 // the same order of branches, the same float bounds and the same leaf test, so the
-// same lists, ties included. One cut is added. nanoflann enters a branch when its
-// bound is no farther than the list's worst distance, yet a leaf takes only points
-// strictly nearer than the worst. So once the list is full, a branch that lies no
-// nearer than the worst can add nothing, and nanoflann walks it all the same. Among
-// many copies of a point that all lie at the k-th distance (two stacks of repeated
-// returns a centimetre apart, or a point beside such a stack), every query walked
-// every copy: O(n^2). Here such a branch is skipped.
+// same lists, ties included. nanoflann enters a branch when its bound is no farther
+// than the list's worst distance, yet a leaf takes only points strictly nearer than
+// the worst. So once the list is full, a branch that lies no nearer than the worst can
+// add nothing, and nanoflann walks it all the same. Among many copies of a point that
+// all lie at the k-th distance (two stacks of repeated returns a centimetre apart, or
+// a point beside such a stack), every query walked every copy: O(n^2).
+//
+// So a query walks as nanoflann does while it has visited at most kLeafBudget + k
+// leaves (an ordinary query visits a few to a few dozen leaves of 10 points), and
+// otherwise walks again from the root with one more cut: once the list is full, a branch whose box
+// lies no nearer than the worst distance is skipped. The second walk gives the list the first would
+// have given, and the first walk's partial list is dropped, so the result never depends on which
+// walk finished. (Tracking the boxes costs about 10 % of SOR's time on ordinary clouds, hence not
+// always.)
 //
 // The cut needs a bound that is never above the distance a leaf computes for a point
 // of the branch. That distance is float arithmetic: (q - p) per axis, squared, summed
@@ -32,12 +39,14 @@ struct KnnIndex::Search {
     using Node = Tree::Node;
     using List = nanoflann::KNNResultSet<float, std::uint32_t, std::size_t>;
     static constexpr int kDims = 3;
+    static constexpr std::size_t kLeafBudget = 64;
 
     const Tree& tree;
     const float* xyz;
     const float* query;
     List& list;
-    std::array<float, kDims> low{}, high{};  // the box of the branch being walked
+    std::size_t leaves_left = 0;             // of the first walk's budget
+    std::array<float, kDims> low{}, high{};  // the box of the branch being walked (second walk)
     std::array<float, kDims> cut{};          // nanoflann's per-axis part of its bound
 
     float squared_distance(const float* point) const {
@@ -58,15 +67,19 @@ struct KnnIndex::Search {
         return squared_distance(nearest.data()) >= list.worstDist();
     }
 
-    void walk(const Node* node, float bound) {
+    // nanoflann's searchLevel; with kCut, the boxes and their cut too. False: the first
+    // walk ran out of leaves.
+    template <bool kCut>
+    bool walk(const Node* node, float bound) {
         if (node->child1 == nullptr && node->child2 == nullptr) {
+            if (!kCut && leaves_left-- == 0) return false;
             const float worst = list.worstDist();  // fixed for the leaf, as in nanoflann
             for (auto i = node->node_type.lr.left; i < node->node_type.lr.right; ++i) {
                 const std::uint32_t id = tree.vAcc[i];
                 const float distance = squared_distance(xyz + 3 * static_cast<std::size_t>(id));
                 if (distance < worst) list.addPoint(distance, id);
             }
-            return;
+            return true;
         }
         const auto axis = node->node_type.sub.divfeat;
         const float value = query[axis];
@@ -77,27 +90,35 @@ struct KnnIndex::Search {
         const Node* second = child1_first ? node->child2 : node->child1;
         const float edge = child1_first ? above : below;
         const float cut_distance = (value - edge) * (value - edge);
-
         const float saved_low = low[axis], saved_high = high[axis];
-        if (child1_first)
-            high[axis] = std::min(saved_high, below);
-        else
-            low[axis] = std::max(saved_low, above);
-        walk(first, bound);
-        low[axis] = saved_low;
-        high[axis] = saved_high;
+
+        if (kCut) {
+            if (child1_first)
+                high[axis] = std::min(saved_high, below);
+            else
+                low[axis] = std::max(saved_low, above);
+        }
+        if (!walk<kCut>(first, bound)) return false;
 
         const float saved_cut = cut[axis];
         const float second_bound = bound + cut_distance - saved_cut;
         cut[axis] = cut_distance;
-        if (child1_first)
-            low[axis] = std::max(saved_low, above);
-        else
-            high[axis] = std::min(saved_high, below);
-        if (second_bound <= list.worstDist() && !beyond_worst()) walk(second, second_bound);
-        low[axis] = saved_low;
-        high[axis] = saved_high;
+        if (kCut) {
+            low[axis] = child1_first ? std::max(saved_low, above) : saved_low;
+            high[axis] = child1_first ? saved_high : std::min(saved_high, below);
+        }
+        // A full list at distance 0 can take nothing more (a leaf takes only nearer
+        // points): each of many copies of one point stops at once, in either walk.
+        const float worst = list.worstDist();
+        if (second_bound <= worst && worst > 0.0f && !(kCut && beyond_worst()) &&
+            !walk<kCut>(second, second_bound))
+            return false;
         cut[axis] = saved_cut;
+        if (kCut) {
+            low[axis] = saved_low;
+            high[axis] = saved_high;
+        }
+        return true;
     }
 };
 
@@ -115,13 +136,18 @@ std::size_t KnnIndex::nearest(std::size_t query, std::size_t k, std::uint32_t* i
     Search::List list(k);  // (k = 0 would read the list's last slot)
     list.init(indices, squared_distances);
     Search search{*tree_, adaptor_.xyz, adaptor_.xyz + 3 * query, list};
-    for (int axis = 0; axis < Search::kDims; ++axis) {
-        search.low[axis] = tree_->root_bbox[axis].low;
-        search.high[axis] = tree_->root_bbox[axis].high;
-    }
     // The query is one of the points, inside the box of them all: nanoflann's initial
     // bound and its per-axis parts are 0.
-    search.walk(tree_->root_node, 0.0f);
+    search.leaves_left = Search::kLeafBudget + k;
+    if (!search.walk<false>(tree_->root_node, 0.0f)) {
+        list.init(indices, squared_distances);
+        search.cut = {};
+        for (int axis = 0; axis < Search::kDims; ++axis) {
+            search.low[axis] = tree_->root_bbox[axis].low;
+            search.high[axis] = tree_->root_bbox[axis].high;
+        }
+        search.walk<true>(tree_->root_node, 0.0f);
+    }
     return list.size();
 }
 
