@@ -34,15 +34,18 @@ void bind_normals(py::module_& m) {
         "pcl_rg.normals.");
     m.def(
         "neighbour_lists",
-        [](const PointsArray& points, const NormalsParams& params) {
+        [](const PointsArray& points, const NormalsParams& params,
+           std::optional<std::size_t> leaf_budget) {
             const PointsView view = points_view(points);
             std::vector<std::uint32_t> lists;
-            without_gil([&] { lists = neighbour_lists(view, params); });
+            without_gil([&] { lists = neighbour_lists(view, params, leaf_budget); });
             const auto rows = static_cast<py::ssize_t>(view.size);
             return to_numpy(std::move(lists), {rows, static_cast<py::ssize_t>(params.k)});
         },
-        py::arg("points").noconvert(), py::arg("params"),
-        "uint32 (N, k) neighbour lists of pcl_rg.normals and pcl_rg.region_growing.");
+        py::arg("points").noconvert(), py::arg("params"), py::arg("leaf_budget") = py::none(),
+        "uint32 (N, k) neighbour lists of pcl_rg.normals and pcl_rg.region_growing. "
+        "leaf_budget (tests): leaves of nanoflann's walk before a query walks again by "
+        "the branches' boxes (default 64 + k); the lists do not depend on it.");
 }
 
 }  // namespace pcl_rg::bindings

@@ -7,6 +7,11 @@
 #include <stdexcept>
 #include <string>
 
+// The walk below reads nanoflann's tree as 1.4 lays it out (Node, vAcc, root_bbox, and
+// divlow/divhigh as the children's own extents along the split axis).
+static_assert(NANOFLANN_VERSION >= 0x140 && NANOFLANN_VERSION < 0x150,
+              "knn.cpp walks nanoflann 1.4's tree: check its layout and searchLevel first");
+
 namespace pcl_rg {
 
 // nanoflann's own walk (KDTreeSingleIndexAdaptor::findNeighbors with its searchLevel):
@@ -131,14 +136,15 @@ KnnIndex::KnnIndex(const float* xyz, std::size_t size) : adaptor_{xyz, size} {
 }
 
 std::size_t KnnIndex::nearest(std::size_t query, std::size_t k, std::uint32_t* indices,
-                              float* squared_distances) const {
+                              float* squared_distances,
+                              std::optional<std::size_t> leaf_budget) const {
     if (k == 0 || adaptor_.size == 0 || tree_->root_node == nullptr) return 0;
     Search::List list(k);  // (k = 0 would read the list's last slot)
     list.init(indices, squared_distances);
     Search search{*tree_, adaptor_.xyz, adaptor_.xyz + 3 * query, list};
     // The query is one of the points, inside the box of them all: nanoflann's initial
     // bound and its per-axis parts are 0.
-    search.leaves_left = Search::kLeafBudget + k;
+    search.leaves_left = leaf_budget.value_or(Search::kLeafBudget + k);
     if (!search.walk<false>(tree_->root_node, 0.0f)) {
         list.init(indices, squared_distances);
         search.cut = {};

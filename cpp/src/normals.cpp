@@ -118,7 +118,8 @@ PointGeometry point_geometry(const std::vector<Eigen::Vector3d>& rel) {
 
 }  // namespace
 
-std::vector<std::uint32_t> neighbour_lists(PointsView points, const NormalsParams& params) {
+std::vector<std::uint32_t> neighbour_lists(PointsView points, const NormalsParams& params,
+                                           std::optional<std::size_t> leaf_budget) {
     validate(params);
     const std::size_t n = points.size;
     if (n == 0) return {};
@@ -134,7 +135,8 @@ std::vector<std::uint32_t> neighbour_lists(PointsView points, const NormalsParam
         std::vector<float> sqdist(k);
 #pragma omp for schedule(dynamic, 1024)
         for (std::ptrdiff_t i = 0; i < static_cast<std::ptrdiff_t>(n); ++i)
-            if (!interruption.requested()) index.nearest(i, k, lists.data() + i * k, sqdist.data());
+            if (!interruption.requested())
+                index.nearest(i, k, lists.data() + i * k, sqdist.data(), leaf_budget);
     }
     interruption.check();
     return lists;

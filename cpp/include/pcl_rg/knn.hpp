@@ -15,20 +15,27 @@
 #include <cstdint>
 #include <memory>
 #include <nanoflann.hpp>
+#include <optional>
 
 namespace pcl_rg {
 
-/// Exact k-d tree over row-major float32 x, y, z (the buffer must outlive the index).
+/// k-d tree over row-major finite float32 x, y, z (the buffer must outlive the index).
 /// Squared distances are summed in float over x, y, z in that order, as
-/// pcl::KdTreeFLANN's L2_Simple does, so both return bit-identical distances.
+/// pcl::KdTreeFLANN's L2_Simple does, so both return bit-identical distances. The
+/// search is nanoflann's: exact but for its running float bound, which can, at the
+/// last bit, pass over a point that ties the k-th distance to within rounding.
 class KnnIndex {
    public:
     KnnIndex(const float* xyz, std::size_t size);
 
     /// The `k` nearest points to point `query` (itself included, at distance 0),
     /// ascending by squared distance; returns how many were found (min(k, size)).
+    /// `leaf_budget`: the leaves nanoflann's walk may visit before the query walks
+    /// again with the branches' boxes (knn.cpp); unset, 64 + k. The lists do not
+    /// depend on it (tests set 0, every query by the boxes, and a huge one, none).
     std::size_t nearest(std::size_t query, std::size_t k, std::uint32_t* indices,
-                        float* squared_distances) const;
+                        float* squared_distances,
+                        std::optional<std::size_t> leaf_budget = std::nullopt) const;
 
     std::size_t size() const { return adaptor_.size; }
 
