@@ -24,10 +24,12 @@ demo: $(VENV)/.installed
 test: lint
 	$(PY) -m pytest -q
 
-# ruff (rules in pyproject.toml) and clang-format (.clang-format), checked, not applied.
+# ruff's rules and formatting (pyproject.toml) and clang-format (.clang-format), checked,
+# not applied: `ruff format python tests benchmarks` applies the formatting.
 CPP_FILES = $(shell find cpp -name '*.cpp' -o -name '*.hpp')
 lint: $(VENV)/.installed
 	$(PY) -m ruff check python tests benchmarks
+	$(PY) -m ruff format --check python tests benchmarks
 	clang-format --dry-run -Werror $(CPP_FILES)
 
 # Long fuzzing for local runs: many more damaged files than `make test` runs, and

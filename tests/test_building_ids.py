@@ -46,13 +46,29 @@ def test_walls_need_the_tolerance() -> None:
         ((np.zeros((2, 3)), np.zeros(3, int), np.zeros((1, 4))), {}, ValueError, "labels"),
         ((np.zeros((2, 3)), np.zeros(2, int), np.zeros(4)), {}, ValueError, "buildings"),
         ((np.zeros((2, 3)), np.zeros(2, int), np.full((1, 4), np.nan)), {}, ValueError, "finite"),
-        ((np.zeros((2, 3)), np.zeros(2, int), np.zeros((1, 4))), {"tolerance": -1.0},
-         ValueError, "tolerance"),
+        (
+            (np.zeros((2, 3)), np.zeros(2, int), np.zeros((1, 4))),
+            {"tolerance": -1.0},
+            ValueError,
+            "tolerance",
+        ),
         ((np.zeros((2, 2)), np.zeros(2, int), np.zeros((1, 4))), {}, ValueError, "points"),
-        ((np.zeros((2, 3)).astype(str), np.zeros(2, int), np.zeros((1, 4))), {}, TypeError,
-         "points"),
-        ((np.full((1, 3), 1.0), np.array([BUILDING]),
-          np.array([[0.0, 0.0, 2.0, 2.0], [1.0, 1.0, 3.0, 3.0]])), {}, ValueError, "overlaps"),
+        (
+            (np.zeros((2, 3)).astype(str), np.zeros(2, int), np.zeros((1, 4))),
+            {},
+            TypeError,
+            "points",
+        ),
+        (
+            (
+                np.full((1, 3), 1.0),
+                np.array([BUILDING]),
+                np.array([[0.0, 0.0, 2.0, 2.0], [1.0, 1.0, 3.0, 3.0]]),
+            ),
+            {},
+            ValueError,
+            "overlaps",
+        ),
     ],
 )
 def test_bad_input(args, kwargs, error, match) -> None:

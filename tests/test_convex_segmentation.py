@@ -31,9 +31,7 @@ def box(rng, centre, size, n):
     (cx, cy), (w, d, h) = centre, size
     u = rng.uniform(0, 1, (3, n, 2))
     top = np.column_stack([cx + (u[0, :, 0] - 0.5) * w, cy + (u[0, :, 1] - 0.5) * d, np.full(n, h)])
-    front = np.column_stack(
-        [cx + (u[1, :, 0] - 0.5) * w, np.full(n, cy - d / 2), u[1, :, 1] * h]
-    )
+    front = np.column_stack([cx + (u[1, :, 0] - 0.5) * w, np.full(n, cy - d / 2), u[1, :, 1] * h])
     side = np.column_stack([np.full(n, cx + w / 2), cy + (u[2, :, 0] - 0.5) * d, u[2, :, 1] * h])
     return np.vstack([top, front, side])
 
@@ -58,8 +56,9 @@ def test_boxes_are_objects_not_faces_and_stay_off_the_table() -> None:
     for part in range(3):
         ids, counts = np.unique(labels[truth == part], return_counts=True)
         assert counts.max() >= 0.95 * counts.sum(), (part, ids, counts)
-    majority = [np.bincount(labels[truth == part][labels[truth == part] >= 0]).argmax()
-                for part in range(3)]
+    majority = [
+        np.bincount(labels[truth == part][labels[truth == part] >= 0]).argmax() for part in range(3)
+    ]
     assert len(set(majority)) == 3
     # Smoothness-constrained growth alone splits the box into its faces (top, front,
     # side: 700 points each): the merge does the work.
@@ -106,12 +105,16 @@ def test_merge_equals_reference_on_identical_inputs(tolerance: float) -> None:
     k = 15
     geometry = pcl_rg.normals(pts, k=k)
     nbr = _core.neighbour_lists(pts, NormalsParams(k=k).to_core())
-    measure = scaled_curvedness(pts, nbr.astype(np.intp), geometry.mean_curvature,
-                                geometry.gaussian_curvature)
+    measure = scaled_curvedness(
+        pts, nbr.astype(np.intp), geometry.mean_curvature, geometry.gaussian_curvature
+    )
     p = ConvexSegmentationParams(k=k, viewpoint=VIEW, concavity_tolerance_deg=tolerance)
-    growth = pcl_rg.RegionGrowingParams(k=k, smoothness_deg=p.smoothness_deg,
-                                        curvature_threshold=p.curvature_threshold,
-                                        min_cluster_size=1)
+    growth = pcl_rg.RegionGrowingParams(
+        k=k,
+        smoothness_deg=p.smoothness_deg,
+        curvature_threshold=p.curvature_threshold,
+        min_cluster_size=1,
+    )
     patches = grow_regions(nbr, geometry.normals, np.ascontiguousarray(measure), growth)
     patches = np.ascontiguousarray(patches, dtype=np.int32)
     core = _core.merge_convex(pts, nbr, geometry.normals, patches, p.to_core())
@@ -132,8 +135,9 @@ def test_merge_is_independent_of_patch_numbering() -> None:
     k = 15
     geometry = pcl_rg.normals(pts, k=k)
     nbr = _core.neighbour_lists(pts, NormalsParams(k=k).to_core())
-    patches = pcl_rg.region_growing(pts, k=k, smoothness_deg=12, curvature_threshold=1e-9,
-                                    min_cluster_size=1)
+    patches = pcl_rg.region_growing(
+        pts, k=k, smoothness_deg=12, curvature_threshold=1e-9, min_cluster_size=1
+    )
     p = ConvexSegmentationParams(k=k, viewpoint=VIEW).to_core()
     base = _core.merge_convex(pts, nbr, geometry.normals, patches, p)
     shuffled = np.random.default_rng(0).permutation(patches.max() + 1).astype(np.int32)[patches]
@@ -227,8 +231,11 @@ def gable_houses(seed: int):
             truth.append(np.full(len(u), house + (2 if side > 0 else 0)))
         for x0, y0, x1, y1 in [(-6, -4, 6, -4), (6, -4, 6, 4), (6, 4, -6, 4), (-6, 4, -6, -4)]:
             u = rng.uniform(0, 1, (int(1 * 12 * 6), 2))
-            parts.append(np.column_stack(
-                [cx + x0 + (x1 - x0) * u[:, 0], cy + y0 + (y1 - y0) * u[:, 0], 6 * u[:, 1]]))
+            parts.append(
+                np.column_stack(
+                    [cx + x0 + (x1 - x0) * u[:, 0], cy + y0 + (y1 - y0) * u[:, 0], 6 * u[:, 1]]
+                )
+            )
             truth.append(np.full(len(u), house + 4))
     pts = np.vstack(parts)
     return pts + rng.normal(0, 0.02, pts.shape), np.concatenate(truth)
@@ -239,7 +246,8 @@ def test_default_viewpoint_rule_core_equals_reference() -> None:
     far = pts + UTM  # the same points on a UTM tile
     for cloud in (pts, far, pts + [0.0, 0.0, 90.0], pts[:1], np.empty((0, 3))):
         assert tuple(_core.default_viewpoint(np.ascontiguousarray(cloud))) == (
-            default_viewpoint(cloud))
+            default_viewpoint(cloud)
+        )
     assert default_viewpoint(pts) == (0.0, 0.0, 0.0)
     # 90 m from a 1.7 m scene is within 100 diagonals (a crop of a distant scan): origin.
     assert default_viewpoint(pts + [0.0, 0.0, 90.0]) == (0.0, 0.0, 0.0)
@@ -271,8 +279,9 @@ def test_airborne_tile_needs_no_viewpoint() -> None:
     below = (*used[:2], UTM[2] - 1000.0)
     split = pcl_rg.convex_segmentation(tile, viewpoint=below)
     for h in (0, 1):
-        halves = [np.bincount(split[truth == t][split[truth == t] >= 0]).argmax()
-                  for t in (h, h + 2)]
+        halves = [
+            np.bincount(split[truth == t][split[truth == t] >= 0]).argmax() for t in (h, h + 2)
+        ]
         assert halves[0] != halves[1]
     # The origin as sensor (the former default) sees these roofs edge-on.
     assert matched_agreement(pcl_rg.convex_segmentation(tile, viewpoint=(0, 0, 0)), labels) < 0.95

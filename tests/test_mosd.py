@@ -41,8 +41,14 @@ def test_real_scene(name: str) -> None:
 
 def test_made_up_file_with_nan_pixels(tmp_path) -> None:
     xyz = np.array(
-        [[0.0, 0.0, 1.0], [np.nan, np.nan, np.nan], [0.1, 0.0, 1.0],
-         [0.0, np.nan, 1.0], [0.2, 0.1, 1.1], [0.3, 0.1, 1.2]]
+        [
+            [0.0, 0.0, 1.0],
+            [np.nan, np.nan, np.nan],
+            [0.1, 0.0, 1.0],
+            [0.0, np.nan, 1.0],
+            [0.2, 0.1, 1.1],
+            [0.3, 0.1, 1.2],
+        ]
     )
     label = np.array([1, 0, 1, 0, 20, 21], dtype=np.uint32)
     path = tmp_path / "scene.pcd"

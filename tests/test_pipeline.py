@@ -52,13 +52,21 @@ def test_equals_the_stages_run_by_hand() -> None:
 
 def test_outliers_get_minus_one_and_report_counts() -> None:
     pts, far = scene_with_outliers(31)
-    result = seed004(pts, sor=StatisticalOutlierRemovalParams(mean_k=8, std_mul=2.0),
-                     voxel=VoxelGridParams(leaf_size=0.04), region=REGION, time_original=True)
+    result = seed004(
+        pts,
+        sor=StatisticalOutlierRemovalParams(mean_k=8, std_mul=2.0),
+        voxel=VoxelGridParams(leaf_size=0.04),
+        region=REGION,
+        time_original=True,
+    )
     assert not result.inlier[far].any()
     assert (result.labels[far] == -1).all() and (result.segment_of_point[far] == -1).all()
     stages = result.report.stages
     assert [s.name for s in stages] == [
-        "statistical outlier removal", "voxel grid", "normals", "region growing",
+        "statistical outlier removal",
+        "voxel grid",
+        "normals",
+        "region growing",
     ]
     assert stages[0].points_in == len(pts) and stages[0].points_out == result.inlier.sum()
     assert stages[1].points_in == stages[0].points_out
@@ -79,7 +87,8 @@ def test_stages_can_be_skipped() -> None:
     result = seed004(pts, sor=None, voxel=None, region=REGION, auto_voxel=False)
     np.testing.assert_array_equal(result.labels, pcl_rg.region_growing(pts, params=REGION))
     assert result.inlier.all() and [s.name for s in result.report.stages] == [
-        "normals", "region growing",
+        "normals",
+        "region growing",
     ]
     assert "original point cloud" not in result.report.table()
 

@@ -165,9 +165,14 @@ def test_core_growth_equals_reference_growth_on_identical_inputs(measure: str) -
     values = np.ascontiguousarray(measure_values(geometry, measure, pts, (1.0, 5.0, 4.0)))
     nbr = _core.neighbour_lists(pts, NormalsParams(k=k).to_core())
     for threshold in (0.0, float(np.nanmedian(values)), 1e9):
-        p = RegionGrowingParams(k=k, smoothness_deg=8.0, curvature_threshold=threshold,
-                                min_cluster_size=5, seed_measure=measure,
-                                viewpoint=(1.0, 5.0, 4.0))
+        p = RegionGrowingParams(
+            k=k,
+            smoothness_deg=8.0,
+            curvature_threshold=threshold,
+            min_cluster_size=5,
+            seed_measure=measure,
+            viewpoint=(1.0, 5.0, 4.0),
+        )
         core = _core.grow_regions(nbr, geometry.normals, values, p.to_core())
         np.testing.assert_array_equal(core, grow_regions(nbr, geometry.normals, values, p))
         # And the full pipeline is exactly these steps.
@@ -191,8 +196,9 @@ def test_seed_order_is_measure_then_index_nan_last() -> None:
 
 def test_box_faces_floor_ball_and_pipe_separate() -> None:
     pts = box_scene(seed=4)
-    labels = pcl_rg.region_growing(pts, k=12, smoothness_deg=12, curvature_threshold=4.0,
-                                   min_cluster_size=50)
+    labels = pcl_rg.region_growing(
+        pts, k=12, smoothness_deg=12, curvature_threshold=4.0, min_cluster_size=50
+    )
     sizes = [len(pts) - 3350, 250, 200, 200, 1200, 1500]  # floor, box top, 2 sides, ball, pipe
     part = np.repeat(np.arange(6), sizes)
     # Each part is dominated by one label that no other part shares. The box faces lose
@@ -216,8 +222,9 @@ def test_concavity_joins_convex_faces_and_cuts_concave_creases() -> None:
     part = np.repeat(np.arange(6), sizes)
     common = dict(k=12, smoothness_deg=20.0, curvature_threshold=2.0, min_cluster_size=50)
     faces = pcl_rg.region_growing(pts, **common)
-    objects = pcl_rg.region_growing(pts, seed_measure="concavity", viewpoint=(4.0, -2.0, 4.0),
-                                    **common)
+    objects = pcl_rg.region_growing(
+        pts, seed_measure="concavity", viewpoint=(4.0, -2.0, 4.0), **common
+    )
 
     def majority(labels: np.ndarray, mask: np.ndarray) -> tuple[int, float]:
         values, counts = np.unique(labels[mask], return_counts=True)
@@ -257,8 +264,9 @@ def test_plane_is_one_region_and_sizes_filter() -> None:
     assert np.unique(pcl_rg.region_growing(pts, k=10, smoothness_deg=10)).tolist() == [0]
     dropped = pcl_rg.region_growing(pts, k=10, smoothness_deg=10, max_cluster_size=799)
     assert (dropped == -1).all()
-    one = pcl_rg.region_growing(pts, k=10, smoothness_deg=10, min_cluster_size=800,
-                                max_cluster_size=800)
+    one = pcl_rg.region_growing(
+        pts, k=10, smoothness_deg=10, min_cluster_size=800, max_cluster_size=800
+    )
     assert (one == 0).all()
 
 
@@ -423,8 +431,9 @@ def test_fuzz_only_value_errors(points, keywords) -> None:
 # above); here every neighbour list that differs must end in a tie, and the normals
 # must agree to rounding, so any label difference stems from those two causes.
 
-REAL_PARAMS = RegionGrowingParams(k=10, smoothness_deg=12.0, curvature_threshold=60.0,
-                                  min_cluster_size=20)
+REAL_PARAMS = RegionGrowingParams(
+    k=10, smoothness_deg=12.0, curvature_threshold=60.0, min_cluster_size=20
+)
 
 
 def real_clouds() -> list[tuple[str, np.ndarray]]:

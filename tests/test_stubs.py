@@ -46,9 +46,7 @@ def test_stub_names_match_the_module(name: str) -> None:
     module = importlib.import_module(f"pcl_rg.{name}")
     tree = stub_tree(name)
     stubbed = {
-        node.name
-        for node in tree.body
-        if isinstance(node, (ast.FunctionDef, ast.ClassDef))
+        node.name for node in tree.body if isinstance(node, (ast.FunctionDef, ast.ClassDef))
     } | {
         node.target.id
         for node in tree.body

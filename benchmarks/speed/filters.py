@@ -52,16 +52,22 @@ def cases(n: int):
     if n <= 1_000_000:
         yield "VoxelGrid", "NumPy reference", lambda p: reference.voxel_grid(p, LEAF)
     yield "VoxelGrid", "pcl_rg input gate", input_gate
-    yield "SOR", "pcl_rg", lambda p: pcl_rg.statistical_outlier_removal(
-        p, mean_k=MEAN_K, std_mul=STD_MUL
+    yield (
+        "SOR",
+        "pcl_rg",
+        lambda p: pcl_rg.statistical_outlier_removal(p, mean_k=MEAN_K, std_mul=STD_MUL),
     )
-    yield "SOR", "pcl::StatisticalOutlierRemoval", lambda p: pcl_rg.pcl.statistical_outlier_removal(
-        p, mean_k=MEAN_K, std_mul=STD_MUL
+    yield (
+        "SOR",
+        "pcl::StatisticalOutlierRemoval",
+        lambda p: pcl_rg.pcl.statistical_outlier_removal(p, mean_k=MEAN_K, std_mul=STD_MUL),
     )
     yield "SOR", "Open3D", lambda p: open3d_cloud(p).remove_statistical_outlier(MEAN_K, STD_MUL)
     if n <= 1_000_000:
-        yield "SOR", "NumPy reference", lambda p: reference.statistical_outlier_removal(
-            p, mean_k=MEAN_K, std_mul=STD_MUL
+        yield (
+            "SOR",
+            "NumPy reference",
+            lambda p: reference.statistical_outlier_removal(p, mean_k=MEAN_K, std_mul=STD_MUL),
         )
 
 
@@ -79,24 +85,34 @@ def main(argv: list[str] | None = None) -> int:
         for algorithm, method, run in cases(n):
             result = measure(lambda n=n: uniform_points(n), run, args.repeats)
             timings[algorithm, method] = result
-            print(f"  {n:>10,} {algorithm:9} {method:32} "
-                  + (f"{result['median']:.3f} s" if "median" in result else result["error"]),
-                  file=sys.stderr)
+            print(
+                f"  {n:>10,} {algorithm:9} {method:32} "
+                + (f"{result['median']:.3f} s" if "median" in result else result["error"]),
+                file=sys.stderr,
+            )
         for (algorithm, method), result in timings.items():
             ours = timings[algorithm, "pcl_rg"].get("median")
             if "median" not in result:
                 rows.append([f"{n:,}", algorithm, method, "n/a", "", "", result["error"][:60]])
                 continue
             ratio = result["median"] / ours if ours else float("nan")
-            rows.append([
-                f"{n:,}", algorithm, method, f"{result['median']:.3f}",
-                f"{ratio:.2f}x" if method != "pcl_rg" else "1.00x",
-                f"{result['peak_mib']:.0f}", "",
-            ])
+            rows.append(
+                [
+                    f"{n:,}",
+                    algorithm,
+                    method,
+                    f"{result['median']:.3f}",
+                    f"{ratio:.2f}x" if method != "pcl_rg" else "1.00x",
+                    f"{result['peak_mib']:.0f}",
+                    "",
+                ]
+            )
     print()
-    print(markdown_table(
-        ["points", "filter", "method", "median s", "time / pcl_rg", "peak MiB", "note"], rows
-    ))
+    print(
+        markdown_table(
+            ["points", "filter", "method", "median s", "time / pcl_rg", "peak MiB", "note"], rows
+        )
+    )
     return 0
 
 

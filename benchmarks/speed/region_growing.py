@@ -141,16 +141,24 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
 
     if args.single_thread_child:  # the fresh interpreter with OMP_NUM_THREADS=1
-        print(json.dumps({method: measure(args.points, method, args.repeats)
-                          for method in ("ours", "convex")}))
+        print(
+            json.dumps(
+                {
+                    method: measure(args.points, method, args.repeats)
+                    for method in ("ours", "convex")
+                }
+            )
+        )
         return 0
 
     import pcl_rg
 
     p = pcl_rg.RegionGrowingParams()
     print(f"machine: {machine()}")
-    print(f"{args.points:,} mOSD points; k {p.k}, smoothness {p.smoothness_deg} deg; "
-          f"medians of {args.repeats}")
+    print(
+        f"{args.points:,} mOSD points; k {p.k}, smoothness {p.smoothness_deg} deg; "
+        f"medians of {args.repeats}"
+    )
     results = {
         "pcl_rg.convex_segmentation (OpenMP)": measure(args.points, "convex", args.repeats),
         "pcl_rg.convex_segmentation, noise_leaves=0 (every point)": measure(
@@ -162,9 +170,19 @@ def main(argv: list[str] | None = None) -> int:
     }
     env = dict(os.environ, OMP_NUM_THREADS="1")
     child = subprocess.run(
-        [sys.executable, __file__, "--single-thread-child", "--points", str(args.points),
-         "--repeats", str(args.repeats)],
-        env=env, capture_output=True, text=True, check=True,
+        [
+            sys.executable,
+            __file__,
+            "--single-thread-child",
+            "--points",
+            str(args.points),
+            "--repeats",
+            str(args.repeats),
+        ],
+        env=env,
+        capture_output=True,
+        text=True,
+        check=True,
     )
     single = json.loads(child.stdout.strip().splitlines()[-1])
     results["pcl_rg.convex_segmentation, 1 thread"] = single["convex"]
@@ -185,18 +203,18 @@ def main(argv: list[str] | None = None) -> int:
     print(table)
     dump_json(args.json, results)
     if args.results:
-        command = (f"python benchmarks/speed/region_growing.py --points {args.points} "
-                   f"--repeats {args.repeats} --results {args.results}")
-        write_section("\n".join([SECTION, "", *[
-            f"Command: `{command}`",
-            "",
-            f"Machine: {machine()}. {args.points:,} mOSD Kinect points (seven scenes side by "
-            f"side); region growing: k {p.k}, smoothness {p.smoothness_deg} deg, each method its "
-            "default curvature threshold; convex_segmentation and LCCP at their defaults; "
-            f"medians of {args.repeats} runs, side by side in one run.",
-            "",
-            table,
-        ], ""]), SECTION, Path(args.results))
+        command = (
+            f"python benchmarks/speed/region_growing.py --points {args.points} "
+            f"--repeats {args.repeats} --results {args.results}"
+        )
+        machine_line = (
+            f"Machine: {machine()}. {args.points:,} mOSD Kinect points (seven scenes side "
+            f"by side); region growing: k {p.k}, smoothness {p.smoothness_deg} deg, each "
+            "method its default curvature threshold; convex_segmentation and LCCP at their "
+            f"defaults; medians of {args.repeats} runs, side by side in one run."
+        )
+        lines = [SECTION, "", f"Command: `{command}`", "", machine_line, "", table, ""]
+        write_section("\n".join(lines), SECTION, Path(args.results))
     return 0
 
 

@@ -135,7 +135,6 @@ def score(samples, methods) -> list[list[str]]:
     return rows
 
 
-
 def mean_total(samples, setting) -> float:
     """Mean total error of `setting` (a Scaled, or params run as given)."""
     return float(np.mean([e.total for e in sample_errors(pcl_rg.grid_ground, samples, setting)]))

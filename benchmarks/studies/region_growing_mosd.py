@@ -399,7 +399,10 @@ def main(argv: list[str] | None = None) -> int:
         lines = grid()
         print("\n".join(lines))
         if args.results:
-            write_section_lines(args.results, GRID_SECTION, [
+            write_section_lines(
+                args.results,
+                GRID_SECTION,
+                [
                     f"Command: `python benchmarks/studies/region_growing_mosd.py --grid --results "
                     f"{args.results}`",
                     "",
@@ -414,7 +417,10 @@ def main(argv: list[str] | None = None) -> int:
     print(markdown_table(sweep[0], sweep[1:]))
     print("\n".join(summary))
     if args.results:
-        write_section_lines(args.results, SECTION, [
+        write_section_lines(
+            args.results,
+            SECTION,
+            [
                 "Command: `python benchmarks/studies/region_growing_mosd.py --results "
                 f"{args.results}`",
                 "",

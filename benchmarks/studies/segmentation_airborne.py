@@ -166,20 +166,39 @@ def methods(points: np.ndarray, protocol: str, quick: bool):
     runs += [
         (NO_GRID, 0, pcl_rg.convex_segmentation, dict(VARIANT_BASE, noise_leaves=0.0)),
         ("region_growing", 0, pcl_rg.region_growing, {}),
-        (HAND, 0, pcl_rg.region_growing,
-         dict(curvature_threshold=rg.curvature_threshold * KINECT_LEAF / spacing)),
-        ("PCL RegionGrowing", 0, pcl_rg.pcl.region_growing,
-         dict(k=rg.k, smoothness_deg=rg.smoothness_deg, min_cluster_size=rg.min_cluster_size)),
+        (
+            HAND,
+            0,
+            pcl_rg.region_growing,
+            dict(curvature_threshold=rg.curvature_threshold * KINECT_LEAF / spacing),
+        ),
+        (
+            "PCL RegionGrowing",
+            0,
+            pcl_rg.pcl.region_growing,
+            dict(k=rg.k, smoothness_deg=rg.smoothness_deg, min_cluster_size=rg.min_cluster_size),
+        ),
     ]
     if protocol == KEPT:
         return settings, runs
-    runs.append((ORIGIN, 0, pcl_rg.convex_segmentation,
-                 dict(VARIANT_BASE, viewpoint=(0.0, 0.0, 0.0))))
+    runs.append(
+        (ORIGIN, 0, pcl_rg.convex_segmentation, dict(VARIANT_BASE, viewpoint=(0.0, 0.0, 0.0)))
+    )
     resolution = 1.5 * spacing
     for i, s in enumerate(LCCP_SETTINGS[:1] if quick else LCCP_SETTINGS):
-        runs.append(("LCCP", i, pcl_rg.pcl.lccp, dict(
-            voxel_resolution=resolution, seed_resolution=s["seed_factor"] * resolution,
-            concavity_tolerance_deg=s["concavity_tolerance_deg"], viewpoint=above)))
+        runs.append(
+            (
+                "LCCP",
+                i,
+                pcl_rg.pcl.lccp,
+                dict(
+                    voxel_resolution=resolution,
+                    seed_resolution=s["seed_factor"] * resolution,
+                    concavity_tolerance_deg=s["concavity_tolerance_deg"],
+                    viewpoint=above,
+                ),
+            )
+        )
     return settings, runs
 
 
@@ -218,7 +237,8 @@ def run_all(quick: bool, densities=DENSITIES, protocols=(REMOVED, KEPT)):
                         ious = every.best_iou[every.segment_ids != other]
                         key = (protocol, method, index, density, leaf)
                         scores.setdefault(key, []).append(
-                            (ious, only.over_segmented, only.under_segmented))
+                            (ious, only.over_segmented, only.under_segmented)
+                        )
                         seconds[key] = seconds.get(key, 0.0) + took
                         if grid_leaf is not None:
                             grids.setdefault(key, []).append(grid_leaf)
@@ -236,7 +256,8 @@ def noise_ratios(points: np.ndarray) -> tuple[float, float]:
     """
     rows = np.arange(0, len(points), max(1, len(points) // SAMPLES))
     distances, near = cKDTree(points - points.min(axis=0)).query(
-        points[rows] - points.min(axis=0), NEIGHBOURS)
+        points[rows] - points.min(axis=0), NEIGHBOURS
+    )
     centred = points[near] - points[near].mean(axis=1, keepdims=True)
     covariance = np.einsum("mki,mkj->mij", centred, centred) / NEIGHBOURS
     residual = np.sqrt(np.maximum(np.linalg.eigvalsh(covariance)[:, 0], 0.0))
@@ -253,23 +274,38 @@ def noise_table(ratios: dict) -> list[str]:
         mosd = [noise_ratios(points) for _, _, points, _ in mosd_at(leaf)]
         rows.append([f"mOSD learn scenes, {scale_name(leaf)}", *ratio_cells(mosd)])
     for density, leaf in sorted(ratios):
-        rows.append([f"airborne, ground removed, {density:g} points/m^2, "
-                     f"{scale_name(leaf)}", *ratio_cells(ratios[(density, leaf)])])
-    return ["", "Why the grid: 10 x noise / spacing (a grid is used above 1), range over the "
-            "scenes, with the noise as the median plane residual of every neighbourhood (the "
-            "former rule) and of the surface neighbourhoods only (point_scale now: thickness "
-            "at most 0.3 x the second spread):", "",
-            markdown_table(["data", "every neighbourhood", "surfaces only"], rows)]
+        rows.append(
+            [
+                f"airborne, ground removed, {density:g} points/m^2, {scale_name(leaf)}",
+                *ratio_cells(ratios[(density, leaf)]),
+            ]
+        )
+    return [
+        "",
+        "Why the grid: 10 x noise / spacing (a grid is used above 1), range over the "
+        "scenes, with the noise as the median plane residual of every neighbourhood (the "
+        "former rule) and of the surface neighbourhoods only (point_scale now: thickness "
+        "at most 0.3 x the second spread):",
+        "",
+        markdown_table(["data", "every neighbourhood", "surfaces only"], rows),
+    ]
 
 
 def scale_name(leaf: float) -> str:
-    return "raw points" if leaf == 0 else f"{leaf * 1000:g} mm voxels" if leaf < 0.1 else (
-        f"{leaf:g} m voxels")
+    return (
+        "raw points"
+        if leaf == 0
+        else f"{leaf * 1000:g} mm voxels"
+        if leaf < 0.1
+        else (f"{leaf:g} m voxels")
+    )
 
 
 def ratio_cells(ratios: list) -> list[str]:
-    return [f"{np.nanmin([r[i] for r in ratios]):.2f}-{np.nanmax([r[i] for r in ratios]):.2f}"
-            for i in (0, 1)]
+    return [
+        f"{np.nanmin([r[i] for r in ratios]):.2f}-{np.nanmax([r[i] for r in ratios]):.2f}"
+        for i in (0, 1)
+    ]
 
 
 def pooled(rows: list) -> tuple[float, int, int, int]:
@@ -280,9 +316,19 @@ def pooled(rows: list) -> tuple[float, int, int, int]:
 
 def cross_validate(settings, scores, cases, n_scenes):
     """Per case, the held-out rows (one per scene) and the settings chosen per fold."""
+
     def fit_iou(index: int, scenes: list[int]) -> float:
-        return float(np.mean(np.concatenate(
-            [scores[(REMOVED, "convex", index, *case)][s][0] for case in cases for s in scenes])))
+        return float(
+            np.mean(
+                np.concatenate(
+                    [
+                        scores[(REMOVED, "convex", index, *case)][s][0]
+                        for case in cases
+                        for s in scenes
+                    ]
+                )
+            )
+        )
 
     held: dict[tuple, list] = {case: [] for case in cases}
     chosen = []
@@ -308,24 +354,45 @@ def leaf_cell(values: list | None) -> str:
 def row(case, method, per_scene, took, leaves=None) -> list[str]:
     density, leaf = case
     iou, over, under, _ = pooled(per_scene)
-    return [f"{density:g}", "none" if leaf == 0 else f"{leaf:g} m", method, f"{iou:.3f}",
-            str(over), str(under), "" if took is None else f"{took:.2f}", leaf_cell(leaves)]
+    return [
+        f"{density:g}",
+        "none" if leaf == 0 else f"{leaf:g} m",
+        method,
+        f"{iou:.3f}",
+        str(over),
+        str(under),
+        "" if took is None else f"{took:.2f}",
+        leaf_cell(leaves),
+    ]
 
 
-def report(scenes, settings, scores, seconds, grids, ratios, quick: bool, write: bool,
-           caches=()) -> None:
+def report(
+    scenes, settings, scores, seconds, grids, ratios, quick: bool, write: bool, caches=()
+) -> None:
     cases = sorted({key[3:] for key in scores if key[0] == REMOVED})
     kept_missing = [case for case in cases if (KEPT, "convex", 0, *case) not in scores]
     n_scenes = len(scenes)
     default = pcl_rg.ConvexSegmentationParams()
-    default_index = next(i for i, s in enumerate(settings)
-                         if all(getattr(default, key) == value for key, value in s.items()))
+    default_index = next(
+        i
+        for i, s in enumerate(settings)
+        if all(getattr(default, key) == value for key, value in s.items())
+    )
     held, chosen, fitted = cross_validate(settings, scores, cases, n_scenes)
-    header = ["points/m^2", "voxel", "method", "mean IoU", "over", "under", "time (s)",
-              "grid leaf (m)"]
+    header = [
+        "points/m^2",
+        "voxel",
+        "method",
+        "mean IoU",
+        "over",
+        "under",
+        "time (s)",
+        "grid leaf (m)",
+    ]
     rows, lines, kept_rows = [], [], []
     n_lccp = 1 if quick else len(LCCP_SETTINGS)
     for case in cases:
+
         def key(method, index=0, protocol=REMOVED, case=case):
             return (protocol, method, index, *case)
 
@@ -339,8 +406,11 @@ def report(scenes, settings, scores, seconds, grids, ratios, quick: bool, write:
             ("region_growing, defaults", key("region_growing")),
             (HAND, key(HAND)),
             ("PCL RegionGrowing", key("PCL RegionGrowing")),
-            (f"PCL LCCP, best of {n_lccp}: seed {lccp['seed_factor']:g} x voxel, tolerance "
-             f"{lccp['concavity_tolerance_deg']:g} deg", key("LCCP", lccp_best)),
+            (
+                f"PCL LCCP, best of {n_lccp}: seed {lccp['seed_factor']:g} x voxel, tolerance "
+                f"{lccp['concavity_tolerance_deg']:g} deg",
+                key("LCCP", lccp_best),
+            ),
         ]
         rows.append(row(case, "convex_segmentation, CV (held out)", held[case], None))
         for method, k in entries:
@@ -348,13 +418,17 @@ def report(scenes, settings, scores, seconds, grids, ratios, quick: bool, write:
         ours = pooled(scores[defaults])
         others = [(pooled(scores[k])[0], pooled(scores[k])[1], m) for m, k in entries[3:]]
         best = max(others)
-        lines.append(f"- {case[0]:g} points/m^2, voxel {case[1]:g} m: defaults {ours[0]:.3f} / "
-                     f"{ours[1]} over; best other method {best[2]}: {best[0]:.3f} / {best[1]}")
-        kept = [(KEPT_CONVEX, key("convex", 0, KEPT)),
-                (SHOWN[NO_GRID], key(NO_GRID, 0, KEPT)),
-                ("region_growing, defaults", key("region_growing", 0, KEPT)),
-                (HAND, key(HAND, 0, KEPT)),
-                ("PCL RegionGrowing", key("PCL RegionGrowing", 0, KEPT))]
+        lines.append(
+            f"- {case[0]:g} points/m^2, voxel {case[1]:g} m: defaults {ours[0]:.3f} / "
+            f"{ours[1]} over; best other method {best[2]}: {best[0]:.3f} / {best[1]}"
+        )
+        kept = [
+            (KEPT_CONVEX, key("convex", 0, KEPT)),
+            (SHOWN[NO_GRID], key(NO_GRID, 0, KEPT)),
+            ("region_growing, defaults", key("region_growing", 0, KEPT)),
+            (HAND, key(HAND, 0, KEPT)),
+            ("PCL RegionGrowing", key("PCL RegionGrowing", 0, KEPT)),
+        ]
         for method, k in kept:
             if k in scores:  # a split run may leave some ground-kept cases out
                 kept_rows.append(row(case, method, scores[k], seconds[k], grids.get(k)))
@@ -384,8 +458,13 @@ def report(scenes, settings, scores, seconds, grids, ratios, quick: bool, write:
         "",
         "The same scenes with the ground kept (truth noise removed only; ground points count "
         "as non-building points in the IoU)"
-        + (":" if not kept_missing else ", not measured at "
-           + ", ".join(sorted({f"{d:g} points/m^2" for d, _ in kept_missing})) + ":"),
+        + (
+            ":"
+            if not kept_missing
+            else ", not measured at "
+            + ", ".join(sorted({f"{d:g} points/m^2" for d, _ in kept_missing}))
+            + ":"
+        ),
         "",
         markdown_table(header, kept_rows),
         *noise_table(ratios),
@@ -394,8 +473,10 @@ def report(scenes, settings, scores, seconds, grids, ratios, quick: bool, write:
     command = "python benchmarks/studies/segmentation_airborne.py" + (" --quick" if quick else "")
     command += "".join(f" --cache {path.name}" for path in caches)
     if len(caches) > 1:
-        notes.append("- Measured in parts (one run per cache file, each with --densities, "
-                     "--protocols, --cache and --measure-only), then reported together.")
+        notes.append(
+            "- Measured in parts (one run per cache file, each with --densities, "
+            "--protocols, --cache and --measure-only), then reported together."
+        )
     publish_report(SECTION, command, about, header, rows, notes, write=write)
 
 
@@ -403,15 +484,32 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="one density, two scenes")
     parser.add_argument("--write", action="store_true", help="put the section into RESULTS.md")
-    parser.add_argument("--cache", type=Path, action="append",
-                        help="pickle of the measurements: read when it exists, else written; "
-                        "given several times (all existing), their measurements together")
-    parser.add_argument("--densities", type=float, nargs="+", default=list(DENSITIES),
-                        help="points per m^2 to measure")
-    parser.add_argument("--protocols", nargs="+", default=["removed", "kept"],
-                        choices=["removed", "kept"], help="ground removed, ground kept")
-    parser.add_argument("--measure-only", action="store_true",
-                        help="measure and write the cache, no report (a part of a split run)")
+    parser.add_argument(
+        "--cache",
+        type=Path,
+        action="append",
+        help="pickle of the measurements: read when it exists, else written; "
+        "given several times (all existing), their measurements together",
+    )
+    parser.add_argument(
+        "--densities",
+        type=float,
+        nargs="+",
+        default=list(DENSITIES),
+        help="points per m^2 to measure",
+    )
+    parser.add_argument(
+        "--protocols",
+        nargs="+",
+        default=["removed", "kept"],
+        choices=["removed", "kept"],
+        help="ground removed, ground kept",
+    )
+    parser.add_argument(
+        "--measure-only",
+        action="store_true",
+        help="measure and write the cache, no report (a part of a split run)",
+    )
     args = parser.parse_args(argv)
     start = time.perf_counter()
     caches = args.cache or []
@@ -435,8 +533,17 @@ def main(argv: list[str] | None = None) -> int:
                 pickle.dump(measured, handle)
     if args.measure_only:
         return 0
-    report(scenes, settings, scores, seconds, grids, ratios, args.quick,
-           args.write and not args.quick, caches)
+    report(
+        scenes,
+        settings,
+        scores,
+        seconds,
+        grids,
+        ratios,
+        args.quick,
+        args.write and not args.quick,
+        caches,
+    )
     print(f"({time.perf_counter() - start:.0f} s)", file=sys.stderr)
     return 0
 

@@ -44,9 +44,14 @@ def load(path: Path):
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--mosd-cache", type=Path, required=True)
-    parser.add_argument("--airborne-cache", type=Path, required=True, action="append",
-                        help="segmentation_airborne.py's pickle (several: read together); "
-                        "the ground-removed measurements are used")
+    parser.add_argument(
+        "--airborne-cache",
+        type=Path,
+        required=True,
+        action="append",
+        help="segmentation_airborne.py's pickle (several: read together); "
+        "the ground-removed measurements are used",
+    )
     parser.add_argument("--write", action="store_true", help="put the section into RESULTS.md")
     args = parser.parse_args(argv)
     mosd_settings, mosd_scores, _ = load(args.mosd_cache)
@@ -67,13 +72,22 @@ def main(argv: list[str] | None = None) -> int:
         pairs.append((m, a))
 
     def mosd_iou(m: int, which: list[int]) -> float:
-        return float(np.mean([mosd_scores[("convex", m, leaf)][s][0]
-                              for leaf in mosd_leaves for s in which]))
+        return float(
+            np.mean([mosd_scores[("convex", m, leaf)][s][0] for leaf in mosd_leaves for s in which])
+        )
 
     def air_iou(a: int, which: list[int]) -> float:
-        return float(np.mean(np.concatenate(
-            [air_scores[(REMOVED, "convex", a, *case)][s][0] for case in air_cases
-             for s in which])))
+        return float(
+            np.mean(
+                np.concatenate(
+                    [
+                        air_scores[(REMOVED, "convex", a, *case)][s][0]
+                        for case in air_cases
+                        for s in which
+                    ]
+                )
+            )
+        )
 
     def score(pair: int, mosd_in: list[int], air_in: list[int]) -> float:
         m, a = pairs[pair]
@@ -96,45 +110,66 @@ def main(argv: list[str] | None = None) -> int:
             for case in air_cases:
                 held_air[case].append(air_scores[(REMOVED, "convex", a, *case)][out - n_mosd])
     fitted = max(range(len(pairs)), key=lambda i: (score(i, all_mosd, all_air), -i))
-    default_pair = next(i for i, (m, a) in enumerate(pairs)
-                        if all(getattr(default, k) == v for k, v in air_settings[a].items()))
+    default_pair = next(
+        i
+        for i, (m, a) in enumerate(pairs)
+        if all(getattr(default, k) == v for k, v in air_settings[a].items())
+    )
 
     header = ["study", "scale", "CV (held out) mean IoU / over", "fitted", "defaults"]
     rows = []
     for leaf in mosd_leaves:
+
         def cell(per_scene):
-            return (f"{np.mean([r[0] for r in per_scene]):.3f} / "
-                    f"{sum(r[1] for r in per_scene)}")
-        rows.append(["mOSD", "raw" if leaf == 0 else f"{leaf * 1000:g} mm",
-                     cell(held_mosd[leaf]),
-                     cell(mosd_scores[("convex", pairs[fitted][0], leaf)]),
-                     cell(mosd_scores[("convex", pairs[default_pair][0], leaf)])])
+            return f"{np.mean([r[0] for r in per_scene]):.3f} / {sum(r[1] for r in per_scene)}"
+
+        rows.append(
+            [
+                "mOSD",
+                "raw" if leaf == 0 else f"{leaf * 1000:g} mm",
+                cell(held_mosd[leaf]),
+                cell(mosd_scores[("convex", pairs[fitted][0], leaf)]),
+                cell(mosd_scores[("convex", pairs[default_pair][0], leaf)]),
+            ]
+        )
     for case in air_cases:
+
         def cell(per_scene):
             ious = np.concatenate([r[0] for r in per_scene])
             return f"{ious.mean():.3f} / {sum(r[1] for r in per_scene)}"
+
         density, leaf = case
-        rows.append([f"airborne {density:g}/m^2", "raw" if leaf == 0 else f"{leaf:g} m voxels",
-                     cell(held_air[case]),
-                     cell(air_scores[(REMOVED, "convex", pairs[fitted][1], *case)]),
-                     cell(air_scores[(REMOVED, "convex", pairs[default_pair][1], *case)])])
+        rows.append(
+            [
+                f"airborne {density:g}/m^2",
+                "raw" if leaf == 0 else f"{leaf:g} m voxels",
+                cell(held_air[case]),
+                cell(air_scores[(REMOVED, "convex", pairs[fitted][1], *case)]),
+                cell(air_scores[(REMOVED, "convex", pairs[default_pair][1], *case)]),
+            ]
+        )
     names = [*(f"mOSD {name}" for name in MOSD_SCENES[:n_mosd]), *(f"{k} {s}" for k, s in scenes)]
-    text = "\n".join([
-        SECTION, "",
-        "`python benchmarks/studies/segmentation_joint_cv.py --mosd-cache FILE "
-        f"--airborne-cache FILE{' --write' if args.write else ''}` on {machine()}, from the "
-        "measurements of segmentation_mosd.py and segmentation_airborne.py (their --cache). "
-        f"{len(pairs)} settings ("
-        + ", ".join(f"{k} {sorted({s[k] for s in air_settings})}" for k in air_settings[0])
-        + "; the rest at the defaults), leave one of the 13 scenes out, chosen by the mean of "
-        "the two studies' mean IoU on the other twelve. Over: truth segments (mOSD) or "
-        "buildings (airborne) split over two or more clusters each holding 10 %.", "",
-        markdown_table(header, rows), "",
-        f"Fitted on all 13 scenes: {air_settings[pairs[fitted][1]]}; the defaults: "
-        f"{air_settings[pairs[default_pair][1]]}. Chosen per held-out scene: "
-        + "; ".join(f"{name}: {air_settings[pairs[c][1]]}" for name, c in zip(names, chosen)),
-        "",
-    ])
+    text = "\n".join(
+        [
+            SECTION,
+            "",
+            "`python benchmarks/studies/segmentation_joint_cv.py --mosd-cache FILE "
+            f"--airborne-cache FILE{' --write' if args.write else ''}` on {machine()}, from the "
+            "measurements of segmentation_mosd.py and segmentation_airborne.py (their --cache). "
+            f"{len(pairs)} settings ("
+            + ", ".join(f"{k} {sorted({s[k] for s in air_settings})}" for k in air_settings[0])
+            + "; the rest at the defaults), leave one of the 13 scenes out, chosen by the mean of "
+            "the two studies' mean IoU on the other twelve. Over: truth segments (mOSD) or "
+            "buildings (airborne) split over two or more clusters each holding 10 %.",
+            "",
+            markdown_table(header, rows),
+            "",
+            f"Fitted on all 13 scenes: {air_settings[pairs[fitted][1]]}; the defaults: "
+            f"{air_settings[pairs[default_pair][1]]}. Chosen per held-out scene: "
+            + "; ".join(f"{name}: {air_settings[pairs[c][1]]}" for name, c in zip(names, chosen)),
+            "",
+        ]
+    )
     publish(text, SECTION, args.write)
     return 0
 

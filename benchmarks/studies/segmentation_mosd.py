@@ -92,31 +92,40 @@ def run_all():
         for _, truth, points, vop in mosd_at(leaf):
             runs = [("convex", i, pcl_rg.convex_segmentation, s) for i, s in enumerate(settings)]
             runs += [("region_growing", 0, pcl_rg.region_growing, {})]
-            runs += [("PCL RegionGrowing", 0, pcl_rg.pcl.region_growing,
-                      dict(k=mine.k, smoothness_deg=mine.smoothness_deg,
-                           min_cluster_size=mine.min_cluster_size))]
+            runs += [
+                (
+                    "PCL RegionGrowing",
+                    0,
+                    pcl_rg.pcl.region_growing,
+                    dict(
+                        k=mine.k,
+                        smoothness_deg=mine.smoothness_deg,
+                        min_cluster_size=mine.min_cluster_size,
+                    ),
+                )
+            ]
             runs += [("LCCP", i, pcl_rg.pcl.lccp, s) for i, s in enumerate(LCCP_SETTINGS)]
             for method, index, function, kwargs in runs:
                 labels, took = timed(function, points, **kwargs)
                 s = segmentation_scores(truth, carry(labels, vop))
                 key = (method, index, leaf)
-                scores.setdefault(key, []).append((s.mean_iou, s.over_segmented,
-                                                   s.under_segmented))
+                scores.setdefault(key, []).append((s.mean_iou, s.over_segmented, s.under_segmented))
                 seconds[key] = seconds.get(key, 0.0) + took
         print(f"  {scale_name(leaf)} done", file=sys.stderr)
     return settings, scores, seconds
 
 
 def summary(rows: list) -> tuple[float, int, int]:
-    return (float(np.mean([r[0] for r in rows])), sum(r[1] for r in rows),
-            sum(r[2] for r in rows))
+    return (float(np.mean([r[0] for r in rows])), sum(r[1] for r in rows), sum(r[2] for r in rows))
 
 
 def cross_validate(settings, scores):
     """Held-out rows per leaf, and the setting chosen for each held-out scene."""
+
     def pooled_iou(index: int, scenes: list[int]) -> float:
-        return float(np.mean([scores[("convex", index, leaf)][s][0]
-                              for leaf in LEAVES for s in scenes]))
+        return float(
+            np.mean([scores[("convex", index, leaf)][s][0] for leaf in LEAVES for s in scenes])
+        )
 
     held: dict[float, list] = {leaf: [] for leaf in LEAVES}
     chosen = []
@@ -134,34 +143,70 @@ def report(settings, scores, seconds) -> list[str]:
     held, chosen, fitted = cross_validate(settings, scores)
     default = ConvexSegmentationParams()
     default_index = next(
-        (i for i, s in enumerate(settings)
-         if all(getattr(default, key) == value for key, value in s.items())), None)
+        (
+            i
+            for i, s in enumerate(settings)
+            if all(getattr(default, key) == value for key, value in s.items())
+        ),
+        None,
+    )
     header = ["scale", "method", "setting", "mean IoU", "over", "under", "time (s)"]
     rows = []
     targets = []
     for leaf in LEAVES:
-        lccp_best = max(range(len(LCCP_SETTINGS)),
-                        key=lambda i: summary(scores[("LCCP", i, leaf)])[0])
+        lccp_best = max(
+            range(len(LCCP_SETTINGS)), key=lambda i: summary(scores[("LCCP", i, leaf)])[0]
+        )
         entries = [
             ("convex_segmentation, CV", "held out", summary(held[leaf]), None),
-            ("convex_segmentation, fitted", str(settings[fitted]),
-             summary(scores[("convex", fitted, leaf)]), seconds[("convex", fitted, leaf)]),
+            (
+                "convex_segmentation, fitted",
+                str(settings[fitted]),
+                summary(scores[("convex", fitted, leaf)]),
+                seconds[("convex", fitted, leaf)],
+            ),
         ]
         if default_index is not None and default_index != fitted:
-            entries.append(("convex_segmentation, default", "defaults",
-                            summary(scores[("convex", default_index, leaf)]),
-                            seconds[("convex", default_index, leaf)]))
+            entries.append(
+                (
+                    "convex_segmentation, default",
+                    "defaults",
+                    summary(scores[("convex", default_index, leaf)]),
+                    seconds[("convex", default_index, leaf)],
+                )
+            )
         entries += [
-            ("region_growing", "defaults", summary(scores[("region_growing", 0, leaf)]),
-             seconds[("region_growing", 0, leaf)]),
-            ("PCL RegionGrowing", "same k, angle", summary(scores[("PCL RegionGrowing", 0, leaf)]),
-             seconds[("PCL RegionGrowing", 0, leaf)]),
-            ("PCL LCCP, best of 8", str(LCCP_SETTINGS[lccp_best]),
-             summary(scores[("LCCP", lccp_best, leaf)]), seconds[("LCCP", lccp_best, leaf)]),
+            (
+                "region_growing",
+                "defaults",
+                summary(scores[("region_growing", 0, leaf)]),
+                seconds[("region_growing", 0, leaf)],
+            ),
+            (
+                "PCL RegionGrowing",
+                "same k, angle",
+                summary(scores[("PCL RegionGrowing", 0, leaf)]),
+                seconds[("PCL RegionGrowing", 0, leaf)],
+            ),
+            (
+                "PCL LCCP, best of 8",
+                str(LCCP_SETTINGS[lccp_best]),
+                summary(scores[("LCCP", lccp_best, leaf)]),
+                seconds[("LCCP", lccp_best, leaf)],
+            ),
         ]
         for method, setting, (iou, over, under), took in entries:
-            rows.append([scale_name(leaf), method, setting, f"{iou:.3f}", str(over), str(under),
-                         "" if took is None else f"{took:.2f}"])
+            rows.append(
+                [
+                    scale_name(leaf),
+                    method,
+                    setting,
+                    f"{iou:.3f}",
+                    str(over),
+                    str(under),
+                    "" if took is None else f"{took:.2f}",
+                ]
+            )
         cv, pcl = summary(held[leaf]), summary(scores[("PCL RegionGrowing", 0, leaf)])
         lccp = summary(scores[("LCCP", lccp_best, leaf)])
         targets.append(
@@ -186,9 +231,13 @@ def report(settings, scores, seconds) -> list[str]:
         "Targets (issue 15), cross-validated figures:",
         *targets,
         *NOTES,
-        "- " + ("Every fold of the cross-validation chose the same setting, so the held-out "
-                "rows equal the fitted ones." if len(set(chosen)) == 1 else
-                f"The folds chose {len(set(chosen))} different settings (listed above)."),
+        "- "
+        + (
+            "Every fold of the cross-validation chose the same setting, so the held-out "
+            "rows equal the fitted ones."
+            if len(set(chosen)) == 1
+            else f"The folds chose {len(set(chosen))} different settings (listed above)."
+        ),
     ]
     return lines
 
@@ -196,8 +245,9 @@ def report(settings, scores, seconds) -> list[str]:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--results", type=Path, help="append/replace our section in this file")
-    parser.add_argument("--cache", type=Path,
-                        help="pickle of the measurements: read when it exists, else written")
+    parser.add_argument(
+        "--cache", type=Path, help="pickle of the measurements: read when it exists, else written"
+    )
     args = parser.parse_args(argv)
     start = time.perf_counter()
     if args.cache and args.cache.exists():
@@ -211,8 +261,11 @@ def main(argv: list[str] | None = None) -> int:
     lines = report(settings, scores, seconds)
     print("\n".join(lines))
     if args.results:
-        body = [f"Command: `python benchmarks/studies/segmentation_mosd.py --results "
-                f"{args.results}`", "", *lines]
+        body = [
+            f"Command: `python benchmarks/studies/segmentation_mosd.py --results {args.results}`",
+            "",
+            *lines,
+        ]
         write_section("\n".join([SECTION, "", *body, ""]), SECTION, args.results)
     print(f"({time.perf_counter() - start:.0f} s)", file=sys.stderr)
     return 0

@@ -125,6 +125,7 @@ class RegionGrowingParams:
 def region_growing(
     points: npt.NDArray[np.float64], params: RegionGrowingParams
 ) -> tuple[npt.NDArray[np.int32], float, float]: ...
+
 class ConvexSegmentationParams:
     noise_leaves: float
     k: int

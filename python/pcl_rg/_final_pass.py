@@ -18,8 +18,7 @@ _HELP = {
     "final_cell": "final pass (0: off): every point is classified again by its height above "
     "a TIN of the lowest ground point of each final_cell cell (TerraScan's distance to the "
     "ground TIN)",
-    "final_above": "final pass: height above the TIN up to which a point is ground on flat "
-    "terrain",
+    "final_above": "final pass: height above the TIN up to which a point is ground on flat terrain",
     "final_below": "final pass: depth below the TIN down to which a point is ground",
     "final_slope": "final pass: allowance per unit of the TIN's gradient, added to "
     "final_above (slope-adaptive threshold after Zhao et al. 2016)",

@@ -139,4 +139,3 @@ def normals(
     result = NormalsResult(*_core.normals(xyz, p.to_core()))
     record("normals", points=len(xyz), k=p.k)
     return result
-

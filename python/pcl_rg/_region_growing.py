@@ -78,9 +78,7 @@ class RegionGrowingParams:
 def check_cluster_sizes(minimum: int, maximum: int) -> None:
     """max_cluster_size >= min_cluster_size, worded as the C++ check."""
     if maximum < minimum:
-        raise ValueError(
-            f"max_cluster_size must be >= min_cluster_size ({minimum}), got {maximum}"
-        )
+        raise ValueError(f"max_cluster_size must be >= min_cluster_size ({minimum}), got {maximum}")
 
 
 @fill_docstring

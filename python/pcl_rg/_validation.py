@@ -44,9 +44,7 @@ def as_points(
     array = np.asarray(points)
     kind = array.dtype.kind
     if kind not in "fiu":
-        raise TypeError(
-            f"{name} must be a real float or integer array, got dtype {array.dtype}"
-        )
+        raise TypeError(f"{name} must be a real float or integer array, got dtype {array.dtype}")
     if array.ndim != 2 or array.shape[1] != 3:
         raise ValueError(f"{name} must have shape (N, 3), got {array.shape}")
     if array.shape[0] > max_points:
@@ -65,8 +63,6 @@ def as_points(
             f"(rows {first}{more}); drop or fill them first"
         )
     return array
-
-
 
 
 def as_labels(name: str, values: npt.ArrayLike, empty: npt.DTypeLike) -> np.ndarray:

@@ -55,9 +55,7 @@ class PipelineReport:
     @property
     def segmentation_seconds(self) -> float:
         """Normals and curvature plus region growing: the paper's "split time"."""
-        return float(
-            sum(s.seconds for s in self.stages if s.name in ("normals", "region growing"))
-        )
+        return float(sum(s.seconds for s in self.stages if s.name in ("normals", "region growing")))
 
     def table(self) -> str:
         """Plain-text table of the stages (and Table 1 of the paper when available)."""
@@ -72,8 +70,7 @@ class PipelineReport:
                 "",
                 f"{'segmentation':<28}{'points':>12}{'split time (s)':>17}",
                 f"{'original point cloud':<28}{self.original[0]:>12}{self.original[1]:>17.3f}",
-                f"{'simplified point cloud':<28}{segmented:>12}"
-                f"{self.segmentation_seconds:>17.3f}",
+                f"{'simplified point cloud':<28}{segmented:>12}{self.segmentation_seconds:>17.3f}",
             ]
         return "\n".join(lines)
 

@@ -87,9 +87,7 @@ def heights_above_tin(
     vertex = index[order[first]]
     order = np.lexsort((vertex, z[vertex], gy[vertex], gx[vertex]))
     vertex = vertex[order]
-    first = np.r_[
-        True, (gx[vertex][1:] != gx[vertex][:-1]) | (gy[vertex][1:] != gy[vertex][:-1])
-    ]
+    first = np.r_[True, (gx[vertex][1:] != gx[vertex][:-1]) | (gy[vertex][1:] != gy[vertex][:-1])]
     vertex = np.sort(vertex[first])
 
     # Corners of the box at the height of their nearest vertex (ties: index).

@@ -37,12 +37,14 @@ def default_viewpoint(points: np.ndarray) -> tuple[float, float, float]:
     return (0.5 * (low[0] + high[0]), 0.5 * (low[1] + high[1]), float(high[2]) + diagonal)
 
 
-def scaled_curvedness(points: np.ndarray, neighbours: np.ndarray, mean: np.ndarray,
-                      gaussian: np.ndarray) -> np.ndarray:
+def scaled_curvedness(
+    points: np.ndarray, neighbours: np.ndarray, mean: np.ndarray, gaussian: np.ndarray
+) -> np.ndarray:
     """Curvedness sqrt(H^2 + max(H^2 - K, 0)) times the distance to the last neighbour."""
     delta = points[neighbours[:, -1]] - points
-    radius = np.sqrt(delta[:, 0] * delta[:, 0] + delta[:, 1] * delta[:, 1]
-                     + delta[:, 2] * delta[:, 2])
+    radius = np.sqrt(
+        delta[:, 0] * delta[:, 0] + delta[:, 1] * delta[:, 1] + delta[:, 2] * delta[:, 2]
+    )
     return np.sqrt(mean * mean + np.maximum(mean * mean - gaussian, 0.0)) * radius
 
 
@@ -77,8 +79,11 @@ def merge_convex(
     # Steps 1 and 2: normals towards the viewpoint, centroids, mean oriented normals.
     viewpoint = params.viewpoint if params.viewpoint is not None else default_viewpoint(points)
     to_view = np.asarray(viewpoint, dtype=np.float64) - points
-    towards = (normals[:, 0] * to_view[:, 0] + normals[:, 1] * to_view[:, 1]
-               + normals[:, 2] * to_view[:, 2])
+    towards = (
+        normals[:, 0] * to_view[:, 0]
+        + normals[:, 1] * to_view[:, 1]
+        + normals[:, 2] * to_view[:, 2]
+    )
     oriented = np.where((towards < 0.0)[:, None], -normals, normals)
     finite = member & np.isfinite(normals).all(axis=1)
     centroid = _sum_by(ids, points[member], count_patches) / np.maximum(count, 1)[:, None]
@@ -209,10 +214,13 @@ def _segment(xyz: np.ndarray, p: ConvexSegmentationParams) -> np.ndarray:
     """Steps 1 to 5 on the given points."""
     geometry = normals(xyz, k=p.k)
     neighbours = neighbour_lists(xyz, p.k)
-    measure = scaled_curvedness(xyz, neighbours, geometry.mean_curvature,
-                                geometry.gaussian_curvature)
+    measure = scaled_curvedness(
+        xyz, neighbours, geometry.mean_curvature, geometry.gaussian_curvature
+    )
     growth = RegionGrowingParams(
-        k=p.k, smoothness_deg=p.smoothness_deg, curvature_threshold=p.curvature_threshold,
+        k=p.k,
+        smoothness_deg=p.smoothness_deg,
+        curvature_threshold=p.curvature_threshold,
         min_cluster_size=1,
     )
     patches = grow_regions(neighbours, geometry.normals, measure, growth)

@@ -55,9 +55,7 @@ def execute(args: argparse.Namespace, run: Run) -> None:
     cloud, valid, points, _, _ = read_input(args, run, sor)
     stages = "SOR, voxel grid, normals, region growing"
     with run.stage("pipeline", f"{stages} on {int(valid.sum()):,} points", source=args.input):
-        result = args.pipeline(
-            points[valid], **params_dict(options), auto_voxel=args.auto_voxel
-        )
+        result = args.pipeline(points[valid], **params_dict(options), auto_voxel=args.auto_voxel)
     segment = np.full(len(cloud), -1, dtype=np.int32)
     segment[valid] = np.asarray(result.labels)
     classes = None
