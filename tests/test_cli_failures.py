@@ -188,3 +188,48 @@ def test_a_format_that_cannot_hold_a_field_fails_after_the_work_with_exit_1(caps
     assert code == 1
     assert_one_error_line(err, "cannot write", "PLY has no 64-bit integers")
     assert not (tmp_path / "out.ply").exists()
+
+
+# ------------------------------------------------------------- float classes
+
+
+def _float_classes(path: Path, codes: np.ndarray, invalid_rows: int = 0) -> np.ndarray:
+    points = np.random.default_rng(3).uniform(0, 50, (len(codes), 3)) * [1, 1, 0.05]
+    points[:invalid_rows] = np.nan  # PCD's invalid points: NaN in every field
+    write_pcd(path, points, {"classification": codes}, encoding="ascii")
+    return points
+
+
+def test_a_float_classification_that_is_not_class_codes(tmp_path, capsys):
+    codes = np.ones(300, np.float32)
+    codes[5:8] = 2.7
+    source = tmp_path / "in.pcd"
+    _float_classes(source, codes)
+    for command in (["ground"], ["denoise", "--mean-k", "8"]):
+        code, _, err = run(capsys, *command, source, tmp_path / "out.pcd")
+        assert code == 2
+        assert_one_error_line(
+            err, "classification field is not class codes", "3 value(s)", "row 5: 2.7"
+        )
+        assert not (tmp_path / "out.pcd").exists()
+    # info describes the file instead of refusing it
+    code, out, _ = run(capsys, "info", source)
+    assert code == 0
+    assert "classes       none: " in out and "row 5: 2.7" in out
+
+
+def test_float_class_codes_stay_as_the_file_has_them(tmp_path, capsys):
+    # Whole numbers in a float column are class codes, kept in the file's dtype; NaN on
+    # the invalid points (which no command works on) stays NaN.
+    codes = np.full(300, 5.0, np.float32)
+    codes[:4] = np.nan
+    source = tmp_path / "in.pcd"
+    _float_classes(source, codes, invalid_rows=4)
+    code, _, err = run(capsys, "ground", source, tmp_path / "out.pcd", "--keep-classes")
+    assert code == 0, err
+    written = pcl_rg.io.read_points(tmp_path / "out.pcd").classification
+    assert written.dtype == np.float32
+    assert np.isnan(written[:4]).all()
+    assert set(np.unique(written[4:])) <= {2.0, 5.0} and (written[4:] == 2.0).any()
+    code, out, _ = run(capsys, "info", source)
+    assert code == 0 and "classes       5: 296" in out

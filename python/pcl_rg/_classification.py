@@ -23,6 +23,7 @@ __all__ = [
     "ground_classes",
     "noise_classes",
     "noise_mask",
+    "not_class_codes",
     "usable_points",
     "valid_points",
     "voxel_attributes",
@@ -57,25 +58,54 @@ def usable_points(cloud: PointFile) -> np.ndarray:
     return valid_points(cloud.points) & ~withheld_mask(cloud)
 
 
+def not_class_codes(codes: np.ndarray, points: np.ndarray) -> str | None:
+    """Why a float classification column is not class codes, or None when it is: ASPRS
+    classes are whole numbers, and a NaN or 2.7 has no class to keep. Rows whose
+    `points` are not finite (PCD's invalid points, NaN in every field) are skipped by
+    every command and keep whatever they hold, so they are not checked."""
+    if codes.dtype.kind != "f":
+        return None
+    with np.errstate(invalid="ignore"):
+        bad = ~np.isfinite(codes) | (codes != np.round(codes))
+    bad = np.flatnonzero(bad & valid_points(points))
+    if not bad.size:
+        return None
+    rows = ", ".join(f"row {i}: {codes[i]:g}" for i in bad[:3])
+    return f"{bad.size} value(s) are not whole numbers ({rows}{', ...' if bad.size > 3 else ''})"
+
+
 def existing_classes(cloud: PointFile) -> np.ndarray | None:
+    """The file's classification as class codes, None when it has none.
+
+    Raises
+    ------
+    ValueError
+        When a float classification holds values that are not whole numbers: what
+        class such a point keeps is unknown, so no command guesses.
+    """
     codes = cloud.classification
     if codes is None:
         return None
     codes = np.asarray(codes)
     if codes.ndim != 1 or codes.dtype.kind not in "iuf":
         return None
+    problem = not_class_codes(codes, cloud.points)
+    if problem:
+        where = f"{cloud.path!r}: its" if cloud.path else "the"
+        raise ValueError(
+            f"{where} classification field is not class codes: {problem}; "
+            "ASPRS classes are whole numbers from 0 to 255"
+        )
     return codes
 
 
 def class_array(cloud: PointFile, fill: int) -> np.ndarray:
-    """A writable classification column: the file's (as uint8 when possible) or `fill`."""
+    """A writable classification column: a copy of the file's, in its dtype (whole
+    numbers in a float column stay exact), or `fill` as uint8."""
     codes = existing_classes(cloud)
-    n = len(cloud)
     if codes is None:
-        return np.full(n, fill, dtype=np.uint8)
-    if codes.dtype.kind in "iu" and codes.dtype.itemsize >= 1:
-        return codes.copy()
-    return codes.astype(np.int64)
+        return np.full(len(cloud), fill, dtype=np.uint8)
+    return codes.copy()
 
 
 def noise_mask(codes: np.ndarray | None, n: int) -> np.ndarray:

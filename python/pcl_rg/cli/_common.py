@@ -309,6 +309,9 @@ def _check_neighbours(name: str, value: int, n_valid: int) -> None:
 
 
 def counts(codes: np.ndarray) -> dict[str, int]:
+    """Points per class; NaN codes (on invalid points of a float column) not counted."""
+    if codes.dtype.kind == "f":
+        codes = codes[np.isfinite(codes)]
     values, counts = np.unique(codes, return_counts=True)
     return {str(int(v)): int(c) for v, c in zip(values, counts, strict=True)}
 

@@ -378,7 +378,12 @@ def write_points(
         Unknown extension; `points` not (N, 3); a field of the wrong length; a
         value out of range of its LAS dimension (e.g. classification > 31 in
         point formats 0-5); NaN points or coordinates that do not fit the
-        template's scale and offset in LAS.
+        template's scale and offset in LAS; two fields that a text header
+        would give one name (``"a b"`` and ``"a_b"``); a field name that a PLY
+        or XYZ header cannot hold (not printable ASCII; ``,`` or ``;`` in
+        XYZ); LAZ in point format 9 or 10 with more than one scanner channel,
+        whose wave packet fields the LAZ compressor (lazrs) corrupts (write
+        LAS instead).
     OSError
         If the file cannot be written (e.g. the disk is full); the target is
         then left untouched and no temporary file remains.
@@ -403,7 +408,8 @@ def write_points(
     int64 becomes int32 or uint32 when the values fit, else float64 up to
     2**53, beyond which the write is refused rather than rounded; bool becomes
     uint8); (N, count) fields become ``name_0``, ``name_1``, ... in PLY and
-    XYZ. XYZ text writes a ``# x y z ...`` header comment and every number as
+    XYZ, and in the text formats (PCD, PLY, XYZ) white space in a field name
+    becomes ``_``. XYZ text writes a ``# x y z ...`` header comment and every number as
     the shortest text that reads back to the same value.
 
     Examples

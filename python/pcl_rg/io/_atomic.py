@@ -66,6 +66,10 @@ def write_chunked(stream: BinaryIO, payload: bytes | memoryview) -> None:
 def atomic_write(path: str, write: Callable[[BinaryIO], None]) -> None:
     """Write through a temporary file in the same folder, renamed into place."""
     folder, base = os.path.split(os.path.abspath(path))
+    # The temporary name adds about 22 bytes to the target's: of a long name (file
+    # systems allow 255 bytes) only the first 64 bytes are kept, so that any name the
+    # file system takes can be written.
+    stem = os.fsdecode(os.fsencode(base)[:64])
     temp = ""  # set once the file is ours and its stream is stored
     # The name being created, set before the call: a KeyboardInterrupt raised as the call
     # returns, before its result is stored, must still remove the file the call made.
@@ -75,7 +79,7 @@ def atomic_write(path: str, write: Callable[[BinaryIO], None]) -> None:
     creating = ""
     try:
         while not temp:
-            creating = os.path.join(folder, f".{base}.{os.getpid()}.{secrets.token_hex(4)}.tmp")
+            creating = os.path.join(folder, f".{stem}.{os.getpid()}.{secrets.token_hex(4)}.tmp")
             try:
                 # open applies the umask, unlike tempfile's private 0600 files. One object
                 # owns the descriptor from its creation: an interrupted open's stream is

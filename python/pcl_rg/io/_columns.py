@@ -5,6 +5,7 @@ from __future__ import annotations
 import os
 import re
 from collections.abc import Mapping
+from io import StringIO
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -15,6 +16,8 @@ __all__ = [
     "check_xyz",
     "exact_float32",
     "field_name",
+    "load_ascii_table",
+    "named_columns",
     "split_columns",
 ]
 
@@ -95,13 +98,84 @@ def field_name(key: str) -> str:
     return re.sub(r"\s+", "_", key.strip())
 
 
+def named_columns(columns: Mapping[str, np.ndarray]) -> list[tuple[str, np.ndarray]]:
+    """(name as the text formats write it, array) pairs.
+
+    Raises ValueError when two fields would get one name ("a b" and "a_b"): a file
+    would keep only one of them.
+    """
+    return _one_each([(field_name(key), key, array) for key, array in columns.items()])
+
+
 def split_columns(columns: Mapping[str, np.ndarray]) -> list[tuple[str, np.ndarray]]:
-    """(name, 1-D array) pairs, (N, count) fields split into name_0, name_1, ..."""
-    out = []
+    """(name, 1-D array) pairs, (N, count) fields split into name_0, name_1, ...
+
+    Raises ValueError as named_columns does, and when a split name is taken ("c" of
+    two values and "c_0").
+    """
+    columns_1d = []
     for key, array in columns.items():
-        key = field_name(key)
+        name = field_name(key)
         if array.ndim == 1:
-            out.append((key, array))
+            columns_1d.append((name, key, array))
         else:
-            out.extend((f"{key}_{i}", array[:, i]) for i in range(array.shape[1]))
-    return out
+            columns_1d.extend((f"{name}_{i}", key, array[:, i]) for i in range(array.shape[1]))
+    return _one_each(columns_1d)
+
+
+def _one_each(
+    columns: list[tuple[str, str, np.ndarray]],
+) -> list[tuple[str, np.ndarray]]:
+    """(name, array) of (name, field, array) triples, or ValueError on a name given twice."""
+    field_of: dict[str, str] = {}
+    for name, key, _ in columns:
+        if name in field_of:
+            raise ValueError(
+                f"fields {field_of[name]!r} and {key!r} would both be written as {name!r}; "
+                "rename one"
+            )
+        field_of[name] = key
+    return [(name, array) for name, _, array in columns]
+
+
+def load_ascii_table(text: str, record: np.dtype) -> np.ndarray:
+    """Rows of white-space separated numbers as a table of `record` (fields of one value or
+    a sub-array), like np.loadtxt, which it calls; ValueError from it as it raises them.
+
+    np.loadtxt makes a float32 value that overflows inf without a word, so float fields
+    narrower than float64 are read as float64 (np.loadtxt parses every float as a double
+    and casts it, so the values are the same) and narrowed here: OverflowError names the
+    first value beyond the field's range. "inf" and "nan" tokens stay what they say.
+    """
+    wide = np.dtype(
+        {
+            "names": list(record.names),
+            "formats": [_widened(record.fields[name][0]) for name in record.names],
+        }
+    )
+    table = np.loadtxt(StringIO(text, newline=None), dtype=wide, ndmin=1, comments=None)
+    if wide == record:
+        return table
+    for name in record.names:
+        target = record.fields[name][0].base
+        values = table[name]
+        if target.kind == "f" and values.dtype.base != target:
+            limit = float(np.finfo(target).max)
+            with np.errstate(invalid="ignore"):
+                beyond = np.isfinite(values) & (np.abs(values) > limit)
+            # Values beyond max that round down to it are in range: compare after the cast.
+            with np.errstate(over="ignore"):
+                beyond &= np.isinf(values.astype(target))
+            if beyond.any():
+                row = int(np.flatnonzero(beyond.reshape(len(values), -1).any(axis=1))[0])
+                value = values[row].flat[np.flatnonzero(beyond[row].ravel())[0]]
+                raise OverflowError(
+                    f"row {row + 1}: {name} value {float(value)!r} is beyond the {target} range"
+                )
+    return table.astype(record)
+
+
+def _widened(dtype: np.dtype) -> np.dtype | tuple:
+    base = dtype.base
+    wide = np.dtype(base.byteorder + "f8") if base.kind == "f" else base
+    return (wide, dtype.shape) if dtype.shape else wide

@@ -7,6 +7,10 @@ allocate; laspy is imported only when a LAS/LAZ file is read or written.
 
 from __future__ import annotations
 
+import contextlib
+import signal
+import threading
+from collections.abc import Iterator
 from typing import BinaryIO
 
 import numpy as np
@@ -221,31 +225,47 @@ def _write_las(
         except (OverflowError, ValueError) as error:
             raise ValueError(f"fields[{key!r}] cannot be stored in LAS: {error}") from None
     las = laspy.LasData(header=header, points=record)
+    if compress and header.point_format.id in (9, 10) and n:
+        channels = np.asarray(record["scanner_channel"])
+        if (channels != channels[0]).any():
+            # lazrs 0.8 compresses such points with wrong wave packet fields (offset,
+            # size, return point location, x_t, y_t, z_t) and reports no error.
+            raise ValueError(
+                f"LAZ cannot hold point format {header.point_format.id} with more than one "
+                "scanner channel here: the LAZ compressor (lazrs) corrupts their wave packet "
+                "fields; write LAS (.las) instead"
+            )
 
     def write_data(stream: BinaryIO) -> None:
         recorder = _RecordingStream(stream)
-        try:
-            # The header's text fields (system identifier, VLR descriptions, ...) are
-            # ASCII by the specification, but files in the wild hold other bytes, which
-            # laspy reads as they are: a template's are written back as they came, and
-            # a character that ASCII cannot encode becomes "?" ("replace"), rather than
-            # the whole write failing on a descriptive field.
-            with laspy.LasWriter(
-                recorder, las.header, do_compress=compress, closefd=False, encoding_errors="replace"
-            ) as writer:
-                writer.write_points(las.points)
-                if las.header.version.minor >= 4 and las.evlrs is not None:
-                    writer.write_evlrs(_LenientTexts(las.evlrs))
-        except Exception:
-            # lazrs turns an exception of the stream (e.g. ENOSPC) into its own
-            # LazrsError; surface the original.
-            if recorder.error is not None:
-                raise recorder.error from None
-            raise
-        if recorder.error is not None:
-            raise recorder.error
+        with recorder.interrupts_recorded():
+            _stream_las(laspy, recorder, las, compress)
 
     atomic_write(path, write_data)
+
+
+def _stream_las(laspy, recorder: _RecordingStream, las, compress: bool) -> None:
+    """The header, points and EVLRs of `las` through `recorder`."""
+    try:
+        # The header's text fields (system identifier, VLR descriptions, ...) are
+        # ASCII by the specification, but files in the wild hold other bytes, which
+        # laspy reads as they are: a template's are written back as they came, and
+        # a character that ASCII cannot encode becomes "?" ("replace"), rather than
+        # the whole write failing on a descriptive field.
+        with laspy.LasWriter(
+            recorder, las.header, do_compress=compress, closefd=False, encoding_errors="replace"
+        ) as writer:
+            writer.write_points(las.points)
+            if las.header.version.minor >= 4 and las.evlrs is not None:
+                writer.write_evlrs(_LenientTexts(las.evlrs))
+    except Exception:
+        # lazrs turns an exception of the stream (e.g. ENOSPC) into its own
+        # LazrsError; surface the original.
+        if recorder.error is not None:
+            raise recorder.error from None
+        raise
+    if recorder.error is not None:
+        raise recorder.error
 
 
 class _LenientTexts:
@@ -285,14 +305,46 @@ class _RecordingStream:
     def __init__(self, stream: BinaryIO) -> None:
         self._stream = stream
         self.error: BaseException | None = None
+        self._interrupted = False
 
     def write(self, data) -> int:
         try:
+            if self._interrupted:
+                raise KeyboardInterrupt
             return self._stream.write(data)
         except BaseException as error:
             if self.error is None:
                 self.error = error
             raise
+
+    @contextlib.contextmanager
+    def interrupts_recorded(self) -> Iterator[None]:
+        """Ctrl-C (SIGINT) while lazrs writes, as a KeyboardInterrupt of the write.
+
+        Python raises KeyboardInterrupt at whatever Python code runs next, and when that
+        is a call lazrs makes (this stream's write, before its try), lazrs reports its
+        own "failed to call write" and the interrupt is lost. So, in the main thread
+        with Python's own handler in place, the signal only sets a flag here: the next
+        write raises KeyboardInterrupt, recorded like any error of the stream, and an
+        interrupt after the last write is raised at the end.
+        """
+        if (
+            threading.current_thread() is not threading.main_thread()
+            or signal.getsignal(signal.SIGINT) is not signal.default_int_handler
+        ):
+            yield
+            return
+
+        def record(signum: int, frame: object) -> None:
+            self._interrupted = True
+
+        previous = signal.signal(signal.SIGINT, record)
+        try:
+            yield
+        finally:
+            signal.signal(signal.SIGINT, previous)
+        if self._interrupted:
+            raise KeyboardInterrupt
 
     def __getattr__(self, name: str):
         return getattr(self._stream, name)

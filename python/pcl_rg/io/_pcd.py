@@ -14,7 +14,6 @@ import os
 import re
 import struct
 from collections.abc import Mapping, Sequence
-from io import StringIO
 from typing import TYPE_CHECKING, BinaryIO
 
 import numpy as np
@@ -22,7 +21,7 @@ from numpy.typing import ArrayLike, DTypeLike
 
 from .._params import check_number
 from ._atomic import atomic_write, write_ascii, write_chunked
-from ._columns import check_path, check_xyz, exact_float32, field_name
+from ._columns import check_path, check_xyz, exact_float32, load_ascii_table, named_columns
 from ._pcd_header import (
     DEFAULT_VIEWPOINT,
     ENCODINGS,
@@ -158,12 +157,14 @@ def _decode_ascii(path: str, header: PcdHeader, data: memoryview) -> dict[str, n
     record = np.dtype({"names": names, "formats": formats})
     n_columns = sum(f.count for f in header.fields)
     try:
-        table = np.loadtxt(StringIO(text, newline=None), dtype=record, ndmin=1, comments=None)
+        table = load_ascii_table(text, record)
     except ValueError as exc:
         message = str(exc).split("; use `usecols`")[0]
         raise bad_pcd(
             path, f"ascii data, {n_columns} columns per row expected: {message}"
         ) from None
+    except OverflowError as exc:
+        raise bad_pcd(path, f"ascii data, {exc}") from None
     if len(table) != n:
         raise bad_pcd(path, f"ascii data has {len(table)} rows but POINTS is {n}")
     return {f.name: table[f.name] for f in header.fields if f.name != PAD}
@@ -239,10 +240,12 @@ def _check_fields(fields: Mapping[str, ArrayLike] | None, n: int) -> list[tuple[
             raise TypeError(f"fields keys must be str, got {name!r}")
         if name in ("x", "y", "z"):
             raise ValueError(f"fields[{name!r}]: x, y and z are given in points, not fields")
-        if name == PAD or not _FIELD_NAME.fullmatch(name) or name.startswith("#"):
+        # A name may start with '#': only a line that starts with it is a comment, and
+        # FIELDS starts the line (the reader, and PCL's, read such a name back).
+        if name == PAD or not _FIELD_NAME.fullmatch(name):
             raise ValueError(
                 f"fields[{name!r}]: a field name must be printable ASCII without spaces, "
-                "not '_' and not starting with '#'"
+                "and not '_'"
             )
         array = np.asarray(values)
         kind, size = array.dtype.kind, array.dtype.itemsize
@@ -430,8 +433,7 @@ def write(
 ) -> None:
     """write_points for PCD: the `layout` of a template, if any; shape kept when N is."""
     fields = {}
-    for key, array in columns.items():
-        key = field_name(key)
+    for key, array in named_columns(columns):
         if array.dtype == np.bool_:
             array = array.astype(np.uint8)
         elif array.dtype.kind == "f" and array.dtype.itemsize < 4:

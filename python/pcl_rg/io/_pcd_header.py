@@ -108,12 +108,13 @@ def parse_header(path: str, head: bytes) -> PcdHeader:
     entries: dict[str, list[str]] = {}
     pos = 0
     data_offset = -1
+    line_no = 0  # counted as the lines go: recounting from the start made it quadratic
     while pos < len(head):
         end = head.find(b"\n", pos)
         if end < 0:
             break
         raw = head[pos:end].strip()
-        line_no = head.count(b"\n", 0, pos) + 1
+        line_no += 1
         pos = end + 1
         if not raw or raw.startswith(b"#"):
             continue

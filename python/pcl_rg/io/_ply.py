@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
+import re
 from typing import TYPE_CHECKING, BinaryIO, NamedTuple
 
 import numpy as np
 
 from ._atomic import atomic_write, write_ascii, write_chunked
-from ._columns import exact_float32, split_columns
+from ._columns import exact_float32, load_ascii_table, split_columns
 
 if TYPE_CHECKING:
     from . import PlyLayout
@@ -46,6 +47,12 @@ _PLY_NAMES = {
     "f8": "double",
 }
 _PLY_ENCODINGS = {"ascii": "", "binary_little_endian": "<", "binary_big_endian": ">"}
+_END_HEADER = re.compile(rb"^end_header\r?\n", re.MULTILINE)
+# Bytes that no ascii PLY row holds: control characters other than tab, CR and LF
+# (str.splitlines would also break rows at some of them).
+_CONTROL = re.compile(r"[\x00-\x08\x0b\x0c\x0e-\x1f\x7f]")
+# A property name as the header can hold it: printable ASCII, no white space.
+_PROPERTY_NAME = re.compile(r"[!-~]+")
 
 
 class _PlyElement(NamedTuple):
@@ -61,14 +68,12 @@ def _bad_ply(path: str, problem: str) -> ValueError:
 
 
 def _parse_ply_header(path: str, raw: bytes) -> tuple[str, list[_PlyElement], tuple[str, ...], int]:
-    end = -1
-    for marker in (b"end_header\r\n", b"end_header\n"):
-        found = raw.find(marker)
-        if found >= 0 and (end < 0 or found < end):
-            end = found
-            end_len = len(marker)
-    if end < 0:
+    # The first line that is end_header and nothing else: a comment or a property name
+    # may hold the word too.
+    found = _END_HEADER.search(raw)
+    if found is None:
         raise _bad_ply(path, "no 'end_header' line (header truncated or not a PLY file)")
+    end, end_len = found.start(), len(found.group())
     try:
         lines = raw[:end].decode("ascii").splitlines()
     except UnicodeDecodeError:
@@ -180,6 +185,13 @@ def read(path: str) -> tuple[np.ndarray, dict[str, np.ndarray], tuple]:
             raise _bad_ply(
                 path, f"ascii data has a non-ASCII byte at offset {offset + exc.start}"
             ) from None
+        control = _CONTROL.search(text)
+        if control:
+            raise _bad_ply(
+                path,
+                f"ascii data has the control character {control.group()!r} at offset "
+                f"{offset + control.start()}",
+            )
         lines = text.splitlines()
         skip = sum(e.count for e in elements[:vertex_at])
         rows = lines[skip : skip + n]
@@ -194,12 +206,14 @@ def read(path: str) -> tuple[np.ndarray, dict[str, np.ndarray], tuple]:
             table = np.zeros(0, dtype=record)
         else:
             try:
-                table = np.loadtxt(rows, dtype=record, ndmin=1, comments=None)
+                table = load_ascii_table("\n".join(rows), record)
             except ValueError as exc:
                 message = str(exc).split("; use `usecols`")[0]
                 raise _bad_ply(
                     path, f"ascii vertex data, {len(names)} values per row expected: {message}"
                 ) from None
+            except OverflowError as exc:
+                raise _bad_ply(path, f"ascii vertex data, {exc}") from None
     else:
         order = _PLY_ENCODINGS[encoding]
         skip = 0
@@ -276,8 +290,11 @@ def write(
         ]
     data += [(key, _ply_column(key, array)) for key, array in split_columns(columns)]
     names = [key for key, _ in data]
-    if len(set(names)) != len(names):
-        raise ValueError(f"PLY property names must be unique, got {names}")
+    for key in names[3:]:
+        if not _PROPERTY_NAME.fullmatch(key):
+            raise ValueError(
+                f"field {key!r}: a PLY property name must be printable ASCII without spaces"
+            )
     lines = ["ply", f"format {encoding} 1.0"]
     lines += [f"comment {c}" for c in comments]
     lines.append(f"element vertex {n}")

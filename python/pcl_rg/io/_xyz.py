@@ -24,6 +24,8 @@ _PTS_NAMES = {
 # Longest accepted line: far above any real row, low enough that one line cannot
 # turn into a parser's long loop over a single record.
 _MAX_XYZ_LINE = 1 << 16
+# A column name the "# x y z ..." header line can hold and the reader splits back out.
+_COLUMN_NAME = re.compile(r"[!-+\--:<-~]+")  # printable ASCII but , (0x2c) and ; (0x3b)
 
 
 def _bad_xyz(path: str, problem: str) -> ValueError:
@@ -141,8 +143,13 @@ def write(path: str, xyz: np.ndarray, columns: dict[str, np.ndarray], layout: No
     """write_points for XYZ text: a ``# x y z ...`` comment, then one row per point."""
     data = [("x", xyz[:, 0]), ("y", xyz[:, 1]), ("z", xyz[:, 2])]
     for key, array in split_columns(columns):
+        if not _COLUMN_NAME.fullmatch(key):
+            raise ValueError(
+                f"field {key!r}: an XYZ column name must be printable ASCII without spaces, "
+                "',' or ';' (the header line is split at them)"
+            )
         data.append((key, array.astype(np.uint8) if array.dtype == np.bool_ else array))
-    head = ("# " + " ".join(key for key, _ in data) + "\n").encode("ascii", errors="replace")
+    head = ("# " + " ".join(key for key, _ in data) + "\n").encode("ascii")
 
     def write_data(stream: BinaryIO) -> None:
         stream.write(head)

@@ -73,7 +73,11 @@ def execute(args: argparse.Namespace, run: Run) -> None:
         if finite.size:
             entry.update(min=finite.min(), max=finite.max())
         info["fields"][name] = entry
-    codes = existing_classes(cloud)
+    try:
+        codes = existing_classes(cloud)
+    except ValueError as error:  # described, not refused: info is how one finds out
+        codes = None
+        info["classes_problem"] = str(error)
     if codes is not None:
         info["classes"] = counts(codes)
     if "segment_id" in cloud.fields:
@@ -123,6 +127,8 @@ def execute(args: argparse.Namespace, run: Run) -> None:
     )
     if "classes" in info:
         run.say(f"{'classes':<14}" + ", ".join(f"{k}: {v:,}" for k, v in info["classes"].items()))
+    if "classes_problem" in info:
+        run.say(f"{'classes':<14}none: {info['classes_problem']}")
     if "segmentation" in info:
         s = info["segmentation"]
         run.say(f"{'segments':<14}{s['segments']:,} ({s['assigned']:,} points assigned)")
@@ -130,7 +136,8 @@ def execute(args: argparse.Namespace, run: Run) -> None:
         run,
         args,
         points,
-        classes=None if codes is None else codes.astype(np.int64),
+        # Invalid points of a float column may hold NaN or Inf; they are not drawn.
+        classes=None if codes is None else np.where(np.isfinite(codes), codes, 0).astype(np.int64),
         segments=None,
         title=os.path.basename(args.input),
     )
