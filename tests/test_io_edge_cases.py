@@ -290,3 +290,32 @@ def test_laz_write_stopped_by_ctrl_c_leaves_nothing(tmp_path, monkeypatch):
     with pytest.raises(KeyboardInterrupt):
         write_points(tmp_path / "o.laz", points)
     assert not any(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("width", [b"1_0", b"0x2", b"2.0", b"1e1"])
+def test_pcd_counts_are_decimal_digits(tmp_path, width):
+    path = tmp_path / "w.pcd"
+    path.write_bytes(
+        b"VERSION 0.7\nFIELDS x y z\nWIDTH " + width + b"\nHEIGHT 1\nDATA ascii\n1 2 3\n"
+    )
+    with pytest.raises(ValueError, match="invalid PCD file"):
+        read_points(path)
+    path.write_bytes(b"VERSION 0.7\nFIELDS x y z\nWIDTH +1\nHEIGHT 1\nDATA ascii\n1 2 3\n")
+    assert len(read_points(path)) == 1
+
+
+@pytest.mark.parametrize(
+    "elements, message",
+    [
+        (b"element vertex 1_0\n", "element count '1_0' is not an integer"),
+        (b"element vertex 1\nelement vertex 1\n", "a second element 'vertex'"),
+    ],
+)
+def test_ply_element_lines(tmp_path, elements, message):
+    path = tmp_path / "e.ply"
+    path.write_bytes(
+        b"ply\nformat ascii 1.0\n" + elements + b"property float x\nproperty float y\n"
+        b"property float z\nend_header\n1 2 3\n"
+    )
+    with pytest.raises(ValueError, match=message):
+        read_points(path)

@@ -63,6 +63,7 @@ PAD = "_"
 MAX_HEADER_BYTES = 1 << 20
 _MAX_PCD_COUNT = 1 << 16
 _CONTROL = re.compile(r"[\x00-\x08\x0a-\x1f\x7f]")  # all but tab
+_INTEGER = re.compile(r"[+-]?[0-9]+")
 
 
 class PcdField(NamedTuple):
@@ -93,10 +94,11 @@ def bad_pcd(path: str, problem: str) -> ValueError:
 def _parse_ints(path: str, key: str, tokens: list[str], minimum: int) -> list[int]:
     values = []
     for tok in tokens:
-        try:
-            value = int(tok)
-        except ValueError:
-            raise bad_pcd(path, f"{key} value {tok!r} is not an integer") from None
+        # Decimal digits only: Python's int() also takes "1_0" (as 10), which no PCD
+        # reader in C++ would.
+        if not _INTEGER.fullmatch(tok):
+            raise bad_pcd(path, f"{key} value {tok!r} is not an integer")
+        value = int(tok)
         if value < minimum:
             raise bad_pcd(path, f"{key} value {value} must be >= {minimum}")
         values.append(value)

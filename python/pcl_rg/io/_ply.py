@@ -47,6 +47,7 @@ _PLY_NAMES = {
     "f8": "double",
 }
 _PLY_ENCODINGS = {"ascii": "", "binary_little_endian": "<", "binary_big_endian": ">"}
+_COUNT = re.compile(r"[+-]?[0-9]+")
 _END_HEADER = re.compile(rb"^end_header\r?\n", re.MULTILINE)
 # Bytes that no ascii PLY row holds: control characters other than tab, CR and LF
 # (str.splitlines would also break rows at some of them).
@@ -99,14 +100,15 @@ def _parse_ply_header(path: str, raw: bytes) -> tuple[str, list[_PlyElement], tu
         elif key == "element":
             if len(tokens) != 3:
                 raise _bad_ply(path, f"line {number}: 'element' needs a name and a count")
-            try:
-                count = int(tokens[2])
-            except ValueError:
+            if not _COUNT.fullmatch(tokens[2]):  # int() would also take "1_0"
                 raise _bad_ply(
                     path, f"line {number}: element count {tokens[2]!r} is not an integer"
-                ) from None
+                )
+            count = int(tokens[2])
             if count < 0:
                 raise _bad_ply(path, f"line {number}: element count {count} is negative")
+            if any(element.name == tokens[1] for element in elements):
+                raise _bad_ply(path, f"line {number}: a second element {tokens[1]!r}")
             elements.append(_PlyElement(tokens[1], count, [], False, []))
         elif key == "property":
             if not elements:
