@@ -233,3 +233,20 @@ def test_float_class_codes_stay_as_the_file_has_them(tmp_path, capsys):
     assert set(np.unique(written[4:])) <= {2.0, 5.0} and (written[4:] == 2.0).any()
     code, out, _ = run(capsys, "info", source)
     assert code == 0 and "classes       5: 296" in out
+
+
+def test_nan_points_to_las_are_refused_before_the_work(tmp_path, capsys, monkeypatch):
+    source = tmp_path / "in.pcd"
+    _float_classes(source, np.ones(300, np.float32), invalid_rows=5)
+
+    def never(*args, **kwargs):
+        raise AssertionError("the filter ran")
+
+    monkeypatch.setattr(pcl_rg, "grid_ground", never)
+    code, _, err = run(capsys, "ground", source, tmp_path / "out.las")
+    assert code == 2
+    assert_one_error_line(err, "5 point(s) with NaN or Inf coordinates", "or pass --drop")
+    assert not any(p.name.startswith("out") for p in tmp_path.iterdir())
+    monkeypatch.undo()
+    code, _, err = run(capsys, "ground", source, tmp_path / "out.las", "--drop")
+    assert code == 0, err

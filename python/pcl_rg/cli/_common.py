@@ -263,6 +263,14 @@ def read_input(
     check_paths(args.input, args.output, [args.plot, args.profile])
     cloud = read(run, args.input)
     finite = valid_points(cloud.points)
+    writes_every_row = getattr(args, "drop", None) is False
+    to_las = os.path.splitext(args.output)[1].lower() in (".las", ".laz")
+    if writes_every_row and not finite.all() and to_las:
+        # Said now, not after the work: LAS stores no NaN coordinates.
+        raise CliError(
+            f"{args.input}: {int((~finite).sum()):,} point(s) with NaN or Inf coordinates, "
+            f"which {args.output!r} (LAS) cannot store; write PCD, PLY or XYZ, or pass --drop"
+        )
     withheld = finite & withheld_mask(cloud)
     valid = finite & ~withheld
     if cloud.format in ("las", "laz"):
