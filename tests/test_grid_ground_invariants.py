@@ -213,10 +213,12 @@ def test_keywords_override_params_and_scalars_expand():
         ({"height_tolerance": -1}, ValueError, "height_tolerance must be >= 0"),
         ({"min_seed_component": 0}, ValueError, "min_seed_component must be >= 1"),
         ({"min_seed_component": 2.5}, TypeError, "min_seed_component must be an integer"),
-        ({"filter_passes": -1}, ValueError, "filter_passes must be >= 0"),
+        ({"filter_passes": -1}, ValueError, r"filter_passes must be in \[0, 64\]"),
+        ({"filter_passes": 2**31}, ValueError, r"filter_passes must be in \[0, 64\]"),
         ({"filter_slope": -1}, ValueError, "filter_slope must be >= 0"),
         ({"filter_tolerance": -0.5}, ValueError, "filter_tolerance must be >= 0"),
-        ({"final_passes": 0}, ValueError, "final_passes must be >= 1"),
+        ({"final_passes": 0}, ValueError, r"final_passes must be in \[1, 64\]"),
+        ({"final_passes": 65}, ValueError, r"final_passes must be in \[1, 64\], got 65"),
         ({"outlier_depth": -1.0}, ValueError, "outlier_depth must be >= 0"),
         ({"outlier_depth": np.inf}, ValueError, "outlier_depth must be finite"),
         ({"final_passes": 1.5}, TypeError, "final_passes must be an integer"),
@@ -240,15 +242,15 @@ def test_core_validates_too():
         _core.grid_ground(np.zeros((2, 3)), core)
     core = GridGroundParams().to_core()
     core.filter_passes = -2
-    with pytest.raises(ValueError, match="filter_passes must be >= 0, got -2"):
+    with pytest.raises(ValueError, match=r"filter_passes must be in \[0, 64\], got -2"):
         _core.grid_ground(np.zeros((2, 3)), core)
     core = GridGroundParams().to_core()
     core.outlier_depth = -0.5
     with pytest.raises(ValueError, match="outlier_depth must be >= 0, got -0.5"):
         _core.grid_ground(np.zeros((2, 3)), core)
     core = GridGroundParams().to_core()
-    core.final_passes = 0
-    with pytest.raises(ValueError, match="final_passes must be >= 1, got 0"):
+    core.final_passes = 2**40
+    with pytest.raises(ValueError, match=r"final_passes must be in \[1, 64\], got 1099511627776"):
         _core.grid_ground(np.zeros((2, 3)), core)
     with pytest.raises(TypeError):
         _core.grid_ground(np.zeros((2, 3), dtype=np.float32), GridGroundParams().to_core())

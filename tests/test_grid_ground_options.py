@@ -270,3 +270,28 @@ def test_second_final_round_runs_under_a_platform_the_growth_took():
     assert rounds[1][platform].sum() < rounds[0][platform].sum()
     assert not (rounds[1] & ~rounds[0]).any()
     np.testing.assert_array_equal(rounds[2], rounds[1])
+
+
+def test_passes_stop_when_one_changes_nothing(scene):
+    """Each pre-filter pass and final-pass round reads only the last one's ground, so
+    one that gives it back ends them: 64 of each (the most allowed) run a few and give
+    the mask of that many, core and reference alike."""
+    many = GridGroundParams(filter_passes=64, final_passes=64)
+    points = scene.points
+    with pcl_rg.collect_diagnostics() as diagnostics:
+        ground = assert_core_equals_reference(points, many)
+    run = diagnostics["grid_ground"]
+    filter_run, final_run = run["filter_passes_run"], run["final_passes_run"]
+    assert 2 <= filter_run < 64 and 1 <= final_run < 64
+    fewer = dataclasses.replace(many, filter_passes=filter_run, final_passes=final_run)
+    np.testing.assert_array_equal(pcl_rg.grid_ground(points, params=fewer), ground)
+    # The last pass run changed nothing: one fewer gives the same ground.
+    last_but_one = dataclasses.replace(fewer, filter_passes=filter_run - 1)
+    np.testing.assert_array_equal(pcl_rg.grid_ground(points, params=last_but_one), ground)
+    # Asked for fewer than that, all of them run.
+    with pcl_rg.collect_diagnostics() as diagnostics:
+        pcl_rg.grid_ground(
+            points, params=dataclasses.replace(many, filter_passes=1, final_passes=1)
+        )
+    assert diagnostics["grid_ground"]["filter_passes_run"] == 1
+    assert diagnostics["grid_ground"]["final_passes_run"] == 1

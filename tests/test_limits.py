@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import pcl_rg
-from pcl_rg import pipeline
+from pcl_rg import pipeline, reference
 
 UINT32 = 2**32 - 1
 INT32 = 2**31 - 1
@@ -64,6 +64,13 @@ FLOAT32_STEPS = [
     ("pcl.normals", pcl_rg.pcl.normals),
     ("pcl.region_growing", pcl_rg.pcl.region_growing),
     ("pcl.progressive_morphological_filter", pcl_rg.pcl.progressive_morphological_filter),
+    # The references refuse what the core refuses (in float64, a point at 1e160
+    # overflowed SOR's deviation and made every point an outlier).
+    ("reference.statistical_outlier_removal", reference.statistical_outlier_removal),
+    ("reference.normals", reference.normals),
+    ("reference.region_growing", reference.region_growing),
+    ("reference.convex_segmentation", reference.convex_segmentation),
+    ("reference.point_scale", reference.point_scale),
 ]
 
 
@@ -95,3 +102,46 @@ def test_masked_points_are_refused_not_unmasked(name, call, limit) -> None:
     points[:5] = np.ma.masked
     with pytest.raises(ValueError, match="masked arrays are not accepted"):
         call(points)
+
+
+def test_voxel_indices_beyond_2_62_are_refused_by_both_layers() -> None:
+    # int64 would wrap them: three points 1e19 apart fell into one voxel.
+    points = np.array([[1e19, 0, 0], [2e19, 0, 0], [3e19, 0, 0.0]])
+    for voxel_grid in (pcl_rg.voxel_grid, reference.voxel_grid):
+        with pytest.raises(ValueError, match=r"voxel indices exceed 2\^62 on axis 0"):
+            voxel_grid(points, 1.0)
+        with pytest.raises(ValueError, match=r"voxel indices exceed 2\^62 on axis 0"):
+            voxel_grid(np.random.default_rng(0).random((50, 3)) + [0, 0, 1.0], 1e-300)
+
+
+@pytest.mark.parametrize("far", [1e308, 1e200])
+def test_an_extent_whose_area_is_not_finite_is_refused(far) -> None:
+    # An inf extent made the cell NaN (and its cast undefined); 1e200 on both axes gave
+    # an area of inf, a spacing of inf, and cells blamed on cell_size.
+    points = np.array([[far, far, 0.0], [-far, -far, 0.0], [0.0, 1.0, 0.0]])
+    for call in (pcl_rg.point_spacing, reference.point_spacing, pcl_rg.grid_ground):
+        with pytest.raises(ValueError, match="XY extent is too large to measure the point spacing"):
+            call(points)
+
+
+def test_a_far_point_is_blamed_when_the_cell_size_was_unset() -> None:
+    points = np.vstack([np.random.default_rng(0).uniform(0, 10, (50, 3)), [[1e15, 0, 0]]])
+    messages = set()
+    for grid_ground in (pcl_rg.grid_ground, reference.grid_ground):
+        with pytest.raises(ValueError, match="cell_size unset: from the point spacing") as error:
+            grid_ground(points)
+        messages.add(str(error.value).split(" m from the block corner")[1])
+        with pytest.raises(ValueError, match=r"cell_size is too small .* 2\^40 cells on x"):
+            grid_ground(points, cell_size=1e-4)
+    assert len(messages) == 1  # the same words after the extent
+
+
+def test_reference_seed_windows_wider_than_the_raster() -> None:
+    # Clipped to the raster (2n - 1 cells): a max_building_size of 2^31 m took 8 GB.
+    rng = np.random.default_rng(0)
+    terrain = np.c_[rng.uniform(0, 50, (2000, 2)), rng.uniform(0, 0.2, 2000)]
+    for size in (40.0, 1e8, 2.0**31):
+        np.testing.assert_array_equal(
+            reference.tin_ground(terrain, max_building_size=size),
+            pcl_rg.tin_ground(terrain, max_building_size=size),
+        )

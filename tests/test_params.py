@@ -180,3 +180,24 @@ def test_relations_between_parameters_are_worded_alike(cls, first, second, value
             call(CLOUD, core)
         assert str(error.value) == str(core_error.value)
     assert str(error.value).startswith(f"{second} must be ")
+
+
+@pytest.mark.parametrize(
+    "value",
+    [-1e-5, -1.5e-4, -1e-4, -0.1, -2.5, -100000.0, -123456.789, -1e15, -1.5e15, -9.999e15]
+    + [-1e16, -1.25e16, -1e300, -5e-324, -3.0e-10, -(2.0**53), -0.30000000000000004],
+    ids=repr,
+)
+def test_numbers_are_written_alike_in_both_layers(value) -> None:
+    """C++'s shortest form is Python's repr() layout: positional from 1e-4 to below 1e16
+    (to_chars alone writes 100000 as "1e+05"), scientific outside."""
+    with pytest.raises(ValueError) as error:
+        pcl_rg.GridGroundParams(slope=value)
+    python_message = str(error.value)
+    text = repr(value)
+    assert python_message == f"slope must be >= 0, got {text.removesuffix('.0')}"
+    core = pcl_rg.GridGroundParams().to_core()
+    core.slope = value
+    with pytest.raises(ValueError) as error:
+        _core.grid_ground(CLOUD, core)
+    assert str(error.value) == python_message

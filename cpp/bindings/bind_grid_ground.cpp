@@ -52,6 +52,8 @@ void bind_grid_ground(py::module_& m) {
             py::dict info;
             info["point_spacing"] = stats.point_spacing;
             info["cell_size"] = py::make_tuple(stats.cell_size[0], stats.cell_size[1]);
+            info["filter_passes_run"] = stats.filter_passes_run;
+            info["final_passes_run"] = stats.final_passes_run;
             return py::make_tuple(ground, info);
         },
         py::arg("points").noconvert(), py::arg("params"),

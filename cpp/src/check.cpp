@@ -12,10 +12,31 @@ namespace pcl_rg::check {
 std::string format_value(double value) {
     if (std::isnan(value)) return "nan";
     if (std::isinf(value)) return value > 0 ? "inf" : "-inf";
+    // The shortest digits that read back to the value (as Python's repr() picks them), in
+    // repr()'s layout: scientific below 1e-4 and from 1e16 on, else positional (without
+    // repr()'s ".0"). to_chars's own choice is the shorter text, "1e+05" for 100000.
     char buffer[64];
-    // Shortest round-trip form, the digits Python's repr() prints.
-    const auto end = std::to_chars(buffer, buffer + sizeof buffer, value).ptr;
-    return std::string(buffer, end);
+    const auto end =
+        std::to_chars(buffer, buffer + sizeof buffer, value, std::chars_format::scientific).ptr;
+    const std::string scientific(buffer, end);  // "-1.25e+05"
+    const std::size_t e = scientific.find('e');
+    const int exponent = std::stoi(scientific.substr(e + 1));
+    if (exponent < -4 || exponent >= 16) return scientific;
+    const bool negative = scientific[0] == '-';
+    std::string digits;
+    for (std::size_t k = negative ? 1 : 0; k < e; ++k)
+        if (scientific[k] != '.') digits += scientific[k];
+    const int before_point = exponent + 1;  // digits before the decimal point
+    const auto count = static_cast<int>(digits.size());
+    std::string text;
+    if (before_point <= 0)
+        text = "0." + std::string(static_cast<std::size_t>(-before_point), '0') + digits;
+    else if (before_point >= count)
+        text = digits + std::string(static_cast<std::size_t>(before_point - count), '0');
+    else
+        text = digits.substr(0, static_cast<std::size_t>(before_point)) + "." +
+               digits.substr(static_cast<std::size_t>(before_point));
+    return negative ? "-" + text : text;
 }
 
 std::string format_value(std::int64_t value) { return std::to_string(value); }

@@ -81,11 +81,14 @@ void validate(const GridGroundParams& params) {
     check::real("height_tolerance", params.height_tolerance, check::non_negative());
     check::integer("min_seed_component", params.min_seed_component, check::at_least(1));
     check::real("outlier_depth", params.outlier_depth, check::non_negative());
-    check::integer("filter_passes", params.filter_passes, check::at_least(0));
+    const auto max_passes = static_cast<double>(kGridMaxPasses);
+    check::integer("filter_passes", params.filter_passes,
+                   {0.0, std::nullopt, max_passes, std::nullopt});
     check::real("filter_slope", params.filter_slope, check::non_negative());
     check::real("filter_tolerance", params.filter_tolerance, check::non_negative());
     validate(final_pass_params(params));
-    check::integer("final_passes", params.final_passes, check::at_least(1));
+    check::integer("final_passes", params.final_passes,
+                   {1.0, std::nullopt, max_passes, std::nullopt});
 }
 
 namespace {
@@ -322,7 +325,7 @@ void grid_ground(PointsView points, const GridGroundParams& given, bool* ground,
     const std::size_t n = points.size;
     if (stats)  // what an empty input reports: no spacing measured, the given cell size
         *stats = GridGroundStats{std::numeric_limits<double>::quiet_NaN(),
-                                 given.cell_size.value_or(std::array<double, 2>{})};
+                                 given.cell_size.value_or(std::array<double, 2>{}), 0, 0};
     if (n == 0) return;
     // An unset cell size from the spacing of these points (measured only then).
     // The bounding box, scanned once for the spacing, the extent and the final pass.
@@ -331,7 +334,7 @@ void grid_ground(PointsView points, const GridGroundParams& given, bool* ground,
     const double spacing = given.cell_size ? std::numeric_limits<double>::quiet_NaN()
                                            : spacing_or_one_metre(points, lower, upper);
     const GridGroundParams params = with_spacing(given, spacing);
-    if (stats) *stats = GridGroundStats{spacing, *params.cell_size};
+    if (stats) *stats = GridGroundStats{spacing, *params.cell_size, 0, 0};
     check::indexable_by_int32(n);
     // Blocks and cells anchored at the world lattice of blocks: the block corner at or
     // below the minimum corner, so l >= 0 and every index is >= 0.
@@ -342,10 +345,20 @@ void grid_ground(PointsView points, const GridGroundParams& given, bool* ground,
     // largest x minus origin[0].
     const std::array<double, 2> extent{upper[0] - origin[0], upper[1] - origin[1]};
     for (int a = 0; a < 2; ++a)
-        if (!(extent[a] / (*params.cell_size)[a] < kMaxIndex))
+        if (!(extent[a] / (*params.cell_size)[a] < kMaxIndex)) {
+            const std::string axis = a == 0 ? "x" : "y";
+            if (given.cell_size)
+                throw std::invalid_argument(
+                    "cell_size is too small for the extent of points: more than 2^40 cells on " +
+                    axis);
+            // Unset, the cell follows the points: it is their extent that is too large.
             throw std::invalid_argument(
-                "cell_size is too small for the extent of points: more than 2^40 cells on " +
-                std::string(a == 0 ? "x" : "y"));
+                "points: the extent on " + axis + " (" + check::format_value(extent[a]) +
+                " m from the block corner) is more than 2^40 cells of " +
+                check::format_value((*params.cell_size)[a]) +
+                " m (cell_size unset: from the point spacing); a stray point far from the "
+                "rest? drop it, or set cell_size");
+        }
 
     // The final pass's frame (snap_frame), so that build_grid snaps the points for it:
     // the pass then classifies them in the grid's order, whose neighbours lie close
@@ -371,6 +384,7 @@ void grid_ground(PointsView points, const GridGroundParams& given, bool* ground,
     const std::int64_t passes = std::max<std::int64_t>(params.filter_passes, 1);
     for (std::int64_t pass = 0; pass < passes; ++pass) {
         poll_interrupt();
+        if (stats && params.filter_passes > 0) stats->filter_passes_run = pass + 1;
         if (params.filter_passes > 0) {
             if (pass > 0) against.swap(result);  // test only against the last ground
             slope_filter(grid, params, against, pass > 0 ? &kept_by_all : nullptr, candidate);
@@ -380,6 +394,8 @@ void grid_ground(PointsView points, const GridGroundParams& given, bool* ground,
         }
         const bool grows = pass > 0 && worth_growing(grid, candidate, before, parallel);
         grow(grid, params, candidate, grows ? &before : nullptr, sets, result);
+        // The ground the last pass tested against came back: every later pass would too.
+        if (pass > 0 && result == against) break;
         if (pass + 1 < passes) before = candidate;
     }
 #pragma omp parallel for schedule(guided) if (parallel)
@@ -398,11 +414,17 @@ void grid_ground(PointsView points, const GridGroundParams& given, bool* ground,
     snapped.x = std::move(grid.snap_x);
     snapped.y = std::move(grid.snap_y);
     grid = CellGrid{};
+    std::vector<unsigned char> last_round;  // the ground a round started from
     for (std::int64_t round = 0; round < params.final_passes; ++round) {
         poll_interrupt();
+        if (stats) stats->final_passes_run = round + 1;
+        if (round + 1 < params.final_passes) last_round.assign(ground, ground + n);
         final_pass(points, final_pass_params(params), snapped, ground);
         // The final pass sees every point: not these.
         for (const std::uint32_t i : outliers) ground[i] = false;
+        // A round that gives back the ground it started from: every later one would too.
+        if (round + 1 < params.final_passes && std::equal(ground, ground + n, last_round.begin()))
+            break;
     }
 }
 

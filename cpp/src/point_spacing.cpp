@@ -8,6 +8,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <limits>
+#include <stdexcept>
 #include <utility>
 #include <vector>
 
@@ -86,6 +87,10 @@ double point_spacing(PointsView points, const std::array<double, 3>& lower,
     if (n < 2) return std::numeric_limits<double>::quiet_NaN();
     const double xmin = lower[0], xmax = upper[0], ymin = lower[1], ymax = upper[1];
     const double w = xmax - xmin, h = ymax - ymin;
+    if (!std::isfinite(w) || !std::isfinite(h) || !std::isfinite(w * h))
+        throw std::invalid_argument(
+            "points: the XY extent is too large to measure the point spacing (its area is "
+            "not finite in float64); a stray point far from the rest?");
     // No XY area (a vertical wall, a line along an axis): no density to measure.
     if (!(w * h > 0.0)) return std::numeric_limits<double>::quiet_NaN();
     const auto count = static_cast<double>(n);

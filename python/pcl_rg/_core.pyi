@@ -42,7 +42,7 @@ class GridGroundParams:
 
 def grid_ground(
     points: npt.NDArray[np.float64], params: GridGroundParams
-) -> tuple[npt.NDArray[np.bool_], dict[str, float | tuple[float, float]]]: ...
+) -> tuple[npt.NDArray[np.bool_], dict[str, float | int | tuple[float, float]]]: ...
 
 class TinGroundParams:
     max_building_size: float

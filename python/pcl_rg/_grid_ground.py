@@ -95,9 +95,10 @@ class GridGroundParams:
     filter_passes: int = param(
         2,
         minimum=0,
+        maximum=64,
         help="slope pre-filter passes (0: off): drop points higher than a neighbour by more "
         "than filter_slope * d + filter_tolerance; later passes test only against the "
-        "previous ground",
+        "previous ground (a pass that changes nothing ends them)",
     )
     filter_slope: float = param(0.7, minimum=0.0, help="slope of the pre-filter")
     filter_tolerance: float = param(
@@ -110,8 +111,10 @@ class GridGroundParams:
     final_passes: int = param(
         2,
         minimum=1,
+        maximum=64,
         help="rounds of the final pass (with final_cell > 0): each round after the first "
-        "builds its TIN from the previous round's ground",
+        "builds its TIN from the previous round's ground (a round that changes nothing "
+        "ends them)",
     )
 
     def __post_init__(self) -> None:
@@ -277,8 +280,9 @@ def grid_ground(
         block and ground is the union of their components. Default True
         (False in the definition).
     filter_passes : int, optional
-        Passes of a slope pre-filter (>= 0; 0 = off, as in the definition).
-        Default 2.
+        Passes of a slope pre-filter (0 to 64; 0 = off, as in the definition).
+        A pass whose ground is the previous one's ends them, as every later
+        pass would give it again. Default 2.
     filter_slope : float, optional
         The pre-filter drops a point lying higher than a point of its 3 x 3
         cells by more than ``filter_slope * d + filter_tolerance``. Default 0.7.
@@ -301,9 +305,9 @@ def grid_ground(
         steep terrain, where a coarse TIN cuts under the surface, keeps its
         points. Default 2 m.
     final_passes : int, optional
-        Rounds of the final pass (>= 1; with ``final_cell > 0``): each round
-        after the first builds its TIN from the previous round's ground.
-        Default 2 (1 in the definition).
+        Rounds of the final pass (1 to 64; with ``final_cell > 0``): each round
+        after the first builds its TIN from the previous round's ground; a
+        round that changes nothing ends them. Default 2 (1 in the definition).
     params : GridGroundParams, optional
         All parameters at once (defaults: the ``isprs`` preset); keywords given
         explicitly override it. ``GridGroundParams.definition()`` is the plain
@@ -391,7 +395,9 @@ def grid_ground(
       TIN runs under the object instead of over it.
 
     ``collect_diagnostics()`` reports the spacing an unset cell size took
-    (``point_spacing``, NaN when cell_size was given) and the ``cell_size`` used.
+    (``point_spacing``, NaN when cell_size was given), the ``cell_size`` used,
+    and the pre-filter passes and final-pass rounds run (``filter_passes_run``,
+    ``final_passes_run``; fewer than asked for when one changed nothing).
 
     Links are symmetric, so the result does not depend on the visiting
     order; the C++ core (a counting sort into a flat CSR cell grid, a

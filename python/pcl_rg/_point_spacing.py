@@ -38,6 +38,8 @@ def point_spacing(points: npt.ArrayLike) -> float:
     Raises
     ------
     %(points_value_error)s
+        Also when the XY extent, or its area w * h, is not finite in float64
+        (coordinates near 1e308, or an extent beyond 1e154 on both axes).
     %(type_error)s
 
     Notes

@@ -21,6 +21,11 @@ namespace pcl_rg {
 /// ground_isprs.py --search, cross-validated by ground_isprs_cv.py). Python mirror:
 /// GridGroundParams.SPACING_MULTIPLES.
 inline constexpr double kGridCellPerSpacing = 2.0;
+/// The most passes filter_passes and final_passes may ask for. Both stop sooner when a
+/// pass changes nothing (each pass reads only the last one's ground, so nothing would
+/// change again), but a cycle could go on; the presets use 2. Python mirror: the
+/// fields' maximum in GridGroundParams.
+inline constexpr std::int64_t kGridMaxPasses = 64;
 
 struct GridGroundParams {
     /// Block edge lengths along x, y (> 0, m): one seed per block; should exceed the
@@ -51,10 +56,11 @@ struct GridGroundParams {
     /// Links also join points of different blocks (cells still 3 x 3); the seeds stay
     /// one per block and ground is the union of their components.
     bool grow_across_blocks = true;
-    /// Slope pre-filter passes (>= 0; 0 = off). Pass 1 drops every point p that lies
-    /// higher than some point q of its 3 x 3 cells (any block) by more than
+    /// Slope pre-filter passes (0 to kGridMaxPasses; 0 = off). Pass 1 drops every point p
+    /// that lies higher than some point q of its 3 x 3 cells (any block) by more than
     /// filter_slope * d_xy + filter_tolerance; pass k > 1 tests only against the ground
     /// of pass k - 1. Dropped points are object and never link; the growth runs per pass.
+    /// A pass whose ground is the last one's ends them: the rest would repeat it.
     std::int64_t filter_passes = 2;
     /// Slope of the pre-filter (>= 0, finite).
     double filter_slope = 0.7;
@@ -70,9 +76,10 @@ struct GridGroundParams {
     double final_below = 5.0;
     /// Allowance per unit of the final TIN's gradient (m, >= 0).
     double final_slope = 2.0;
-    /// Rounds of the final pass (>= 1; used when final_cell > 0): each round after the
-    /// first builds its TIN from the previous round's ground, whose lowest point per cell
-    /// may be a ground point the growth missed where the growth's was an object point.
+    /// Rounds of the final pass (1 to kGridMaxPasses; used when final_cell > 0): each
+    /// round after the first builds its TIN from the previous round's ground, whose
+    /// lowest point per cell may be a ground point the growth missed where the growth's
+    /// was an object point. A round that changes nothing ends them.
     std::int64_t final_passes = 2;
 };
 
@@ -86,7 +93,9 @@ GridGroundParams with_spacing(const GridGroundParams& params, double spacing);
 struct GridGroundStats {
     /// The spacing an unset cell_size took (m; NaN: it was given, or no points).
     double point_spacing = std::numeric_limits<double>::quiet_NaN();
-    std::array<double, 2> cell_size{};  ///< the cell size used (m)
+    std::array<double, 2> cell_size{};   ///< the cell size used (m)
+    std::int64_t filter_passes_run = 0;  ///< pre-filter passes run (fewer: one changed nothing)
+    std::int64_t final_passes_run = 0;   ///< final-pass rounds run (likewise)
 };
 
 /// Fills `ground[i]` (N entries) with the ground mask of algorithms.md section 3 and the

@@ -23,8 +23,9 @@ namespace pcl_rg {
 /// the rest: then c = max(3 * sqrt(bulk area / N), its larger side / 65536, max(w, h) /
 /// 2^31) and M is counted again. NaN when undefined:
 /// fewer than 2 points, or no XY area (w * h == 0: all on one line along x or y, such
-/// as a vertical wall). Deterministic, O(N) (and a sort of the cells when the bulk sets
-/// them). NumPy twin: pcl_rg.reference.point_spacing.
+/// as a vertical wall). Throws std::invalid_argument when w, h or w * h is not finite
+/// in float64. Deterministic, O(N) (and a sort of the cells when the bulk sets them).
+/// NumPy twin: pcl_rg.reference.point_spacing.
 double point_spacing(PointsView points);
 
 /// The same on the points' bounding box `lower` (local_origin) and `upper`

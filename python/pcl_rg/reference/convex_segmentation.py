@@ -30,9 +30,13 @@ def default_viewpoint(points: np.ndarray) -> tuple[float, float, float]:
     if len(points) == 0:
         return (0.0, 0.0, 0.0)
     low, high = points.min(axis=0), points.max(axis=0)
-    diagonal = math.sqrt(float(np.sum((high - low) ** 2)))
-    outside = np.maximum(np.maximum(low, -high), 0.0)
-    if math.sqrt(float(np.sum(outside**2))) <= SENSOR_FRAME_REACH * diagonal:
+    # As the core computes them: squares of a far stray point overflow to inf there too
+    # (without a word), and the step that follows refuses the cloud.
+    with np.errstate(over="ignore"):
+        diagonal = math.sqrt(float(np.sum((high - low) ** 2)))
+        outside = np.maximum(np.maximum(low, -high), 0.0)
+        origin_distance = math.sqrt(float(np.sum(outside**2)))
+    if origin_distance <= SENSOR_FRAME_REACH * diagonal:
         return (0.0, 0.0, 0.0)
     return (0.5 * (low[0] + high[0]), 0.5 * (low[1] + high[1]), float(high[2]) + diagonal)
 

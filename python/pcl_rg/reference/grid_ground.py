@@ -11,7 +11,7 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from .._grid_ground import GridGroundParams
-from .._params import resolve_arguments
+from .._params import format_value, resolve_arguments
 from .._point_spacing import with_spacing_lengths
 from .._validation import as_points
 from ._final_pass import final_pass
@@ -56,6 +56,7 @@ def grid_neighbours(points: npt.ArrayLike, params: GridGroundParams) -> GridNeig
     cell_size comes from the spacing of the points (``GridGroundParams.at_spacing``).
     """
     xyz = as_points(points)
+    unset = params.cell_size is None
     params = with_spacing_lengths(params, lambda: point_spacing(xyz))
     lowest = xyz.min(axis=0)
     origin = np.array(
@@ -65,6 +66,20 @@ def grid_neighbours(points: npt.ArrayLike, params: GridGroundParams) -> GridNeig
             lowest[2],
         ]
     )
+    for a, axis in enumerate("xy"):  # the core's bound on cell indices, and its words
+        extent = float(xyz[:, a].max()) - float(origin[a])
+        if not extent / params.cell_size[a] < 2.0**40:
+            if not unset:
+                raise ValueError(
+                    f"cell_size is too small for the extent of points: more than 2^40 cells "
+                    f"on {axis}"
+                )
+            raise ValueError(
+                f"points: the extent on {axis} ({format_value(extent)} m from the block "
+                f"corner) is more than 2^40 cells of {format_value(params.cell_size[a])} m "
+                "(cell_size unset: from the point spacing); a stray point far from the rest? "
+                "drop it, or set cell_size"
+            )
     local = xyz - origin
     block_xy = np.floor(local[:, :2] / np.asarray(params.block_size)).astype(np.int64)
     block = np.unique(block_xy, axis=0, return_inverse=True)[1].ravel().astype(np.intp)
@@ -196,18 +211,26 @@ def grid_ground(
     n = len(xyz)
     if n == 0:
         return np.empty(0, dtype=bool)
+    nb = grid_neighbours(xyz, p)  # unresolved: its errors say whether cell_size was set
     p = with_spacing_lengths(p, lambda: point_spacing(xyz))
-    nb = grid_neighbours(xyz, p)
     kept = ~_low_outliers(nb, xyz, p.outlier_depth) if p.outlier_depth > 0 else np.ones(n, bool)
     candidate = kept.copy()
     ground = kept.copy()  # pass 1 tests against every point but the low outliers
-    for _ in range(max(p.filter_passes, 1)):
+    for done in range(max(p.filter_passes, 1)):
         if p.filter_passes > 0:
             candidate = _slope_filter(nb, p, against=ground) & kept
-        ground = _grow(nb, p, candidate)
+        last, ground = ground, _grow(nb, p, candidate)
+        if done > 0 and np.array_equal(ground, last):
+            break  # every later pass would test against this ground again
     if p.final_cell > 0:
         for _ in range(p.final_passes):
-            ground = kept & final_pass(
-                xyz, ground, p.final_cell, p.final_above, p.final_below, p.final_slope
+            last, ground = (
+                ground,
+                kept
+                & final_pass(
+                    xyz, ground, p.final_cell, p.final_above, p.final_below, p.final_slope
+                ),
             )
+            if np.array_equal(ground, last):
+                break  # every later round would start from this ground again
     return ground

@@ -9,6 +9,7 @@ from scipy.spatial import cKDTree
 from .._normals import NormalsParams, NormalsResult
 from .._params import resolve_arguments
 from .._validation import as_points
+from ._local import local_frame
 
 __all__ = ["neighbour_lists", "normals", "QUADRIC_CONDITION_LIMIT"]
 
@@ -46,7 +47,7 @@ def neighbour_lists(
         return (empty, np.empty(0, dtype=bool)) if return_boundary_ties else empty
     if k >= n:
         raise ValueError(f"k must be < the number of points ({n}), got {k}")
-    local = (xyz - xyz.min(axis=0)).astype(np.float32)
+    local = local_frame(xyz).astype(np.float32)
     tree = cKDTree(local.astype(np.float64))
     out = np.empty((n, k), dtype=np.intp)
     ties = np.zeros(n, dtype=bool)

@@ -59,6 +59,11 @@ def _box_cells(xyz: np.ndarray) -> tuple[float, int, float, float, float, float]
     x, y = xyz[:, 0], xyz[:, 1]
     xmin, ymin = float(x.min()), float(y.min())
     w, h = float(x.max()) - xmin, float(y.max()) - ymin
+    if not (math.isfinite(w) and math.isfinite(h) and math.isfinite(w * h)):
+        raise ValueError(
+            "points: the XY extent is too large to measure the point spacing (its area is "
+            "not finite in float64); a stray point far from the rest?"
+        )
     if not w * h > 0.0:  # no XY area: no density to measure
         return None
     c = max(3.0 * math.sqrt(w * h / n), max(w, h) / 65536.0)

@@ -9,6 +9,7 @@ from scipy.spatial import cKDTree
 from .._params import resolve_arguments
 from .._statistical_outlier_removal import StatisticalOutlierRemovalParams
 from .._validation import as_points
+from ._local import local_frame
 
 __all__ = ["statistical_outlier_removal", "mean_neighbour_distance"]
 
@@ -18,7 +19,7 @@ def mean_neighbour_distance(points: npt.ArrayLike, mean_k: int) -> np.ndarray:
     xyz = as_points(points)
     if mean_k >= len(xyz):
         raise ValueError(f"mean_k must be < the number of points ({len(xyz)}), got {mean_k}")
-    local = xyz - xyz.min(axis=0)
+    local = local_frame(xyz)
     # k + 1 neighbours: the nearest is the point itself (or a duplicate), at distance 0.
     distance, _ = cKDTree(local).query(local, k=mean_k + 1)
     return distance[:, 1:].mean(axis=1)

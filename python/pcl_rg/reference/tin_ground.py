@@ -235,19 +235,21 @@ def _morphological_seeds(
                 break
             height[bad] = np.inf
     size = 2 * r + 1
-    eroded = ndimage.minimum_filter(height, size=size, mode="constant", cval=np.inf)
+    # A window wider than the raster reads only the padding beyond it (+inf for the
+    # erosion, -inf for the dilation): clipped to 2n - 1 cells, which cover the raster
+    # from any cell, it takes the same values, at a cost (and memory) that scipy's full
+    # window would not bound (a max_building_size of 1e9 m took 4 GB).
+    clipped = (min(size, 2 * ncx - 1), min(size, 2 * ncy - 1))
+    eroded = ndimage.minimum_filter(height, size=clipped, mode="constant", cval=np.inf)
     # opening_rank: the rank-th lowest of the window, its lowest where the window holds
     # fewer finite cells (a window of fewer cells than the rank holds fewer).
-    # A window wider than the raster reads only +inf beyond it: clipped to 2n - 1 cells
-    # it takes the same values, at a cost scipy's full footprint would not bound.
-    clipped = (min(size, 2 * ncx - 1), min(size, 2 * ncy - 1))
     if 1 < p.opening_rank <= clipped[0] * clipped[1]:
         ranked = ndimage.rank_filter(
             height, rank=p.opening_rank - 1, size=clipped, mode="constant", cval=np.inf
         )
         eroded = np.where(np.isfinite(ranked), ranked, eroded)
     opened = ndimage.maximum_filter(
-        np.where(np.isinf(eroded), -np.inf, eroded), size=size, mode="constant", cval=-np.inf
+        np.where(np.isinf(eroded), -np.inf, eroded), size=clipped, mode="constant", cval=-np.inf
     )
     keep = (np.isfinite(height) & (height - opened <= p.seed_tolerance)).ravel()[cells]
     return np.sort(lowest[keep])

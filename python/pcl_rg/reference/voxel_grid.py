@@ -34,8 +34,16 @@ def voxel_grid(
     n = len(xyz)
     if n == 0:
         return VoxelGridResult(np.empty((0, 3)), np.empty(0, np.int64), np.empty(0, np.intp))
-    # The definition: voxel = floor(p / leaf) per axis, in float64.
-    cell = np.floor(xyz / np.asarray(p.leaf_size)).astype(np.int64)
+    # The definition: voxel = floor(p / leaf) per axis, in float64; indices beyond 2^62
+    # are refused, as the core refuses them (int64 would wrap them into one voxel).
+    scaled = xyz / np.asarray(p.leaf_size)
+    for axis in range(3):
+        if np.abs(scaled[:, axis]).max() >= 2.0**62:
+            raise ValueError(
+                "leaf_size is too small for the coordinates: voxel indices exceed 2^62 on "
+                f"axis {axis}"
+            )
+    cell = np.floor(scaled).astype(np.int64)
     # PCL's order: z index first, then y, then x (lexicographic on reversed columns).
     _, voxel, counts = np.unique(cell[:, ::-1], axis=0, return_inverse=True, return_counts=True)
     voxel = voxel.ravel()
