@@ -121,9 +121,9 @@ def test_cli_sigint_exits_130_and_leaves_no_file(tmp_path: Path) -> None:
     n = 300_000
     points = np.column_stack([rng.uniform(0.0, 300.0, (n, 2)), rng.normal(0.0, 0.05, n)])
     write_points(tmp_path / "big.laz", points)
-    # Many slope-filter passes keep the ground stage busy for minutes.
+    # 600 neighbours per point keep the outlier stage busy for many seconds.
     with subprocess.Popen(
-        [*CLI, "ground", "big.laz", "out.laz", "--method", "grid", "--filter-passes", "100000"],
+        [*CLI, "denoise", "big.laz", "out.laz", "--mean-k", "600"],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
@@ -134,7 +134,7 @@ def test_cli_sigint_exits_130_and_leaves_no_file(tmp_path: Path) -> None:
         seen: list[str] = []
         try:
             # The progress line appears once the stage has run pcl_rg.cli._run.PROGRESS_DELAY (1 s).
-            while not seen or not seen[-1].startswith("pcl-rg: ground filter (grid)"):
+            while not seen or not seen[-1].startswith("pcl-rg: statistical outlier removal"):
                 _, line = errors.next(timeout=60)
                 assert line is not None, f"the command ended early: {seen}"
                 seen.append(line)
@@ -187,14 +187,15 @@ def _signal_later(signum: int, delay: float) -> threading.Thread:
 
 def test_signal_handler_exception_propagates_from_the_core(sigusr1_raises) -> None:
     rng = np.random.default_rng(8)
-    n = 200_000
-    terrain = np.column_stack([rng.uniform(0.0, 200.0, (n, 2)), rng.normal(0.0, 0.05, n)])
+    n = 6_000_000
+    terrain = np.column_stack([rng.uniform(0.0, 1000.0, (n, 2)), rng.normal(0.0, 0.05, n)])
     expected = pcl_rg.grid_ground(terrain[:20_000])
-    # 10 000 passes: far more than the 0.3 s before the signal, on any machine.
+    # Cells of 0.2 m (25 M of them): about 9 s, far more than the 0.3 s before the
+    # signal, on any machine.
     sender = _signal_later(signal.SIGUSR1, 0.3)
     start = time.monotonic()
     with pytest.raises(_HandlerError, match="raised by the signal handler"):
-        pcl_rg.grid_ground(terrain, filter_passes=10_000)
+        pcl_rg.grid_ground(terrain, cell_size=0.2)
     elapsed = time.monotonic() - start
     sender.join()
     assert elapsed < 0.3 + MAX_LATENCY
@@ -205,13 +206,11 @@ def test_calls_from_other_threads_run_to_the_end(sigusr1_raises) -> None:
     # Only the main thread runs signal handlers: a call on another thread is neither
     # stopped nor disturbed while the main thread takes the signal.
     rng = np.random.default_rng(9)
-    n = 200_000
-    terrain = np.column_stack([rng.uniform(0.0, 200.0, (n, 2)), rng.normal(0.0, 0.05, n)])
-    expected = pcl_rg.grid_ground(terrain, filter_passes=150)  # 1 s or so
+    n = 4_000_000
+    terrain = np.column_stack([rng.uniform(0.0, 1000.0, (n, 2)), rng.normal(0.0, 0.05, n)])
+    expected = pcl_rg.grid_ground(terrain)  # 1 s or so
     result: list[np.ndarray] = []
-    worker = threading.Thread(
-        target=lambda: result.append(pcl_rg.grid_ground(terrain, filter_passes=150))
-    )
+    worker = threading.Thread(target=lambda: result.append(pcl_rg.grid_ground(terrain)))
     worker.start()
     time.sleep(0.1)  # the worker is inside the core now
     with pytest.raises(_HandlerError):
