@@ -56,9 +56,9 @@ def _jobs() -> dict[str, tuple[Callable[[], object], Callable[[], bytes]]]:
             lambda: pcl_rg.tin_ground(airborne),
             lambda: _digest(pcl_rg.tin_ground(small)),
         ),
-        # Cells of 0.2 m: 25 M cells for 6 M points, about 9 s on two cores.
+        # Cells of 0.21 m: 22.7 M cells (a dense grid) for 6 M points, about 4 s on two cores.
         "grid_ground": (
-            lambda: pcl_rg.grid_ground(airborne, cell_size=0.2),
+            lambda: pcl_rg.grid_ground(airborne, cell_size=0.21),
             lambda: _digest(pcl_rg.grid_ground(small)),
         ),
         # k = 100 on 600 k points: several seconds in the normals loop.

@@ -103,7 +103,9 @@ def test_ascii_values_beyond_float32(tmp_path, ext):
     # np.loadtxt makes them inf without a word; the reader says which value it was.
     path = tmp_path / f"f.{ext}"
     _ascii_file(path, [b"1 2 3", b"1 1e39 3"])
-    with pytest.raises(ValueError, match=r"row 2: y value 1e\+39 is beyond the float32 range"):
+    with pytest.raises(
+        ValueError, match=r"y value 1e\+39 in data row 2 \(counting from 1\) is beyond"
+    ):
         read_points(path)
     # The largest float32, a value that rounds down to it, inf and nan are in range, and
     # underflow to zero is rounding, not overflow.
@@ -248,7 +250,16 @@ class _Sink:
         return len(data)
 
 
-def test_ctrl_c_while_lazrs_writes_is_an_interrupt_of_the_write():
+@pytest.fixture
+def python_sigint_handler():
+    """Python's own SIGINT handler, as in a terminal: a shell that runs the tests in the
+    background starts them with SIGINT ignored, and then nothing is recorded."""
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, previous)
+
+
+def test_ctrl_c_while_lazrs_writes_is_an_interrupt_of_the_write(python_sigint_handler):
     # Python would raise the KeyboardInterrupt in whatever Python code runs next, and
     # inside a call from lazrs that turns into lazrs's own "failed to call write". The
     # signal only sets a flag; the next write raises it, where it is recorded.
@@ -271,7 +282,7 @@ def test_ctrl_c_while_lazrs_writes_is_an_interrupt_of_the_write():
     assert recorder.error is None and signal.getsignal(signal.SIGINT) is signal.default_int_handler
 
 
-def test_laz_write_stopped_by_ctrl_c_leaves_nothing(tmp_path, monkeypatch):
+def test_laz_write_stopped_by_ctrl_c_leaves_nothing(tmp_path, monkeypatch, python_sigint_handler):
     # The signal arrives while lazrs compresses (in the stream's first write after the
     # header), and the write ends in KeyboardInterrupt, not in lazrs's error.
     from pcl_rg.io import _las
@@ -319,3 +330,32 @@ def test_ply_element_lines(tmp_path, elements, message):
     )
     with pytest.raises(ValueError, match=message):
         read_points(path)
+
+
+@pytest.mark.parametrize("ext", ["pcd", "ply", "xyz", "las"])
+@pytest.mark.parametrize("name", [" x", "Z\t", "y "])
+def test_fields_written_as_x_y_or_z_are_refused(tmp_path, ext, name):
+    # " x" is written as x in the text formats: a second x property, unreadable.
+    with pytest.raises(ValueError, match="x, y and z are given in points, not fields"):
+        write_points(tmp_path / f"p.{ext}", POINTS, {name: np.array([1.0, 2.0])})
+    assert not any(tmp_path.iterdir())
+
+
+def test_long_names_are_cut_between_characters(tmp_path, monkeypatch):
+    # 63 one-byte characters and then two-byte ones: 64 bytes would end inside "é".
+    from pcl_rg.io import _atomic
+
+    name = "a" * 63 + "é" * 80 + ".pcd"
+    created = []
+
+    def recording_open(path, mode="r", *args, **kwargs):
+        if "x" in mode:
+            created.append(os.path.basename(os.fspath(path)))
+        return open(path, mode, *args, **kwargs)
+
+    monkeypatch.setattr(_atomic, "open", recording_open, raising=False)
+    write_points(tmp_path / name, POINTS)
+    np.testing.assert_array_equal(read_points(tmp_path / name).points, POINTS)
+    (temp,) = created
+    assert temp.startswith("." + "a" * 63 + ".")  # the cut "é" left out whole
+    temp.encode("utf-8")  # no lone surrogate from half a character

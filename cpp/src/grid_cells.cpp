@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include "pcl_rg/interrupt.hpp"
 #include "pcl_rg/spatial_order.hpp"
@@ -14,6 +15,53 @@ namespace {
 // floor(local / size) as an integer: the quotient is below 2^40 in magnitude
 // (grid_ground checks the extent), where floor_to_int is exact.
 std::int64_t grid_index(double local, double size) { return floor_to_int(local / size); }
+
+// The distinct values of `values`, ascending, as std::sort and std::unique give them:
+// sorted in fixed chunks in parallel, each chunk's repeats dropped, then merged in pairs,
+// polling for interruption between the steps (one std::sort of millions of cells held
+// Ctrl-C off for seconds).
+template <class T>
+std::vector<T> sorted_distinct(std::vector<T> values, bool parallel) {
+    const std::size_t n = values.size();
+    const std::size_t chunks = parallel ? std::min<std::size_t>(64, n / 65536 + 1) : 1;
+    std::vector<std::size_t> bound(chunks + 1), end(chunks);
+    for (std::size_t c = 0; c <= chunks; ++c) bound[c] = n * c / chunks;
+    const Interruption interruption;
+    const auto chunk_count = static_cast<std::ptrdiff_t>(chunks);
+#pragma omp parallel for schedule(dynamic, 1) if (parallel) firstprivate(interruption)
+    for (std::ptrdiff_t c = 0; c < chunk_count; ++c) {
+        if (interruption.requested()) continue;
+        const auto first = values.begin() + static_cast<std::ptrdiff_t>(bound[c]);
+        const auto last = values.begin() + static_cast<std::ptrdiff_t>(bound[c + 1]);
+        std::sort(first, last);
+        end[c] = static_cast<std::size_t>(std::unique(first, last) - values.begin());
+    }
+    interruption.check();
+    // Each chunk's distinct values moved down to follow the previous chunk's.
+    std::vector<std::size_t> start(chunks + 1, 0);
+    for (std::size_t c = 0; c < chunks; ++c) {
+        std::move(values.begin() + static_cast<std::ptrdiff_t>(bound[c]),
+                  values.begin() + static_cast<std::ptrdiff_t>(end[c]),
+                  values.begin() + static_cast<std::ptrdiff_t>(start[c]));
+        start[c + 1] = start[c] + (end[c] - bound[c]);
+    }
+    values.resize(start[chunks]);
+    for (std::size_t width = 1; width < chunks; width *= 2) {
+        interruption.check_now();
+        const auto pairs = static_cast<std::ptrdiff_t>((chunks + 2 * width - 1) / (2 * width));
+#pragma omp parallel for schedule(dynamic, 1) if (parallel)
+        for (std::ptrdiff_t k = 0; k < pairs; ++k) {
+            const std::size_t left = static_cast<std::size_t>(k) * 2 * width;
+            const std::size_t middle = std::min(left + width, chunks);
+            const std::size_t right = std::min(left + 2 * width, chunks);
+            std::inplace_merge(values.begin() + static_cast<std::ptrdiff_t>(start[left]),
+                               values.begin() + static_cast<std::ptrdiff_t>(start[middle]),
+                               values.begin() + static_cast<std::ptrdiff_t>(start[right]));
+        }
+    }
+    values.erase(std::unique(values.begin(), values.end()), values.end());
+    return values;
+}
 
 }  // namespace
 
@@ -49,16 +97,23 @@ CellGrid build_grid(PointsView points, const GridGroundParams& params,
         for (std::ptrdiff_t i = 0; i < count; ++i)
             cell[i] = {grid_index(points.coord(i, 1) - origin[1], cell_size[1]),
                        grid_index(points.coord(i, 0) - origin[0], cell_size[0])};
-        grid.occupied = cell;
-        std::sort(grid.occupied.begin(), grid.occupied.end());
-        grid.occupied.erase(std::unique(grid.occupied.begin(), grid.occupied.end()),
-                            grid.occupied.end());
+        grid.occupied = sorted_distinct(cell, parallel);
         cells = grid.occupied.size();
-#pragma omp parallel for schedule(guided) if (parallel)
-        for (std::ptrdiff_t i = 0; i < count; ++i)
-            key[i] = static_cast<std::uint32_t>(
-                std::lower_bound(grid.occupied.begin(), grid.occupied.end(), cell[i]) -
-                grid.occupied.begin());
+        // A binary search per point in millions of cells: seconds, so polled.
+        const Interruption interruption;
+#pragma omp parallel if (parallel) firstprivate(interruption)
+        {
+            bool stopped = false;
+#pragma omp for schedule(static)
+            for (std::ptrdiff_t i = 0; i < count; ++i) {
+                if (i % 1024 == 0) stopped = stopped || interruption.requested();
+                if (stopped) continue;
+                key[i] = static_cast<std::uint32_t>(
+                    std::lower_bound(grid.occupied.begin(), grid.occupied.end(), cell[i]) -
+                    grid.occupied.begin());
+            }
+        }
+        interruption.check();
     }
 
     // The points by cell and, with the pre-filter or the low-outlier test, within a cell
@@ -231,14 +286,22 @@ CellGrid build_grid(PointsView points, const GridGroundParams& params,
         for (std::ptrdiff_t s = 0; s < count; ++s)
             block[s] = {grid_index(grid.p[s].y, params.block_size[1]),
                         grid_index(grid.p[s].x, params.block_size[0])};
-        std::vector<std::pair<std::int64_t, std::int64_t>> occupied(block);
-        std::sort(occupied.begin(), occupied.end());
-        occupied.erase(std::unique(occupied.begin(), occupied.end()), occupied.end());
+        const std::vector<std::pair<std::int64_t, std::int64_t>> occupied =
+            sorted_distinct(block, parallel);
         grid.blocks = occupied.size();
-#pragma omp parallel for schedule(guided) if (parallel)
-        for (std::ptrdiff_t s = 0; s < count; ++s)
-            grid.block[s] = static_cast<std::uint32_t>(
-                std::lower_bound(occupied.begin(), occupied.end(), block[s]) - occupied.begin());
+#pragma omp parallel if (parallel) firstprivate(interruption)
+        {
+            bool stopped = false;
+#pragma omp for schedule(static)
+            for (std::ptrdiff_t s = 0; s < count; ++s) {
+                if (s % 1024 == 0) stopped = stopped || interruption.requested();
+                if (stopped) continue;
+                grid.block[s] = static_cast<std::uint32_t>(
+                    std::lower_bound(occupied.begin(), occupied.end(), block[s]) -
+                    occupied.begin());
+            }
+        }
+        interruption.check();
     }
     // Members of each block in position order: a stable counting sort as above, per
     // chunk of positions (fewer chunks when there are many blocks, to bound the counts).

@@ -262,6 +262,7 @@ def read_input(
     """
     check_paths(args.input, args.output, [args.plot, args.profile])
     cloud = read(run, args.input)
+    existing_classes(cloud)  # a classification that is not class codes: said before the work
     finite = valid_points(cloud.points)
     writes_every_row = getattr(args, "drop", None) is False
     to_las = os.path.splitext(args.output)[1].lower() in (".las", ".laz")
@@ -317,9 +318,11 @@ def _check_neighbours(name: str, value: int, n_valid: int) -> None:
 
 
 def counts(codes: np.ndarray) -> dict[str, int]:
-    """Points per class; NaN codes (on invalid points of a float column) not counted."""
+    """Points per class; in a float column only whole numbers count (NaN and the like
+    may stand on its invalid points)."""
     if codes.dtype.kind == "f":
-        codes = codes[np.isfinite(codes)]
+        with np.errstate(invalid="ignore"):
+            codes = codes[np.isfinite(codes) & (codes == np.round(codes))]
     values, counts = np.unique(codes, return_counts=True)
     return {str(int(v)): int(c) for v, c in zip(values, counts, strict=True)}
 

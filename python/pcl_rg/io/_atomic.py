@@ -67,9 +67,11 @@ def atomic_write(path: str, write: Callable[[BinaryIO], None]) -> None:
     """Write through a temporary file in the same folder, renamed into place."""
     folder, base = os.path.split(os.path.abspath(path))
     # The temporary name adds about 22 bytes to the target's: of a long name (file
-    # systems allow 255 bytes) only the first 64 bytes are kept, so that any name the
-    # file system takes can be written.
-    stem = os.fsdecode(os.fsencode(base)[:64])
+    # systems allow 255 bytes) only the characters in its first 64 bytes are kept (never
+    # half a character), so that any name the file system takes can be written.
+    stem = base
+    while len(os.fsencode(stem)) > 64:
+        stem = stem[:-1]
     temp = ""  # set once the file is ours and its stream is stored
     # The name being created, set before the call: a KeyboardInterrupt raised as the call
     # returns, before its result is stored, must still remove the file the call made.

@@ -55,7 +55,7 @@ def check_columns(
     for key, values in (fields or {}).items():
         if not isinstance(key, str) or not key:
             raise TypeError(f"fields keys must be non-empty str, got {key!r}")
-        if key.lower() in ("x", "y", "z"):
+        if field_name(key).lower() in ("x", "y", "z"):  # " x" would be written as x
             raise ValueError(f"fields[{key!r}]: x, y and z are given in points, not fields")
         if np.ma.is_masked(values):
             raise ValueError(f"fields[{key!r}]: masked arrays are not written; fill them first")
@@ -170,7 +170,8 @@ def load_ascii_table(text: str, record: np.dtype) -> np.ndarray:
                 row = int(np.flatnonzero(beyond.reshape(len(values), -1).any(axis=1))[0])
                 value = values[row].flat[np.flatnonzero(beyond[row].ravel())[0]]
                 raise OverflowError(
-                    f"row {row + 1}: {name} value {float(value)!r} is beyond the {target} range"
+                    f"{name} value {float(value)!r} in data row {row + 1} (counting from 1) "
+                    f"is beyond the {target} range"
                 )
     return table.astype(record)
 

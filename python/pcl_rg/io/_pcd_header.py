@@ -64,6 +64,9 @@ MAX_HEADER_BYTES = 1 << 20
 _MAX_PCD_COUNT = 1 << 16
 _CONTROL = re.compile(r"[\x00-\x08\x0a-\x1f\x7f]")  # all but tab
 _INTEGER = re.compile(r"[+-]?[0-9]+")
+_REAL = re.compile(
+    r"[+-]?([0-9]+\.?[0-9]*|\.[0-9]+)([eE][+-]?[0-9]+)?|[+-]?(inf|nan)", re.IGNORECASE
+)
 
 
 class PcdField(NamedTuple):
@@ -229,12 +232,10 @@ def parse_header(path: str, head: bytes) -> PcdHeader:
             raise bad_pcd(
                 path, f"VIEWPOINT needs 7 numbers (tx ty tz qw qx qy qz), got {len(tokens)}"
             )
-        try:
-            viewpoint = tuple(float(t) for t in tokens)
-        except ValueError:
-            raise bad_pcd(
-                path, f"VIEWPOINT has a non-numeric value: {' '.join(tokens)!r}"
-            ) from None
+        # Decimal numbers only: float() also takes "1_0" (as 10).
+        if not all(_REAL.fullmatch(t) for t in tokens):
+            raise bad_pcd(path, f"VIEWPOINT has a non-numeric value: {' '.join(tokens)!r}")
+        viewpoint = tuple(float(t) for t in tokens)
         if not all(math.isfinite(v) for v in viewpoint):
             # Refused here, not when the cloud is written back (write_pcd's check).
             raise bad_pcd(path, f"VIEWPOINT has a value that is not finite: {' '.join(tokens)!r}")
