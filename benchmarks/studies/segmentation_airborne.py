@@ -163,21 +163,13 @@ def methods(points: np.ndarray, protocol: str, quick: bool):
         default = pcl_rg.ConvexSegmentationParams()
         settings = [{name: getattr(default, name) for name in GRID}]
     runs = [("convex", i, pcl_rg.convex_segmentation, dict(s)) for i, s in enumerate(settings)]
+    hand = dict(curvature_threshold=rg.curvature_threshold * KINECT_LEAF / spacing)
+    pcl = dict(k=rg.k, smoothness_deg=rg.smoothness_deg, min_cluster_size=rg.min_cluster_size)
     runs += [
         (NO_GRID, 0, pcl_rg.convex_segmentation, dict(VARIANT_BASE, noise_leaves=0.0)),
         ("region_growing", 0, pcl_rg.region_growing, {}),
-        (
-            HAND,
-            0,
-            pcl_rg.region_growing,
-            dict(curvature_threshold=rg.curvature_threshold * KINECT_LEAF / spacing),
-        ),
-        (
-            "PCL RegionGrowing",
-            0,
-            pcl_rg.pcl.region_growing,
-            dict(k=rg.k, smoothness_deg=rg.smoothness_deg, min_cluster_size=rg.min_cluster_size),
-        ),
+        (HAND, 0, pcl_rg.region_growing, hand),
+        ("PCL RegionGrowing", 0, pcl_rg.pcl.region_growing, pcl),
     ]
     if protocol == KEPT:
         return settings, runs
@@ -186,19 +178,10 @@ def methods(points: np.ndarray, protocol: str, quick: bool):
     )
     resolution = 1.5 * spacing
     for i, s in enumerate(LCCP_SETTINGS[:1] if quick else LCCP_SETTINGS):
-        runs.append(
-            (
-                "LCCP",
-                i,
-                pcl_rg.pcl.lccp,
-                dict(
-                    voxel_resolution=resolution,
-                    seed_resolution=s["seed_factor"] * resolution,
-                    concavity_tolerance_deg=s["concavity_tolerance_deg"],
-                    viewpoint=above,
-                ),
-            )
-        )
+        seed, tolerance = s["seed_factor"] * resolution, s["concavity_tolerance_deg"]
+        lccp = dict(voxel_resolution=resolution, seed_resolution=seed)
+        lccp.update(concavity_tolerance_deg=tolerance, viewpoint=above)
+        runs.append(("LCCP", i, pcl_rg.pcl.lccp, lccp))
     return settings, runs
 
 
@@ -274,12 +257,8 @@ def noise_table(ratios: dict) -> list[str]:
         mosd = [noise_ratios(points) for _, _, points, _ in mosd_at(leaf)]
         rows.append([f"mOSD learn scenes, {scale_name(leaf)}", *ratio_cells(mosd)])
     for density, leaf in sorted(ratios):
-        rows.append(
-            [
-                f"airborne, ground removed, {density:g} points/m^2, {scale_name(leaf)}",
-                *ratio_cells(ratios[(density, leaf)]),
-            ]
-        )
+        name = f"airborne, ground removed, {density:g} points/m^2, {scale_name(leaf)}"
+        rows.append([name, *ratio_cells(ratios[(density, leaf)])])
     return [
         "",
         "Why the grid: 10 x noise / spacing (a grid is used above 1), range over the "
@@ -292,13 +271,9 @@ def noise_table(ratios: dict) -> list[str]:
 
 
 def scale_name(leaf: float) -> str:
-    return (
-        "raw points"
-        if leaf == 0
-        else f"{leaf * 1000:g} mm voxels"
-        if leaf < 0.1
-        else (f"{leaf:g} m voxels")
-    )
+    if leaf == 0:
+        return "raw points"
+    return f"{leaf * 1000:g} mm voxels" if leaf < 0.1 else f"{leaf:g} m voxels"
 
 
 def ratio_cells(ratios: list) -> list[str]:
@@ -318,17 +293,8 @@ def cross_validate(settings, scores, cases, n_scenes):
     """Per case, the held-out rows (one per scene) and the settings chosen per fold."""
 
     def fit_iou(index: int, scenes: list[int]) -> float:
-        return float(
-            np.mean(
-                np.concatenate(
-                    [
-                        scores[(REMOVED, "convex", index, *case)][s][0]
-                        for case in cases
-                        for s in scenes
-                    ]
-                )
-            )
-        )
+        rows = [scores[(REMOVED, "convex", index, *case)][s][0] for case in cases for s in scenes]
+        return float(np.mean(np.concatenate(rows)))
 
     held: dict[tuple, list] = {case: [] for case in cases}
     chosen = []
@@ -379,16 +345,7 @@ def report(
         if all(getattr(default, key) == value for key, value in s.items())
     )
     held, chosen, fitted = cross_validate(settings, scores, cases, n_scenes)
-    header = [
-        "points/m^2",
-        "voxel",
-        "method",
-        "mean IoU",
-        "over",
-        "under",
-        "time (s)",
-        "grid leaf (m)",
-    ]
+    header = "points/m^2|voxel|method|mean IoU|over|under|time (s)|grid leaf (m)".split("|")
     rows, lines, kept_rows = [], [], []
     n_lccp = 1 if quick else len(LCCP_SETTINGS)
     for case in cases:
@@ -533,17 +490,8 @@ def main(argv: list[str] | None = None) -> int:
                 pickle.dump(measured, handle)
     if args.measure_only:
         return 0
-    report(
-        scenes,
-        settings,
-        scores,
-        seconds,
-        grids,
-        ratios,
-        args.quick,
-        args.write and not args.quick,
-        caches,
-    )
+    write = args.write and not args.quick
+    report(scenes, settings, scores, seconds, grids, ratios, args.quick, write, caches)
     print(f"({time.perf_counter() - start:.0f} s)", file=sys.stderr)
     return 0
 
