@@ -63,6 +63,27 @@ std::vector<T> sorted_distinct(std::vector<T> values, bool parallel) {
     return values;
 }
 
+// out[i] = the position of values[i] in `sorted`, which holds it, in parallel; polled, as
+// a binary search per point in millions of cells takes seconds.
+template <class T>
+void positions_in(const std::vector<T>& sorted, const std::vector<T>& values, std::uint32_t* out,
+                  bool parallel) {
+    const Interruption interruption;
+    const auto count = static_cast<std::ptrdiff_t>(values.size());
+#pragma omp parallel if (parallel) firstprivate(interruption)
+    {
+        bool stopped = false;
+#pragma omp for schedule(static)
+        for (std::ptrdiff_t i = 0; i < count; ++i) {
+            if (i % 1024 == 0) stopped = stopped || interruption.requested();
+            if (stopped) continue;
+            out[i] = static_cast<std::uint32_t>(
+                std::lower_bound(sorted.begin(), sorted.end(), values[i]) - sorted.begin());
+        }
+    }
+    interruption.check();
+}
+
 }  // namespace
 
 // Steps 1 and 2: block and cell of every point, and the counting sorts.
@@ -99,21 +120,7 @@ CellGrid build_grid(PointsView points, const GridGroundParams& params,
                        grid_index(points.coord(i, 0) - origin[0], cell_size[0])};
         grid.occupied = sorted_distinct(cell, parallel);
         cells = grid.occupied.size();
-        // A binary search per point in millions of cells: seconds, so polled.
-        const Interruption interruption;
-#pragma omp parallel if (parallel) firstprivate(interruption)
-        {
-            bool stopped = false;
-#pragma omp for schedule(static)
-            for (std::ptrdiff_t i = 0; i < count; ++i) {
-                if (i % 1024 == 0) stopped = stopped || interruption.requested();
-                if (stopped) continue;
-                key[i] = static_cast<std::uint32_t>(
-                    std::lower_bound(grid.occupied.begin(), grid.occupied.end(), cell[i]) -
-                    grid.occupied.begin());
-            }
-        }
-        interruption.check();
+        positions_in(grid.occupied, cell, key.data(), parallel);
     }
 
     // The points by cell and, with the pre-filter or the low-outlier test, within a cell
@@ -289,19 +296,7 @@ CellGrid build_grid(PointsView points, const GridGroundParams& params,
         const std::vector<std::pair<std::int64_t, std::int64_t>> occupied =
             sorted_distinct(block, parallel);
         grid.blocks = occupied.size();
-#pragma omp parallel if (parallel) firstprivate(interruption)
-        {
-            bool stopped = false;
-#pragma omp for schedule(static)
-            for (std::ptrdiff_t s = 0; s < count; ++s) {
-                if (s % 1024 == 0) stopped = stopped || interruption.requested();
-                if (stopped) continue;
-                grid.block[s] = static_cast<std::uint32_t>(
-                    std::lower_bound(occupied.begin(), occupied.end(), block[s]) -
-                    occupied.begin());
-            }
-        }
-        interruption.check();
+        positions_in(occupied, block, grid.block.data(), parallel);
     }
     // Members of each block in position order: a stable counting sort as above, per
     // chunk of positions (fewer chunks when there are many blocks, to bound the counts).
