@@ -140,11 +140,12 @@ def _one_each(
 
 def load_ascii_table(text: str, record: np.dtype) -> np.ndarray:
     """Rows of white-space separated numbers as a table of `record` (fields of one value or
-    a sub-array), like np.loadtxt, which it calls; ValueError from it as it raises them.
+    a sub-array), like np.loadtxt, which it calls; ValueError "<k> values per row
+    expected: <np.loadtxt's reason>" when a row does not parse.
 
     np.loadtxt makes a float32 value that overflows inf without a word, so float fields
     narrower than float64 are read as float64 (np.loadtxt parses every float as a double
-    and casts it, so the values are the same) and narrowed here: OverflowError names the
+    and casts it, so the values are the same) and narrowed here: ValueError names the
     first value beyond the field's range. "inf" and "nan" tokens stay what they say.
     """
     wide = np.dtype(
@@ -153,7 +154,12 @@ def load_ascii_table(text: str, record: np.dtype) -> np.ndarray:
             "formats": [_widened(record.fields[name][0]) for name in record.names],
         }
     )
-    table = np.loadtxt(StringIO(text, newline=None), dtype=wide, ndmin=1, comments=None)
+    try:
+        table = np.loadtxt(StringIO(text, newline=None), dtype=wide, ndmin=1, comments=None)
+    except ValueError as exc:
+        values = sum(int(np.prod(record.fields[name][0].shape)) for name in record.names)
+        reason = str(exc).split("; use `usecols`")[0]
+        raise ValueError(f"{values} values per row expected: {reason}") from None
     if wide == record:
         return table
     for name in record.names:
@@ -169,7 +175,7 @@ def load_ascii_table(text: str, record: np.dtype) -> np.ndarray:
             if beyond.any():
                 row = int(np.flatnonzero(beyond.reshape(len(values), -1).any(axis=1))[0])
                 value = values[row].flat[np.flatnonzero(beyond[row].ravel())[0]]
-                raise OverflowError(
+                raise ValueError(
                     f"{name} value {float(value)!r} in data row {row + 1} (counting from 1) "
                     f"is beyond the {target} range"
                 )

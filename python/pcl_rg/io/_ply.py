@@ -210,11 +210,6 @@ def read(path: str) -> tuple[np.ndarray, dict[str, np.ndarray], tuple]:
             try:
                 table = load_ascii_table("\n".join(rows), record)
             except ValueError as exc:
-                message = str(exc).split("; use `usecols`")[0]
-                raise _bad_ply(
-                    path, f"ascii vertex data, {len(names)} values per row expected: {message}"
-                ) from None
-            except OverflowError as exc:
                 raise _bad_ply(path, f"ascii vertex data, {exc}") from None
     else:
         order = _PLY_ENCODINGS[encoding]
