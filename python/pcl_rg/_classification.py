@@ -27,6 +27,7 @@ __all__ = [
     "usable_points",
     "valid_points",
     "voxel_attributes",
+    "whole_numbers",
     "withheld_mask",
 ]
 
@@ -58,6 +59,12 @@ def usable_points(cloud: PointFile) -> np.ndarray:
     return valid_points(cloud.points) & ~withheld_mask(cloud)
 
 
+def whole_numbers(codes: np.ndarray) -> np.ndarray:
+    """Which values of a float column are finite whole numbers, the only class codes."""
+    with np.errstate(invalid="ignore"):
+        return np.isfinite(codes) & (codes == np.round(codes))
+
+
 def not_class_codes(codes: np.ndarray, points: np.ndarray) -> str | None:
     """Why a float classification column is not class codes, or None when it is: ASPRS
     classes are whole numbers, and a NaN or 2.7 has no class to keep. Rows whose
@@ -65,9 +72,7 @@ def not_class_codes(codes: np.ndarray, points: np.ndarray) -> str | None:
     every command and keep whatever they hold, so they are not checked."""
     if codes.dtype.kind != "f":
         return None
-    with np.errstate(invalid="ignore"):
-        bad = ~np.isfinite(codes) | (codes != np.round(codes))
-    bad = np.flatnonzero(bad & valid_points(points))
+    bad = np.flatnonzero(~whole_numbers(codes) & valid_points(points))
     if not bad.size:
         return None
     rows = ", ".join(f"row {i}: {codes[i]:g}" for i in bad[:3])

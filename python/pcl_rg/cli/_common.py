@@ -26,6 +26,7 @@ from .._classification import (
     noise_classes,
     noise_mask,
     valid_points,
+    whole_numbers,
     withheld_mask,
 )
 from ..io import EXTENSIONS, PointFile, read_points, write_points
@@ -321,8 +322,7 @@ def counts(codes: np.ndarray) -> dict[str, int]:
     """Points per class; in a float column only whole numbers count (NaN and the like
     may stand on its invalid points)."""
     if codes.dtype.kind == "f":
-        with np.errstate(invalid="ignore"):
-            codes = codes[np.isfinite(codes) & (codes == np.round(codes))]
+        codes = codes[whole_numbers(codes)]
     values, counts = np.unique(codes, return_counts=True)
     return {str(int(v)): int(c) for v, c in zip(values, counts, strict=True)}
 

@@ -4,13 +4,15 @@ from __future__ import annotations
 
 import os
 import re
-from collections.abc import Mapping
-from io import StringIO
+from collections.abc import Iterable, Mapping
+from typing import TextIO
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 __all__ = [
+    "DECIMAL_INTEGER",
+    "PRINTABLE_TOKEN",
     "check_columns",
     "check_path",
     "check_xyz",
@@ -20,6 +22,12 @@ __all__ = [
     "named_columns",
     "split_columns",
 ]
+
+
+#: A whole number as a header writes it: decimal digits (Python's int() also takes "1_0").
+DECIMAL_INTEGER = re.compile(r"[+-]?[0-9]+")
+#: A name a text header can hold: printable ASCII, no white space.
+PRINTABLE_TOKEN = re.compile(r"[!-~]+")
 
 
 def check_path(path: object, argname: str = "path") -> str:
@@ -138,10 +146,11 @@ def _one_each(
     return [(name, array) for name, _, array in columns]
 
 
-def load_ascii_table(text: str, record: np.dtype) -> np.ndarray:
-    """Rows of white-space separated numbers as a table of `record` (fields of one value or
-    a sub-array), like np.loadtxt, which it calls; ValueError "<k> values per row
-    expected: <np.loadtxt's reason>" when a row does not parse.
+def load_ascii_table(rows: Iterable[str] | TextIO, record: np.dtype) -> np.ndarray:
+    """Rows of white-space separated numbers (lines, or a text stream) as a table of
+    `record` (fields of one value or a sub-array), like np.loadtxt, which it calls;
+    ValueError "<k> values per row expected: <np.loadtxt's reason>" when a row does not
+    parse.
 
     np.loadtxt makes a float32 value that overflows inf without a word, so float fields
     narrower than float64 are read as float64 (np.loadtxt parses every float as a double
@@ -155,7 +164,7 @@ def load_ascii_table(text: str, record: np.dtype) -> np.ndarray:
         }
     )
     try:
-        table = np.loadtxt(StringIO(text, newline=None), dtype=wide, ndmin=1, comments=None)
+        table = np.loadtxt(rows, dtype=wide, ndmin=1, comments=None)
     except ValueError as exc:
         values = sum(int(np.prod(record.fields[name][0].shape)) for name in record.names)
         reason = str(exc).split("; use `usecols`")[0]

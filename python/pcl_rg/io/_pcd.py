@@ -11,9 +11,9 @@ is public.
 from __future__ import annotations
 
 import os
-import re
 import struct
 from collections.abc import Mapping, Sequence
+from io import StringIO
 from typing import TYPE_CHECKING, BinaryIO
 
 import numpy as np
@@ -21,7 +21,14 @@ from numpy.typing import ArrayLike, DTypeLike
 
 from .._params import check_number
 from ._atomic import atomic_write, write_ascii, write_chunked
-from ._columns import check_path, check_xyz, exact_float32, load_ascii_table, named_columns
+from ._columns import (
+    PRINTABLE_TOKEN,
+    check_path,
+    check_xyz,
+    exact_float32,
+    load_ascii_table,
+    named_columns,
+)
 from ._pcd_header import (
     DEFAULT_VIEWPOINT,
     ENCODINGS,
@@ -39,7 +46,6 @@ if TYPE_CHECKING:
 __all__ = ["read", "write", "write_pcd"]
 
 _LZF_MAX_EXPANSION = 88
-_FIELD_NAME = re.compile(r"[!-~]+")
 
 
 def _check_padding(path: str, trailing: memoryview) -> None:
@@ -156,7 +162,7 @@ def _decode_ascii(path: str, header: PcdHeader, data: memoryview) -> dict[str, n
         formats.append(dtype if f.count == 1 else (dtype, (f.count,)))
     record = np.dtype({"names": names, "formats": formats})
     try:
-        table = load_ascii_table(text, record)
+        table = load_ascii_table(StringIO(text, newline=None), record)
     except ValueError as exc:
         raise bad_pcd(path, f"ascii data, {exc}") from None
     if len(table) != n:
@@ -236,7 +242,7 @@ def _check_fields(fields: Mapping[str, ArrayLike] | None, n: int) -> list[tuple[
             raise ValueError(f"fields[{name!r}]: x, y and z are given in points, not fields")
         # A name may start with '#': only a line that starts with it is a comment, and
         # FIELDS starts the line (the reader, and PCL's, read such a name back).
-        if name == PAD or not _FIELD_NAME.fullmatch(name):
+        if name == PAD or not PRINTABLE_TOKEN.fullmatch(name):
             raise ValueError(
                 f"fields[{name!r}]: a field name must be printable ASCII without spaces, "
                 "and not '_'"

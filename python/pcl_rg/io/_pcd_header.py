@@ -16,6 +16,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ._columns import DECIMAL_INTEGER
+
 __all__ = [
     "DEFAULT_VIEWPOINT",
     "ENCODINGS",
@@ -63,7 +65,6 @@ PAD = "_"
 MAX_HEADER_BYTES = 1 << 20
 _MAX_PCD_COUNT = 1 << 16
 _CONTROL = re.compile(r"[\x00-\x08\x0a-\x1f\x7f]")  # all but tab
-_INTEGER = re.compile(r"[+-]?[0-9]+")
 _REAL = re.compile(
     r"[+-]?([0-9]+\.?[0-9]*|\.[0-9]+)([eE][+-]?[0-9]+)?|[+-]?(inf|nan)", re.IGNORECASE
 )
@@ -99,7 +100,7 @@ def _parse_ints(path: str, key: str, tokens: list[str], minimum: int) -> list[in
     for tok in tokens:
         # Decimal digits only: Python's int() also takes "1_0" (as 10), which no PCD
         # reader in C++ would.
-        if not _INTEGER.fullmatch(tok):
+        if not DECIMAL_INTEGER.fullmatch(tok):
             raise bad_pcd(path, f"{key} value {tok!r} is not an integer")
         value = int(tok)
         if value < minimum:

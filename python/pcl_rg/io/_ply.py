@@ -8,7 +8,13 @@ from typing import TYPE_CHECKING, BinaryIO, NamedTuple
 import numpy as np
 
 from ._atomic import atomic_write, write_ascii, write_chunked
-from ._columns import exact_float32, load_ascii_table, split_columns
+from ._columns import (
+    DECIMAL_INTEGER,
+    PRINTABLE_TOKEN,
+    exact_float32,
+    load_ascii_table,
+    split_columns,
+)
 
 if TYPE_CHECKING:
     from . import PlyLayout
@@ -47,13 +53,10 @@ _PLY_NAMES = {
     "f8": "double",
 }
 _PLY_ENCODINGS = {"ascii": "", "binary_little_endian": "<", "binary_big_endian": ">"}
-_COUNT = re.compile(r"[+-]?[0-9]+")
 _END_HEADER = re.compile(rb"^end_header\r?\n", re.MULTILINE)
 # Bytes that no ascii PLY row holds: control characters other than tab, CR and LF
 # (str.splitlines would also break rows at some of them).
 _CONTROL = re.compile(r"[\x00-\x08\x0b\x0c\x0e-\x1f\x7f]")
-# A property name as the header can hold it: printable ASCII, no white space.
-_PROPERTY_NAME = re.compile(r"[!-~]+")
 
 
 class _PlyElement(NamedTuple):
@@ -100,7 +103,7 @@ def _parse_ply_header(path: str, raw: bytes) -> tuple[str, list[_PlyElement], tu
         elif key == "element":
             if len(tokens) != 3:
                 raise _bad_ply(path, f"line {number}: 'element' needs a name and a count")
-            if not _COUNT.fullmatch(tokens[2]):  # int() would also take "1_0"
+            if not DECIMAL_INTEGER.fullmatch(tokens[2]):  # int() would also take "1_0"
                 raise _bad_ply(
                     path, f"line {number}: element count {tokens[2]!r} is not an integer"
                 )
@@ -208,7 +211,7 @@ def read(path: str) -> tuple[np.ndarray, dict[str, np.ndarray], tuple]:
             table = np.zeros(0, dtype=record)
         else:
             try:
-                table = load_ascii_table("\n".join(rows), record)
+                table = load_ascii_table(rows, record)
             except ValueError as exc:
                 raise _bad_ply(path, f"ascii vertex data, {exc}") from None
     else:
@@ -288,7 +291,7 @@ def write(
     data += [(key, _ply_column(key, array)) for key, array in split_columns(columns)]
     names = [key for key, _ in data]
     for key in names[3:]:
-        if not _PROPERTY_NAME.fullmatch(key):
+        if not PRINTABLE_TOKEN.fullmatch(key):
             raise ValueError(
                 f"field {key!r}: a PLY property name must be printable ASCII without spaces"
             )

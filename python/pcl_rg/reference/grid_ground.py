@@ -43,6 +43,8 @@ class GridNeighbours(NamedTuple):
     the world lattice's index less a constant of the call."""
     origin: np.ndarray
     """float64 (3,): the origin ``o`` of the local coordinates ``l = p - o``."""
+    params: GridGroundParams
+    """The parameters used: an unset cell_size filled in from the point spacing."""
 
 
 def grid_neighbours(points: npt.ArrayLike, params: GridGroundParams) -> GridNeighbours:
@@ -98,7 +100,9 @@ def grid_neighbours(points: npt.ArrayLike, params: GridGroundParams) -> GridNeig
     dy = local[i, 1] - local[j, 1]
     d = np.sqrt(dx * dx + dy * dy)
     dz = local[i, 2] - local[j, 2]
-    return GridNeighbours(i, j, d, dz, block[i] == block[j], block, local[:, 2], block_xy, origin)
+    return GridNeighbours(
+        i, j, d, dz, block[i] == block[j], block, local[:, 2], block_xy, origin, params
+    )
 
 
 def _slope_filter(nb: GridNeighbours, p: GridGroundParams, against: np.ndarray) -> np.ndarray:
@@ -212,7 +216,7 @@ def grid_ground(
     if n == 0:
         return np.empty(0, dtype=bool)
     nb = grid_neighbours(xyz, p)  # unresolved: its errors say whether cell_size was set
-    p = with_spacing_lengths(p, lambda: point_spacing(xyz))
+    p = nb.params
     kept = ~_low_outliers(nb, xyz, p.outlier_depth) if p.outlier_depth > 0 else np.ones(n, bool)
     candidate = kept.copy()
     ground = kept.copy()  # pass 1 tests against every point but the low outliers
