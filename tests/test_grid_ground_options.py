@@ -295,3 +295,16 @@ def test_passes_stop_when_one_changes_nothing(scene):
         )
     assert diagnostics["grid_ground"]["filter_passes_run"] == 1
     assert diagnostics["grid_ground"]["final_passes_run"] == 1
+
+
+def test_diagnostics_time_the_stages(scene):
+    """The core's clock per stage: none negative, and none for a final pass that is off."""
+    for final_cell in (4.0, 0.0):
+        params = GridGroundParams(final_cell=final_cell)
+        with pcl_rg.collect_diagnostics() as diagnostics:
+            pcl_rg.grid_ground(scene.points, params=params)
+        run = diagnostics["grid_ground"]
+        stages = ("prepare_seconds", "growth_seconds", "final_pass_seconds")
+        assert all(run[stage] >= 0.0 for stage in stages), run
+        assert run["prepare_seconds"] + run["growth_seconds"] > 0.0
+        assert (run["final_pass_seconds"] > 0.0) == (final_cell > 0.0), run

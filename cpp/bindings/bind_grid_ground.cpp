@@ -54,6 +54,9 @@ void bind_grid_ground(py::module_& m) {
             info["cell_size"] = py::make_tuple(stats.cell_size[0], stats.cell_size[1]);
             info["filter_passes_run"] = stats.filter_passes_run;
             info["final_passes_run"] = stats.final_passes_run;
+            info["prepare_seconds"] = stats.prepare_seconds;
+            info["growth_seconds"] = stats.growth_seconds;
+            info["final_pass_seconds"] = stats.final_pass_seconds;
             return py::make_tuple(ground, info);
         },
         py::arg("points").noconvert(), py::arg("params"),

@@ -46,6 +46,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <cmath>
 #include <cstddef>
 #include <limits>
@@ -61,6 +62,7 @@
 #include "pcl_rg/grid_links.hpp"
 #include "pcl_rg/interrupt.hpp"
 #include "pcl_rg/point_spacing.hpp"
+#include "pcl_rg/timer.hpp"
 
 namespace pcl_rg {
 
@@ -320,13 +322,16 @@ GridGroundParams with_spacing(const GridGroundParams& params, double spacing) {
 }
 
 void grid_ground(PointsView points, const GridGroundParams& given, bool* ground,
-                 GridGroundStats* stats) {
+                 GridGroundStats* stats_out) {
     validate(given);
     const std::size_t n = points.size;
-    if (stats)  // what an empty input reports: no spacing measured, the given cell size
-        *stats = GridGroundStats{std::numeric_limits<double>::quiet_NaN(),
-                                 given.cell_size.value_or(std::array<double, 2>{}), 0, 0};
+    GridGroundStats unwanted;
+    GridGroundStats& stats = stats_out ? *stats_out : unwanted;
+    // What an empty input reports: no spacing measured, the given cell size.
+    stats = GridGroundStats{};
+    stats.cell_size = given.cell_size.value_or(std::array<double, 2>{});
     if (n == 0) return;
+    auto clock = std::chrono::steady_clock::now();
     // An unset cell size from the spacing of these points (measured only then).
     // The bounding box, scanned once for the spacing, the extent and the final pass.
     const std::array<double, 3> lower = local_origin(points);
@@ -334,7 +339,8 @@ void grid_ground(PointsView points, const GridGroundParams& given, bool* ground,
     const double spacing = given.cell_size ? std::numeric_limits<double>::quiet_NaN()
                                            : spacing_or_one_metre(points, lower, upper);
     const GridGroundParams params = with_spacing(given, spacing);
-    if (stats) *stats = GridGroundStats{spacing, *params.cell_size, 0, 0};
+    stats.point_spacing = spacing;
+    stats.cell_size = *params.cell_size;
     check::indexable_by_int32(n);
     // Blocks and cells anchored at the world lattice of blocks: the block corner at or
     // below the minimum corner, so l >= 0 and every index is >= 0.
@@ -372,6 +378,8 @@ void grid_ground(PointsView points, const GridGroundParams& given, bool* ground,
     poll_interrupt();
     CellGrid grid =
         build_grid(points, params, origin, extent, final_pass_runs ? &snapped : nullptr);
+    stats.prepare_seconds = seconds_since(clock);
+    clock = std::chrono::steady_clock::now();
     std::vector<unsigned char> candidate(n, 1), against(n, 1), result(n, 0), kept_by_all, before;
     std::vector<unsigned char> outlier(n, 0);
     const auto count = static_cast<std::ptrdiff_t>(n);
@@ -384,7 +392,7 @@ void grid_ground(PointsView points, const GridGroundParams& given, bool* ground,
     const std::int64_t passes = std::max<std::int64_t>(params.filter_passes, 1);
     for (std::int64_t pass = 0; pass < passes; ++pass) {
         poll_interrupt();
-        if (stats && params.filter_passes > 0) stats->filter_passes_run = pass + 1;
+        if (params.filter_passes > 0) stats.filter_passes_run = pass + 1;
         if (params.filter_passes > 0) {
             if (pass > 0) against.swap(result);  // test only against the last ground
             slope_filter(grid, params, against, pass > 0 ? &kept_by_all : nullptr, candidate);
@@ -400,7 +408,9 @@ void grid_ground(PointsView points, const GridGroundParams& given, bool* ground,
     }
 #pragma omp parallel for schedule(guided) if (parallel)
     for (std::ptrdiff_t s = 0; s < count; ++s) ground[grid.id[s]] = result[s] != 0;
+    stats.growth_seconds = seconds_since(clock);
     if (!final_pass_runs) return;
+    clock = std::chrono::steady_clock::now();
     // The points as snap_points leaves them, but in the grid's order: z - lower[2] is
     // grid.p's z (the grid's origin has the same z).
     std::vector<std::uint32_t> outliers;  // input indices
@@ -415,17 +425,21 @@ void grid_ground(PointsView points, const GridGroundParams& given, bool* ground,
     snapped.y = std::move(grid.snap_y);
     grid = CellGrid{};
     std::vector<unsigned char> last_round;  // the ground a round started from
+    // What a round leaves for the next, which then locates again only the points near
+    // the triangles that are new (final_pass.hpp).
+    FinalPassRounds rounds;
     for (std::int64_t round = 0; round < params.final_passes; ++round) {
         poll_interrupt();
-        if (stats) stats->final_passes_run = round + 1;
+        stats.final_passes_run = round + 1;
         if (round + 1 < params.final_passes) last_round.assign(ground, ground + n);
-        final_pass(points, final_pass_params(params), snapped, ground);
-        // The final pass sees every point: not these.
-        for (const std::uint32_t i : outliers) ground[i] = false;
+        // The final pass sees every point: not the low outliers.
+        final_pass(points, final_pass_params(params), snapped, ground,
+                   params.final_passes > 1 ? &rounds : nullptr, outliers);
         // A round that gives back the ground it started from: every later one would too.
         if (round + 1 < params.final_passes && std::equal(ground, ground + n, last_round.begin()))
             break;
     }
+    stats.final_pass_seconds = seconds_since(clock);
 }
 
 }  // namespace pcl_rg

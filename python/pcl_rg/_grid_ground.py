@@ -396,8 +396,11 @@ def grid_ground(
 
     ``collect_diagnostics()`` reports the spacing an unset cell size took
     (``point_spacing``, NaN when cell_size was given), the ``cell_size`` used,
-    and the pre-filter passes and final-pass rounds run (``filter_passes_run``,
-    ``final_passes_run``; fewer than asked for when one changed nothing).
+    the pre-filter passes and final-pass rounds run (``filter_passes_run``,
+    ``final_passes_run``; fewer than asked for when one changed nothing), and the
+    core's wall time by stage (``prepare_seconds``: bounding box, spacing and cell
+    grid; ``growth_seconds``: low outliers, pre-filter and components;
+    ``final_pass_seconds``: every final-pass round).
 
     Links are symmetric, so the result does not depend on the visiting
     order; the C++ core (a counting sort into a flat CSR cell grid, a

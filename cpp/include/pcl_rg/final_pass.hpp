@@ -3,7 +3,9 @@
 #pragma once
 
 #include <array>
+#include <cstdint>
 #include <optional>
+#include <vector>
 
 #include "pcl_rg/delaunay.hpp"
 #include "pcl_rg/points.hpp"
@@ -55,10 +57,29 @@ void final_pass(PointsView points, const FinalPassParams& params, bool* ground);
 /// that snap the points themselves (snap_frame, snap_points).
 void check_final_pass_extent(const std::array<double, 3>& origin,
                              const std::array<double, 3>& upper);
+/// What a round of the final pass leaves for the next round on the same snapped points
+/// and settings (final_pass's `rounds`): its vertices and where their triangles lie.
+struct FinalPassRounds {
+    bool ran = false;                     ///< whether a round filled the fields below
+    std::vector<std::uint32_t> vertices;  ///< the TIN's vertices' points, insertion order
+    /// Per vertex (as `vertices`): the grid box of its triangles, x0, y0, x1, y1 (closed).
+    std::vector<std::array<std::int32_t, 4>> vertex_star;
+    std::vector<std::uint64_t> is_vertex;  ///< bit i: point i is a vertex
+    std::array<double, 4> corner_z{};      ///< heights of the virtual corners
+};
+
 /// The same pass on points already snapped and sorted (by snap_points, as tin_ground
 /// has them, or in grid_ground's own order on snap_frame's frame), so that nothing is
-/// computed twice; their extent is finite.
+/// computed twice; their extent is finite. The points `never_ground` (indices) are not
+/// ground whatever their height. With `rounds` (grid_ground's final_passes), a round
+/// that follows another on the same points, settings and never_ground, with `ground` as
+/// that round left it, locates again only the points near a triangle that the last
+/// round's TIN did not have, and none when its vertices are the last round's: a
+/// triangle of both TINs holds the same points and gives them the same verdict (its
+/// three vertices, and so its plane, are the same points), so the result is the full
+/// pass's, exactly.
 void final_pass(PointsView points, const FinalPassParams& params, const SnappedPoints& snapped,
-                bool* ground);
+                bool* ground, FinalPassRounds* rounds = nullptr,
+                const std::vector<std::uint32_t>& never_ground = {});
 
 }  // namespace pcl_rg

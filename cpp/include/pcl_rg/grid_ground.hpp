@@ -96,6 +96,9 @@ struct GridGroundStats {
     std::array<double, 2> cell_size{};   ///< the cell size used (m)
     std::int64_t filter_passes_run = 0;  ///< pre-filter passes run (fewer: one changed nothing)
     std::int64_t final_passes_run = 0;   ///< final-pass rounds run (likewise)
+    double prepare_seconds = 0.0;        ///< bounding box, spacing and the cell grid
+    double growth_seconds = 0.0;         ///< low outliers, pre-filter passes and components
+    double final_pass_seconds = 0.0;     ///< every final-pass round
 };
 
 /// Fills `ground[i]` (N entries) with the ground mask of algorithms.md section 3 and the
