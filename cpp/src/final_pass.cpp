@@ -126,6 +126,8 @@ void final_pass(PointsView points, const FinalPassParams& params, const SnappedP
                 const std::vector<std::uint32_t>& never_ground) {
     const std::size_t n = points.size;
     if (n == 0) return;
+    if (rounds && rounds->ran && rounds->points != n)
+        throw std::logic_error("final_pass: `rounds` holds a round of another cloud");
     const Interruption interruption;
     const std::array<double, 3>& origin = snapped.origin;
     const std::array<double, 3>& upper = snapped.upper;
@@ -336,6 +338,7 @@ void final_pass(PointsView points, const FinalPassParams& params, const SnappedP
     for (const std::uint32_t i : never_ground) ground[i] = false;
     if (rounds) {
         rounds->ran = true;
+        rounds->points = n;
         rounds->vertices.resize(vertices.size());
         for (std::size_t k = 0; k < vertices.size(); ++k) rounds->vertices[k] = vertices[k].i;
         rounds->vertex_star = std::move(vertex_star);

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <array>
+#include <cstddef>
 #include <cstdint>
 #include <optional>
 #include <vector>
@@ -61,6 +62,7 @@ void check_final_pass_extent(const std::array<double, 3>& origin,
 /// and settings (final_pass's `rounds`): its vertices and where their triangles lie.
 struct FinalPassRounds {
     bool ran = false;                     ///< whether a round filled the fields below
+    std::size_t points = 0;               ///< how many points that round classified
     std::vector<std::uint32_t> vertices;  ///< the TIN's vertices' points, insertion order
     /// Per vertex (as `vertices`): the grid box of its triangles, x0, y0, x1, y1 (closed).
     std::vector<std::array<std::int32_t, 4>> vertex_star;
