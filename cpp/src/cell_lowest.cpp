@@ -118,8 +118,15 @@ std::vector<std::int64_t> lowest_in_cells(PointsView points, const CellLattice& 
             const auto first = static_cast<std::uint32_t>(cells * thread / threads);
             const auto last = static_cast<std::uint32_t>(cells * (thread + 1) / threads);
             bool stop = false;
+            // The updates land on scattered cells: each is fetched a few points ahead, so
+            // that the cache misses overlap instead of queueing.
+            constexpr std::int64_t kAhead = 32;  // prefetch distance, in points
             for (std::int64_t i = 0; i < n && !stop; ++i) {
                 if (i % 65536 == 0 && (stop = interruption.requested())) break;
+                if (i + kAhead < n) {
+                    const std::uint32_t ahead = cell[i + kAhead];
+                    if (ahead >= first && ahead < last) __builtin_prefetch(&lowest[ahead], 1);
+                }
                 const std::uint32_t c = cell[i];
                 if (c >= first && c < last)  // kSkipped is never inside [first, last)
                     keep_lower(

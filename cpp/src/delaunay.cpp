@@ -150,12 +150,17 @@ SnappedPoints snap_points(PointsView points, const std::array<double, 3>& origin
     const std::uint64_t id_mask = (std::uint64_t{1} << id_bits) - 1;
     // In blocks polled once each: the reads miss the cache, the sweep takes a while.
     constexpr std::size_t kBlock = 4096;
+    constexpr std::size_t kAhead = 16;  // prefetch distance, in points
     const auto blocks = static_cast<std::ptrdiff_t>((n + kBlock - 1) / kBlock);
 #pragma omp parallel for schedule(static) firstprivate(interruption)
     for (std::ptrdiff_t b = 0; b < blocks; ++b) {
         if (interruption.requested()) continue;
         const std::size_t begin = static_cast<std::size_t>(b) * kBlock;
         for (std::size_t s = begin; s < std::min(n, begin + kBlock); ++s) {
+            if (s + kAhead < n) {  // a point's 24 bytes may straddle two cache lines
+                const double* ahead = points.xyz + 3 * (keys[s + kAhead] & id_mask);
+                __builtin_prefetch(ahead), __builtin_prefetch(ahead + 2);
+            }
             const auto i = static_cast<std::uint32_t>(keys[s] & id_mask);
             out.order[s] = i;
             out.x[s] = out.grid_x(points, i);

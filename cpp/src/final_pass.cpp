@@ -286,6 +286,7 @@ void final_pass(PointsView points, const FinalPassParams& params, const SnappedP
     const std::int64_t near = std::int64_t{2} << lattice.shift;
     const double q = frame.quantum;
     constexpr std::ptrdiff_t kChunk = 4096;
+    constexpr std::ptrdiff_t kAhead = 32;  // prefetch distance, in points
     const auto m = static_cast<std::ptrdiff_t>(n);
 #pragma omp parallel firstprivate(interruption)
     {
@@ -302,6 +303,10 @@ void final_pass(PointsView points, const FinalPassParams& params, const SnappedP
             if (interruption.requested()) continue;
             const std::ptrdiff_t end = std::min(m, (chunk + 1) * kChunk);
             for (std::ptrdiff_t s = chunk * kChunk; s < end; ++s) {
+                // The verdicts go to scattered places: fetch the line a little ahead (a
+                // later round, which skips most points, would fetch for nothing).
+                if (dirty.empty() && s + kAhead < m)
+                    __builtin_prefetch(&ground[snapped.order[s + kAhead]], 1);
                 const std::int32_t gx = snapped.x[s], gy = snapped.y[s];
                 // The same triangle as in the last round: the same verdict, in `ground`.
                 if (!dirty.empty() && !dirty[lattice.of(gx, gy)]) continue;
