@@ -3,6 +3,8 @@ VLRs kept bit for bit, templates, scales, what LAS cannot store, and damaged fil
 
 from __future__ import annotations
 
+import warnings
+
 import laspy
 import numpy as np
 import pytest
@@ -253,3 +255,19 @@ def test_corrupt_las_header(tmp_path):
     (tmp_path / "b.las").write_bytes(bytes(data))
     with pytest.raises(ValueError, match="invalid LAS/LAZ file"):
         read_points(tmp_path / "b.las")
+
+
+def test_las_with_more_records_than_counted_warns(tmp_path):
+    random_las("1.2", 3, 100, seed=1).write(tmp_path / "a.las")
+    data = bytearray((tmp_path / "a.las").read_bytes())
+    data[107:111] = (60).to_bytes(4, "little")  # the legacy point count, damaged
+    (tmp_path / "b.las").write_bytes(bytes(data))
+    with pytest.warns(UserWarning, match=r"counts 60 points.*room for 40 more records"):
+        cloud = read_points(tmp_path / "b.las")
+    assert len(cloud.points) == 60
+    # A few bytes after the records, less than one record, are left without a word.
+    full = (tmp_path / "a.las").read_bytes()
+    (tmp_path / "c.las").write_bytes(full + b"\0" * 7)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert len(read_points(tmp_path / "c.las").points) == 100

@@ -207,6 +207,13 @@ def read_points(path: str | os.PathLike[str], *, format: str | None = None) -> P
         another format than the extension says, or it is corrupt or truncated.
         The message names the file and the problem.
 
+    Warns
+    -----
+    UserWarning
+        If an uncompressed LAS file holds room for more point records after
+        the ones its header counts (a damaged count would otherwise go
+        unnoticed); the counted points are returned.
+
     Notes
     -----
     LAS 1.0-1.4 and LAZ come through laspy (with the lazrs backend for LAZ);

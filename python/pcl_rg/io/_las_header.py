@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 import os
 import struct
+import warnings
 from collections.abc import Iterator
 from typing import BinaryIO, NamedTuple
 
@@ -174,6 +175,20 @@ def check_las_header(path: str, stream: BinaryIO) -> LasFacts:
                 f"header claims {point_count} points of {record_length} bytes "
                 f"({point_count * record_length} bytes), but the file holds {payload} "
                 "bytes of point data (truncated?)",
+            )
+        # Room for more records after the counted ones: the count may be damaged, and
+        # then the cloud read is silently partial (LAStools' lasinfo warns likewise).
+        # Waveform packets stored in the file (global encoding bit 1) follow the
+        # points by design.
+        (global_encoding,) = struct.unpack_from("<H", head, 6)
+        spare = payload - point_count * record_length
+        if spare >= record_length and not global_encoding & 0x2:
+            warnings.warn(
+                f"LAS file {path!r}: the header counts {point_count} points, but {spare} "
+                f"bytes follow them, room for {spare // record_length} more records of "
+                f"{record_length} bytes; only the counted points are read (is the "
+                "header's point count damaged?)",
+                stacklevel=2,
             )
     largest_chunk = 0
     if compressed and point_count:
