@@ -138,6 +138,8 @@ def test_errors() -> None:
         segmentation_scores([1, 2], ["a", "b"])
     with pytest.raises(ValueError, match="one-dimensional"):
         segmentation_scores([[1, 2]], [[0, 0]])
+    with pytest.raises(ValueError, match=r"truth ids must be >= 0.*got -1 at 2 points"):
+        segmentation_scores([-1, 1, 1, -1], [0, 0, 0, 0])
     empty = segmentation_scores(np.empty(0, np.int32), np.empty(0, np.int32))
     assert math.isnan(empty.mean_iou) and empty.over_segmented == 0
 

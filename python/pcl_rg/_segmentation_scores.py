@@ -95,7 +95,8 @@ def segmentation_scores(truth: npt.ArrayLike, labels: npt.ArrayLike) -> Segmenta
     TypeError
         Non-integer arrays.
     ValueError
-        Arrays of different lengths or not one-dimensional.
+        Arrays of different lengths or not one-dimensional, or a negative truth
+        id (map unlabelled points to 0).
 
     Notes
     -----
@@ -134,6 +135,13 @@ def segmentation_scores(truth: npt.ArrayLike, labels: npt.ArrayLike) -> Segmenta
     c = _check_labels("labels", labels)
     if t.shape != c.shape:
         raise ValueError(f"truth and labels must have the same length, got {t.size} and {c.size}")
+    if t.size and t.min() < 0:
+        # A negative id is another convention's "unlabelled"; read as a segment it
+        # would lower every score silently.
+        raise ValueError(
+            f"truth ids must be >= 0 (0: no truth), got {t.min()} at "
+            f"{int(np.count_nonzero(t < 0))} points; map unlabelled points to 0"
+        )
     evaluated = t != 0
     t, c = t[evaluated], c[evaluated]
     c = np.where(c < 0, -1, c)
