@@ -244,7 +244,9 @@ def test_truncated_las(tmp_path, ext, cut):
     data = (tmp_path / f"full.{ext}").read_bytes()
     keep = 120 if cut == "header" else int(len(data) * cut)
     (tmp_path / f"cut.{ext}").write_bytes(data[:keep])
-    with pytest.raises(ValueError, match="invalid LAS/LAZ file"):
+    # A cut inside the points is named as such, whichever check meets it first.
+    problem = "shorter than the 227-byte" if cut == "header" else r"\(truncated\?\)"
+    with pytest.raises(ValueError, match=f"invalid LAS/LAZ file.*{problem}"):
         read_points(tmp_path / f"cut.{ext}")
 
 

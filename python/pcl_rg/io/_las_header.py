@@ -253,7 +253,8 @@ def _check_laz_payload(
             raise _bad(
                 path,
                 f"LASzip chunk table offset {table_offset} lies outside the point data "
-                f"({data_offset + 8} to {point_end - 8})",
+                f"({data_offset + 8} to {point_end - 8})"
+                + (" (truncated?)" if table_offset > point_end - 8 else ""),
             )
         version, chunks = struct.unpack("<II", _read_at(stream, table_offset, 8))
         if version != 0:
