@@ -256,3 +256,32 @@ def test_nan_points_to_las_are_refused_before_the_work(tmp_path, capsys, monkeyp
     monkeypatch.undo()
     code, _, err = run(capsys, "ground", source, tmp_path / "out.las", "--drop")
     assert code == 0, err
+
+
+def test_evaluate_segments_refuses_truth_ids_it_cannot_read(capsys, tmp_path):
+    xyz = np.random.default_rng(0).uniform(0, 10, (40, 3))
+    segment_id = np.repeat(np.arange(4, dtype=np.int32), 10)
+    write_pcd(tmp_path / "pred.pcd", xyz, {"segment_id": segment_id}, encoding="binary")
+    truths = {
+        "negative ids": (np.where(segment_id == 3, -1, segment_id + 1), "negative ids at 10"),
+        "NaN": (np.where(segment_id == 3, np.nan, 1.0), "not whole numbers"),
+        "fractions": (segment_id + 0.5, "not whole numbers"),
+    }
+    for what, (label, fragment) in truths.items():
+        write_pcd(tmp_path / "truth.pcd", xyz, {"label": label}, encoding="binary")
+        code, out, err = run(
+            capsys,
+            "evaluate",
+            tmp_path / "pred.pcd",
+            "--segments",
+            "--truth",
+            tmp_path / "truth.pcd",
+        )
+        assert code == 2, what
+        assert_one_error_line(err, "--truth-field 'label'", fragment)
+    # Whole-number floats are ids like any other.
+    write_pcd(tmp_path / "truth.pcd", xyz, {"label": segment_id + 1.0}, encoding="binary")
+    code, out, err = run(
+        capsys, "evaluate", tmp_path / "pred.pcd", "--segments", "--truth", tmp_path / "truth.pcd"
+    )
+    assert code == 0, err

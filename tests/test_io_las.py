@@ -264,12 +264,29 @@ def test_las_with_more_records_than_counted_warns(tmp_path):
     data = bytearray((tmp_path / "a.las").read_bytes())
     data[107:111] = (60).to_bytes(4, "little")  # the legacy point count, damaged
     (tmp_path / "b.las").write_bytes(bytes(data))
-    with pytest.warns(UserWarning, match=r"counts 60 points.*room for 40 more records"):
+    with pytest.warns(UserWarning, match=r"counts 60 points.*room for 40 more records") as caught:
         cloud = read_points(tmp_path / "b.las")
     assert len(cloud.points) == 60
+    assert caught[0].filename == __file__  # the caller's line, not pcl_rg's
     # A few bytes after the records, less than one record, are left without a word.
     full = (tmp_path / "a.las").read_bytes()
     (tmp_path / "c.las").write_bytes(full + b"\0" * 7)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         assert len(read_points(tmp_path / "c.las").points) == 100
+
+
+def test_las_13_waveform_packets_after_the_points_are_no_spare_room(tmp_path):
+    random_las("1.3", 3, 100, seed=1).write(tmp_path / "a.las")
+    data = bytearray((tmp_path / "a.las").read_bytes())
+    counted_end = len(data)
+    data += bytes(5 * 200)  # packets of a waveform, stored in the file after the points
+    data[227:235] = counted_end.to_bytes(8, "little")
+    (tmp_path / "b.las").write_bytes(bytes(data))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert len(read_points(tmp_path / "b.las").points) == 100
+    data[227:235] = bytes(8)  # no waveform: the same bytes are room for more records
+    (tmp_path / "c.las").write_bytes(bytes(data))
+    with pytest.warns(UserWarning, match="room for"):
+        read_points(tmp_path / "c.las")

@@ -8,8 +8,11 @@ allocate; laspy is imported only when a LAS/LAZ file is read or written.
 from __future__ import annotations
 
 import contextlib
+import os
 import signal
+import sys
 import threading
+import warnings
 from collections.abc import Iterator
 from typing import BinaryIO
 
@@ -29,6 +32,18 @@ def _laspy():
             "reading and writing LAS/LAZ needs laspy with lazrs: pip install 'pcl_rg[las]'"
         ) from error
     return laspy
+
+
+_PACKAGE = os.path.dirname(os.path.dirname(os.path.abspath(__file__))) + os.sep
+
+
+def _outside_stacklevel() -> int:
+    """warnings.warn's stacklevel, from the caller of this, of the first frame outside
+    pcl_rg: a warning then names the user's line, however deep the call."""
+    frame, level = sys._getframe(1), 1
+    while frame is not None and frame.f_code.co_filename.startswith(_PACKAGE):
+        frame, level = frame.f_back, level + 1
+    return level
 
 
 # Points decoded in the first step of a LAZ read; each later step doubles, up to the
@@ -65,6 +80,13 @@ def _decode_las(path: str) -> tuple[np.ndarray, dict[str, np.ndarray], object]:
     laspy = _laspy()
     with open(path, "rb") as stream:
         facts = check_las_header(path, stream)
+        if facts.spare_records:
+            warnings.warn(
+                f"LAS file {path!r}: the header counts {facts.point_count} points, but the "
+                f"file has room for {facts.spare_records} more records after them; only the "
+                "counted points are read (is the header's point count damaged?)",
+                stacklevel=_outside_stacklevel(),
+            )
         stream.seek(0)
         parallel = facts.parallel_decompression
         backend = laspy.LazBackend.LazrsParallel if parallel else laspy.LazBackend.Lazrs

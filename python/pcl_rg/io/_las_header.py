@@ -19,7 +19,6 @@ from __future__ import annotations
 import math
 import os
 import struct
-import warnings
 from collections.abc import Iterator
 from typing import BinaryIO, NamedTuple
 
@@ -54,6 +53,9 @@ class LasFacts(NamedTuple):
     parallel_decompression: bool
     """False when a LAZ chunk is too large for lazrs's parallel reader, which
     allocates a whole chunk's points at once; the sequential reader does not."""
+    spare_records: int
+    """Uncompressed: how many more point records fit between the counted ones and
+    what follows them (EVLRs, waveform packets, the end of the file); 0 for LAZ."""
 
 
 def _bad(path: str, problem: str) -> ValueError:
@@ -176,27 +178,33 @@ def check_las_header(path: str, stream: BinaryIO) -> LasFacts:
                 f"({point_count * record_length} bytes), but the file holds {payload} "
                 "bytes of point data (truncated?)",
             )
-        # Room for more records after the counted ones: the count may be damaged, and
-        # then the cloud read is silently partial (LAStools' lasinfo warns likewise).
-        # Waveform packets stored in the file (global encoding bit 1) follow the
-        # points by design.
-        (global_encoding,) = struct.unpack_from("<H", head, 6)
-        spare = payload - point_count * record_length
-        if spare >= record_length and not global_encoding & 0x2:
-            warnings.warn(
-                f"LAS file {path!r}: the header counts {point_count} points, but {spare} "
-                f"bytes follow them, room for {spare // record_length} more records of "
-                f"{record_length} bytes; only the counted points are read (is the "
-                "header's point count damaged?)",
-                stacklevel=2,
-            )
+        # Room for more records after the counted ones: a damaged count would make the
+        # cloud read silently partial (LAStools' lasinfo warns likewise). The records
+        # end at the EVLRs (point_end) or, LAS 1.3-1.4, at the waveform packets stored
+        # in the file (the header's uint64 at byte 227) when they start in between.
+        counted_end = data_offset + point_count * record_length
+        records_end = point_end
+        if minor >= 3:
+            (waveform_start,) = struct.unpack_from("<Q", head, 227)
+            if counted_end <= waveform_start < records_end:
+                records_end = waveform_start
+        spare_records = (records_end - counted_end) // record_length
+    else:
+        spare_records = 0
     largest_chunk = 0
     if compressed and point_count:
         largest_chunk = _check_laz_payload(
-            path, stream, laszip_vlr, data_offset, point_end, point_count, record_length
+            path,
+            stream,
+            laszip_vlr,
+            data_offset,
+            point_end,
+            point_count,
+            record_length,
+            at_file_end=not evlr_count,
         )
     parallel = largest_chunk * record_length <= _PARALLEL_CHUNK_BYTES
-    return LasFacts(point_count, compressed, parallel)
+    return LasFacts(point_count, compressed, parallel, spare_records)
 
 
 def _check_laz_payload(
@@ -207,6 +215,7 @@ def _check_laz_payload(
     point_end: int,
     point_count: int,
     record_length: int,
+    at_file_end: bool,
 ) -> int:
     """Bound a LAZ file's point count by its chunks; return the largest chunk's points.
 
@@ -254,7 +263,8 @@ def _check_laz_payload(
                 path,
                 f"LASzip chunk table offset {table_offset} lies outside the point data "
                 f"({data_offset + 8} to {point_end - 8})"
-                + (" (truncated?)" if table_offset > point_end - 8 else ""),
+                # Past the end of the file, not of the points before the EVLRs: a cut.
+                + (" (truncated?)" if at_file_end and table_offset > point_end - 8 else ""),
             )
         version, chunks = struct.unpack("<II", _read_at(stream, table_offset, 8))
         if version != 0:

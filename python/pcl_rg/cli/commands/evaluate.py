@@ -168,6 +168,29 @@ def _check_same_points(prediction: PointFile, truth_points: np.ndarray, scale: f
         )
 
 
+def _truth_ids(args: argparse.Namespace, ids: np.ndarray) -> np.ndarray:
+    """The truth field as int64 segment ids, or a CliError naming the field."""
+    field = f"--truth-field {args.truth_field!r} of {args.truth!r}"
+    if ids.dtype.kind == "f":
+        whole = np.isfinite(ids) & (ids == np.round(ids))
+        if not whole.all():
+            raise CliError(
+                f"{field} holds {np.count_nonzero(~whole)} values that are not whole numbers "
+                "(NaN among them?); segment ids must be"
+            )
+    elif ids.dtype.kind not in "iub":
+        raise CliError(f"{field} is of dtype {ids.dtype}, not segment ids")
+    if ids.size and ids.min() < 0:
+        raise CliError(
+            f"{field} holds negative ids at {np.count_nonzero(ids < 0)} points (another "
+            "segmentation's -1 for unassigned?); truth segment ids are >= 0, with 0 for "
+            "points that have no truth segment"
+        )
+    if ids.dtype.kind == "u" and ids.size and ids.max() > np.iinfo(np.int64).max:
+        raise CliError(f"{field} holds ids above 2**63 - 1")
+    return ids.astype(np.int64)
+
+
 def _evaluate_segments(args: argparse.Namespace, run: Run, prediction: PointFile) -> None:
     if args.truth is None:
         raise CliError("evaluate --segments needs --truth FILE with a truth segment field")
@@ -188,7 +211,7 @@ def _evaluate_segments(args: argparse.Namespace, run: Run, prediction: PointFile
     from ...evaluation import segmentation_scores
 
     scores = segmentation_scores(
-        np.asarray(segments).astype(np.int64), np.asarray(labels).astype(np.int64)
+        _truth_ids(args, np.asarray(segments)), np.asarray(labels).astype(np.int64)
     )
     run.result.update(
         prediction=os.path.abspath(args.prediction),
