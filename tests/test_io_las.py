@@ -264,7 +264,7 @@ def test_las_with_more_records_than_counted_warns(tmp_path):
     data = bytearray((tmp_path / "a.las").read_bytes())
     data[107:111] = (60).to_bytes(4, "little")  # the legacy point count, damaged
     (tmp_path / "b.las").write_bytes(bytes(data))
-    with pytest.warns(UserWarning, match=r"counts 60 points.*room for 40 more records") as caught:
+    with pytest.warns(UserWarning, match=r"counts 60 points.*holds room for 40 more") as caught:
         cloud = read_points(tmp_path / "b.las")
     assert len(cloud.points) == 60
     assert caught[0].filename == __file__  # the caller's line, not pcl_rg's
@@ -290,3 +290,20 @@ def test_las_13_waveform_packets_after_the_points_are_no_spare_room(tmp_path):
     (tmp_path / "c.las").write_bytes(bytes(data))
     with pytest.warns(UserWarning, match="room for"):
         read_points(tmp_path / "c.las")
+
+
+def test_laz_with_whole_chunks_beyond_its_count_warns(tmp_path):
+    random_las("1.2", 3, 120_000, seed=1, extra=False).write(tmp_path / "a.laz")
+    data = bytearray((tmp_path / "a.laz").read_bytes())
+    # LASzip's fixed chunks of 50,000 points: 3 chunks, the last one not full.
+    for count, warns in ((100_001, False), (100_000, True), (30_000, True)):
+        data[107:111] = count.to_bytes(4, "little")
+        (tmp_path / "b.laz").write_bytes(bytes(data))
+        if warns:
+            at_least = 100_001 - count
+            with pytest.warns(UserWarning, match=f"holds at least {at_least} more records"):
+                assert len(read_points(tmp_path / "b.laz").points) == count
+        else:
+            with warnings.catch_warnings():
+                warnings.simplefilter("error")
+                assert len(read_points(tmp_path / "b.laz").points) == count

@@ -210,9 +210,10 @@ def read_points(path: str | os.PathLike[str], *, format: str | None = None) -> P
     Warns
     -----
     UserWarning
-        If an uncompressed LAS file holds room for more point records after
-        the ones its header counts (a damaged count would otherwise go
-        unnoticed); the counted points are returned.
+        If a LAS file holds room for more point records after the ones its
+        header counts, or a LAZ file's chunk table more points than the count
+        (a damaged count would otherwise go unnoticed); the counted points are
+        returned.
 
     Notes
     -----

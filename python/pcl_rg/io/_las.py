@@ -83,8 +83,9 @@ def _decode_las(path: str) -> tuple[np.ndarray, dict[str, np.ndarray], object]:
         if facts.spare_records:
             warnings.warn(
                 f"LAS file {path!r}: the header counts {facts.point_count} points, but the "
-                f"file has room for {facts.spare_records} more records after them; only the "
-                "counted points are read (is the header's point count damaged?)",
+                f"file holds {'at least ' if facts.compressed else 'room for '}"
+                f"{facts.spare_records} more records after them; only the counted points "
+                "are read (is the header's point count damaged?)",
                 stacklevel=_outside_stacklevel(),
             )
         stream.seek(0)

@@ -54,8 +54,9 @@ class LasFacts(NamedTuple):
     """False when a LAZ chunk is too large for lazrs's parallel reader, which
     allocates a whole chunk's points at once; the sequential reader does not."""
     spare_records: int
-    """Uncompressed: how many more point records fit between the counted ones and
-    what follows them (EVLRs, waveform packets, the end of the file); 0 for LAZ."""
+    """How many more point records the file holds after the counted ones: LAS, the
+    room before what follows them (EVLRs, waveform packets, the end of the file);
+    LAZ, the points its chunk table gives beyond the count, at least."""
 
 
 def _bad(path: str, problem: str) -> ValueError:
@@ -193,7 +194,7 @@ def check_las_header(path: str, stream: BinaryIO) -> LasFacts:
         spare_records = 0
     largest_chunk = 0
     if compressed and point_count:
-        largest_chunk = _check_laz_payload(
+        largest_chunk, spare_records = _check_laz_payload(
             path,
             stream,
             laszip_vlr,
@@ -216,8 +217,9 @@ def _check_laz_payload(
     point_count: int,
     record_length: int,
     at_file_end: bool,
-) -> int:
-    """Bound a LAZ file's point count by its chunks; return the largest chunk's points.
+) -> tuple[int, int]:
+    """Bound a LAZ file's point count by its chunks; return the largest chunk's points
+    and how many points the chunks hold beyond the count, at least (0: none for sure).
 
     LASzip compresses points in chunks and stores the first point of every chunk
     uncompressed, so a chunk takes at least `record_length` bytes; with a fixed
@@ -288,15 +290,20 @@ def _check_laz_payload(
             f"header claims {point_count} points of {record_length} bytes, more than "
             f"{_LAZ_MAX_RATIO} times the {payload} bytes of compressed data (truncated?)",
         )
-    if table_offset == -1:
-        return chunk_size if chunk_size != _VARIABLE_CHUNKS else point_count
-    return _check_chunk_table(path, stream, laszip_vlr, data_offset, table_offset)
+    if table_offset == -1:  # no table: the chunk count above is only a bound
+        return (chunk_size if chunk_size != _VARIABLE_CHUNKS else point_count), 0
+    largest, table_points = _check_chunk_table(path, stream, laszip_vlr, data_offset, table_offset)
+    # Fixed chunks are all full but the last, which holds at least one point; variable
+    # ones state their points.
+    held = (chunks - 1) * chunk_size + 1 if chunk_size != _VARIABLE_CHUNKS else table_points
+    return largest, max(0, held - point_count)
 
 
 def _check_chunk_table(
     path: str, stream: BinaryIO, laszip_vlr: bytes, data_offset: int, table_offset: int
 ) -> int:
-    """Check the chunks' byte counts against the data; return the largest chunk's points.
+    """Check the chunks' byte counts against the data; return the largest chunk's points
+    and the points of all chunks.
 
     lazrs's parallel reader allocates each chunk's stated bytes, and its stated
     points (the chunk size, with fixed chunks), before reading it.
@@ -306,9 +313,10 @@ def _check_chunk_table(
     stream.seek(data_offset)
     table = lazrs.read_chunk_table(stream, lazrs.LazVlr(laszip_vlr))
     room = table_offset - data_offset - 8
-    total = largest = 0
+    total = largest = points_in_all = 0
     for index, (points, byte_count) in enumerate(table):
         largest = max(largest, points)
+        points_in_all += points
         total += byte_count
         if total > room:
             raise _bad(
@@ -319,7 +327,7 @@ def _check_chunk_table(
     (compressor,) = struct.unpack_from("<H", laszip_vlr, 0)
     if compressor == _LAYERED_CHUNKED:
         _check_layers(path, stream, laszip_vlr, data_offset + 8, table)
-    return largest
+    return largest, points_in_all
 
 
 def _check_layers(
