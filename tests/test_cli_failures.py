@@ -285,3 +285,18 @@ def test_evaluate_segments_refuses_truth_ids_it_cannot_read(capsys, tmp_path):
         capsys, "evaluate", tmp_path / "pred.pcd", "--segments", "--truth", tmp_path / "truth.pcd"
     )
     assert code == 0, err
+
+
+@pytest.mark.filterwarnings("default::UserWarning")
+def test_a_warning_is_one_line_and_the_work_goes_on(capsys, tmp_path, scene_las):
+    data = bytearray(scene_las.read_bytes())
+    count = int.from_bytes(data[107:111], "little")
+    data[107:111] = (count - 5).to_bytes(4, "little")  # a damaged legacy point count
+    (tmp_path / "short.las").write_bytes(bytes(data))
+    code, out, err = run(capsys, "info", tmp_path / "short.las")
+    assert code == 0, err
+    assert err.splitlines() == [
+        f"pcl-rg: warning: LAS file {str(tmp_path / 'short.las')!r}: the header counts "
+        f"{count - 5} points, but the file holds room for 5 more records after them; only "
+        "the counted points are read (is the header's point count damaged?)"
+    ]

@@ -28,6 +28,7 @@ import argparse
 import json
 import os
 import sys
+import warnings
 from collections.abc import Iterable, Sequence
 
 from ._flags import EXIT_FAILURE, EXIT_INTERRUPTED, EXIT_USAGE, CliError, Parser
@@ -95,6 +96,17 @@ def _execute(argv: Sequence[str]) -> int:
 def main(argv: Sequence[str] | None = None) -> int:
     """Run ``pcl-rg`` with `argv` (default ``sys.argv[1:]``); return the exit status."""
     argv = list(sys.argv[1:] if argv is None else argv)
+    # Warnings (a damaged LAS point count, ...) as one line each, like the errors.
+    with warnings.catch_warnings():
+        warnings.showwarning = _warning_line
+        return _main(argv)
+
+
+def _warning_line(message: Warning | str, *args: object, **kwargs: object) -> None:
+    print(f"pcl-rg: warning: {' '.join(str(message).split())}", file=sys.stderr)
+
+
+def _main(argv: list[str]) -> int:
     json_mode = "--json" in argv
     if os.environ.get("PCL_RG_TRACEBACK"):  # developers: let exceptions through
         return _execute(argv)
