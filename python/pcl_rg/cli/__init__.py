@@ -102,8 +102,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         return _main(argv)
 
 
+def _one_line(message: object) -> str:
+    return " ".join(str(message).split())
+
+
 def _warning_line(message: Warning | str, *args: object, **kwargs: object) -> None:
-    print(f"pcl-rg: warning: {' '.join(str(message).split())}", file=sys.stderr)
+    print(f"pcl-rg: warning: {_one_line(message)}", file=sys.stderr)
 
 
 def _main(argv: list[str]) -> int:
@@ -137,7 +141,7 @@ def _main(argv: list[str]) -> int:
 
 
 def _fail(message: str, code: int, json_mode: bool) -> int:
-    line = " ".join(message.split())  # one line, whatever the message held
+    line = _one_line(message)  # one line, whatever the message held
     print(f"pcl-rg: error: {line}", file=sys.stderr)
     if json_mode:
         print(json.dumps({"error": line, "exit_status": code}))

@@ -301,7 +301,7 @@ def _check_laz_payload(
 
 def _check_chunk_table(
     path: str, stream: BinaryIO, laszip_vlr: bytes, data_offset: int, table_offset: int
-) -> int:
+) -> tuple[int, int]:
     """Check the chunks' byte counts against the data; return the largest chunk's points
     and the points of all chunks.
 
