@@ -132,6 +132,17 @@ def test_denoise_is_identical_to_the_merged_run(sample, tmp_path, scheduler):
     assert expected.any() and np.array_equal(got, expected)
 
 
+def test_a_buffer_far_beyond_the_survey_is_the_merged_run(survey, tmp_path, scheduler):
+    # A buffer of 1e20 m overflowed int64 in the neighbour index, which then read only
+    # its first column of cells: 18 labels differed from the merged run.
+    params = pcl_rg.StatisticalOutlierRemovalParams(mean_k=12, std_mul=1.0)
+    report = batch.denoise(survey.paths, tmp_path, params=params, buffer=1e20, scheduler=scheduler)
+    points = np.concatenate([c.points for c in merged(survey.paths)])
+    expected = ~pcl_rg.statistical_outlier_removal(points, params=params)
+    got = np.concatenate([c.classification for c in outputs_of(report)]) == 7
+    assert expected.any() and np.array_equal(got, expected)
+
+
 def test_denoise_grows_a_buffer_that_is_too_small(survey, tmp_path, scheduler):
     params = pcl_rg.StatisticalOutlierRemovalParams(mean_k=30)
     report = batch.denoise(survey.paths, tmp_path, params=params, buffer=0.5, scheduler=scheduler)
@@ -240,6 +251,8 @@ def test_bad_arguments_fail_before_any_work(tmp_path, survey):
         batch.ground(survey.paths, tmp_path / "out", params=pcl_rg.TinGroundParams())
     with pytest.raises(ValueError, match="workers must be"):
         batch.ground(survey.paths, tmp_path / "out", workers=0)
+    with pytest.raises(ValueError, match="workers must be <="):  # ran out of memory
+        batch.ground(survey.paths, tmp_path / "out", workers=1_000_000)
 
 
 def test_same_file_names_from_two_folders_are_refused(tmp_path, survey):

@@ -300,3 +300,23 @@ def test_a_warning_is_one_line_and_the_work_goes_on(capsys, tmp_path, scene_las)
         f"{count - 5} points, but the file holds room for 5 more records after them; only "
         "the counted points are read (is the header's point count damaged?)"
     ]
+
+
+@pytest.mark.parametrize("command", ["ground", "denoise", "segment", "pipeline"])
+def test_a_fifo_as_input_is_refused_not_waited_on(tmp_path, command):
+    # Opening a FIFO blocks until a writer comes: the run hung for ever. A subprocess
+    # with a timeout, so that a regression fails instead of hanging the suite.
+    import subprocess
+    import sys
+
+    fifo = tmp_path / "pipe.las"
+    os.mkfifo(fifo)
+    result = subprocess.run(
+        [sys.executable, "-m", "pcl_rg", command, str(fifo), str(tmp_path / "out.las")],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert result.returncode == 2
+    assert_one_error_line(result.stderr, "is not a regular file")
+    assert not (tmp_path / "out.las").exists()

@@ -359,3 +359,35 @@ def test_long_names_are_cut_between_characters(tmp_path, monkeypatch):
     (temp,) = created
     assert temp.startswith("." + "a" * 63 + ".")  # the cut "é" left out whole
     temp.encode("utf-8")  # no lone surrogate from half a character
+
+
+@pytest.mark.parametrize("data", [b"1 2 3\n\n", b"1 2 3\n   \n4 5 6\n", b"\n1 2 3\n4 5 6\n"])
+def test_ply_ascii_blank_line_within_the_counted_rows(tmp_path, data):
+    # numpy skips blank lines: the first file was read as the point 1 2 3 twice.
+    path = tmp_path / "b.ply"
+    path.write_bytes(
+        b"ply\nformat ascii 1.0\nelement vertex 2\nproperty double x\nproperty double y\n"
+        b"property double z\nend_header\n" + data
+    )
+    with pytest.raises(ValueError, match="blank line"):
+        read_points(path)
+
+
+@pytest.mark.parametrize(("size", "code"), [(8, "d"), (4, "i")])
+def test_pcd_template_keeps_float64_or_integer_y_and_z(tmp_path, size, code):
+    # x float32, y and z not: the template's coordinate type came from x alone, so a
+    # round trip rounded y to float32 (5000000.123 -> 5000000.0).
+    import struct
+
+    kind = "F" if code == "d" else "I"
+    path = tmp_path / "m.pcd"
+    header = (
+        f"# .PCD v0.7\nVERSION 0.7\nFIELDS x y z\nSIZE 4 {size} {size}\nTYPE F {kind} {kind}\n"
+        "COUNT 1 1 1\nWIDTH 1\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 1\nDATA binary\n"
+    )
+    y, z = (5000000.123, 100.456) if code == "d" else (5000001, -7)
+    path.write_bytes(header.encode() + struct.pack(f"<f{code}{code}", 1.5, y, z))
+    cloud = read_points(path)
+    out = tmp_path / "out.pcd"
+    write_points(out, cloud.points, cloud.fields, template=cloud)
+    np.testing.assert_array_equal(read_points(out).points, [[1.5, y, z]])

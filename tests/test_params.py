@@ -201,3 +201,19 @@ def test_numbers_are_written_alike_in_both_layers(value) -> None:
     with pytest.raises(ValueError) as error:
         _core.grid_ground(CLOUD, core)
     assert str(error.value) == python_message
+
+
+@pytest.mark.parametrize(
+    "call",
+    [
+        lambda p: pcl_rg.grid_ground(p, slope=10**400),
+        lambda p: pcl_rg.tin_ground(p, iteration_distance=10**309),
+        lambda p: pcl_rg.voxel_grid(p, 10**400),
+        lambda p: pcl_rg.VoxelGridParams(leaf_size=[0.5, 0.5, 10**400]),
+    ],
+)
+def test_an_integer_beyond_float64_is_refused_like_inf(call):
+    # float(10**400) raises OverflowError, which named no parameter.
+    points = np.random.default_rng(0).uniform(0, 10, (100, 3))
+    with pytest.raises(ValueError, match="must be finite"):
+        call(points)

@@ -181,7 +181,12 @@ def _number(name: str, value: Any, spec: Spec) -> Any:
     else:
         if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
             raise TypeError(f"{name} must be a real number, got {value!r}")
-        value = float(value)
+        try:
+            value = float(value)
+        except OverflowError:  # an int beyond float64's range (10**400)
+            raise ValueError(
+                f"{name} must be finite, got an integer of {value.bit_length()} bits"
+            ) from None
         if not math.isfinite(value):
             raise ValueError(f"{name} must be finite, got {format_value(value)}")
     if not spec.admits(value):

@@ -61,6 +61,10 @@ DENOISE_START_BUFFER = 10.0
 Inputs = Sequence[str | os.PathLike[str]] | str | os.PathLike[str]
 
 
+#: The most local worker processes per core that `workers` may ask for.
+MOST_WORKERS_PER_CORE = 8
+
+
 def survey_spacing(inputs: Inputs) -> float:
     """The point spacing :func:`ground` gives the unset lengths of its parameters.
 
@@ -175,6 +179,14 @@ def _run(
         raise TypeError(f"workers must be an integer, got {workers!r}")
     if workers is not None and workers < 1:
         raise ValueError(f"workers must be >= 1, got {workers}")
+    # Local processes on this machine: far more than its cores only queue for them, and
+    # a million of them exhausted memory before the first one started.
+    most = max(MOST_WORKERS_PER_CORE * (os.cpu_count() or 1), 64)
+    if workers is not None and workers > most:
+        raise ValueError(
+            f"workers must be <= {most} (local processes on this machine of "
+            f"{os.cpu_count() or 1} cores), got {workers}"
+        )
     if isinstance(inputs, (str, os.PathLike)):
         inputs = [inputs]
     if units is not None and units not in GIVEN_UNITS:

@@ -221,9 +221,14 @@ def _context(
         cell_rows = np.load(os.path.join(folder, "cell_rows.npy"), mmap_mode="r")
         pieces = []
         for box in region:
-            first = np.floor((np.array([box.xmin, box.ymin]) - low) / size).astype(np.int64)
-            last = np.floor((np.array([box.xmax, box.ymax]) - low) / size).astype(np.int64)
-            first, last = np.clip(first, 0, INDEX_CELLS - 1), np.clip(last, 0, INDEX_CELLS - 1)
+            # Clipped before the cast: a box far beyond the tile (a huge buffer) would
+            # overflow int64 and wrap to the first column.
+            first, last = (
+                np.clip(np.floor((np.array(corner) - low) / size), 0, INDEX_CELLS - 1).astype(
+                    np.int64
+                )
+                for corner in ((box.xmin, box.ymin), (box.xmax, box.ymax))
+            )
             # Cells of one grid row are consecutive: one slice per row of cells.
             pieces += [
                 np.asarray(

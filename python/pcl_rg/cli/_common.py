@@ -153,6 +153,8 @@ def check_paths(source: str, target: str, plots: Sequence[str | None] = ()) -> N
         raise CliError(f"INPUT {source!r} does not exist")
     if os.path.isdir(source):
         raise CliError(f"INPUT {source!r} is a folder, not a file")
+    if not os.path.isfile(source):  # a FIFO or a device would block the read for ever
+        raise CliError(f"INPUT {source!r} is not a regular file")
     if os.path.isdir(target):
         raise CliError(f"OUTPUT {target!r} is a folder, not a file")
     folder = os.path.dirname(os.path.abspath(target))

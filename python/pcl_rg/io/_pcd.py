@@ -203,10 +203,13 @@ def read(name: str) -> tuple[np.ndarray, dict[str, np.ndarray], tuple]:
         for key, values in columns.items()
         if key not in ("x", "y", "z")
     }
-    x_dtype = next(f.dtype for f in header.fields if f.name == "x")
+    # float32 only when all three axes are: a float64 or integer axis written back as
+    # float32 (a template round trip) would lose digits without a word.
+    axes = {f.dtype.newbyteorder("=") for f in header.fields if f.name in ("x", "y", "z")}
+    xyz_dtype = np.dtype("f4") if axes == {np.dtype("f4")} else np.dtype("f8")
     layout = (
         header.data,
-        np.dtype(x_dtype.newbyteorder("=")),
+        xyz_dtype,
         header.width,
         header.height,
         header.viewpoint,

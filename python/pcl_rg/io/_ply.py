@@ -199,6 +199,11 @@ def read(path: str) -> tuple[np.ndarray, dict[str, np.ndarray], tuple]:
             )
         lines = text.splitlines()
         skip = sum(e.count for e in elements[:vertex_at])
+        # numpy skips blank lines that the header's counts do count: one would shift
+        # every row after it (a short file read as a made-up point).
+        blank = next((k for k, line in enumerate(lines[: skip + n]) if not line.strip()), None)
+        if blank is not None:
+            raise _bad_ply(path, f"blank line {blank + 1} of the data, within the counted rows")
         rows = lines[skip : skip + n]
         if len(rows) < n:
             raise _bad_ply(
