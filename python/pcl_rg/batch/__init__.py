@@ -251,7 +251,8 @@ def ground(
         refused), else metres. Every length is in metres: the points are scaled
         to metres for the work, and written back in their own units.
     workers : int, optional
-        Processes of the local cluster (default: the core count).
+        Processes of the local cluster (default: the core count; at most
+        ``max(8 x cores, 64)``).
     scheduler : str, optional
         Address of a running Dask scheduler to use instead of a local cluster.
     progress : bool
