@@ -61,8 +61,8 @@ DENOISE_START_BUFFER = 10.0
 Inputs = Sequence[str | os.PathLike[str]] | str | os.PathLike[str]
 
 
-#: The most local worker processes per core that `workers` may ask for.
-MOST_WORKERS_PER_CORE = 8
+# The most local worker processes per core that `workers` may ask for.
+_MOST_WORKERS_PER_CORE = 8
 
 
 def survey_spacing(inputs: Inputs) -> float:
@@ -181,11 +181,12 @@ def _run(
         raise ValueError(f"workers must be >= 1, got {workers}")
     # Local processes on this machine: far more than its cores only queue for them, and
     # a million of them exhausted memory before the first one started.
-    most = max(MOST_WORKERS_PER_CORE * (os.cpu_count() or 1), 64)
+    cores = os.cpu_count() or 1
+    most = max(_MOST_WORKERS_PER_CORE * cores, 64)
     if workers is not None and workers > most:
         raise ValueError(
-            f"workers must be <= {most} (local processes on this machine of "
-            f"{os.cpu_count() or 1} cores), got {workers}"
+            f"workers must be <= {most} (local processes on this machine of {cores} cores), "
+            f"got {workers}"
         )
     if isinstance(inputs, (str, os.PathLike)):
         inputs = [inputs]
