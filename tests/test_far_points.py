@@ -66,6 +66,19 @@ def test_the_box_measure_is_the_spacing_of_a_covered_box() -> None:
         assert reference.box_spacing(points) == pcl_rg.point_spacing(points)
 
 
+@pytest.mark.parametrize("far", [1e160, 1e200, 1e300])
+def test_a_point_so_far_that_the_cell_squared_overflows_gives_a_finite_spacing(
+    far: float,
+) -> None:
+    # The box's area is finite (its height is small), the cell side c is not far below
+    # the width, and c**2 overflows float64: the spacing was inf.
+    points = np.r_[np.random.default_rng(0).uniform(0.0, 1.0, (200, 3)), [[far, 0.5, 0.0]]]
+    spacing = pcl_rg.point_spacing(points)
+    assert math.isfinite(spacing) and spacing > 0.0
+    assert spacing == reference.point_spacing(points)
+    assert math.isfinite(reference.box_spacing(points))
+
+
 @settings(max_examples=40, deadline=None)
 @given(
     n=st.integers(50, 3000),

@@ -112,7 +112,11 @@ double point_spacing(PointsView points, const std::array<double, 3>& lower,
             occupied = occupied_cells(points, xmin, ymin, w, h, c);
         }
     }
-    return std::sqrt(static_cast<double>(occupied) * c * c / count);
+    // sqrt(M c^2 / N) as defined. With one stray point some 1e154 away the box's area is
+    // still finite but c^2 is not; c sqrt(M / N) is the same in exact arithmetic, and is
+    // used only then, so every finite result keeps its rounding.
+    const double spacing = std::sqrt(static_cast<double>(occupied) * c * c / count);
+    return std::isfinite(spacing) ? spacing : c * std::sqrt(static_cast<double>(occupied) / count);
 }
 
 double spacing_or_one_metre(PointsView points) {

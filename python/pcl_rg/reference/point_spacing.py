@@ -35,7 +35,7 @@ def point_spacing(points: npt.ArrayLike) -> float:
                 max(w, h) / 2.0**31,
             )
             occupied = _occupied_cells(x - xmin, y - ymin, h, c)
-    return math.sqrt(occupied * c * c / n)
+    return _spacing(occupied, c, n)
 
 
 def box_spacing(points: npt.ArrayLike) -> float:
@@ -47,7 +47,13 @@ def box_spacing(points: npt.ArrayLike) -> float:
     if box is None:
         return math.nan
     c, occupied = box[:2]
-    return math.sqrt(occupied * c * c / len(xyz))  # as point_spacing rounds it
+    return _spacing(occupied, c, len(xyz))  # as point_spacing rounds it
+
+
+def _spacing(occupied: int, c: float, n: int) -> float:
+    """sqrt(M c**2 / N), or c sqrt(M / N) where c**2 overflows (as the core)."""
+    spacing = math.sqrt(occupied * c * c / n)
+    return spacing if math.isfinite(spacing) else c * math.sqrt(occupied / n)
 
 
 def _box_cells(xyz: np.ndarray) -> tuple[float, int, float, float, float, float] | None:
