@@ -18,7 +18,9 @@ __all__ = ["ENTRIES", "fill_docstring"]
 ENTRIES = {
     "points": """\
 points : array_like, shape (N, 3)
-    Coordinates in metres (any real float or integer dtype, C or F order).""",
+    Coordinates in metres (any real float or integer dtype, C or F order).
+    Read in place when float64 and C-ordered: no other thread may write to it
+    during the call.""",
     # {params_type} is the function's own annotation of `params`, without "| None".
     "params": """\
 params : {params_type}, optional
