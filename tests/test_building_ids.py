@@ -44,6 +44,15 @@ def test_walls_need_the_tolerance() -> None:
     ("args", "kwargs", "error", "match"),
     [
         ((np.zeros((2, 3)), np.zeros(3, int), np.zeros((1, 4))), {}, ValueError, "labels"),
+        # Text or bool labels matched no class code: every id came back 0, silently.
+        ((np.zeros((2, 3)), np.array(["6", "6"]), np.zeros((1, 4))), {}, TypeError, "labels"),
+        ((np.zeros((2, 3)), np.ones(2, bool), np.zeros((1, 4))), {}, TypeError, "labels"),
+        (
+            (np.zeros((2, 3)), np.zeros(2, int), np.zeros((1, 4)) + 1j),
+            {},
+            TypeError,
+            "buildings must be real",
+        ),
         ((np.zeros((2, 3)), np.zeros(2, int), np.zeros(4)), {}, ValueError, "buildings"),
         ((np.zeros((2, 3)), np.zeros(2, int), np.full((1, 4), np.nan)), {}, ValueError, "finite"),
         (

@@ -306,6 +306,11 @@ def test_terrain_height_shapes_and_errors() -> None:
         terrain_height(0.0, 0.0, size=0.0)
     with pytest.raises(ValueError, match="seed must be >= 0"):
         terrain_height(0.0, 0.0, seed=-3)
+    # Cast to float64, x = 1+5j was read as 1 with only a warning, and "1" as 1.
+    with pytest.raises(TypeError, match="x must be real numbers .* complex128"):
+        terrain_height(np.array([1 + 5j]), np.array([1.0]))
+    with pytest.raises(TypeError, match="y must be real numbers .* <U1"):
+        terrain_height(1.0, "2")
 
 
 # --------------------------------------------------------------------------
@@ -350,7 +355,6 @@ def test_offset_does_not_change_geometry() -> None:
         ({"noise_fraction": float("nan")}, "noise_fraction must be finite"),
         ({"offset": (1.0, 2.0)}, "offset must have length 3"),
         ({"offset": (1.0, float("nan"), 0.0)}, "offset must be finite"),
-        ({"offset": ("a", "b", "c")}, "offset must be a sequence of 3 finite numbers"),
         ({"seed": -1}, "seed must be >= 0"),
         ({"size": 30.0}, "n_buildings=6 .* do not fit in a 30 m square"),
         ({"size": 3.0, "n_buildings": 0, "n_trees": 1}, "n_trees=1"),
@@ -378,6 +382,10 @@ def test_value_errors(kwargs: dict, match: str) -> None:
         ({"seed": 1.0}, "seed must be an integer"),
         ({"size": "200"}, "size must be a real number"),
         ({"density": None}, "density must be a real number"),
+        ({"offset": ("a", "b", "c")}, "offset must be real numbers .* got dtype <U1"),
+        # Cast to float64, these lost their imaginary part with only a warning.
+        ({"offset": np.array([1 + 1j, 0, 0])}, "offset must be real numbers .* complex128"),
+        ({"offset": (True, False, True)}, "offset must be real numbers .* got dtype bool"),
     ],
 )
 def test_type_errors(kwargs: dict, match: str) -> None:

@@ -114,3 +114,21 @@ def test_demo_command(capsys, tmp_path):
         assert code == 2
         assert "size must be in [80, 5000] m" in capsys.readouterr().err
         assert not (tmp_path / "none").exists()
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "error", "match"),
+    [
+        ({"size": "100"}, TypeError, "size must be a real number"),
+        ({"seed": -1}, ValueError, "seed must be >= 0"),  # was refused after the mkdir
+        ({"plots": "no"}, TypeError, "plots must be"),
+        ({"survey": 1}, TypeError, "survey must be"),
+        ({"stage": 5}, TypeError, "stage must be callable"),
+    ],
+)
+def test_run_demo_checks_its_arguments_before_making_the_folder(
+    tmp_path, kwargs: dict, error: type, match: str
+) -> None:
+    with pytest.raises(error, match=match):
+        run_demo(tmp_path / "out", **{"size": 100.0, **kwargs})
+    assert not (tmp_path / "out").exists()

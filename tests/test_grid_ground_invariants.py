@@ -108,6 +108,16 @@ def test_a_tile_cut_at_block_boundaries_keeps_the_blocks_and_labels(scene):
         )
 
 
+@pytest.mark.parametrize("size", [-1.0, 0.0, np.inf, np.nan])
+def test_lattice_floor_refuses_a_step_that_is_not_positive_and_finite(size: float) -> None:
+    # A negative step looped for ever (each step down moved the corner up); 0 raised a
+    # bare ZeroDivisionError, inf gave nan and nan gave `low` back.
+    with pytest.raises(ValueError, match="size must be finite and > 0"):
+        reference.lattice_floor(0.5, size)
+    with pytest.raises(ValueError, match="low must be finite"):
+        reference.lattice_floor(np.inf, 1.0)
+
+
 def test_lattice_corner_never_lies_above_the_minimum():
     """floor(3.4999999999999996 / 0.7) is 5, and 5 * 0.7 = 3.5 lies above the minimum:
     the origin must be one block lower, or the lowest point would get block -1."""

@@ -328,6 +328,14 @@ def test_bad_parameters(kwargs: dict, error: type, match: str) -> None:
         pcl_rg.normals(noisy_scene(10, 14), **kwargs)
 
 
+@pytest.mark.parametrize("k", [0, -1, 2.5])
+def test_reference_neighbour_lists_checks_k(k: object) -> None:
+    # k = 0 gave an (N, 0) array without a word, -1 NumPy's "negative dimensions".
+    error = TypeError if isinstance(k, float) else ValueError
+    with pytest.raises(error, match="k must be"):
+        neighbour_lists(noisy_scene(10, 14), k)
+
+
 def test_bad_points() -> None:
     pts = noisy_scene(20, 15)
     pts[3, 1] = np.nan

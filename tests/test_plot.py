@@ -102,6 +102,13 @@ def test_profile_selects_the_corridor(tmp_path):
         ({"classes": np.zeros(3, int)}, ValueError, "one entry per point"),
         ({"segments": np.zeros(10)}, TypeError, "integer array"),
         ({"vertical_exaggeration": -1}, ValueError, "vertical_exaggeration must be > 0"),
+        # Cast to float64, a complex end lost its imaginary part with only a warning.
+        ({"start": np.array([1 + 1j, 5])}, TypeError, "start must be real numbers"),
+        ({"end": "ab"}, TypeError, "end must be real numbers"),
+        # b - a overflows: the figure failed in matplotlib on an infinite axis.
+        ({"start": (-1e308, 5), "end": (1e308, 5)}, ValueError, "too far apart"),
+        ({"classes": np.full((2, 5), 2)}, ValueError, "classes must be one-dimensional"),
+        ({"classes": np.full(10, 2), "class_names": {2: "ground"}}, TypeError, "class_names"),
     ],
 )
 def test_profile_errors(tmp_path, kwargs, error, message):
@@ -120,4 +127,14 @@ def test_top_view_errors(tmp_path):
         top_view(xyz, tmp_path / "x.png", classes=np.zeros(10))
     with pytest.raises(ValueError, match="NaN"):
         top_view(np.full((3, 3), np.nan), tmp_path / "x.png")
+    # Flattened, these passed as one label per point.
+    with pytest.raises(ValueError, match="classes must be one-dimensional"):
+        top_view(xyz, tmp_path / "x.png", classes=np.full((2, 5), 2))
+    with pytest.raises(ValueError, match="segments must be one-dimensional"):
+        top_view(xyz, tmp_path / "x.png", segments=np.zeros((10, 1), int))
+    # A bare label, not a (label, colour) pair: "too many values to unpack" mid-drawing.
+    with pytest.raises(TypeError, match="class_names must map class codes"):
+        top_view(xyz, tmp_path / "x.png", classes=np.full(10, 2), class_names={2: "ground"})
     assert not (tmp_path / "x.png").exists()
+    with pytest.raises(ValueError, match="labels must be one-dimensional"):
+        segment_colours(np.array([[0, 1], [2, 3]]))

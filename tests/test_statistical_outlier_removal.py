@@ -160,6 +160,12 @@ def test_bad_parameters(kwargs, error, match):
         pcl_rg.statistical_outlier_removal(points, **kwargs)
 
 
+@pytest.mark.parametrize("mean_k", [0, -2])
+def test_reference_mean_neighbour_distance_checks_mean_k(mean_k: int) -> None:
+    with pytest.raises(ValueError, match="mean_k must be >= 1"):  # was an IndexError
+        mean_neighbour_distance(uniform_cloud(10, 0), mean_k)
+
+
 def test_core_validates_on_its_own():
     """The C++ gate holds even when the Python dataclass is bypassed."""
     params = _core.StatisticalOutlierRemovalParams()

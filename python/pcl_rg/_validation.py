@@ -10,6 +10,7 @@ __all__ = [
     "MAX_POINTS_UINT32",
     "as_labels",
     "as_points",
+    "as_real",
 ]
 
 
@@ -80,3 +81,19 @@ def as_labels(name: str, values: npt.ArrayLike, empty: npt.DTypeLike) -> np.ndar
     if array.ndim != 1:
         raise ValueError(f"{name} must be one-dimensional, got shape {array.shape}")
     return array
+
+
+def as_real(name: str, values: npt.ArrayLike) -> np.ndarray:
+    """`values` as a float64 array, or raise naming `name`.
+
+    Only real numbers (a float or integer dtype) pass: complex, bool, string and
+    object input is a TypeError. ``np.asarray(values, dtype=float64)`` would drop an
+    imaginary part with only a warning, and read True or "1" as 1.0.
+    """
+    try:
+        array = np.asarray(values)
+    except ValueError:  # a ragged sequence
+        raise ValueError(f"{name} must be an array of numbers, got {values!r}") from None
+    if array.dtype.kind not in "fiu":
+        raise TypeError(f"{name} must be real numbers (float or integer), got dtype {array.dtype}")
+    return array.astype(np.float64, copy=False)

@@ -20,6 +20,7 @@ import numpy as np
 from . import datasets
 from ._convex_segmentation import convex_segmentation
 from ._grid_ground import grid_ground
+from ._params import check_flag, check_number
 from ._region_growing import RegionGrowingParams, region_growing
 from ._statistical_outlier_removal import (
     StatisticalOutlierRemovalParams,
@@ -207,8 +208,15 @@ def run_demo(
     >>> [row["stage"] for row in report.rows][:4]
     ['denoise: SOR', 'downsample: voxel grid', 'ground: grid', 'ground: tin']
     """
+    # Every argument is checked before the folder is made.
+    seed = check_number("seed", seed, int, minimum=0)
+    size = check_number("size", size, float)
+    plots = check_flag("plots", plots)
+    survey = check_flag("survey", survey)
+    if stage is not None and not callable(stage):
+        raise TypeError(f"stage must be callable or None, got {type(stage).__name__}")
     stage = stage or _no_stage
-    if not MIN_SIZE <= size <= MAX_SIZE:  # checked before the folder is made
+    if not MIN_SIZE <= size <= MAX_SIZE:
         raise ValueError(
             f"size must be in [{MIN_SIZE:g}, {MAX_SIZE:g}] m (the scene's objects need the "
             f"room; 4 points per m^2 make up to 100 million points), got {size:g}"

@@ -6,6 +6,7 @@ imported only when a figure is drawn, with the non-interactive Agg backend.
 
 from __future__ import annotations
 
+import math
 import os
 from collections.abc import Mapping, Sequence
 from typing import Any
@@ -15,7 +16,7 @@ import numpy.typing as npt
 
 from ._docstrings import Function, fill_docstring
 from ._params import check_number
-from ._validation import as_points
+from ._validation import as_points, as_real
 
 __all__ = ["CLASS_COLOURS", "profile", "segment_colours", "top_view"]
 
@@ -95,6 +96,8 @@ def segment_colours(labels: npt.ArrayLike) -> np.ndarray:
     values = np.asarray(labels)
     if values.dtype.kind not in "iu":
         raise TypeError(f"labels must be an integer array, got dtype {values.dtype}")
+    if values.ndim != 1:
+        raise ValueError(f"labels must be one-dimensional, got shape {values.shape}")
     palette = to_rgba_array(list(_SEGMENT_PALETTE))
     colours = np.empty((values.size, 4))
     flat = values.ravel()
@@ -123,12 +126,35 @@ def _fill_plot_docstring(function: Function) -> Function:
     return fill_docstring(function, _PLOT_ENTRIES)
 
 
+def _class_names(given: Mapping[int, tuple[str, str]] | None) -> dict[int, tuple[str, str]]:
+    """CLASS_COLOURS updated with `given`, each entry checked before anything is drawn."""
+    if given is None:
+        return dict(CLASS_COLOURS)
+    if not isinstance(given, Mapping):
+        raise TypeError(f"class_names must be a mapping, got {type(given).__name__}")
+    for code, entry in given.items():
+        if not (
+            isinstance(code, (int, np.integer))
+            and not isinstance(code, bool)
+            and isinstance(entry, tuple)
+            and len(entry) == 2
+            and all(isinstance(text, str) for text in entry)
+        ):
+            raise TypeError(
+                "class_names must map class codes (int) to (label, colour) pairs of str, "
+                f"got {code!r}: {entry!r}"
+            )
+    return {**CLASS_COLOURS, **{int(code): entry for code, entry in given.items()}}
+
+
 def _labels(name: str, values: npt.ArrayLike | None, n: int) -> np.ndarray | None:
     if values is None:
         return None
-    array = np.asarray(values).ravel()
+    array = np.asarray(values)
     if array.dtype.kind not in "iu":
         raise TypeError(f"{name} must be an integer array, got dtype {array.dtype}")
+    if array.ndim != 1:  # flattened, an (N/2, 2) array would pass as N labels
+        raise ValueError(f"{name} must be one-dimensional, got shape {array.shape}")
     if len(array) != n:
         raise ValueError(f"{name} must have one entry per point ({n}), got {len(array)}")
     return array
@@ -261,7 +287,7 @@ def top_view(
         xyz = xyz[keep]
         classes = None if classes is None else classes[keep]
         segments = None if segments is None else segments[keep]
-    names = {**CLASS_COLOURS, **(class_names or {})}
+    names = _class_names(class_names)
     fig, ax = plt.subplots(figsize=(8, 8), dpi=110)
     try:
         _draw(
@@ -348,14 +374,19 @@ def profile(
     True
     """
     xyz = as_points(points)
-    a = np.asarray(start, dtype=np.float64)
-    b = np.asarray(end, dtype=np.float64)
+    a = as_real("start", start)
+    b = as_real("end", end)
     for name, value in (("start", a), ("end", b)):
         if value.shape != (2,) or not np.isfinite(value).all():
             raise ValueError(f"{name} must be 2 finite numbers (x, y), got {value.tolist()!r}")
-    length = float(np.hypot(*(b - a)))
+    (ax, ay), (bx, by) = a.tolist(), b.tolist()  # Python floats: overflow is inf, no warning
+    length = math.hypot(bx - ax, by - ay)
     if length == 0.0:
         raise ValueError("start and end must differ")
+    if not math.isfinite(length):  # b - a overflowed: the corridor has no direction
+        raise ValueError(
+            f"start and end are too far apart for float64 ({a.tolist()}, {b.tolist()})"
+        )
     width = check_number("width", width, float, above=0.0)
     vertical_exaggeration = check_number(
         "vertical_exaggeration", vertical_exaggeration, float, above=0.0
@@ -372,7 +403,7 @@ def profile(
     if keep is not None:
         selected = selected[keep]
     plt = _pyplot()
-    names = {**CLASS_COLOURS, **(class_names or {})}
+    names = _class_names(class_names)
     fig, ax = plt.subplots(figsize=(12, 4.5), dpi=110)
     try:
         _draw(

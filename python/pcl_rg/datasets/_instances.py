@@ -7,7 +7,7 @@ import numpy.typing as npt
 from numpy.typing import NDArray
 
 from .._params import check_number
-from .._validation import as_points
+from .._validation import as_points, as_real
 from ._objects import BUILDING
 
 __all__ = ["building_ids"]
@@ -66,9 +66,11 @@ def building_ids(
     """
     xyz = as_points(points)
     classes = np.asarray(labels)
+    if classes.dtype.kind not in "iu":  # bool or text labels matched no class: all 0
+        raise TypeError(f"labels must be integer class codes, got dtype {classes.dtype}")
     if classes.shape != (len(xyz),):
         raise ValueError(f"labels must have shape ({len(xyz)},), got {classes.shape}")
-    boxes = np.asarray(buildings, dtype=np.float64)
+    boxes = as_real("buildings", buildings)
     if boxes.ndim != 2 or boxes.shape[1] < 4:
         raise ValueError(f"buildings must have shape (B, >= 4), got {boxes.shape}")
     if not np.all(np.isfinite(boxes[:, :4])):

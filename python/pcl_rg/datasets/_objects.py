@@ -15,6 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .._params import check_number
+from .._validation import as_real
 from ._terrain import Terrain, ramp_coordinate, terrain_z
 
 __all__ = ["BUILDING", "GROUND", "NOISE", "VEGETATION", "Block"]
@@ -413,10 +414,7 @@ def check_offset(offset: object, name: str = "offset") -> NDArray[np.float64]:
     """
     if offset is None:
         return np.zeros(3)
-    try:
-        arr = np.asarray(offset, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a sequence of 3 finite numbers, got {offset!r}") from None
+    arr = as_real(name, offset)
     if arr.shape != (3,):
         raise ValueError(f"{name} must have length 3, got shape {arr.shape}")
     if not np.all(np.isfinite(arr)):

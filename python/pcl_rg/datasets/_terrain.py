@@ -10,6 +10,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from .._docstrings import Function, fill_docstring
 from .._params import check_number
+from .._validation import as_real
 
 __all__ = ["Terrain", "make_terrain", "ramp_coordinate", "terrain_height", "terrain_z"]
 
@@ -140,8 +141,8 @@ def check_terrain_query(
     """The arguments of a terrain-height query, checked: seed, size, x and y as float64."""
     seed = check_number("seed", seed, int, minimum=0)
     size = check_number("size", size, float, above=0.0)
-    xa = np.asarray(x, dtype=np.float64)
-    ya = np.asarray(y, dtype=np.float64)
+    xa = as_real("x", x)
+    ya = as_real("y", y)
     for name, arr in (("x", xa), ("y", ya)):
         if not np.all(np.isfinite(arr)):
             raise ValueError(

@@ -23,6 +23,12 @@ def lattice_floor(low: float, size: float) -> float:
     >>> lattice_floor(71.5, 30.0), lattice_floor(-0.5, 30.0), lattice_floor(60.0, 30.0)
     (60.0, -30.0, 60.0)
     """
+    # The core's lattice steps are validated parameters; here the caller's are checked
+    # (a negative step would loop for ever below: each step down moves the corner up).
+    if not (math.isfinite(size) and size > 0.0):
+        raise ValueError(f"size must be finite and > 0, got {size!r}")
+    if not math.isfinite(low):
+        raise ValueError(f"low must be finite, got {low!r}")
     quotient = low / size
     if not abs(quotient) < 2.0**52:
         return low

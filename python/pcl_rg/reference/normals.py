@@ -7,7 +7,7 @@ import numpy.typing as npt
 from scipy.spatial import cKDTree
 
 from .._normals import NormalsParams, NormalsResult
-from .._params import resolve_arguments
+from .._params import check_number, resolve_arguments
 from .._validation import as_points
 from ._local import local_frame
 
@@ -41,6 +41,7 @@ def neighbour_lists(
     and everything downstream, may legitimately differ.
     """
     xyz = as_points(points)
+    k = check_number("k", k, int, minimum=1)
     n = len(xyz)
     if n == 0:
         empty = np.empty((0, k), dtype=np.intp)

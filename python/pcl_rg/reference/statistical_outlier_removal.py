@@ -6,7 +6,7 @@ import numpy as np
 import numpy.typing as npt
 from scipy.spatial import cKDTree
 
-from .._params import resolve_arguments
+from .._params import check_number, resolve_arguments
 from .._statistical_outlier_removal import StatisticalOutlierRemovalParams
 from .._validation import as_points
 from ._local import local_frame
@@ -17,6 +17,7 @@ __all__ = ["statistical_outlier_removal", "mean_neighbour_distance"]
 def mean_neighbour_distance(points: npt.ArrayLike, mean_k: int) -> np.ndarray:
     """d_i: mean float64 distance of each point to its `mean_k` nearest others."""
     xyz = as_points(points)
+    mean_k = check_number("mean_k", mean_k, int, minimum=1)
     if mean_k >= len(xyz):
         raise ValueError(f"mean_k must be < the number of points ({len(xyz)}), got {mean_k}")
     local = local_frame(xyz)
