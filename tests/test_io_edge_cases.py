@@ -391,3 +391,130 @@ def test_pcd_template_keeps_float64_or_integer_y_and_z(tmp_path, size, code):
     out = tmp_path / "out.pcd"
     write_points(out, cloud.points, cloud.fields, template=cloud)
     np.testing.assert_array_equal(read_points(out).points, [[1.5, y, z]])
+
+
+def _ply_with_faces(encoding: str, vertex_count: int, vertices, faces_head: str, body: bytes):
+    """A PLY header of float x, y, z vertices then `faces_head`, the vertex data, `body`."""
+    head = (
+        f"ply\nformat {encoding} 1.0\nelement vertex {vertex_count}\nproperty float x\n"
+        f"property float y\nproperty float z\n{faces_head}end_header\n"
+    ).encode()
+    if encoding == "ascii":
+        return head + b"".join(b"%g %g %g\n" % tuple(v) for v in vertices) + body
+    return head + np.asarray(vertices, "<f4").tobytes() + body
+
+
+FACE = "element face {}\nproperty list uchar int vertex_indices\n"
+TRIANGLE = b"\x03" + np.array([0, 1, 2], "<i4").tobytes()
+THREE = [[1, 2, 3], [4, 5, 6], [7, 8, 9]]
+
+
+@pytest.mark.parametrize(
+    ("encoding", "faces_head", "body", "message"),
+    [
+        ("ascii", FACE.format(0), b"", "more data rows than the 2 .*2 vertex, 0 face"),
+        ("ascii", FACE.format(1), b"3 0 1 2\n", "more data rows than the 3 .*2 vertex, 1 face"),
+        ("ascii", "element extra 1\nproperty float a\n", b"0.5\n", "more data rows"),
+        ("binary_little_endian", FACE.format(0), b"", "12 bytes after .*2 vertex, 0 face"),
+        ("binary_little_endian", "element extra 1\nproperty float a\n", bytes(4), "bytes after"),
+        # The third vertex read as two empty faces (its first byte is 0), then 36 bytes.
+        ("binary_little_endian", FACE.format(2), TRIANGLE * 2, "36 bytes after .*2 face"),
+    ],
+)
+def test_ply_surplus_vertices_before_another_element(tmp_path, encoding, faces_head, body, message):
+    # Three vertices in the data, two in the header, another element after them: the
+    # third vertex was taken for the next element's data and never noticed.
+    path = tmp_path / "s.ply"
+    path.write_bytes(_ply_with_faces(encoding, 2, THREE, faces_head, body))
+    with pytest.raises(ValueError, match=f"invalid PLY file .*s.ply.*{message}"):
+        read_points(path)
+    # The same with the right vertex count is read.
+    path.write_bytes(_ply_with_faces(encoding, 3, THREE, faces_head, body))
+    np.testing.assert_array_equal(read_points(path).points, THREE)
+
+
+@pytest.mark.parametrize(
+    ("faces_head", "message"),
+    [
+        (FACE.format(1), "data row 3 is not one 'face' entry"),
+        ("element extra 1\nproperty int a\n", "data row 3 is not one 'extra' entry"),
+    ],
+)
+def test_ply_ascii_surplus_vertex_in_place_of_the_next_row(tmp_path, faces_head, message):
+    # The next element's row is missing and a surplus vertex row takes its place: the
+    # sum of rows is right, but that row is no entry of the next element.
+    path = tmp_path / "s.ply"
+    path.write_bytes(_ply_with_faces("ascii", 2, THREE, faces_head, b""))
+    with pytest.raises(ValueError, match=message):
+        read_points(path)
+
+
+@pytest.mark.parametrize(
+    ("faces_head", "body"),
+    [
+        (FACE.format(2), TRIANGLE * 2 + b"\0\0\n"),  # padding at the end
+        # Entries of different lengths: where the faces end is not looked for.
+        (FACE.format(2), TRIANGLE + b"\x01" + bytes(4)),
+        (
+            "element face 2\nproperty uchar flag\nproperty list ushort short ids\n"
+            "element extra 1\nproperty double a\n",
+            (b"\x07\x02\x00" + bytes(4)) * 2 + bytes(8),
+        ),
+    ],
+)
+def test_ply_binary_elements_after_the_vertices(tmp_path, faces_head, body):
+    path = tmp_path / "m.ply"
+    path.write_bytes(_ply_with_faces("binary_little_endian", 3, THREE, faces_head, body))
+    np.testing.assert_array_equal(read_points(path).points, THREE)
+
+
+@pytest.mark.parametrize(
+    ("faces_head", "body", "message"),
+    [
+        (FACE.format(2), TRIANGLE, "2 'face' entries need at least 14 bytes from byte 36"),
+        (FACE.format(1), b"\x05" + bytes(8), "1 'face' entries need at least 21 bytes"),
+        (
+            "element face 1\nproperty list uchar int a\nproperty list uchar int b\n",
+            b"\x05" + bytes(20),
+            "first 'face' entry runs past the 57 bytes",
+        ),
+        (
+            "element face 1\nproperty list char int vertex_indices\n",
+            b"\xff",
+            "negative list length -1",
+        ),
+        (
+            "element face 2\nproperty list uchar int vertex_indices\nelement extra 1\n"
+            "property double a\n",
+            TRIANGLE * 2,
+            "need 70 .*truncated",
+        ),
+    ],
+)
+def test_ply_binary_elements_after_the_vertices_cut_short(tmp_path, faces_head, body, message):
+    path = tmp_path / "t.ply"
+    path.write_bytes(_ply_with_faces("binary_little_endian", 3, THREE, faces_head, body))
+    with pytest.raises(ValueError, match=message):
+        read_points(path)
+
+
+def test_ply_ascii_rows_of_every_element_counted(tmp_path):
+    # Faces of different lengths after the vertices, and before them an element whose
+    # rows are checked at its first and last row.
+    path = tmp_path / "a.ply"
+    head = (
+        "ply\nformat ascii 1.0\nelement camera 2\nproperty float f\nproperty uchar k\n"
+        "element vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+        + FACE.format(2)
+        + "end_header\n"
+    )
+    vertices = b"1 2 3\n4 5 6\n7 8 9\n"
+    path.write_bytes(head.encode() + b"0.5 1\n1.5 2\n" + vertices + b"3 0 1 2\n4 0 1 2 0\n\n")
+    np.testing.assert_array_equal(read_points(path).points, THREE)
+    path.write_bytes(head.encode() + b"0.5 1\n1.5 2\n" + vertices + b"3 0 1 2\n")
+    with pytest.raises(ValueError, match=r"count 7 data rows, the data hold 6 \(truncated\?\)"):
+        read_points(path)
+    # A camera row short and a vertex row more: a vertex row is read as a camera row.
+    path.write_bytes(head.encode() + b"0.5 1\n" + vertices + b"0 0 0\n3 0 1 2\n4 0 1 2 0\n")
+    with pytest.raises(ValueError, match="data row 2 is not one 'camera' entry"):
+        read_points(path)

@@ -225,7 +225,10 @@ def read_points(path: str | os.PathLike[str], *, format: str | None = None) -> P
     PLY: ``ascii``, ``binary_little_endian`` and ``binary_big_endian``; the
     ``vertex`` element's scalar properties are read (x, y, z must be among
     them); other elements such as faces are skipped (elements with list
-    properties only after ``vertex``).
+    properties only after ``vertex``). The data must hold what the header's
+    element counts give (ascii: one row per entry; binary: the entries' bytes,
+    checked where the elements after ``vertex`` have entries of one size, such
+    as triangles), so that a vertex count short of the vertex data is refused.
 
     XYZ text: one point per line, ``x y z`` and optional further columns, split
     on whitespace; blank lines and lines starting with ``#`` or ``//`` are

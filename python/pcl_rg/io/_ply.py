@@ -65,6 +65,8 @@ class _PlyElement(NamedTuple):
     properties: list[tuple[str, str]]  # (name, dtype code) for scalars
     has_list: bool
     list_types: list[tuple[str, str, str]]  # (name, count type, item type)
+    # Every property in header order as (name, count type or "" for a scalar, type).
+    layout: list[tuple[str, str, str]]
 
 
 def _bad_ply(path: str, problem: str) -> ValueError:
@@ -112,7 +114,7 @@ def _parse_ply_header(path: str, raw: bytes) -> tuple[str, list[_PlyElement], tu
                 raise _bad_ply(path, f"line {number}: element count {count} is negative")
             if any(element.name == tokens[1] for element in elements):
                 raise _bad_ply(path, f"line {number}: a second element {tokens[1]!r}")
-            elements.append(_PlyElement(tokens[1], count, [], False, []))
+            elements.append(_PlyElement(tokens[1], count, [], False, [], []))
         elif key == "property":
             if not elements:
                 raise _bad_ply(path, f"line {number}: property before any element")
@@ -121,11 +123,13 @@ def _parse_ply_header(path: str, raw: bytes) -> tuple[str, list[_PlyElement], tu
                 if tokens[2] not in _PLY_TYPES or tokens[3] not in _PLY_TYPES:
                     raise _bad_ply(path, f"line {number}: unknown list types in {line.strip()!r}")
                 element.list_types.append((tokens[4], _PLY_TYPES[tokens[2]], _PLY_TYPES[tokens[3]]))
+                element.layout.append(element.list_types[-1])
                 elements[-1] = element._replace(has_list=True)
             elif len(tokens) == 3:
                 if tokens[1] not in _PLY_TYPES:
                     raise _bad_ply(path, f"line {number}: unknown property type {tokens[1]!r}")
                 element.properties.append((tokens[2], _PLY_TYPES[tokens[1]]))
+                element.layout.append((tokens[2], "", _PLY_TYPES[tokens[1]]))
             else:
                 raise _bad_ply(path, f"line {number}: malformed property line {line.strip()!r}")
         else:
@@ -179,69 +183,13 @@ def read(path: str) -> tuple[np.ndarray, dict[str, np.ndarray], tuple]:
             )
     if len(set(names)) != len(names):
         raise _bad_ply(path, f"the vertex element repeats a property name ({' '.join(names)})")
-    n = vertex.count
-    last = vertex_at == len(elements) - 1
     data = memoryview(raw)[offset:]
     _check_ply_counts(path, encoding, elements, len(data))
     if encoding == "ascii":
-        try:
-            text = bytes(data).decode("ascii")
-        except UnicodeDecodeError as exc:
-            raise _bad_ply(
-                path, f"ascii data has a non-ASCII byte at offset {offset + exc.start}"
-            ) from None
-        control = _CONTROL.search(text)
-        if control:
-            raise _bad_ply(
-                path,
-                f"ascii data has the control character {control.group()!r} at offset "
-                f"{offset + control.start()}",
-            )
-        lines = text.splitlines()
-        skip = sum(e.count for e in elements[:vertex_at])
-        # numpy skips blank lines that the header's counts do count: one would shift
-        # every row after it (a short file read as a made-up point).
-        blank = next((k for k, line in enumerate(lines[: skip + n]) if not line.strip()), None)
-        if blank is not None:
-            raise _bad_ply(path, f"blank line {blank + 1} of the data, within the counted rows")
-        rows = lines[skip : skip + n]
-        if len(rows) < n:
-            raise _bad_ply(
-                path, f"header says {n} vertices but the data hold {max(len(rows), 0)} (truncated?)"
-            )
-        if last and any(line.strip() for line in lines[skip + n :]):
-            raise _bad_ply(path, f"more data rows than the {n} vertices the header says")
-        record = np.dtype([(name, code) for name, code in vertex.properties])
-        if n == 0:
-            table = np.zeros(0, dtype=record)
-        else:
-            try:
-                table = load_ascii_table(rows, record)
-            except ValueError as exc:
-                raise _bad_ply(path, f"ascii vertex data, {exc}") from None
+        table = _read_ascii(path, offset, data, elements, vertex_at)
     else:
-        order = _PLY_ENCODINGS[encoding]
-        skip = 0
-        for element in elements[:vertex_at]:
-            if element.has_list:
-                raise _bad_ply(
-                    path,
-                    f"element {element.name!r} with list properties comes before 'vertex' "
-                    "in a binary file, which is not supported",
-                )
-            skip += element.count * sum(np.dtype(c).itemsize for _, c in element.properties)
-        record = np.dtype([(name, order + code) for name, code in vertex.properties])
-        need = skip + n * record.itemsize
-        if len(data) < need:
-            raise _bad_ply(
-                path,
-                f"binary data is {len(data)} bytes but {n} vertices x {record.itemsize} "
-                f"bytes need {need} (truncated?)",
-            )
-        if last and len(data) > need and bytes(data[need:]).strip(b"\r\n\x00 "):
-            raise _bad_ply(path, f"{len(data) - need} bytes after the {n} vertices the header says")
-        table = np.frombuffer(data, dtype=record, count=n, offset=skip)
-    points = np.empty((n, 3), dtype=np.float64)
+        table = _read_binary(path, encoding, data, elements, vertex_at)
+    points = np.empty((vertex.count, 3), dtype=np.float64)
     for i, axis in enumerate("xyz"):
         points[:, i] = table[axis]
     fields = {
@@ -252,6 +200,231 @@ def read(path: str) -> tuple[np.ndarray, dict[str, np.ndarray], tuple]:
     xyz_codes = {code for name, code in vertex.properties if name in ("x", "y", "z")}
     xyz_dtype = np.dtype("f8") if xyz_codes - {"f4"} else np.dtype("f4")
     return points, fields, (encoding, xyz_dtype, comments)
+
+
+def _element_counts(elements: list[_PlyElement]) -> str:
+    return ", ".join(f"{e.count} {e.name}" for e in elements)
+
+
+def _read_ascii(
+    path: str, offset: int, data: memoryview, elements: list[_PlyElement], vertex_at: int
+) -> np.ndarray:
+    """The vertex table of ascii data: one line per entry of every element, in header order.
+
+    The rows of the elements after ``vertex`` follow the vertex rows, so a vertex count
+    smaller than the vertex rows shows only against the counts of all elements: the
+    data must hold exactly their sum of rows (blank lines at the end aside), and the
+    first and last row of every other element must read as one of its entries (a
+    surplus vertex row in place of a missing row of the next element keeps the sum).
+    """
+    try:
+        text = bytes(data).decode("ascii")
+    except UnicodeDecodeError as exc:
+        raise _bad_ply(
+            path, f"ascii data has a non-ASCII byte at offset {offset + exc.start}"
+        ) from None
+    control = _CONTROL.search(text)
+    if control:
+        raise _bad_ply(
+            path,
+            f"ascii data has the control character {control.group()!r} at offset "
+            f"{offset + control.start()}",
+        )
+    lines = text.splitlines()
+    vertex = elements[vertex_at]
+    n = vertex.count
+    skip = sum(e.count for e in elements[:vertex_at])
+    total = sum(e.count for e in elements)
+    starts = np.cumsum([0] + [e.count for e in elements]).tolist()
+    # numpy skips blank lines that the header's counts do count: one would shift
+    # every row after it (a short file read as a made-up point). An entry of an
+    # element without properties is an empty line.
+    for element, start in zip(elements, starts):
+        stop = min(start + element.count, len(lines))
+        blank = next((k for k in range(start, stop) if not lines[k].strip()), None)
+        if element.layout and blank is not None:
+            raise _bad_ply(path, f"blank line {blank + 1} of the data, within the counted rows")
+    if len(lines) < skip + n:
+        raise _bad_ply(
+            path,
+            f"header says {n} vertices but the data hold {max(len(lines) - skip, 0)} (truncated?)",
+        )
+    if len(lines) < total:
+        raise _bad_ply(
+            path,
+            f"the header's elements ({_element_counts(elements)}) count {total} data rows, "
+            f"the data hold {len(lines)} (truncated?)",
+        )
+    surplus = sum(1 for line in lines[total:] if line.strip())
+    if surplus:
+        raise _bad_ply(
+            path,
+            f"more data rows than the {total} the header's elements count "
+            f"({_element_counts(elements)}): {surplus} more (an element count too small?)",
+        )
+    for index, (element, start) in enumerate(zip(elements, starts)):
+        if index == vertex_at or not element.count:
+            continue
+        for k in sorted({start, start + element.count - 1}):
+            if not _ascii_entry_fits(lines[k], element):
+                raise _bad_ply(
+                    path,
+                    f"data row {k + 1} is not one {element.name!r} entry as the header "
+                    f"declares it ({len(element.layout)} properties): the element counts "
+                    f"({_element_counts(elements)}) do not match the rows",
+                )
+    record = np.dtype([(name, code) for name, code in vertex.properties])
+    if n == 0:
+        return np.zeros(0, dtype=record)
+    try:
+        return load_ascii_table(lines[skip : skip + n], record)
+    except ValueError as exc:
+        raise _bad_ply(path, f"ascii vertex data, {exc}") from None
+
+
+def _ascii_entry_fits(line: str, element: _PlyElement) -> bool:
+    """Whether `line` reads as one entry of `element`: a number per scalar property, a
+    count and that many numbers per list property, integers where the type is one."""
+    tokens = line.split()
+    at = 0
+    for _, count_type, code in element.layout:
+        items = 1
+        if count_type:
+            if at >= len(tokens) or not DECIMAL_INTEGER.fullmatch(tokens[at]):
+                return False
+            items = int(tokens[at])
+            at += 1
+        if items < 0 or at + items > len(tokens):
+            return False
+        if not all(_ascii_number(token, code) for token in tokens[at : at + items]):
+            return False
+        at += items
+    return at == len(tokens)
+
+
+def _ascii_number(token: str, code: str) -> bool:
+    if code[0] in "iu":
+        return DECIMAL_INTEGER.fullmatch(token) is not None
+    try:
+        float(token)
+    except ValueError:
+        return False
+    return True
+
+
+def _read_binary(
+    path: str, encoding: str, data: memoryview, elements: list[_PlyElement], vertex_at: int
+) -> np.ndarray:
+    """The vertex table of binary data: the entries of every element, in header order.
+
+    The data after the vertices must be exactly those of the elements after it (NUL or
+    white space at the end aside), or a vertex count smaller than the vertex data goes
+    unseen when another element follows. That end is known where every element after
+    the vertices has entries of one size (see _binary_element_size).
+    """
+    order = _PLY_ENCODINGS[encoding]
+    vertex = elements[vertex_at]
+    n = vertex.count
+    skip = 0
+    for element in elements[:vertex_at]:
+        if element.has_list:
+            raise _bad_ply(
+                path,
+                f"element {element.name!r} with list properties comes before 'vertex' "
+                "in a binary file, which is not supported",
+            )
+        skip += element.count * sum(np.dtype(c).itemsize for _, c in element.properties)
+    record = np.dtype([(name, order + code) for name, code in vertex.properties])
+    need = skip + n * record.itemsize
+    if len(data) < need:
+        raise _bad_ply(
+            path,
+            f"binary data is {len(data)} bytes but {n} vertices x {record.itemsize} "
+            f"bytes need {need} (truncated?)",
+        )
+    end: int | None = need
+    for element in elements[vertex_at + 1 :]:
+        size = _binary_element_size(path, order, data, end, element)
+        if size is None:
+            # List lengths that vary between entries: where this element ends shows
+            # only by walking every entry, which a reader of the vertices does not do;
+            # the data after the vertices are then checked only against the lower
+            # bound of _check_ply_counts.
+            end = None
+            break
+        end += size
+        if len(data) < end:
+            raise _bad_ply(
+                path,
+                f"binary data is {len(data)} bytes but the header's elements "
+                f"({_element_counts(elements)}) need {end} (truncated?)",
+            )
+    if end is not None and len(data) > end and bytes(data[end:]).strip(b"\r\n\x00 "):
+        raise _bad_ply(
+            path,
+            f"{len(data) - end} bytes after the data of the header's elements "
+            f"({_element_counts(elements)}): an element count too small?",
+        )
+    return np.frombuffer(data, dtype=record, count=n, offset=skip)
+
+
+def _binary_element_size(
+    path: str, order: str, data: memoryview, start: int, element: _PlyElement
+) -> int | None:
+    """The bytes of `element`'s entries from byte `start` of `data`, or None when its
+    list lengths vary between entries.
+
+    Without list properties every entry has one size. With them the first entry's
+    counts give its size; when every entry holds the same counts (a mesh of
+    triangles), all entries have that size, which a comparison of the count bytes of
+    all entries at once proves.
+    """
+    if not element.count:
+        return 0
+    if not element.has_list:
+        return element.count * sum(np.dtype(code).itemsize for _, code in element.properties)
+    past_end = _bad_ply(
+        path,
+        f"the first {element.name!r} entry runs past the {len(data)} bytes of data "
+        "(truncated, or an element count wrong?)",
+    )
+    at = start
+    count_bytes = []  # (offset in the entry, width) of each list count
+    for _, count_type, code in element.layout:
+        if not count_type:
+            at += np.dtype(code).itemsize
+            continue
+        width = np.dtype(count_type).itemsize
+        if at + width > len(data):
+            raise past_end
+        items = int(np.frombuffer(data, order + count_type, 1, at)[0])
+        if items < 0:
+            raise _bad_ply(
+                path,
+                f"element {element.name!r}: negative list length {items} in its first entry",
+            )
+        count_bytes.append((at - start, width))
+        at += width + items * np.dtype(code).itemsize
+    entry = at - start
+    # The other entries take at least their scalars and list counts.
+    least = entry + (element.count - 1) * sum(
+        np.dtype(count_type or code).itemsize for _, count_type, code in element.layout
+    )
+    if start + least > len(data):
+        raise _bad_ply(
+            path,
+            f"the {element.count} {element.name!r} entries need at least {least} bytes from "
+            f"byte {start} of the data, which hold {len(data)} (truncated, or an element "
+            "count wrong?)",
+        )
+    if start + element.count * entry > len(data):
+        return None  # the later entries may be shorter
+    rows = np.frombuffer(data, np.uint8, element.count * entry, start).reshape(-1, entry)
+    for where, width in count_bytes:
+        counts = rows[:, where : where + width]
+        if (counts != counts[0]).any():
+            return None
+    return element.count * entry
 
 
 def _ply_column(name: str, array: np.ndarray) -> np.ndarray:
