@@ -518,3 +518,54 @@ def test_ply_ascii_rows_of_every_element_counted(tmp_path):
     path.write_bytes(head.encode() + b"0.5 1\n" + vertices + b"0 0 0\n3 0 1 2\n4 0 1 2 0\n")
     with pytest.raises(ValueError, match="data row 2 is not one 'camera' entry"):
         read_points(path)
+
+
+def test_xyz_float64_fields_come_back_as_written(tmp_path):
+    # Whole doubles beyond 2**53 were read as the integer their shortest text spells
+    # (1.2345678901234568e+17 as ...680, the double is ...664), and every whole
+    # double came back int64 (-0.0 as 0).
+    rng = np.random.default_rng(5)
+    wide = np.round(rng.uniform(-1, 1, 60) * 10.0 ** rng.integers(0, 300, 60))
+    wide[:2] = [1e308, -(2.0**64)]
+    fields = {
+        "big": np.array([1.2345678901234567e17, 2.0**60 + 2**9, 2.0**53, -(2.0**63)] * 15),
+        "small": np.array([1.0, -0.0, 3.0, -7.0] * 15),
+        "wide": wide,
+        "tiny": np.array([5e-324, -2.2250738585072014e-308, 0.1, 1e-300] * 15),
+    }
+    path = tmp_path / "f.xyz"
+    write_points(path, np.zeros((60, 3)), fields)
+    cloud = read_points(path)
+    for key, values in fields.items():
+        assert cloud.fields[key].dtype == np.float64
+        np.testing.assert_array_equal(cloud.fields[key].view(np.int64), values.view(np.int64))
+
+
+def test_xyz_uint64_fields_come_back_as_written(tmp_path):
+    # uint64 values from 2**63 on came back as float64 (rounded).
+    values = np.array([2**64 - 1, 2**63 + 1, 2**63, 5], np.uint64)
+    signed = np.array([-(2**63), 2**63 - 1, 0, -7], np.int64)
+    path = tmp_path / "u.xyz"
+    write_points(path, np.zeros((4, 3)), {"id": values, "signed": signed, "small": values % 9})
+    cloud = read_points(path)
+    assert cloud.fields["id"].dtype == np.uint64
+    assert cloud.fields["id"].tolist() == values.tolist()
+    assert cloud.fields["signed"].dtype == np.int64
+    assert cloud.fields["signed"].tolist() == signed.tolist()
+    assert cloud.fields["small"].dtype == np.int64  # as uint8 does: the text has no type
+
+
+@pytest.mark.parametrize(
+    ("tokens", "dtype", "expected"),
+    [
+        (["1.0", "2.0"], np.float64, [1.0, 2.0]),  # floats as the text writes them
+        (["1", "2.0", "3e0"], np.int64, [1, 2, 3]),  # one integer: whole numbers
+        (["18446744073709551615", "1e3"], np.uint64, [2**64 - 1, 1000]),
+        (["18446744073709551615", "-1"], np.float64, [2.0**64, -1.0]),  # beyond both
+    ],
+)
+def test_xyz_columns_by_their_text(tmp_path, tokens, dtype, expected):
+    path = tmp_path / "t.xyz"
+    path.write_text("".join(f"0 0 0 {token}\n" for token in tokens))
+    column = read_points(path).fields["column_4"]
+    assert column.dtype == dtype and column.tolist() == expected

@@ -236,7 +236,10 @@ def read_points(path: str | os.PathLike[str], *, format: str | None = None) -> P
     (``# x y z intensity``) names the fields; otherwise they are ``column_4``,
     ``column_5``, ... (``.pts``: ``intensity``, then ``red green blue``, Leica's
     layout, whose optional first line holding the point count is checked).
-    Columns of whole numbers come back as int64, others as float64.
+    Columns of whole numbers with at least one written as an integer (``7``,
+    not ``7.0``) come back as int64 (uint64 when beyond int64 and none is
+    negative; float64 beyond both), others as float64: a float64 field that
+    :func:`write_points` wrote comes back float64, bit for bit.
 
     Examples
     --------

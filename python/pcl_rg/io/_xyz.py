@@ -10,7 +10,7 @@ from typing import BinaryIO
 import numpy as np
 
 from ._atomic import atomic_write, write_ascii
-from ._columns import split_columns
+from ._columns import DECIMAL_INTEGER, split_columns
 
 __all__ = ["read", "write"]
 
@@ -111,32 +111,44 @@ def read(path: str) -> tuple[np.ndarray, dict[str, np.ndarray], None]:
     for i, key in enumerate(names, start=3):
         column = table[:, i]
         whole = np.isfinite(column).all() and np.array_equal(column, np.round(column))
-        if whole and np.abs(column).max() < 2.0**53:
-            fields[key] = column.astype(np.int64)
-        elif whole:  # beyond 2**53 float64 rounds integers: read them from the text
-            fields[key] = _exact_integers(rows, i, column)
-        else:
-            fields[key] = column.copy()
+        integers = None
+        if whole:
+            # Integers are what the text says: a column of whole numbers with at least
+            # one written as one (7, not 7.0 or 7e0). write_points writes every float
+            # with a point or an exponent, so that its float64 columns come back
+            # float64, large whole values (1.2345678901234568e+17) as the double they
+            # were, not as the integer their shortest text spells.
+            tokens = [row.split()[i] for row in rows]
+            if any(DECIMAL_INTEGER.fullmatch(token) for token in tokens):
+                integers = _exact_integers(tokens, column)
+        fields[key] = column.copy() if integers is None else integers
     return np.ascontiguousarray(table[:, :3]), fields, None
 
 
-def _exact_integers(rows: list[str], i: int, column: np.ndarray) -> np.ndarray:
-    """Column `i` of `rows` as int64 when every entry is a whole number (``7``, ``7.0``,
-    ``7e0``) that int64 holds, read exactly from its text, else `column` (float64)."""
+def _exact_integers(tokens: list[str], column: np.ndarray) -> np.ndarray | None:
+    """`tokens`, the text of the whole numbers `column` (``7``, ``7.0``, ``7e0``), as
+    int64, or uint64 when beyond int64 and none negative, or None beyond both (or
+    when a token is not whole in decimal, only in float64).
+
+    Below 2**53 `column` holds them exactly; beyond it float64 rounds integers, so
+    they are read from their text.
+    """
+    if np.abs(column).max() < 2.0**53:
+        return column.astype(np.int64)
     values = []
-    for row in rows:
-        token = row.split()[i]
+    for token in tokens:
         try:
             values.append(int(token))
         except ValueError:  # 1e3, 5., 1.0e16: whole when their decimal value is
             exact = decimal.Decimal(token)
             if exact != exact.to_integral_value():
-                return column.copy()
+                return None
             values.append(int(exact))
-    try:
-        return np.array(values, dtype=np.int64)
-    except OverflowError:  # beyond int64
-        return column.copy()
+    low, high = min(values), max(values)
+    for kind in (np.int64, np.uint64):
+        if np.iinfo(kind).min <= low and high <= np.iinfo(kind).max:
+            return np.array(values, dtype=kind)
+    return None  # beyond int64 and uint64: the float64 values, rounded
 
 
 def write(path: str, xyz: np.ndarray, columns: dict[str, np.ndarray], layout: None = None) -> None:
