@@ -569,3 +569,42 @@ def test_xyz_columns_by_their_text(tmp_path, tokens, dtype, expected):
     path.write_text("".join(f"0 0 0 {token}\n" for token in tokens))
     column = read_points(path).fields["column_4"]
     assert column.dtype == dtype and column.tolist() == expected
+
+
+@pytest.mark.parametrize("ext", ["las", "laz"])
+@pytest.mark.parametrize(
+    ("points", "message"),
+    [
+        ([[-1e308, 0, 0], [1e308, 0, 0]], r"x coordinates from -1e\+308 to 1e\+308 .*scale inf"),
+        (
+            [[0, 0, 0], [1, 1.7e308, 2]],
+            r"y coordinates from 0.0 to 1.7e\+308 .*scale 1[.0-9]*e\+299",
+        ),
+        ([[0, 0, -2e307], [1, 1, 2e307]], r"z coordinates from -2e\+307 to 2e\+307"),
+    ],
+)
+def test_las_coordinates_beyond_scale_and_offset_are_refused(tmp_path, ext, points, message):
+    # The header got an infinite scale (or one whose int32 range overflows float64):
+    # a file was written that the reader then refused.
+    path = tmp_path / f"far.{ext}"
+    with pytest.raises(ValueError, match=message + r".*within \+-1e307 always fit"):
+        write_points(path, np.array(points))
+    assert os.listdir(tmp_path) == []  # no file, no temporary file
+    # Within +-1e307 the extent fits (scale 1e298 at most) and reads back.
+    near = np.array([[-1e307, 0, 5e306], [1e307, 1, -1e307]])
+    write_points(path, near)
+    np.testing.assert_allclose(read_points(path).points, near, rtol=1e-9)
+
+
+def test_las_template_scale_and_offset_checked(tmp_path):
+    path = tmp_path / "t.las"
+    write_points(path, np.array([[-1e307, 0, 0], [1e307, 1, 1]]))
+    template = read_points(path)
+    # Beyond int32 with the template's scale: subtracting its offset overflowed with a
+    # RuntimeWarning before the refusal.
+    with pytest.raises(ValueError, match="do not fit LAS int32 storage"):
+        write_points(tmp_path / "u.las", np.array([[1.75e308, 0, 0]]), template=template)
+    template.header.scales = [0.0, 0.001, 0.001]  # a header the reader would refuse
+    with pytest.raises(ValueError, match="x coordinates from 1.0 to 1.0 .* scale 0.0 and"):
+        write_points(tmp_path / "u.las", np.array([[1.0, 0, 0]]), template=template)
+    assert sorted(os.listdir(tmp_path)) == ["t.las"]

@@ -8,6 +8,7 @@ allocate; laspy is imported only when a LAS/LAZ file is read or written.
 from __future__ import annotations
 
 import contextlib
+import math
 import os
 import signal
 import sys
@@ -147,6 +148,30 @@ def _new_las_header(laspy, xyz: np.ndarray, names: set[str]):
     return header
 
 
+def _check_scales_and_offsets(xyz: np.ndarray, header, new: bool) -> None:
+    """ValueError unless every int32 stored with `header`'s scales and offsets reads
+    back as a finite coordinate, as the reader demands (|scale| * 2**31 + |offset|
+    within float64); `new`: the header was made for `xyz` by _new_las_header."""
+    for i, axis in enumerate("xyz"):
+        scale, offset = float(header.scales[i]), float(header.offsets[i])
+        if scale != 0.0 and math.isfinite(abs(scale) * 2.0**31 + abs(offset)):
+            continue
+        span = ""
+        if len(xyz):
+            span = f" from {float(xyz[:, i].min())!r} to {float(xyz[:, i].max())!r}"
+        hint = (
+            "; coordinates within +-1e307 always fit, write PCD, PLY or XYZ for larger ones"
+            if new
+            else ""
+        )
+        raise ValueError(
+            f"{axis} coordinates{span} cannot be written to LAS with scale {scale!r} and "
+            f"offset {offset!r}: LAS stores a coordinate as an int32 times the scale plus "
+            "the offset, and |scale| * 2**31 + |offset| must stay below the float64 "
+            f"maximum 1.8e308{hint}"
+        )
+
+
 def write(
     path: str,
     xyz: np.ndarray,
@@ -183,7 +208,9 @@ def _write_las(
     if template is not None:
         header = copy.deepcopy(template)
     else:
-        header = _new_las_header(laspy, xyz, set(columns))
+        with np.errstate(over="ignore", invalid="ignore"):  # checked right after
+            header = _new_las_header(laspy, xyz, set(columns))
+    _check_scales_and_offsets(xyz, header, template is None)
     standard = {d.name: d for d in header.point_format.dimensions}
     new_dims = []
     for key, array in columns.items():
@@ -215,7 +242,8 @@ def _write_las(
     scales = np.asarray(header.scales, dtype=np.float64)
     offsets = np.asarray(header.offsets, dtype=np.float64)
     for i, axis in enumerate("XYZ"):
-        stored = np.round((xyz[:, i] - offsets[i]) / scales[i])
+        with np.errstate(over="ignore"):  # inf is beyond int32 all the same
+            stored = np.round((xyz[:, i] - offsets[i]) / scales[i])
         if n and (stored.min() < -(2**31) or stored.max() > 2**31 - 1):
             raise ValueError(
                 f"{'xyz'[i]} coordinates from {xyz[:, i].min()} to {xyz[:, i].max()} do not fit "
