@@ -12,7 +12,7 @@ import laspy
 import numpy as np
 import pytest
 
-from pcl_rg.io import read_points, write_pcd, write_points
+from pcl_rg.io import PlyLayout, PointFile, read_points, write_pcd, write_points
 from pcl_rg.io._columns import split_columns
 from pcl_rg.io._las import _RecordingStream
 
@@ -608,3 +608,25 @@ def test_las_template_scale_and_offset_checked(tmp_path):
     with pytest.raises(ValueError, match="x coordinates from 1.0 to 1.0 .* scale 0.0 and"):
         write_points(tmp_path / "u.las", np.array([[1.0, 0, 0]]), template=template)
     assert sorted(os.listdir(tmp_path)) == ["t.las"]
+
+
+@pytest.mark.parametrize("encoding", ["ascii", "binary_little_endian", "binary_big_endian"])
+def test_ply_template_float32_refuses_coordinates_beyond_float32(tmp_path, encoding):
+    # They were written as inf without a word. PCD refuses them too; without a
+    # template PLY and PCD write float64 and keep +-1.8e308.
+    template = PointFile(POINTS, {}, "ply", PlyLayout(encoding, np.dtype("f4"), ()))
+    path = tmp_path / "f.ply"
+    far = np.array([[1.0, 2.0, 3.0], [4.0, -1e39, 6.0]])
+    with pytest.raises(ValueError, match=r"points\[1, 1\] = -1e\+39 is beyond the float32"):
+        write_points(path, far, template=template)
+    assert os.listdir(tmp_path) == []
+    # A value that rounds down to the float32 maximum, inf and nan are written.
+    edge = np.array([[3.40282356e38, np.inf, np.nan]])
+    write_points(path, edge, template=template)
+    back = read_points(path).points
+    assert back[0, 0] == np.finfo(np.float32).max and back[0, 1] == np.inf
+    assert np.isnan(back[0, 2])
+    for ext in ("ply", "pcd"):
+        huge = np.array([[-1.7976931348623157e308, 1e308, 5e-324]])
+        write_points(tmp_path / f"h.{ext}", huge)
+        np.testing.assert_array_equal(read_points(tmp_path / f"h.{ext}").points, huge)

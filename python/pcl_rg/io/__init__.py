@@ -392,7 +392,9 @@ def write_points(
         Unknown extension; `points` not (N, 3); a field of the wrong length; a
         value out of range of its LAS dimension (e.g. classification > 31 in
         point formats 0-5); NaN points or coordinates that do not fit the
-        template's scale and offset in LAS; two fields that a text header
+        template's scale and offset in LAS, or whose extent no LAS scale and
+        offset hold (beyond about +-1e307); coordinates beyond float32 with a
+        PLY or PCD template of float32 x, y, z; two fields that a text header
         would give one name (``"a b"`` and ``"a_b"``); a field name that a PLY
         or XYZ header cannot hold (not printable ASCII; ``,`` or ``;`` in
         XYZ); LAZ in point format 9 or 10 with more than one scanner channel,

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import re
 from typing import TYPE_CHECKING, BinaryIO, NamedTuple
 
@@ -57,6 +58,8 @@ _END_HEADER = re.compile(rb"^end_header\r?\n", re.MULTILINE)
 # Bytes that no ascii PLY row holds: control characters other than tab, CR and LF
 # (str.splitlines would also break rows at some of them).
 _CONTROL = re.compile(r"[\x00-\x08\x0b\x0c\x0e-\x1f\x7f]")
+# A number as np.loadtxt reads a float (and float() without its "1_0").
+_FLOAT = re.compile(r"[+-]?((\d+\.?\d*|\.\d+)([eE][+-]?\d+)?|inf|infinity|nan)", re.IGNORECASE)
 
 
 class _PlyElement(NamedTuple):
@@ -209,13 +212,12 @@ def _element_counts(elements: list[_PlyElement]) -> str:
 def _read_ascii(
     path: str, offset: int, data: memoryview, elements: list[_PlyElement], vertex_at: int
 ) -> np.ndarray:
-    """The vertex table of ascii data: one line per entry of every element, in header order.
+    """The vertex table of ascii data: a row per entry of every element, in header order.
 
-    The rows of the elements after ``vertex`` follow the vertex rows, so a vertex count
-    smaller than the vertex rows shows only against the counts of all elements: the
-    data must hold exactly their sum of rows (blank lines at the end aside), and the
-    first and last row of every other element must read as one of its entries (a
-    surplus vertex row in place of a missing row of the next element keeps the sum).
+    A vertex count short of the vertex rows shows only against all the counts when
+    another element follows: the data must hold their sum of rows (blank lines at the
+    end aside), and the first and last row of every other element must read as its
+    entry (a surplus vertex row in place of a missing row of the next keeps the sum).
     """
     try:
         text = bytes(data).decode("ascii")
@@ -235,7 +237,7 @@ def _read_ascii(
     n = vertex.count
     skip = sum(e.count for e in elements[:vertex_at])
     total = sum(e.count for e in elements)
-    starts = np.cumsum([0] + [e.count for e in elements]).tolist()
+    starts = [0, *itertools.accumulate(e.count for e in elements)]
     # numpy skips blank lines that the header's counts do count: one would shift
     # every row after it (a short file read as a made-up point). An entry of an
     # element without properties is an empty line.
@@ -305,11 +307,7 @@ def _ascii_entry_fits(line: str, element: _PlyElement) -> bool:
 def _ascii_number(token: str, code: str) -> bool:
     if code[0] in "iu":
         return DECIMAL_INTEGER.fullmatch(token) is not None
-    try:
-        float(token)
-    except ValueError:
-        return False
-    return True
+    return _FLOAT.fullmatch(token) is not None
 
 
 def _read_binary(
@@ -317,10 +315,9 @@ def _read_binary(
 ) -> np.ndarray:
     """The vertex table of binary data: the entries of every element, in header order.
 
-    The data after the vertices must be exactly those of the elements after it (NUL or
-    white space at the end aside), or a vertex count smaller than the vertex data goes
-    unseen when another element follows. That end is known where every element after
-    the vertices has entries of one size (see _binary_element_size).
+    The elements after the vertices must end the data (NUL or white space padding
+    aside), or a vertex count short of the vertex data goes unseen; that end is known
+    where each of them has entries of one size (see _binary_element_size).
     """
     order = _PLY_ENCODINGS[encoding]
     vertex = elements[vertex_at]
@@ -374,10 +371,9 @@ def _binary_element_size(
     """The bytes of `element`'s entries from byte `start` of `data`, or None when its
     list lengths vary between entries.
 
-    Without list properties every entry has one size. With them the first entry's
-    counts give its size; when every entry holds the same counts (a mesh of
-    triangles), all entries have that size, which a comparison of the count bytes of
-    all entries at once proves.
+    With list properties the first entry's counts give its size; when every entry
+    holds the same counts (triangles), which one comparison of the count bytes of all
+    entries proves, all have that size.
     """
     if not element.count:
         return 0
@@ -461,11 +457,17 @@ def write(
         xyz_dtype = np.dtype("f4") if exact_float32(xyz) else np.dtype("f8")
         comments = ("written by pcl_rg",)
     with np.errstate(invalid="ignore", over="ignore"):
-        data = [
-            ("x", xyz[:, 0].astype(xyz_dtype)),
-            ("y", xyz[:, 1].astype(xyz_dtype)),
-            ("z", xyz[:, 2].astype(xyz_dtype)),
-        ]
+        stored = xyz.astype(xyz_dtype)
+    # A template's float32 x, y, z: a coordinate beyond float32 would be written inf.
+    beyond = np.isinf(stored) & np.isfinite(xyz)
+    if beyond.any():
+        row, axis = np.argwhere(beyond)[0]
+        raise ValueError(
+            f"points[{row}, {axis}] = {float(xyz[row, axis])!r} is beyond the float32 range "
+            "of the template's PLY layout (xyz_dtype float32); use a layout with xyz_dtype "
+            "float64 or no template"
+        )
+    data = [("x", stored[:, 0]), ("y", stored[:, 1]), ("z", stored[:, 2])]
     data += [(key, _ply_column(key, array)) for key, array in split_columns(columns)]
     names = [key for key, _ in data]
     for key in names[3:]:
