@@ -320,3 +320,56 @@ def test_a_fifo_as_input_is_refused_not_waited_on(tmp_path, command):
     assert result.returncode == 2
     assert_one_error_line(result.stderr, "is not a regular file")
     assert not (tmp_path / "out.las").exists()
+
+
+@pytest.mark.parametrize("which", ["PREDICTION", "--truth", "--isprs ALL", "--isprs GROUND"])
+def test_evaluate_refuses_a_fifo_instead_of_waiting_on_it(tmp_path, which):
+    # evaluate read PREDICTION, --truth and --isprs files without the INPUT checks: a
+    # FIFO among them hung for ever. A subprocess with a timeout, as above.
+    import subprocess
+    import sys
+
+    points = np.random.default_rng(1).uniform(0.0, 10.0, (50, 3))
+    classes = np.where(points[:, 2] < 5.0, 2, 1).astype(np.uint8)
+    files = {}
+    for name in ("prediction", "truth", "all", "ground"):
+        files[name] = tmp_path / f"{name}.pcd"
+        write_pcd(files[name], points, {"classification": classes})
+    fifo = tmp_path / "pipe.pcd"
+    os.mkfifo(fifo)
+    key = {"PREDICTION": "prediction", "--truth": "truth", "--isprs ALL": "all"}
+    files[key.get(which, "ground")] = fifo
+    truth = (
+        ["--truth", files["truth"]]
+        if which in ("PREDICTION", "--truth")
+        else ["--isprs", files["all"], files["ground"]]
+    )
+    result = subprocess.run(
+        [sys.executable, "-m", "pcl_rg", "evaluate", files["prediction"], *truth],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert result.returncode == 2, result.stderr
+    assert_one_error_line(result.stderr, which.split()[0], "is not a regular file")
+
+
+@pytest.mark.parametrize(
+    "line", ["1e308,0,-1e308,0", "0,-1e308,0,1e308", "1e308,1e308,-1e308,-1e308"]
+)
+def test_a_profile_line_too_long_for_a_float_is_refused_before_the_work(
+    capsys, tmp_path, monkeypatch, line
+):
+    # Its length overflowed to inf: the run wrote OUTPUT, then the figure failed with
+    # raw NumPy warnings and "Axis limits cannot be NaN or Inf".
+    def no_work(*args, **kwargs):
+        raise AssertionError("the work ran")
+
+    monkeypatch.setattr(pcl_rg, "grid_ground", no_work)
+    source = tmp_path / "in.xyz"
+    pcl_rg.io.write_points(source, np.random.default_rng(2).uniform(0.0, 10.0, (100, 3)))
+    argv = ["ground", source, tmp_path / "out.xyz", "--profile", tmp_path / "p.png"]
+    code, out, err = run(capsys, *argv, "--profile-line", line)
+    assert code == 2
+    assert_one_error_line(err, "argument --profile-line", "length", "finite")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["in.xyz"]

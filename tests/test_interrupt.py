@@ -219,3 +219,109 @@ def test_calls_from_other_threads_run_to_the_end(sigusr1_raises) -> None:
     assert worker.is_alive()  # else the test proves nothing: make the call longer
     worker.join()
     np.testing.assert_array_equal(result[0], expected)
+
+
+def _wait_for(condition, timeout: float, child: subprocess.Popen) -> None:
+    """Poll `condition` until it holds; fail if the child ends or time runs out first."""
+    deadline = time.monotonic() + timeout
+    while not condition():
+        assert child.poll() is None, f"the command ended first: {child.communicate()}"
+        assert time.monotonic() < deadline, f"not seen within {timeout} s"
+        time.sleep(0.01)
+
+
+def test_cli_sigterm_exits_143_and_leaves_no_partial_file(tmp_path: Path) -> None:
+    # SIGTERM (kill, a batch system's time limit) ended the process at once and left
+    # the temporary file of OUTPUT; now it unwinds like Ctrl-C. 1 M points written as
+    # text take seconds: the signal lands while the temporary file is being written.
+    rng = np.random.default_rng(10)
+    write_points(tmp_path / "big.pcd", rng.uniform(0.0, 100.0, (1_000_000, 3)))
+    with subprocess.Popen(
+        [sys.executable, "-m", "pcl_rg", "downsample", "big.pcd", "out.xyz", "--leaf-size", "1e-4"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=_child_env(),
+        cwd=tmp_path,
+    ) as child:
+        try:
+            _wait_for(lambda: any(n.endswith(".tmp") for n in os.listdir(tmp_path)), 120, child)
+            child.send_signal(signal.SIGTERM)
+            output, errors = child.communicate(timeout=60)
+        finally:
+            child.kill()
+            child.wait()
+    assert child.returncode == 143, errors
+    assert "pcl-rg: error: terminated (SIGTERM)" in errors.splitlines(), errors
+    assert "Traceback" not in errors
+    assert output == ""
+    assert sorted(os.listdir(tmp_path)) == ["big.pcd"]  # no out.xyz, no temporary file
+
+
+def test_cli_sigterm_stops_a_batch_and_removes_its_scratch_folder(tmp_path: Path) -> None:
+    from pcl_rg.datasets import synthetic_survey
+
+    # As in test_batch_interrupts: the TIN filter on about 4 M points keeps both workers
+    # busy for seconds after the first tile is written.
+    source = synthetic_survey(tmp_path / "in", tiles=(4, 4), tile_size=250.0, seed=9)
+    out = tmp_path / "out"
+    argv = ["batch", "ground", *source.paths, "--out", str(out), "--workers", "2"]
+    with subprocess.Popen(
+        [sys.executable, "-m", "pcl_rg", *argv, "--method", "tin", "--quiet"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=_child_env(),
+    ) as child:
+        try:
+
+            def busy() -> bool:
+                names = os.listdir(out) if out.exists() else []
+                return any(n.startswith(".pcl_rg-scratch") for n in names) and any(
+                    n.endswith(".laz") for n in names
+                )
+
+            _wait_for(busy, 180, child)
+            child.send_signal(signal.SIGTERM)
+            _, errors = child.communicate(timeout=120)
+        finally:
+            child.kill()
+            child.wait()
+    assert child.returncode == 143, errors
+    assert "pcl-rg: error: terminated (SIGTERM)" in errors.splitlines(), errors
+    left = os.listdir(out)
+    assert len([n for n in left if n.endswith(".laz")]) < len(source.paths)
+    assert not [n for n in left if n.endswith(".tmp") or n.startswith(".pcl_rg-scratch")]
+
+
+def test_sigterm_while_lazrs_writes_ends_the_cli_with_143(tmp_path, capsys, monkeypatch) -> None:
+    # Raised inside a call from lazrs, the handler's exception became lazrs's own
+    # "failed to call write" (exit 1); it is held back to the stream's next write, as
+    # Ctrl-C is. The signal is sent to this process only while pcl-rg's handler is in
+    # place (the default would end the test session).
+    from cli_helpers import run
+
+    from pcl_rg.io import _las
+
+    sent = []
+    original = _las._RecordingStream.write
+
+    def write(self, data):
+        # The first block of compressed points (the header's writes are small): lazrs
+        # calls this write.
+        if len(data) > 10_000 and not sent:
+            assert callable(signal.getsignal(signal.SIGTERM)), "no SIGTERM handler"
+            sent.append(len(data))
+            os.kill(os.getpid(), signal.SIGTERM)
+        return original(self, data)
+
+    monkeypatch.setattr(_las._RecordingStream, "write", write)
+    write_points(tmp_path / "in.pcd", np.random.default_rng(11).uniform(0, 100, (200_000, 3)))
+    before = signal.getsignal(signal.SIGTERM)
+    code, out, err = run(
+        capsys, "downsample", tmp_path / "in.pcd", tmp_path / "o.laz", "--leaf-size", "1e-4", "-q"
+    )
+    assert sent
+    assert (code, err) == (143, "pcl-rg: error: terminated (SIGTERM)\n")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["in.pcd"]
+    assert signal.getsignal(signal.SIGTERM) == before  # restored when main returns

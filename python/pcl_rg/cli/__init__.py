@@ -14,7 +14,7 @@ place; an output that is the input (also through a link) is refused.
 
 Exit status: 0 success, 1 the output could not be written (e.g. disk full),
 2 bad usage, parameters or input files (one ``pcl-rg: error: ...`` line on
-stderr), 130 interrupted.
+stderr), 130 interrupted (Ctrl-C), 143 terminated (SIGTERM).
 
 Layout: ``_flags`` turns dataclasses into flags and back, ``_run`` shows progress
 and prints the result, ``_common`` holds what the commands share, and
@@ -25,13 +25,24 @@ and prints the result, ``_common`` holds what the commands share, and
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
+import math
 import os
+import signal
 import sys
+import threading
 import warnings
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 
-from ._flags import EXIT_FAILURE, EXIT_INTERRUPTED, EXIT_USAGE, CliError, Parser
+from ._flags import (
+    EXIT_FAILURE,
+    EXIT_INTERRUPTED,
+    EXIT_TERMINATED,
+    EXIT_USAGE,
+    CliError,
+    Parser,
+)
 from .commands import COMMANDS, configure
 
 __all__ = ["build_parser", "main"]
@@ -52,7 +63,8 @@ def _parser(full: Iterable[str]) -> argparse.ArgumentParser:
         "Files: LAS/LAZ, PLY, PCD, XYZ text (.xyz/.txt/.pts), by extension.",
         epilog="Commands classify rather than delete (ASPRS classes 2 ground, 1 other, "
         "7 noise; segment_id -1 none); --drop writes only the kept points. "
-        "Exit status: 0 ok, 1 output not written, 2 bad usage or input, 130 interrupted.",
+        "Exit status: 0 ok, 1 output not written, 2 bad usage or input, 130 interrupted, "
+        "143 terminated.",
     )
     parser.add_argument("--version", action="version", version=f"pcl-rg {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
@@ -77,8 +89,17 @@ def _check_common(args: argparse.Namespace) -> None:
     if width is not None and not width > 0:
         raise CliError(f"argument --profile-width: must be > 0, got {width:g}")
     line = getattr(args, "profile_line", None)
-    if line is not None and tuple(line[:2]) == tuple(line[2:]):
-        raise CliError("argument --profile-line: its ends A and B must differ")
+    if line is not None:
+        x0, y0, x1, y1 = line
+        if (x0, y0) == (x1, y1):
+            raise CliError("argument --profile-line: its ends A and B must differ")
+        # Finite ends can still be too far apart for a float (1e308,0,-1e308,0): the
+        # figure, drawn after OUTPUT is written, would then fail on an infinite axis.
+        if not math.isfinite(math.hypot(x1 - x0, y1 - y0)):
+            raise CliError(
+                f"argument --profile-line: its length overflows (ends {x0:g},{y0:g} and "
+                f"{x1:g},{y1:g}); it must be finite"
+            )
 
 
 def _execute(argv: Sequence[str]) -> int:
@@ -97,9 +118,43 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run ``pcl-rg`` with `argv` (default ``sys.argv[1:]``); return the exit status."""
     argv = list(sys.argv[1:] if argv is None else argv)
     # Warnings (a damaged LAS point count, ...) as one line each, like the errors.
-    with warnings.catch_warnings():
+    with _sigterm_raises(), warnings.catch_warnings():
         warnings.showwarning = _warning_line
         return _main(argv)
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised like Ctrl-C's KeyboardInterrupt so that the same cleanup runs."""
+
+
+def _terminate(signum: int, frame: object) -> None:
+    raise Terminated
+
+
+@contextlib.contextmanager
+def _sigterm_raises() -> Iterator[None]:
+    """SIGTERM raises Terminated while pcl-rg runs; the previous handler is back after.
+
+    Without it SIGTERM (``kill``, a batch system's time limit) ends the process at
+    once and leaves the temporary output file, or batch's scratch folder: the cleanup
+    that runs for Ctrl-C (``except BaseException``, ``finally``) never ran. Only the
+    command line does this, never the library on import: a program using pcl_rg keeps
+    its own SIGTERM. A handler runs in the main thread between bytecodes: the compiled
+    core polls for signals and raises it from there, while a long call that does not
+    poll (a NumPy operation, a write) is ended when it returns. A SIGTERM that was
+    ignored (SIG_IGN) or handled by someone else is left as it is.
+    """
+    if (
+        threading.current_thread() is not threading.main_thread()
+        or signal.getsignal(signal.SIGTERM) != signal.SIG_DFL
+    ):
+        yield
+        return
+    previous = signal.signal(signal.SIGTERM, _terminate)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 def _one_line(message: object) -> str:
@@ -120,6 +175,8 @@ def _main(argv: list[str]) -> int:
         return exit_.code if isinstance(exit_.code, int) else EXIT_USAGE
     except CliError as error:
         return _fail(str(error), error.code, json_mode)
+    except Terminated:
+        return _fail("terminated (SIGTERM)", EXIT_TERMINATED, json_mode)
     except KeyboardInterrupt:
         return _fail("interrupted", EXIT_INTERRUPTED, json_mode)
     except (ValueError, TypeError) as error:

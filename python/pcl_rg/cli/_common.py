@@ -47,6 +47,7 @@ __all__ = [
     "add_plot_options",
     "add_units_option",
     "check_extension",
+    "check_input",
     "check_paths",
     "check_plots",
     "class_array",
@@ -149,12 +150,7 @@ def check_paths(source: str, target: str, plots: Sequence[str | None] = ()) -> N
     """Refuse before any work: bad extensions, a missing folder, OUTPUT == INPUT."""
     check_extension(source, "INPUT")
     check_extension(target, "OUTPUT")
-    if not os.path.exists(source):
-        raise CliError(f"INPUT {source!r} does not exist")
-    if os.path.isdir(source):
-        raise CliError(f"INPUT {source!r} is a folder, not a file")
-    if not os.path.isfile(source):  # a FIFO or a device would block the read for ever
-        raise CliError(f"INPUT {source!r} is not a regular file")
+    check_input(source, "INPUT")
     if os.path.isdir(target):
         raise CliError(f"OUTPUT {target!r} is a folder, not a file")
     folder = os.path.dirname(os.path.abspath(target))
@@ -163,6 +159,17 @@ def check_paths(source: str, target: str, plots: Sequence[str | None] = ()) -> N
     if _same_file(source, target):
         raise CliError(f"OUTPUT {target!r} is the INPUT file; refusing to overwrite the input")
     check_plots(source, plots)
+
+
+def check_input(path: str, what: str) -> None:
+    """Refuse a file to read that is missing, a folder, or not a regular file; `what`
+    names it in the message ("INPUT", "--truth")."""
+    if not os.path.exists(path):
+        raise CliError(f"{what} {path!r} does not exist")
+    if os.path.isdir(path):
+        raise CliError(f"{what} {path!r} is a folder, not a file")
+    if not os.path.isfile(path):  # a FIFO or a device would block the read for ever
+        raise CliError(f"{what} {path!r} is not a regular file")
 
 
 def _same_file(a: str, b: str) -> bool:

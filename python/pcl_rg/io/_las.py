@@ -14,8 +14,8 @@ import signal
 import sys
 import threading
 import warnings
-from collections.abc import Iterator
-from typing import BinaryIO
+from collections.abc import Callable, Iterator
+from typing import Any, BinaryIO
 
 import numpy as np
 
@@ -356,12 +356,11 @@ class _RecordingStream:
     def __init__(self, stream: BinaryIO) -> None:
         self._stream = stream
         self.error: BaseException | None = None
-        self._interrupted = False
+        self._pending: Callable[[], None] | None = None  # a signal's handler, held back
 
     def write(self, data) -> int:
         try:
-            if self._interrupted:
-                raise KeyboardInterrupt
+            self._run_pending()
             return self._stream.write(data)
         except BaseException as error:
             if self.error is None:
@@ -370,32 +369,45 @@ class _RecordingStream:
 
     @contextlib.contextmanager
     def interrupts_recorded(self) -> Iterator[None]:
-        """Ctrl-C (SIGINT) while lazrs writes, as a KeyboardInterrupt of the write.
+        """Ctrl-C (SIGINT) or SIGTERM while lazrs writes, as an exception of the write.
 
         Python raises KeyboardInterrupt at whatever Python code runs next, and when that
         is a call lazrs makes (this stream's write, before its try), lazrs reports its
         own "failed to call write" and the interrupt is lost. So, in the main thread
-        with Python's own handler in place, the signal only sets a flag here: the next
-        write raises KeyboardInterrupt, recorded like any error of the stream, and an
-        interrupt after the last write is raised at the end.
+        with Python's own SIGINT handler in place, the signal only sets a flag here: the
+        next write raises KeyboardInterrupt, recorded like any error of the stream, and
+        an interrupt after the last write is raised at the end. A SIGTERM handler set
+        in Python (pcl-rg's raises like Ctrl-C) is held back and run the same way.
         """
-        if (
-            threading.current_thread() is not threading.main_thread()
-            or signal.getsignal(signal.SIGINT) is not signal.default_int_handler
-        ):
+        held: dict[int, Callable[[int, Any], Any]] = {}
+        if threading.current_thread() is threading.main_thread():
+            if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
+                held[signal.SIGINT] = signal.default_int_handler
+            handler = signal.getsignal(signal.SIGTERM)
+            if callable(handler):  # not SIG_DFL or SIG_IGN
+                held[signal.SIGTERM] = handler
+        if not held:
             yield
             return
 
         def record(signum: int, frame: object) -> None:
-            self._interrupted = True
+            if self._pending is None:
+                self._pending = lambda: held[signum](signum, None)
 
-        previous = signal.signal(signal.SIGINT, record)
+        previous = {signum: signal.signal(signum, record) for signum in held}
         try:
             yield
         finally:
-            signal.signal(signal.SIGINT, previous)
-        if self._interrupted:
-            raise KeyboardInterrupt
+            for signum, handler in previous.items():
+                signal.signal(signum, handler)
+        self._run_pending()
+
+    def _run_pending(self) -> None:
+        """Run a held-back handler. One that raises stays pending, so that every later
+        write and the end raise too; one that returns has run."""
+        if self._pending is not None:
+            self._pending()
+            self._pending = None
 
     def __getattr__(self, name: str):
         return getattr(self._stream, name)

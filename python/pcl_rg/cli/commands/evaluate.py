@@ -13,6 +13,7 @@ from .._common import (
     GROUND,
     add_common_options,
     check_extension,
+    check_input,
     existing_classes,
     noise_mask,
     read,
@@ -73,6 +74,13 @@ def execute(args: argparse.Namespace, run: Run) -> None:
     if (args.truth is None) == (args.isprs is None):
         raise CliError("evaluate needs exactly one of --truth FILE or --isprs ALL.pcd GROUND.pcd")
     check_extension(args.prediction, "PREDICTION")
+    check_input(args.prediction, "PREDICTION")
+    # Every file before any is read: a FIFO would block its read for ever.
+    if args.truth is not None:
+        check_input(args.truth, "--truth")
+    else:
+        for path in args.isprs:
+            check_input(path, "--isprs")
     prediction = read(run, args.prediction)
     if args.segments:
         _evaluate_segments(args, run, prediction)
