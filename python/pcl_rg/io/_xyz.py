@@ -112,29 +112,24 @@ def read(path: str) -> tuple[np.ndarray, dict[str, np.ndarray], None]:
         column = table[:, i]
         whole = np.isfinite(column).all() and np.array_equal(column, np.round(column))
         integers = None
-        if whole:
-            # Integers are what the text says: a column of whole numbers with at least
-            # one written as one (7, not 7.0 or 7e0). write_points writes every float
-            # with a point or an exponent, so that its float64 columns come back
-            # float64, large whole values (1.2345678901234568e+17) as the double they
-            # were, not as the integer their shortest text spells.
-            tokens = [row.split()[i] for row in rows]
-            if any(DECIMAL_INTEGER.fullmatch(token) for token in tokens):
-                integers = _exact_integers(tokens, column)
+        # Integers are what the text says: a column of whole numbers with at least one
+        # written as one (7, not 7.0 or 7e0; the scan mostly stops at the first row).
+        # write_points writes every float with a point or an exponent, so its float64
+        # columns come back float64, large whole values (1.2345678901234568e+17) as the
+        # double they were, not as the integer their shortest text spells.
+        if whole and any(DECIMAL_INTEGER.fullmatch(row.split()[i]) for row in rows):
+            if np.abs(column).max() < 2.0**53:  # float64 holds them exactly
+                integers = column.astype(np.int64)
+            else:  # float64 rounds them: read from the text
+                integers = _exact_integers([row.split()[i] for row in rows])
         fields[key] = column.copy() if integers is None else integers
     return np.ascontiguousarray(table[:, :3]), fields, None
 
 
-def _exact_integers(tokens: list[str], column: np.ndarray) -> np.ndarray | None:
-    """`tokens`, the text of the whole numbers `column` (``7``, ``7.0``, ``7e0``), as
-    int64, or uint64 when beyond int64 and none negative, or None beyond both (or
-    when a token is not whole in decimal, only in float64).
-
-    Below 2**53 `column` holds them exactly; beyond it float64 rounds integers, so
-    they are read from their text.
-    """
-    if np.abs(column).max() < 2.0**53:
-        return column.astype(np.int64)
+def _exact_integers(tokens: list[str]) -> np.ndarray | None:
+    """`tokens`, the text of whole numbers (``7``, ``7.0``, ``7e0``), as int64, or
+    uint64 when beyond int64 and none negative, or None beyond both (or when a token
+    is not whole in decimal, only in float64)."""
     values = []
     for token in tokens:
         try:
