@@ -4,8 +4,12 @@ of finished tiles; and the parameters a run reports."""
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
+import shutil
+import threading
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -16,7 +20,9 @@ from test_batch import corrupt_points
 import pcl_rg
 from pcl_rg import batch
 from pcl_rg.batch._manifest import MANIFEST
+from pcl_rg.batch._plan import expand_inputs
 from pcl_rg.datasets import synthetic_survey
+from pcl_rg.io import read_points
 
 
 def shift_header_min_xy(path, by):
@@ -129,3 +135,194 @@ def test_the_report_gives_the_parameters_the_tiles_ran_with(tmp_path, scheduler)
     options = ["--out", tmp_path / "c", "--scheduler", scheduler, "--json"]
     result = run_pcl_rg("batch", "ground", *source.paths, *options, timeout=300)
     assert json.loads(result.stdout)["parameters"]["cell_size"] == list(used.cell_size)
+
+
+# ---------------------------------------------------------------- inputs that are no tile
+
+
+def test_a_fifo_named_as_a_tile_is_refused_or_skipped_before_any_work(tmp_path):
+    # Opening a FIFO blocks until a writer comes: its worker would wait for ever.
+    source = synthetic_survey(tmp_path / "in", tiles=(1, 2), tile_size=40.0, seed=4)
+    os.mkfifo(tmp_path / "in" / "pipe.laz")
+    with pytest.raises(ValueError, match=r"pipe\.laz' is not a regular file"):
+        batch.ground([tmp_path / "in" / "pipe.laz", *source.paths], tmp_path / "out")
+    assert not (tmp_path / "out").exists()
+    for listed in (tmp_path / "in", str(tmp_path / "in" / "*.laz")):  # a folder, a glob
+        with pytest.warns(UserWarning, match=r"skipped .*pipe\.laz': not a regular file"):
+            assert expand_inputs([listed]) == source.paths
+
+
+def test_a_fifo_in_a_folder_is_one_warning_line_and_the_tiles_run(tmp_path, scheduler):
+    source = synthetic_survey(tmp_path / "in", tiles=(1, 2), tile_size=40.0, seed=4)
+    os.mkfifo(tmp_path / "in" / "pipe.laz")
+    options = ["--out", tmp_path / "out", "--scheduler", scheduler, "-q"]
+    result = run_pcl_rg("batch", "ground", tmp_path / "in", *options, timeout=120)
+    assert result.returncode == 0, result.stderr
+    assert result.stderr.splitlines() == [
+        f"pcl-rg: warning: skipped {str(tmp_path / 'in' / 'pipe.laz')!r}: not a regular file "
+        "(a folder, FIFO, device or broken link)"
+    ]
+    assert sorted(os.listdir(tmp_path / "out")) == [MANIFEST, *map(os.path.basename, source.paths)]
+
+
+def test_notes_in_a_tile_folder_are_no_tile(tmp_path):
+    synthetic_survey(tmp_path, tiles=(1, 1), tile_size=40.0, seed=4)
+    (tmp_path / "README.txt").write_text("Survey notes, do not process\n1 2 3\n")
+    (tmp_path / "counted.txt").write_text("// from a scanner\n2\n1.0 2 3 40\n1 2 3.5 41\n")
+    pcl_rg.io.write_points(tmp_path / "empty.txt", np.zeros((0, 3)))  # "# x y z", no row
+    (tmp_path / "comma.txt").write_text("1,2,3\n")  # not what the XYZ reader reads
+    (tmp_path / "two.txt").write_text("1 2\n")
+    names = [os.path.basename(p) for p in expand_inputs([tmp_path])]
+    assert names == ["counted.txt", "empty.txt", "tile_0_0.laz"]
+    assert [os.path.basename(p) for p in expand_inputs([tmp_path / "*.txt"])] == names[:2]
+    # Named, a file is a tile whatever it holds: its read fails, for it alone.
+    assert expand_inputs([tmp_path / "README.txt"]) == [str(tmp_path / "README.txt")]
+
+
+def test_a_failed_tile_leaves_the_others_recorded_and_a_rerun_redoes_only_it(tmp_path, scheduler):
+    source = synthetic_survey(tmp_path / "in", tiles=(1, 3), tile_size=40.0, seed=4)
+    broken, whole = source.paths[2], Path(source.paths[2]).read_bytes()
+    Path(broken).write_bytes(whole[:3000])  # a header that cannot be read: no box
+    out = tmp_path / "out"
+    first = batch.ground(source.paths, out, scheduler=scheduler)
+    assert [t.status for t in first.tiles] == ["done", "done", "failed"]
+    assert first.tiles[1].no_buffer_from == ["tile_0_2.laz"]
+    assert sorted(json.loads((out / MANIFEST).read_text())) == ["tile_0_0.laz", "tile_0_1.laz"]
+    again = batch.ground(source.paths, out, scheduler=scheduler)
+    assert [t.status for t in again.tiles] == ["skipped", "skipped", "failed"]
+    # Readable again: it may be anybody's neighbour, so every tile is redone (its
+    # neighbour now with its buffer) and recorded.
+    Path(broken).write_bytes(whole)
+    mended = batch.ground(source.paths, out, scheduler=scheduler)
+    assert [t.status for t in mended.tiles] == ["done", "done", "done"]
+    assert mended.tiles[1].no_buffer_from == [] and mended.tiles[1].details["buffer_points"] > 0
+    assert len(json.loads((out / MANIFEST).read_text())) == 3
+
+
+# ---------------------------------------------------------------- warnings of the workers
+
+
+def shorten_point_count(path, by):
+    """Make a LAS 1.4 file's header count `by` points fewer than it holds; the new count."""
+    data = bytearray(Path(path).read_bytes())
+    count = int.from_bytes(data[247:255], "little") - by
+    data[247:255] = count.to_bytes(8, "little")
+    Path(path).write_bytes(bytes(data))
+    return count
+
+
+def damaged_las_survey(folder):
+    """Two LAS tiles, the first with 5 points more than its header counts: its reads warn."""
+    source = synthetic_survey(folder / "laz", tiles=(1, 2), tile_size=40.0, seed=4)
+    paths = [str(folder / os.path.basename(p).replace(".laz", ".las")) for p in source.paths]
+    for laz, las in zip(source.paths, paths, strict=True):
+        cloud = read_points(laz)
+        pcl_rg.io.write_points(las, cloud.points, cloud.fields, template=cloud)
+    count = shorten_point_count(paths[0], 5)
+    line = (
+        f"tile_0_0.las: LAS file {paths[0]!r}: the header counts {count} points, but the "
+        "file holds room for 5 more records after them; only the counted points are read "
+        "(is the header's point count damaged?)"
+    )
+    return paths, line
+
+
+@pytest.mark.parametrize("operation", ["ground", "denoise", "downsample"])
+@pytest.mark.parametrize("workers", ["processes", "threads"])
+def test_a_tiles_warning_reaches_the_caller_once_named_by_its_tile(
+    operation, workers, tmp_path, scheduler
+):
+    paths, line = damaged_las_survey(tmp_path)
+    options = {"params": pcl_rg.VoxelGridParams(leaf_size=2.0)} if operation == "downsample" else {}
+    run = getattr(batch, operation)
+    with contextlib.ExitStack() as stack:
+        if workers == "threads":  # in this process: two tasks at a time on its threads
+            from distributed import LocalCluster
+
+            cluster = stack.enter_context(
+                LocalCluster(
+                    n_workers=1, threads_per_worker=2, processes=False, dashboard_address=":0"
+                )
+            )
+            address = cluster.scheduler_address
+        else:
+            address = scheduler
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            report = run(paths, tmp_path / "out", scheduler=address, **options)
+    assert [t.status for t in report.tiles] == ["done", "done"]
+    assert [str(w.message) for w in caught] == [line]
+    assert caught[0].category is UserWarning and caught[0].filename == __file__
+    assert [t.warnings for t in report.tiles] == [[line], []]
+
+
+def test_a_tiles_warning_is_one_pcl_rg_line_on_the_commands_stderr(tmp_path):
+    # The engine's own local cluster: its worker processes share the command's stderr.
+    paths, line = damaged_las_survey(tmp_path)
+    options = ["--out", tmp_path / "out", "--workers", "1", "-q"]
+    result = run_pcl_rg("batch", "ground", *paths, *options, timeout=300)
+    assert result.returncode == 0, result.stderr
+    assert result.stderr.splitlines() == [f"pcl-rg: warning: {line}"]
+
+
+# ---------------------------------------------------------------- links
+
+
+def test_outputs_are_named_after_the_links_listed(tmp_path, scheduler):
+    source = synthetic_survey(tmp_path / "tiles", tiles=(1, 2), tile_size=40.0, seed=4)
+    (tmp_path / "other").mkdir()
+    shutil.copy(source.paths[1], tmp_path / "other" / "tile_0_0.laz")  # a name twice
+    (tmp_path / "links").mkdir()
+    os.symlink(source.paths[0], tmp_path / "links" / "north.laz")
+    os.symlink(tmp_path / "other" / "tile_0_0.laz", tmp_path / "links" / "south.laz")
+    report = batch.ground(tmp_path / "links", tmp_path / "out", scheduler=scheduler)
+    assert [t.input for t in report.tiles] == [
+        str(tmp_path / "links" / "north.laz"),
+        str(tmp_path / "links" / "south.laz"),
+    ]
+    assert [os.path.basename(t.output) for t in report.tiles] == ["north.laz", "south.laz"]
+    assert [t.status for t in report.tiles] == ["done", "done"]
+    # A file listed again under its target's name counts once, under its first name.
+    both = batch.ground(
+        [tmp_path / "links", source.paths[0]], tmp_path / "out", scheduler=scheduler
+    )
+    assert [t.status for t in both.tiles] == ["skipped", "skipped"]
+    # An output that is another input, through a link, is refused before any work.
+    (tmp_path / "out2").mkdir()
+    os.symlink(source.paths[1], tmp_path / "out2" / "north.laz")
+    with pytest.raises(ValueError, match=r"north\.laz' is the input .*tile_0_1\.laz'"):
+        batch.ground([tmp_path / "links" / "north.laz", source.paths[1]], tmp_path / "out2")
+
+
+def test_the_warnings_of_tasks_on_two_threads_stay_apart():
+    # warnings.catch_warnings is one state per process: a task that ends while another
+    # runs would restore it under the other's feet, and the other's warning be lost.
+    from pcl_rg.batch._caught import caught
+
+    lists = {}
+    first_in, second_in, first_done = (threading.Event() for _ in range(3))
+
+    def first():
+        with caught() as lists["first"]:
+            first_in.set()
+            second_in.wait()
+            warnings.warn("one", UserWarning, stacklevel=1)
+        first_done.set()
+
+    def second():
+        first_in.wait()
+        with caught() as lists["second"]:
+            second_in.set()
+            first_done.wait()  # the first task ended while this one runs
+            warnings.warn("two", RuntimeWarning, stacklevel=1)
+
+    threads = [threading.Thread(target=f) for f in (second, first)]
+    with warnings.catch_warnings(record=True) as outside:
+        warnings.simplefilter("always")
+        for thread in threads:
+            thread.start()
+        for thread in threads:
+            thread.join()
+        warnings.warn("three", UserWarning, stacklevel=1)  # after the tasks: as before them
+    assert lists == {"first": [(UserWarning, "one")], "second": [(RuntimeWarning, "two")]}
+    assert [str(w.message) for w in outside] == ["three"]

@@ -272,8 +272,15 @@ def ground(
     Raises
     ------
     ValueError
-        No inputs, two inputs with one file name, an output that is an input, a
-        bad buffer or method.
+        No inputs, two inputs with one file name, an output that is an input, an
+        input named that is no regular file (a FIFO), a bad buffer or method.
+
+    Warns
+    -----
+    UserWarning
+        For a folder's or glob's entry named like a point file that is no regular
+        file (skipped); and each warning a tile's task raised, as
+        ``<input's file name>: <message>`` (also in ``TileReport.warnings``).
 
     Notes
     -----

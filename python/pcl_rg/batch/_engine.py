@@ -21,12 +21,14 @@ import secrets
 import shutil
 import sys
 import time
+import warnings
 from collections.abc import Iterator, Sequence
 from typing import Any
 
 from .. import __version__
 from .._point_spacing import with_spacing_lengths
 from ..io import Extent
+from ..io._las import _outside_stacklevel
 from . import _tasks
 from ._headers import check_one_crs, survey_units
 from ._manifest import Manifest, file_signature
@@ -56,6 +58,9 @@ class TileReport:
     no_buffer_from: list[str] = dataclasses.field(default_factory=list)
     """Input files that should have given this tile a buffer but could not be read."""
     details: dict[str, Any] = dataclasses.field(default_factory=dict)
+    warnings: list[str] = dataclasses.field(default_factory=list)
+    """The warnings its tasks raised (a damaged header's point count, ...), each as
+    ``<input's file name>: <message>``, as they were re-emitted in this process."""
 
 
 @dataclasses.dataclass
@@ -204,6 +209,16 @@ def _discard(manifest: Manifest, output: str) -> str:
     return f" (its earlier output {os.path.basename(output)!r} was removed)"
 
 
+def _warn(report: TileReport, result: dict[str, Any]) -> None:
+    """Re-emit, here, the warnings a task of the tile caught (in a worker they would reach
+    only the worker's stderr, in Python's format), each once per tile, named by it."""
+    for category, message in result.get("warnings", ()):
+        line = f"{os.path.basename(report.input)}: {message}"
+        if line not in report.warnings:
+            report.warnings.append(line)
+            warnings.warn(line, category, stacklevel=_outside_stacklevel())
+
+
 def _plain(value: Any) -> Any:
     """`value` as it comes back from JSON, for comparing with the manifest."""
     return json.loads(json.dumps(value, default=str))
@@ -285,6 +300,7 @@ def _run_on(
         job = dataclasses.replace(job, scale=scale, buffer=job.buffer / scale[0])
     boxes: list[Box | None] = []
     for i, (report, extent) in enumerate(zip(reports, extents, strict=True)):
+        _warn(report, extent)
         if not extent["ok"]:
             report.error = extent["error"] + _discard(manifest, outputs[i])
             boxes.append(None)
@@ -354,17 +370,18 @@ def _run_on(
         needed = sorted(set(todo) | {j for i in todo for j in near[i]})
     cached = {i: client.submit(_tasks.cache_tile, job, tiles[i], pure=False) for i in needed}
     futures += cached.values()
-    known: dict[int, bool] = {}
+    known: dict[int, dict[str, Any]] = {}
 
-    def stage1_ok(j: int) -> bool:  # each stage-1 outcome fetched once
+    def stage1(j: int) -> dict[str, Any]:  # each stage-1 outcome fetched once
         if j not in known:
-            known[j] = bool(_outcome(cached[j])["ok"])
+            known[j] = _outcome(cached[j])
+            _warn(reports[j], known[j])
         return known[j]
 
     bar = _Progress(len(todo), progress, f"{job.operation} ({len(todo)} tiles)")
     try:
         if job.operation == "denoise":
-            stage = _denoise(client, job, tiles, boxes, near, todo, cached, futures)
+            stage = _denoise(client, job, tiles, boxes, near, todo, cached, futures, reports)
         else:
             stage = {}
             task = _tasks.ground_tile if job.operation == "ground" else _tasks.downsample_tile
@@ -377,16 +394,22 @@ def _run_on(
             i = stage[future]
             result = _outcome(future)
             report = reports[i]
-            report.details = {k: v for k, v in result.items() if k not in ("ok", "error")}
+            stage1(i)  # its warnings first
+            _warn(report, result)
+            report.details = {
+                k: v for k, v in result.items() if k not in ("ok", "error", "warnings")
+            }
             report.seconds = result.get("seconds", 0.0)
             # Stage 2 ran after every neighbour's stage 1: their outcomes are known.
-            short = [j for j in near[i] if j in cached and not stage1_ok(j)]
+            short = [j for j in near[i] if j in cached and not stage1(j)["ok"]]
             if result["ok"]:
                 report.status, report.error = "done", ""
                 report.points = result.get("points", report.points)
-                if short or unreadable:  # redo it next time, when the buffer may be whole
-                    manifest.forget(outputs[i])
+                if short:  # a neighbour's decode failed, maybe for a passing reason:
+                    manifest.forget(outputs[i])  # redo it next time, with its buffer
                 else:
+                    # Files unreadable from the start (no box: anybody's neighbour)
+                    # are among `expected`: one that becomes readable redoes the tile.
                     manifest.record(outputs[i], expected[i])
             else:
                 report.status = "failed"
@@ -394,8 +417,8 @@ def _run_on(
             bar.update(report.points)
     finally:
         bar.close()
-    stage1 = {i: _outcome(f) for i, f in cached.items()}
-    for i, result in stage1.items():
+    outcomes = {i: stage1(i) for i in cached}
+    for i, result in outcomes.items():
         if result["ok"] or reports[i].status == "failed":
             continue  # a tile of the work reported its failure above, with its note
         # A tile skipped as done, read only as a buffer, that now fails to decode: its
@@ -403,7 +426,7 @@ def _run_on(
         reports[i].status = "failed"
         reports[i].error = result["error"] + _discard(manifest, outputs[i])
     for i, report in enumerate(reports):
-        missing = [j for j in near[i] if j in stage1 and not stage1[j]["ok"]]
+        missing = [j for j in near[i] if j in outcomes and not outcomes[j]["ok"]]
         report.no_buffer_from = [os.path.basename(paths[j]) for j in missing] + unreadable
     return parameters, units
 
@@ -426,9 +449,12 @@ def _denoise(
     todo: list[int],
     cached: dict[int, Any],
     futures: list[Any],
+    reports: list[TileReport],
 ) -> dict[Any, int]:
     """Distances per tile, one global threshold, then the writes (stages 2 and 3)."""
     stage1 = {i: _outcome(f) for i, f in cached.items()}
+    for i, result in stage1.items():
+        _warn(reports[i], result)
     survey = survey_box([boxes[i] for i in cached if stage1[i]["ok"]]) or NOWHERE
     distances = {}
     for i in cached:
@@ -440,6 +466,8 @@ def _denoise(
         )
     futures += distances.values()
     sums = {i: _outcome(f) for i, f in distances.items()}
+    for i, result in sums.items():
+        _warn(reports[i], result)
     good = [s for s in sums.values() if s["ok"]]
     threshold = _tasks.sor_threshold(good, job.params.std_mul) if good else float("nan")
     stage: dict[Any, int] = {}

@@ -5,12 +5,15 @@ from __future__ import annotations
 import glob
 import math
 import os
+import re
+import warnings
 from collections.abc import Sequence
 from typing import NamedTuple
 
 import numpy as np
 
 from ..io import EXTENSIONS, Extent
+from ..io._las import _outside_stacklevel
 
 __all__ = [
     "Box",
@@ -36,15 +39,64 @@ class Box(NamedTuple):
     ymax: float
 
 
+# How much of a .txt file a folder's or glob's listing reads to tell a tile from notes.
+TEXT_SNIFF = 4096
+
+
+def _text_tile(path: str) -> bool:
+    """Whether a ``.txt`` file is XYZ text: its first row that is no comment and no
+    point count holds three numbers or more (a README.txt beside the tiles is no tile).
+    No such row within TEXT_SNIFF bytes: a tile when they end in a ``# x y z`` header
+    (an empty cloud, as write_points writes it) or fill TEXT_SNIFF (its read decides)."""
+    try:
+        with open(path, "rb") as stream:
+            head = stream.read(TEXT_SNIFF)
+    except OSError:
+        return True  # a tile: its read reports why it cannot be read, for it alone
+    named = False
+    for line in head.decode("ascii", "replace").splitlines():
+        words = line.split()
+        if not words:
+            continue
+        if words[0].startswith(("#", "//")):
+            names = re.split(r"[\s,;]+", line.strip().lstrip("#/").strip())
+            named = [n.lower() for n in names[:3]] == ["x", "y", "z"]
+            continue
+        if len(words) == 1 and words[0].isdigit():
+            continue  # the point count some writers put first
+        try:
+            [float(word) for word in words[:3]]
+        except ValueError:
+            return False
+        return len(words) >= 3
+    return named or len(head) == TEXT_SNIFF
+
+
 def _is_point_file(path: str) -> bool:
-    return os.path.isfile(path) and os.path.splitext(path)[1].lower() in EXTENSIONS
+    """Whether an entry of a folder or a glob's match is a tile: a point file's extension,
+    and a regular file (a FIFO would block its worker's read for ever: skipped, with a
+    warning, as a folder, device or broken link of that name); XYZ text in a .txt only."""
+    ext = os.path.splitext(path)[1].lower()
+    if ext not in EXTENSIONS:
+        return False
+    if not os.path.isfile(path):
+        warnings.warn(
+            f"skipped {path!r}: not a regular file (a folder, FIFO, device or broken link)",
+            stacklevel=_outside_stacklevel(),
+        )
+        return False
+    return ext != ".txt" or _text_tile(path)
 
 
 def expand_inputs(inputs: Sequence[str | os.PathLike[str]]) -> list[str]:
     """Files, folders (their point files, not recursive) and globs, as absolute paths.
 
-    The order is the order given, each folder and glob sorted; a file named twice
-    counts once. Raises ValueError for a name that is no file, folder or matching glob.
+    The order is the order given, each folder and glob sorted; a file named twice (also
+    through a link) counts once, under its first name. Links are not resolved: an output
+    is named after the input's name as listed. A ``.txt`` file in a folder or glob is a
+    tile only when it holds XYZ text (:func:`_text_tile`); a named file always is.
+    Raises ValueError for a name that is no file, folder or matching glob, or that is
+    not a regular file (a FIFO would block the read for ever).
     """
     if isinstance(inputs, (str, os.PathLike)):
         inputs = [inputs]
@@ -58,6 +110,11 @@ def expand_inputs(inputs: Sequence[str | os.PathLike[str]]) -> list[str]:
                 raise ValueError(f"folder {name!r} holds no point file ({', '.join(EXTENSIONS)})")
         elif os.path.isfile(name):
             matches = [name]
+        elif os.path.exists(name):
+            raise ValueError(
+                f"input {name!r} is not a regular file (a FIFO or device would block the "
+                "read for ever)"
+            )
         elif glob.has_magic(name):
             matches = [m for m in sorted(glob.glob(name)) if _is_point_file(m)]
             if not matches:
@@ -65,15 +122,19 @@ def expand_inputs(inputs: Sequence[str | os.PathLike[str]]) -> list[str]:
         else:
             raise ValueError(f"input {name!r}: no such file or folder")
         found += [os.path.abspath(m) for m in matches]
-    unique = list(dict.fromkeys(os.path.realpath(p) for p in found))
-    if not unique:
+    first: dict[str, str] = {}
+    for path in found:
+        first.setdefault(os.path.realpath(path), path)
+    if not first:
         raise ValueError("no input files")
-    return unique
+    return list(first.values())
 
 
 def output_paths(paths: Sequence[str], folder: str) -> list[str]:
-    """``folder/<input's file name>`` for each input; never an input, never twice."""
+    """``folder/<input's file name>`` for each input (a link's own name); never an
+    input, also through links, never twice."""
     outputs = [os.path.join(os.path.abspath(folder), os.path.basename(p)) for p in paths]
+    inputs = {(s.st_dev, s.st_ino): p for p in paths for s in [os.stat(p)]}
     seen: dict[str, str] = {}
     for path, output in zip(paths, outputs, strict=True):
         if output in seen:
@@ -82,8 +143,12 @@ def output_paths(paths: Sequence[str], folder: str) -> list[str]:
                 f"would both be {output!r}"
             )
         seen[output] = path
-        if os.path.exists(output) and os.path.samefile(output, path):
-            raise ValueError(f"output {output!r} is the input itself; choose another --out")
+        if os.path.exists(output):
+            stat = os.stat(output)
+            other = inputs.get((stat.st_dev, stat.st_ino))
+            if other is not None:
+                what = "the input itself" if other == path else f"the input {other!r}"
+                raise ValueError(f"output {output!r} is {what}; choose another --out")
     return outputs
 
 

@@ -32,6 +32,7 @@ from .._classification import (
     voxel_attributes,
 )
 from ..io import CoordinateUnits, PointFile, read_extent, read_points, write_points
+from ._caught import caught
 from ._headers import check_header_box, crs_records
 from ._plan import FOOTPRINT_GAP, Box, covers, footprint, grow, meets
 
@@ -82,14 +83,18 @@ def _peak_mib() -> float:
 
 
 def _guarded(work: Callable[[], dict[str, Any]]) -> dict[str, Any]:
-    """`work()` with its time and the worker's peak memory; bad input as a failure."""
+    """`work()` with its time and the worker's peak memory; bad input as a failure.
+
+    Either way with ``warnings``: the (category, message) of each warning it raised,
+    for the parent to pass on (:mod:`._caught`)."""
     start = time.perf_counter()
-    try:
-        result = work()
-    except Exception as error:  # noqa: BLE001 - any failure is this tile's, and reported
-        return _failure(error)
+    with caught() as found:
+        try:
+            result = work()
+        except Exception as error:  # noqa: BLE001 - any failure is this tile's, and reported
+            return dict(_failure(error), warnings=found)
     result.update(ok=True, seconds=time.perf_counter() - start, peak_mib=_peak_mib())
-    return result
+    return dict(result, warnings=found)
 
 
 def passed_on(result: dict[str, Any]) -> dict[str, Any]:
