@@ -225,7 +225,7 @@ def _check_points(points: ArrayLike, xyz_dtype: np.dtype) -> np.ndarray:
         if too_big.any():
             first = np.argwhere(too_big)[0]
             raise ValueError(
-                f"points[{first[0]}, {first[1]}] = {array[tuple(first)]!r} is beyond the "
+                f"points[{first[0]}, {first[1]}] = {float(array[tuple(first)])!r} is beyond the "
                 "float32 range; pass xyz_dtype=np.float64"
             )
     with np.errstate(invalid="ignore"):
