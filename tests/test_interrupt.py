@@ -230,6 +230,17 @@ def _wait_for(condition, timeout: float, child: subprocess.Popen) -> None:
         time.sleep(0.01)
 
 
+def _terminate_when(condition, timeout: float, child: subprocess.Popen) -> tuple[str, str]:
+    """SIGTERM to `child` once `condition` holds (see _wait_for); its (stdout, stderr)."""
+    try:
+        _wait_for(condition, timeout, child)
+        child.send_signal(signal.SIGTERM)
+        return child.communicate(timeout=120)
+    finally:
+        child.kill()
+        child.wait()
+
+
 def test_cli_sigterm_exits_143_and_leaves_no_partial_file(tmp_path: Path) -> None:
     # SIGTERM (kill, a batch system's time limit) ended the process at once and left
     # the temporary file of OUTPUT; now it unwinds like Ctrl-C. 1 M points written as
@@ -244,13 +255,9 @@ def test_cli_sigterm_exits_143_and_leaves_no_partial_file(tmp_path: Path) -> Non
         env=_child_env(),
         cwd=tmp_path,
     ) as child:
-        try:
-            _wait_for(lambda: any(n.endswith(".tmp") for n in os.listdir(tmp_path)), 120, child)
-            child.send_signal(signal.SIGTERM)
-            output, errors = child.communicate(timeout=60)
-        finally:
-            child.kill()
-            child.wait()
+        output, errors = _terminate_when(
+            lambda: any(n.endswith(".tmp") for n in os.listdir(tmp_path)), 120, child
+        )
     assert child.returncode == 143, errors
     assert "pcl-rg: error: terminated (SIGTERM)" in errors.splitlines(), errors
     assert "Traceback" not in errors
@@ -273,20 +280,14 @@ def test_cli_sigterm_stops_a_batch_and_removes_its_scratch_folder(tmp_path: Path
         text=True,
         env=_child_env(),
     ) as child:
-        try:
 
-            def busy() -> bool:
-                names = os.listdir(out) if out.exists() else []
-                return any(n.startswith(".pcl_rg-scratch") for n in names) and any(
-                    n.endswith(".laz") for n in names
-                )
+        def busy() -> bool:
+            names = os.listdir(out) if out.exists() else []
+            return any(n.startswith(".pcl_rg-scratch") for n in names) and any(
+                n.endswith(".laz") for n in names
+            )
 
-            _wait_for(busy, 180, child)
-            child.send_signal(signal.SIGTERM)
-            _, errors = child.communicate(timeout=120)
-        finally:
-            child.kill()
-            child.wait()
+        _, errors = _terminate_when(busy, 180, child)
     assert child.returncode == 143, errors
     assert "pcl-rg: error: terminated (SIGTERM)" in errors.splitlines(), errors
     left = os.listdir(out)
