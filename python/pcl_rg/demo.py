@@ -19,6 +19,7 @@ import numpy as np
 
 from . import datasets
 from ._convex_segmentation import convex_segmentation
+from ._demo_roofs import ROOF_BAND, roof_ids, roof_iou
 from ._grid_ground import grid_ground
 from ._params import check_flag, check_number
 from ._region_growing import RegionGrowingParams, region_growing
@@ -56,7 +57,6 @@ SEGMENT = {"k": 15, "min_cluster_size": 50}
 # Kinect scenes at 5 mm voxels, so at LEAF-sized voxels it is scaled by 0.005 / LEAF.
 # Unscaled it would gate nothing here and regions would grow by angle alone.
 CURVEDNESS = RegionGrowingParams().curvature_threshold * 0.005 / LEAF
-ROOF_BAND = 0.25  # m below a building's highest point that still counts as its roof
 
 
 @dataclass
@@ -113,39 +113,6 @@ def _timer(
     with stage(key, description):
         yield box
     box[0] = time.perf_counter() - start
-
-
-def _roofs(points: np.ndarray, labels: np.ndarray, buildings: np.ndarray) -> np.ndarray:
-    """Truth roof id per point (1, 2, ... per building; 0 elsewhere)."""
-    roof = np.zeros(len(points), dtype=np.int64)
-    is_building = labels == datasets.BUILDING
-    for i, (xmin, ymin, xmax, ymax, _) in enumerate(buildings):
-        inside = (
-            is_building
-            & (points[:, 0] >= xmin - 0.01)
-            & (points[:, 0] <= xmax + 0.01)
-            & (points[:, 1] >= ymin - 0.01)
-            & (points[:, 1] <= ymax + 0.01)
-        )
-        if inside.any():
-            top = points[inside, 2].max()
-            roof[inside & (points[:, 2] >= top - ROOF_BAND)] = i + 1
-    return roof
-
-
-def _roof_iou(roof: np.ndarray, labels: np.ndarray) -> float:
-    """Mean over roofs of the IoU (over all points) of the roof and its best region."""
-    sizes = np.bincount(labels[labels >= 0]) if (labels >= 0).any() else np.zeros(0, np.int64)
-    scores = []
-    for roof_id in np.unique(roof[roof > 0]):
-        members = roof == roof_id
-        candidates, inter = np.unique(labels[members & (labels >= 0)], return_counts=True)
-        if len(candidates) == 0:
-            scores.append(0.0)
-            continue
-        union = sizes[candidates] + members.sum() - inter
-        scores.append(float((inter / union).max()))
-    return float(np.mean(scores)) if scores else float("nan")
 
 
 def run_demo(
@@ -308,7 +275,7 @@ def run_demo(
         save(f"ground_{method}.laz", points, classification=classes)
 
     # 4. Region growing on the voxel centroids, labels carried back to the points.
-    roof = _roofs(points, labels, scene.buildings)
+    roof = roof_ids(points, labels, scene.buildings)
     voxel_of_point = np.full(n, -1, dtype=np.int64)
     voxel_of_point[kept_index] = grid.voxel_of_point
     segmentations = {}
@@ -325,15 +292,16 @@ def run_demo(
         point_labels = np.where(voxel_of_point >= 0, voxel_labels[voxel_of_point], -1)
         segmentations[method] = point_labels
         n_regions = len(np.unique(voxel_labels[voxel_labels >= 0]))
+        iou = roof_iou(roof, point_labels)
         report.rows.append(
             dict(
                 stage=f"segment: {method} (voxels)",
                 points_in=len(grid.centroids),
                 points_out=int((voxel_labels >= 0).sum()),
                 seconds=t[0],
-                roof_iou=_roof_iou(roof, point_labels),
+                roof_iou=iou,
                 regions=n_regions,
-                result=f"{n_regions} regions, roof IoU {_roof_iou(roof, point_labels):.3f}",
+                result=f"{n_regions} regions, roof IoU {iou:.3f}",
             )
         )
         save(
@@ -354,7 +322,7 @@ def run_demo(
         )
     point_labels = np.asarray(result.labels).astype(np.int64)
     n_regions = len(np.unique(point_labels[point_labels >= 0]))
-    iou = _roof_iou(roof, point_labels)
+    iou = roof_iou(roof, point_labels)
     split = ", ".join(f"{s.name} {s.seconds:.2f} s" for s in result.report.stages)
     report.rows.append(
         dict(

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import itertools
 import re
-from typing import TYPE_CHECKING, BinaryIO, NamedTuple
+from typing import TYPE_CHECKING, BinaryIO
 
 import numpy as np
 
@@ -16,45 +16,21 @@ from ._columns import (
     load_ascii_table,
     split_columns,
 )
+from ._ply_header import (
+    ENCODINGS,
+    MAX_HEADER_BYTES,
+    PLY_NAMES,
+    PlyElement,
+    bad_ply,
+    check_counts,
+    parse_header,
+)
 
 if TYPE_CHECKING:
     from . import PlyLayout
 
 __all__ = ["read", "write"]
 
-# The header ends with the end_header line; real headers are a few hundred bytes.
-_MAX_HEADER_BYTES = 1 << 20
-
-_PLY_TYPES = {
-    "char": "i1",
-    "int8": "i1",
-    "uchar": "u1",
-    "uint8": "u1",
-    "short": "i2",
-    "int16": "i2",
-    "ushort": "u2",
-    "uint16": "u2",
-    "int": "i4",
-    "int32": "i4",
-    "uint": "u4",
-    "uint32": "u4",
-    "float": "f4",
-    "float32": "f4",
-    "double": "f8",
-    "float64": "f8",
-}
-_PLY_NAMES = {
-    "i1": "char",
-    "u1": "uchar",
-    "i2": "short",
-    "u2": "ushort",
-    "i4": "int",
-    "u4": "uint",
-    "f4": "float",
-    "f8": "double",
-}
-_PLY_ENCODINGS = {"ascii": "", "binary_little_endian": "<", "binary_big_endian": ">"}
-_END_HEADER = re.compile(rb"^end_header\r?\n", re.MULTILINE)
 # Bytes that no ascii PLY row holds: control characters other than tab, CR and LF
 # (str.splitlines would also break rows at some of them).
 _CONTROL = re.compile(r"[\x00-\x08\x0b\x0c\x0e-\x1f\x7f]")
@@ -62,132 +38,27 @@ _CONTROL = re.compile(r"[\x00-\x08\x0b\x0c\x0e-\x1f\x7f]")
 _FLOAT = re.compile(r"[+-]?((\d+\.?\d*|\.\d+)([eE][+-]?\d+)?|inf|infinity|nan)", re.IGNORECASE)
 
 
-class _PlyElement(NamedTuple):
-    name: str
-    count: int
-    properties: list[tuple[str, str]]  # (name, dtype code) for scalars
-    has_list: bool
-    list_types: list[tuple[str, str, str]]  # (name, count type, item type)
-    # Every property in header order as (name, count type or "" for a scalar, type).
-    layout: list[tuple[str, str, str]]
-
-
-def _bad_ply(path: str, problem: str) -> ValueError:
-    return ValueError(f"invalid PLY file {path!r}: {problem}")
-
-
-def _parse_ply_header(path: str, raw: bytes) -> tuple[str, list[_PlyElement], tuple[str, ...], int]:
-    # The first line that is end_header and nothing else: a comment or a property name
-    # may hold the word too.
-    found = _END_HEADER.search(raw)
-    if found is None:
-        raise _bad_ply(path, "no 'end_header' line (header truncated or not a PLY file)")
-    end, end_len = found.start(), len(found.group())
-    try:
-        lines = raw[:end].decode("ascii").splitlines()
-    except UnicodeDecodeError:
-        raise _bad_ply(path, "header is not ASCII text") from None
-    if not lines or lines[0].strip() != "ply":
-        raise _bad_ply(path, "first line is not 'ply'")
-    encoding = None
-    elements: list[_PlyElement] = []
-    comments = []
-    for number, line in enumerate(lines[1:], start=2):
-        tokens = line.split()
-        if not tokens:
-            continue
-        key = tokens[0]
-        if key == "format":
-            if len(tokens) != 3 or tokens[1] not in _PLY_ENCODINGS or tokens[2] != "1.0":
-                raise _bad_ply(path, f"line {number}: unsupported format line {line.strip()!r}")
-            encoding = tokens[1]
-        elif key == "comment":
-            comments.append(line.strip()[len("comment") :].strip())
-        elif key == "obj_info":
-            continue
-        elif key == "element":
-            if len(tokens) != 3:
-                raise _bad_ply(path, f"line {number}: 'element' needs a name and a count")
-            if not DECIMAL_INTEGER.fullmatch(tokens[2]):  # int() would also take "1_0"
-                raise _bad_ply(
-                    path, f"line {number}: element count {tokens[2]!r} is not an integer"
-                )
-            count = int(tokens[2])
-            if count < 0:
-                raise _bad_ply(path, f"line {number}: element count {count} is negative")
-            if any(element.name == tokens[1] for element in elements):
-                raise _bad_ply(path, f"line {number}: a second element {tokens[1]!r}")
-            elements.append(_PlyElement(tokens[1], count, [], False, [], []))
-        elif key == "property":
-            if not elements:
-                raise _bad_ply(path, f"line {number}: property before any element")
-            element = elements[-1]
-            if len(tokens) == 5 and tokens[1] == "list":
-                if tokens[2] not in _PLY_TYPES or tokens[3] not in _PLY_TYPES:
-                    raise _bad_ply(path, f"line {number}: unknown list types in {line.strip()!r}")
-                element.list_types.append((tokens[4], _PLY_TYPES[tokens[2]], _PLY_TYPES[tokens[3]]))
-                element.layout.append(element.list_types[-1])
-                elements[-1] = element._replace(has_list=True)
-            elif len(tokens) == 3:
-                if tokens[1] not in _PLY_TYPES:
-                    raise _bad_ply(path, f"line {number}: unknown property type {tokens[1]!r}")
-                element.properties.append((tokens[2], _PLY_TYPES[tokens[1]]))
-                element.layout.append((tokens[2], "", _PLY_TYPES[tokens[1]]))
-            else:
-                raise _bad_ply(path, f"line {number}: malformed property line {line.strip()!r}")
-        else:
-            raise _bad_ply(path, f"line {number}: unknown header keyword {key!r}")
-    if encoding is None:
-        raise _bad_ply(path, "header has no 'format' line")
-    return encoding, elements, tuple(comments), end + end_len
-
-
-def _check_ply_counts(path: str, encoding: str, elements: list[_PlyElement], size: int) -> None:
-    """Every element count against the bytes after the header, before any parsing.
-
-    A binary entry takes at least its scalar properties plus one count per list;
-    an ascii entry at least one character per property (a loose bound, so that rows
-    of the wrong width still get the more precise message of the parser).
-    """
-    need = 0
-    for element in elements:
-        if encoding == "ascii":
-            per_entry = len(element.properties) + len(element.list_types)
-        else:
-            per_entry = sum(np.dtype(code).itemsize for _, code in element.properties) + sum(
-                np.dtype(count_type).itemsize for _, count_type, _ in element.list_types
-            )
-        need += element.count * per_entry
-        if need > size + 1:
-            raise _bad_ply(
-                path,
-                f"element {element.name!r} count {element.count} needs at least {need} bytes "
-                f"of {encoding} data with the elements before it, the file holds {size} "
-                "(truncated?)",
-            )
-
-
 def read(path: str) -> tuple[np.ndarray, dict[str, np.ndarray], tuple]:
     """Points, fields and the layout (encoding, x/y/z dtype, comments) of a PLY file."""
     with open(path, "rb") as stream:
         raw = stream.read()
-    encoding, elements, comments, offset = _parse_ply_header(path, raw[:_MAX_HEADER_BYTES])
+    encoding, elements, comments, offset = parse_header(path, raw[:MAX_HEADER_BYTES])
     vertex_at = next((i for i, e in enumerate(elements) if e.name == "vertex"), None)
     if vertex_at is None:
-        raise _bad_ply(path, "no 'vertex' element")
+        raise bad_ply(path, "no 'vertex' element")
     vertex = elements[vertex_at]
     if vertex.has_list:
-        raise _bad_ply(path, "the vertex element has list properties, which are not supported")
+        raise bad_ply(path, "the vertex element has list properties, which are not supported")
     names = [name for name, _ in vertex.properties]
     for axis in "xyz":
         if axis not in names:
-            raise _bad_ply(
+            raise bad_ply(
                 path, f"the vertex element has no {axis!r} property (got {' '.join(names)})"
             )
     if len(set(names)) != len(names):
-        raise _bad_ply(path, f"the vertex element repeats a property name ({' '.join(names)})")
+        raise bad_ply(path, f"the vertex element repeats a property name ({' '.join(names)})")
     data = memoryview(raw)[offset:]
-    _check_ply_counts(path, encoding, elements, len(data))
+    check_counts(path, encoding, elements, len(data))
     if encoding == "ascii":
         table = _read_ascii(path, offset, data, elements, vertex_at)
     else:
@@ -205,12 +76,12 @@ def read(path: str) -> tuple[np.ndarray, dict[str, np.ndarray], tuple]:
     return points, fields, (encoding, xyz_dtype, comments)
 
 
-def _element_counts(elements: list[_PlyElement]) -> str:
+def _element_counts(elements: list[PlyElement]) -> str:
     return ", ".join(f"{e.count} {e.name}" for e in elements)
 
 
 def _read_ascii(
-    path: str, offset: int, data: memoryview, elements: list[_PlyElement], vertex_at: int
+    path: str, offset: int, data: memoryview, elements: list[PlyElement], vertex_at: int
 ) -> np.ndarray:
     """The vertex table of ascii data: a row per entry of every element, in header order.
 
@@ -222,12 +93,12 @@ def _read_ascii(
     try:
         text = bytes(data).decode("ascii")
     except UnicodeDecodeError as exc:
-        raise _bad_ply(
+        raise bad_ply(
             path, f"ascii data has a non-ASCII byte at offset {offset + exc.start}"
         ) from None
     control = _CONTROL.search(text)
     if control:
-        raise _bad_ply(
+        raise bad_ply(
             path,
             f"ascii data has the control character {control.group()!r} at offset "
             f"{offset + control.start()}",
@@ -245,21 +116,21 @@ def _read_ascii(
         stop = min(start + element.count, len(lines))
         blank = next((k for k in range(start, stop) if not lines[k].strip()), None)
         if element.layout and blank is not None:
-            raise _bad_ply(path, f"blank line {blank + 1} of the data, within the counted rows")
+            raise bad_ply(path, f"blank line {blank + 1} of the data, within the counted rows")
     if len(lines) < skip + n:
-        raise _bad_ply(
+        raise bad_ply(
             path,
             f"header says {n} vertices but the data hold {max(len(lines) - skip, 0)} (truncated?)",
         )
     if len(lines) < total:
-        raise _bad_ply(
+        raise bad_ply(
             path,
             f"the header's elements ({_element_counts(elements)}) count {total} data rows, "
             f"the data hold {len(lines)} (truncated?)",
         )
     surplus = sum(1 for line in lines[total:] if line.strip())
     if surplus:
-        raise _bad_ply(
+        raise bad_ply(
             path,
             f"more data rows than the {total} the header's elements count "
             f"({_element_counts(elements)}): {surplus} more (an element count too small?)",
@@ -269,7 +140,7 @@ def _read_ascii(
             continue
         for k in sorted({start, start + element.count - 1}):
             if not _ascii_entry_fits(lines[k], element):
-                raise _bad_ply(
+                raise bad_ply(
                     path,
                     f"data row {k + 1} is not one {element.name!r} entry as the header "
                     f"declares it ({len(element.layout)} properties): the element counts "
@@ -281,10 +152,10 @@ def _read_ascii(
     try:
         return load_ascii_table(lines[skip : skip + n], record)
     except ValueError as exc:
-        raise _bad_ply(path, f"ascii vertex data, {exc}") from None
+        raise bad_ply(path, f"ascii vertex data, {exc}") from None
 
 
-def _ascii_entry_fits(line: str, element: _PlyElement) -> bool:
+def _ascii_entry_fits(line: str, element: PlyElement) -> bool:
     """Whether `line` reads as one entry of `element`: a number per scalar property, a
     count and that many numbers per list property, integers where the type is one."""
     tokens = line.split()
@@ -311,7 +182,7 @@ def _ascii_number(token: str, code: str) -> bool:
 
 
 def _read_binary(
-    path: str, encoding: str, data: memoryview, elements: list[_PlyElement], vertex_at: int
+    path: str, encoding: str, data: memoryview, elements: list[PlyElement], vertex_at: int
 ) -> np.ndarray:
     """The vertex table of binary data: the entries of every element, in header order.
 
@@ -319,13 +190,13 @@ def _read_binary(
     aside), or a vertex count short of the vertex data goes unseen; that end is known
     where each of them has entries of one size (see _binary_element_size).
     """
-    order = _PLY_ENCODINGS[encoding]
+    order = ENCODINGS[encoding]
     vertex = elements[vertex_at]
     n = vertex.count
     skip = 0
     for element in elements[:vertex_at]:
         if element.has_list:
-            raise _bad_ply(
+            raise bad_ply(
                 path,
                 f"element {element.name!r} with list properties comes before 'vertex' "
                 "in a binary file, which is not supported",
@@ -334,7 +205,7 @@ def _read_binary(
     record = np.dtype([(name, order + code) for name, code in vertex.properties])
     need = skip + n * record.itemsize
     if len(data) < need:
-        raise _bad_ply(
+        raise bad_ply(
             path,
             f"binary data is {len(data)} bytes but {n} vertices x {record.itemsize} "
             f"bytes need {need} (truncated?)",
@@ -346,18 +217,18 @@ def _read_binary(
             # List lengths that vary between entries: where this element ends shows
             # only by walking every entry, which a reader of the vertices does not do;
             # the data after the vertices are then checked only against the lower
-            # bound of _check_ply_counts.
+            # bound of check_counts.
             end = None
             break
         end += size
         if len(data) < end:
-            raise _bad_ply(
+            raise bad_ply(
                 path,
                 f"binary data is {len(data)} bytes but the header's elements "
                 f"({_element_counts(elements)}) need {end} (truncated?)",
             )
     if end is not None and len(data) > end and bytes(data[end:]).strip(b"\r\n\x00 "):
-        raise _bad_ply(
+        raise bad_ply(
             path,
             f"{len(data) - end} bytes after the data of the header's elements "
             f"({_element_counts(elements)}): an element count too small?",
@@ -366,7 +237,7 @@ def _read_binary(
 
 
 def _binary_element_size(
-    path: str, order: str, data: memoryview, start: int, element: _PlyElement
+    path: str, order: str, data: memoryview, start: int, element: PlyElement
 ) -> int | None:
     """The bytes of `element`'s entries from byte `start` of `data`, or None when its
     list lengths vary between entries.
@@ -379,7 +250,7 @@ def _binary_element_size(
         return 0
     if not element.has_list:
         return element.count * sum(np.dtype(code).itemsize for _, code in element.properties)
-    past_end = _bad_ply(
+    past_end = bad_ply(
         path,
         f"the first {element.name!r} entry runs past the {len(data)} bytes of data "
         "(truncated, or an element count wrong?)",
@@ -395,7 +266,7 @@ def _binary_element_size(
             raise past_end
         items = int(np.frombuffer(data, order + count_type, 1, at)[0])
         if items < 0:
-            raise _bad_ply(
+            raise bad_ply(
                 path,
                 f"element {element.name!r}: negative list length {items} in its first entry",
             )
@@ -407,7 +278,7 @@ def _binary_element_size(
         np.dtype(count_type or code).itemsize for _, count_type, code in element.layout
     )
     if start + least > len(data):
-        raise _bad_ply(
+        raise bad_ply(
             path,
             f"the {element.count} {element.name!r} entries need at least {least} bytes from "
             f"byte {start} of the data, which hold {len(data)} (truncated, or an element "
@@ -479,7 +350,7 @@ def write(
     lines += [f"comment {c}" for c in comments]
     lines.append(f"element vertex {n}")
     for key, array in data:
-        lines.append(f"property {_PLY_NAMES[array.dtype.str[1:]]} {key}")
+        lines.append(f"property {PLY_NAMES[array.dtype.str[1:]]} {key}")
     lines.append("end_header")
     head = ("\n".join(lines) + "\n").encode("ascii")
     if encoding == "ascii":
@@ -488,7 +359,7 @@ def write(
             stream.write(head)
             write_ascii(stream, [array for _, array in data], n)
     else:
-        order = _PLY_ENCODINGS[encoding]
+        order = ENCODINGS[encoding]
         record = np.dtype([(key, order + array.dtype.str[1:]) for key, array in data])
         table = np.empty(n, dtype=record)
         for key, array in data:
