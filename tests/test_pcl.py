@@ -317,6 +317,8 @@ def test_pmf_empty() -> None:
 # --- what PCL cannot run with: refused before it loops, aborts or exhausts memory -------
 
 _KM = np.c_[np.random.default_rng(0).uniform(0.0, 1000.0, (3000, 2)), np.zeros(3000)]
+_SPREAD = np.c_[np.random.default_rng(1).uniform(0.0, 100.0, (20_000, 2)), np.zeros(20_000)]
+_DENSE = np.c_[np.random.default_rng(2).uniform(0.0, 1.0, (200_000, 2)), np.zeros(200_000)]
 
 
 @pytest.mark.parametrize(
@@ -341,6 +343,10 @@ _KM = np.c_[np.random.default_rng(0).uniform(0.0, 1000.0, (3000, 2)), np.zeros(3
             r"grids would hold \d+ cells \(at most 2.28",
         ),
         (_KM, {"max_window_size": 10**6, "approximate": True}, "compare about .* at most 1e11"),
+        # The point-wise filter's boxes: every window past 1 km holds all points (minutes,
+        # with no way to interrupt PCL), or a dense cloud with PCL's own defaults (89 s).
+        (_SPREAD, {"max_window_size": 2**31 - 1}, "collect about .* at most 1e10"),
+        (_DENSE, {}, "collect about .* at most 1e10"),
     ],
 )
 def test_pmf_refuses_what_pcl_cannot_run(points, kwargs, match) -> None:

@@ -112,8 +112,10 @@ def progressive_morphological_filter(
         PCL cannot run with on these points: a window series that does not
         grow or takes more than 64 steps, values beyond float32, more than
         2^24 cells on an axis, or (approximate) grids of more than 2^28 cells
-        or more than 1e11 cell comparisons. PCL would loop, abort or exhaust
-        memory there.
+        or more than 1e11 cell comparisons, or (point-wise) more than 1e10
+        points collected from the octree: every point gathers the points of a
+        box one window wide, twice per window, which PCL cannot interrupt.
+        PCL would loop, abort, exhaust memory or run for minutes there.
     %(type_error)s
 
     Notes
