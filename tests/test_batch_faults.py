@@ -212,7 +212,8 @@ def shorten_point_count(path, by):
 
 
 def damaged_las_survey(folder):
-    """Two LAS tiles, the first with 5 points more than its header counts: its reads warn."""
+    """Two LAS tiles, the first with 5 points more than its header counts: its reads warn
+    (naming the tile by its path, so the warning is not prefixed with its name again)."""
     source = synthetic_survey(folder / "laz", tiles=(1, 2), tile_size=40.0, seed=4)
     paths = [str(folder / os.path.basename(p).replace(".laz", ".las")) for p in source.paths]
     for laz, las in zip(source.paths, paths, strict=True):
@@ -220,7 +221,7 @@ def damaged_las_survey(folder):
         pcl_rg.io.write_points(las, cloud.points, cloud.fields, template=cloud)
     count = shorten_point_count(paths[0], 5)
     line = (
-        f"tile_0_0.las: LAS file {paths[0]!r}: the header counts {count} points, but the "
+        f"LAS file {paths[0]!r}: the header counts {count} points, but the "
         "file holds room for 5 more records after them; only the counted points are read "
         "(is the header's point count damaged?)"
     )
@@ -254,6 +255,18 @@ def test_a_tiles_warning_reaches_the_caller_once_named_by_its_tile(
     assert [str(w.message) for w in caught] == [line]
     assert caught[0].category is UserWarning and caught[0].filename == __file__
     assert [t.warnings for t in report.tiles] == [[line], []]
+
+
+def test_a_warning_that_does_not_name_its_tile_is_prefixed_with_the_tiles_name():
+    from pcl_rg.batch._engine import TileReport, _warn
+
+    report = TileReport(input="/survey/north.laz", output="/out/north.laz", status="done")
+    caught_warnings = [(UserWarning, "few points"), (UserWarning, "/survey/north.laz: odd")]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        _warn(report, {"warnings": caught_warnings * 2})  # each once per tile
+    assert report.warnings == ["north.laz: few points", "/survey/north.laz: odd"]
+    assert [str(w.message) for w in caught] == report.warnings
 
 
 def test_a_tiles_warning_is_one_pcl_rg_line_on_the_commands_stderr(tmp_path):

@@ -60,7 +60,8 @@ class TileReport:
     details: dict[str, Any] = dataclasses.field(default_factory=dict)
     warnings: list[str] = dataclasses.field(default_factory=list)
     """The warnings its tasks raised (a damaged header's point count, ...), each as
-    ``<input's file name>: <message>``, as they were re-emitted in this process."""
+    ``<input's file name>: <message>`` (or the message alone where it names the input's
+    path), as they were re-emitted in this process."""
 
 
 @dataclasses.dataclass
@@ -211,9 +212,11 @@ def _discard(manifest: Manifest, output: str) -> str:
 
 def _warn(report: TileReport, result: dict[str, Any]) -> None:
     """Re-emit, here, the warnings a task of the tile caught (in a worker they would reach
-    only the worker's stderr, in Python's format), each once per tile, named by it."""
+    only the worker's stderr, in Python's format), each once per tile, named by it (a
+    message that already names the tile's path, as the readers' do, is left as it is)."""
     for category, message in result.get("warnings", ()):
-        line = f"{os.path.basename(report.input)}: {message}"
+        named = report.input in message
+        line = message if named else f"{os.path.basename(report.input)}: {message}"
         if line not in report.warnings:
             report.warnings.append(line)
             warnings.warn(line, category, stacklevel=_outside_stacklevel())
