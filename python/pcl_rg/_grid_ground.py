@@ -259,7 +259,10 @@ def grid_ground(
         links to points of its own and the 8 neighbouring cells. Default: unset,
         per axis ``block_size / k`` with k the smallest whole number that makes
         it at most 2 point spacings (:func:`pcl_rg.point_spacing`): 2 m on the
-        urban ISPRS samples' 1 m spacing, 0.5 m at 0.25 m.
+        urban ISPRS samples' 1 m spacing, 0.5 m at 0.25 m. A cell far below
+        the spacing is allowed, as the definition allows it, but its cells
+        seldom have a neighbour holding a point, so ground grows little from
+        the seeds (without the final pass, about one point per block).
     slope : float, optional
         S, tangent of the steepest terrain slope (>= 0). Default 0.3.
     height_tolerance : float, optional
