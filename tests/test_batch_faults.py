@@ -8,6 +8,7 @@ import contextlib
 import json
 import os
 import shutil
+import signal
 import threading
 import warnings
 from pathlib import Path
@@ -339,3 +340,60 @@ def test_the_warnings_of_tasks_on_two_threads_stay_apart():
         warnings.warn("three", UserWarning, stacklevel=1)  # after the tasks: as before them
     assert lists == {"first": [(UserWarning, "one")], "second": [(RuntimeWarning, "two")]}
     assert [str(w.message) for w in outside] == ["three"]
+
+
+# ---------------------------------------------------------------- interrupts at start-up
+
+
+def test_an_interrupt_while_the_local_cluster_starts_waits_for_it_then_closes_it(monkeypatch):
+    # Ctrl-C while LocalCluster started its workers left a cluster nobody owned, which
+    # Dask's exit hook failed to close (a traceback ending in "AssertionError:
+    # Status.init"). Now the interrupt is raised once the cluster is whole, and closed.
+    import distributed
+
+    from pcl_rg.batch._cluster import dask_client
+
+    events = []
+
+    class StartingCluster:
+        def __init__(self, **options):
+            os.kill(os.getpid(), signal.SIGINT)  # mid-start
+            events.append("started")
+
+        def __enter__(self):
+            return self
+
+        def __exit__(self, *exc):
+            events.append("closed")
+
+    class FakeClient:
+        def __init__(self, cluster):
+            events.append("client")
+
+        def __enter__(self):
+            return self
+
+        def __exit__(self, *exc):
+            events.append("client closed")
+
+    monkeypatch.setattr(distributed, "LocalCluster", StartingCluster)
+    monkeypatch.setattr(distributed, "Client", FakeClient)
+    with pytest.raises(KeyboardInterrupt), dask_client(1, None):
+        events.append("ran")  # never: the interrupt comes first
+    assert events == ["started", "client", "client closed", "closed"]
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+def test_held_interrupts_hold_nothing_outside_the_main_thread():
+    from pcl_rg.batch._cluster import held_interrupts
+
+    outcome = []
+
+    def run():
+        with held_interrupts():
+            outcome.append(signal.getsignal(signal.SIGINT) is signal.default_int_handler)
+
+    thread = threading.Thread(target=run)
+    thread.start()
+    thread.join()
+    assert outcome == [True]

@@ -15,7 +15,6 @@ import dataclasses
 import glob
 import hashlib
 import json
-import logging
 import os
 import secrets
 import shutil
@@ -30,6 +29,7 @@ from .._point_spacing import with_spacing_lengths
 from ..io import Extent
 from ..io._las import _outside_stacklevel
 from . import _tasks
+from ._cluster import dask_client
 from ._headers import check_one_crs, survey_units
 from ._manifest import Manifest, file_signature
 from ._plan import (
@@ -107,30 +107,6 @@ class BatchReport:
 
 #: The box given to a tile without a finite point (it has no point to give or take).
 NOWHERE = Box(0.0, 0.0, 0.0, 0.0)
-
-
-@contextlib.contextmanager
-def _client(workers: int | None, scheduler: str | None) -> Iterator[Any]:
-    """A Dask client: of `scheduler`, or of a local cluster of one-thread processes."""
-    from distributed import Client, LocalCluster
-
-    if scheduler:
-        with Client(scheduler) as client:
-            yield client
-        return
-    with (
-        LocalCluster(
-            n_workers=workers or os.cpu_count() or 1,
-            threads_per_worker=1,
-            processes=True,
-            # Any free port: the scheduler's HTTP server (the dashboard, when bokeh is
-            # installed) must not collide with another cluster's 8787.
-            dashboard_address=":0",
-            silence_logs=logging.ERROR,
-        ) as cluster,
-        Client(cluster) as client,
-    ):
-        yield client
 
 
 def _dashboard(client: Any) -> str | None:
@@ -253,7 +229,7 @@ def run(
     dashboard = None
     try:
         # The scratch folder outlives the workers that write into it.
-        with _scratch_folder(folder) as scratch, _client(workers, scheduler) as client:
+        with _scratch_folder(folder) as scratch, dask_client(workers, scheduler) as client:
             job = dataclasses.replace(job_template, scratch=scratch)
             dashboard = _dashboard(client)
             if on_dashboard and dashboard:
@@ -295,7 +271,12 @@ def _run_on(
     """The stages of a run: (the parameters the tiles ran with, the survey's units)."""
     from distributed import as_completed
 
-    extents = client.gather(client.map(_tasks.tile_extent, paths, pure=False))
+    reading = client.map(_tasks.tile_extent, paths, pure=False)
+    futures += reading
+    # One result at a time: an interrupt inside client.gather left its per-future waits
+    # to fail when the client closed, and asyncio printed each ("Task exception was never
+    # retrieved ... AllExit") after pcl-rg's one-line message.
+    extents = [future.result() for future in reading]
     check_one_crs(paths, extents)
     scale, where = survey_units(paths, extents, job.units)
     units = {"metres_per_unit": list(scale), "source": where}
