@@ -1,6 +1,10 @@
 """SOR and VoxelGrid: pcl_rg vs PCL's own classes vs Open3D vs the NumPy reference.
 
 Usage: python benchmarks/speed/filters.py [--sizes 1000000 10000000] [--repeats 3]
+       [--mean-k 8] [--filters VoxelGrid SOR]
+
+A large --mean-k (e.g. --sizes 20000 --mean-k 5000 --filters SOR) times the long
+neighbour lists that a heap keeps in pcl_rg's k-NN search (cpp/src/knn.cpp).
 
 Every case runs in its own child process (peak memory is its own), timings are
 medians of the repeats and include every conversion from the caller's float64
@@ -45,7 +49,7 @@ def input_gate(points: np.ndarray) -> np.ndarray:
     return array
 
 
-def cases(n: int):
+def cases(n: int, mean_k: int = MEAN_K):
     yield "VoxelGrid", "pcl_rg", lambda p: pcl_rg.voxel_grid(p, LEAF)
     yield "VoxelGrid", "pcl::VoxelGrid", lambda p: pcl_rg.pcl.voxel_grid(p, LEAF)
     yield "VoxelGrid", "Open3D", lambda p: open3d_cloud(p).voxel_down_sample(LEAF)
@@ -55,19 +59,19 @@ def cases(n: int):
     yield (
         "SOR",
         "pcl_rg",
-        lambda p: pcl_rg.statistical_outlier_removal(p, mean_k=MEAN_K, std_mul=STD_MUL),
+        lambda p: pcl_rg.statistical_outlier_removal(p, mean_k=mean_k, std_mul=STD_MUL),
     )
     yield (
         "SOR",
         "pcl::StatisticalOutlierRemoval",
-        lambda p: pcl_rg.pcl.statistical_outlier_removal(p, mean_k=MEAN_K, std_mul=STD_MUL),
+        lambda p: pcl_rg.pcl.statistical_outlier_removal(p, mean_k=mean_k, std_mul=STD_MUL),
     )
-    yield "SOR", "Open3D", lambda p: open3d_cloud(p).remove_statistical_outlier(MEAN_K, STD_MUL)
+    yield "SOR", "Open3D", lambda p: open3d_cloud(p).remove_statistical_outlier(mean_k, STD_MUL)
     if n <= 1_000_000:
         yield (
             "SOR",
             "NumPy reference",
-            lambda p: reference.statistical_outlier_removal(p, mean_k=MEAN_K, std_mul=STD_MUL),
+            lambda p: reference.statistical_outlier_removal(p, mean_k=mean_k, std_mul=STD_MUL),
         )
 
 
@@ -75,14 +79,18 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", type=int, nargs="+", default=[1_000_000, 10_000_000])
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--mean-k", type=int, default=MEAN_K, help="SOR's mean_k")
+    parser.add_argument("--filters", nargs="+", default=["VoxelGrid", "SOR"])
     args = parser.parse_args(argv)
 
     print(f"machine: {machine()}")
-    print(f"VoxelGrid leaf {LEAF} m; SOR mean_k {MEAN_K}, std_mul {STD_MUL}; uniform points")
+    print(f"VoxelGrid leaf {LEAF} m; SOR mean_k {args.mean_k}, std_mul {STD_MUL}; uniform points")
     rows = []
     for n in args.sizes:
         timings: dict[tuple[str, str], dict] = {}
-        for algorithm, method, run in cases(n):
+        for algorithm, method, run in cases(n, args.mean_k):
+            if algorithm not in args.filters:
+                continue
             result = measure(lambda n=n: uniform_points(n), run, args.repeats)
             timings[algorithm, method] = result
             print(

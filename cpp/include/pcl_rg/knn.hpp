@@ -52,7 +52,12 @@ class KnnIndex {
     };
     using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, Adaptor>,
                                                      Adaptor, 3, std::uint32_t>;
+    template <class List>
     struct Search;  // the walk of nearest() over the tree (knn.cpp)
+    // nearest() with a list of the k nearest so far of type List (knn.cpp).
+    template <class List>
+    std::size_t nearest_in(List& list, std::size_t query, std::size_t k, std::uint32_t* indices,
+                           float* squared_distances, std::optional<std::size_t> leaf_budget) const;
     Adaptor adaptor_;
     std::unique_ptr<Tree> tree_;
 };
