@@ -145,3 +145,22 @@ def test_reference_seed_windows_wider_than_the_raster() -> None:
             reference.tin_ground(terrain, max_building_size=size),
             pcl_rg.tin_ground(terrain, max_building_size=size),
         )
+
+
+TABLE_CASES = [
+    ("region_growing", pcl_rg.region_growing),
+    ("convex_segmentation", pcl_rg.convex_segmentation),
+    ("pcl.region_growing", pcl_rg.pcl.region_growing),
+]
+
+
+@pytest.mark.parametrize(("name", "call"), TABLE_CASES, ids=[c[0] for c in TABLE_CASES])
+def test_a_neighbour_table_over_8_gib_is_refused_before_it_is_made(name, call) -> None:
+    # k = N - 1 on 100k points asked for a 40 GB table of neighbour indices and failed
+    # with a bare MemoryError (std::bad_alloc); now k is refused, naming its largest.
+    points = np.random.default_rng(0).uniform(0.0, 10.0, (100_000, 3))
+    largest = 2**33 // (4 * len(points))
+    with pytest.raises(ValueError, match=rf"k must be at most {largest} for 100000 points"):
+        call(points, k=len(points) - 1)
+    with pytest.raises(ValueError, match=rf"k must be at most {largest} .*, got {largest + 1}$"):
+        call(points, k=largest + 1)

@@ -124,6 +124,7 @@ std::vector<std::uint32_t> neighbour_lists(PointsView points, const NormalsParam
     const std::size_t n = points.size;
     if (n == 0) return {};
     check::fewer_than_points("k", params.k, n);
+    check::neighbour_table_fits("k", params.k, n);
     const auto k = static_cast<std::size_t>(params.k);
     const std::vector<float> local = to_local_float(points, local_origin(points));
     const KnnIndex index(local.data(), n);
@@ -149,6 +150,7 @@ void normals(PointsView points, const NormalsParams& params, const NormalsOutput
     if (neighbours) neighbours->clear();
     if (n == 0) return;
     check::fewer_than_points("k", params.k, n);
+    if (neighbours) check::neighbour_table_fits("k", params.k, n);
     const auto k = static_cast<std::size_t>(params.k);
 
     const std::vector<float> local = to_local_float(points, local_origin(points));

@@ -96,7 +96,9 @@ def convex_segmentation(
     %(points)s
     k : int, optional
         Neighbourhood size, the point itself included (default 15), for the
-        normals, the curvatures, the growth and the region graph; >= 6 and < N.
+        normals, the curvatures, the growth and the region graph; >= 6, < N
+        and at most 2^31 / N (a table of 4 bytes per point and neighbour,
+        kept within 8 GiB).
     smoothness_deg : float, optional
         A neighbour joins a patch when the angle between its normal and the
         current patch point's normal is at most this, in degrees, in (0, 180)

@@ -102,7 +102,8 @@ def region_growing(
     k : int, optional
         Neighbourhood size, the point itself included (default 15), for the
         normals, the curvatures and the growth. Must be >= 3 and < N (the
-        curvatures need k >= 6).
+        curvatures need k >= 6), and at most 2^31 / N, which keeps the table
+        of neighbours (4 bytes per point and neighbour) within 8 GiB.
     smoothness_deg : float, optional
         A neighbour joins a region when the angle between its normal and the
         current region point's normal is at most this, in degrees, in (0, 180)

@@ -36,6 +36,10 @@ void relation(bool ok, const char* name, const std::string& rule, double value);
 /// (<n>), got <count>", the wording of the Python layer.
 void fewer_than_points(const char* name, std::int64_t count, std::size_t n);
 
+/// A k x n table of uint32 neighbour indices within kMaxNeighbourTableBytes: "<name>
+/// must be at most <largest> for <n> points (...), got <k>".
+void neighbour_table_fits(const char* name, std::int64_t k, std::size_t n);
+
 /// A cloud whose points int32 indices and labels can number: "points: at most 2^31 - 1
 /// points are supported, got <n>".
 void indexable_by_int32(std::size_t n);

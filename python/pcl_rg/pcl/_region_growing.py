@@ -155,7 +155,8 @@ def region_growing(
     %(points)s
     k : int, optional
         Neighbours for the normals and the growth, the point itself included
-        (default 15); >= 3 and < N.
+        (default 15); >= 3, < N and at most 2^31 / N (RegionGrowing keeps the
+        neighbours of every point: 4 bytes each, kept within 8 GiB).
     smoothness_deg : float, optional
         Maximum angle between neighbouring normals, degrees, in (0, 180)
         (default 16); passed to PCL in radians as float.
