@@ -66,23 +66,20 @@ class _Lines:
         self._thread.join(timeout=10)  # the child is gone: its end of the pipe is closed
 
 
-def _child_env() -> dict[str, str]:
+def _spawn(argv: list[str], cwd: Path | None = None) -> subprocess.Popen:
+    """`argv` in a child process with text pipes, without PCL_RG_TRACEBACK (it would
+    let KeyboardInterrupt through)."""
     env = dict(os.environ)
-    env.pop("PCL_RG_TRACEBACK", None)  # it would let KeyboardInterrupt through
-    return env
+    env.pop("PCL_RG_TRACEBACK", None)
+    return subprocess.Popen(
+        argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, cwd=cwd
+    )
 
 
 def test_sigint_stops_each_algorithm_with_keyboard_interrupt() -> None:
     jobs = ["tin_ground", "grid_ground", "normals", "region_growing"]
     latency: dict[str, float] = {}
-    with subprocess.Popen(
-        [sys.executable, str(PROBE), *jobs],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        env=_child_env(),
-        cwd=PROBE.parent,
-    ) as child:
+    with _spawn([sys.executable, str(PROBE), *jobs], cwd=PROBE.parent) as child:
         lines = _Lines(child.stdout)
         try:
             for job in jobs:
@@ -122,14 +119,7 @@ def test_cli_sigint_exits_130_and_leaves_no_file(tmp_path: Path) -> None:
     points = np.column_stack([rng.uniform(0.0, 300.0, (n, 2)), rng.normal(0.0, 0.05, n)])
     write_points(tmp_path / "big.laz", points)
     # 600 neighbours per point keep the outlier stage busy for many seconds.
-    with subprocess.Popen(
-        [*CLI, "denoise", "big.laz", "out.laz", "--mean-k", "600"],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        env=_child_env(),
-        cwd=tmp_path,
-    ) as child:
+    with _spawn([*CLI, "denoise", "big.laz", "out.laz", "--mean-k", "600"], tmp_path) as child:
         errors = _Lines(child.stderr)
         seen: list[str] = []
         try:
@@ -247,14 +237,8 @@ def test_cli_sigterm_exits_143_and_leaves_no_partial_file(tmp_path: Path) -> Non
     # text take seconds: the signal lands while the temporary file is being written.
     rng = np.random.default_rng(10)
     write_points(tmp_path / "big.pcd", rng.uniform(0.0, 100.0, (1_000_000, 3)))
-    with subprocess.Popen(
-        [sys.executable, "-m", "pcl_rg", "downsample", "big.pcd", "out.xyz", "--leaf-size", "1e-4"],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        env=_child_env(),
-        cwd=tmp_path,
-    ) as child:
+    argv = [sys.executable, "-m", "pcl_rg", "downsample", "big.pcd", "out.xyz", "--leaf-size"]
+    with _spawn([*argv, "1e-4"], tmp_path) as child:
         output, errors = _terminate_when(
             lambda: any(n.endswith(".tmp") for n in os.listdir(tmp_path)), 120, child
         )
@@ -273,13 +257,7 @@ def test_cli_sigterm_stops_a_batch_and_removes_its_scratch_folder(tmp_path: Path
     source = synthetic_survey(tmp_path / "in", tiles=(4, 4), tile_size=250.0, seed=9)
     out = tmp_path / "out"
     argv = ["batch", "ground", *source.paths, "--out", str(out), "--workers", "2"]
-    with subprocess.Popen(
-        [sys.executable, "-m", "pcl_rg", *argv, "--method", "tin", "--quiet"],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        env=_child_env(),
-    ) as child:
+    with _spawn([sys.executable, "-m", "pcl_rg", *argv, "--method", "tin", "--quiet"]) as child:
 
         def busy() -> bool:
             names = os.listdir(out) if out.exists() else []
