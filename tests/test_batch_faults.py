@@ -384,16 +384,22 @@ def test_an_interrupt_while_the_local_cluster_starts_waits_for_it_then_closes_it
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
 
 
-def test_held_interrupts_hold_nothing_outside_the_main_thread():
-    from pcl_rg.batch._cluster import held_interrupts
+def test_signals_are_held_in_the_main_thread_only():
+    from pcl_rg._held_signals import held_signals
 
     outcome = []
 
     def run():
-        with held_interrupts():
+        with held_signals():
             outcome.append(signal.getsignal(signal.SIGINT) is signal.default_int_handler)
 
     thread = threading.Thread(target=run)
     thread.start()
     thread.join()
-    assert outcome == [True]
+    with held_signals() as held:  # here, the main thread: held, then raised on request
+        os.kill(os.getpid(), signal.SIGINT)
+        outcome.append(held.pending is not None)
+    assert outcome == [True, True]
+    with pytest.raises(KeyboardInterrupt):
+        held.run_pending()
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler

@@ -10,15 +10,14 @@ from __future__ import annotations
 import contextlib
 import math
 import os
-import signal
 import sys
-import threading
 import warnings
-from collections.abc import Callable, Iterator
-from typing import Any, BinaryIO
+from collections.abc import Iterator
+from typing import BinaryIO
 
 import numpy as np
 
+from .._held_signals import HeldSignals, held_signals
 from ._atomic import atomic_write
 from ._las_header import check_las_header
 
@@ -356,11 +355,11 @@ class _RecordingStream:
     def __init__(self, stream: BinaryIO) -> None:
         self._stream = stream
         self.error: BaseException | None = None
-        self._pending: Callable[[], None] | None = None  # a signal's handler, held back
+        self._held = HeldSignals()  # a signal's handler, held back to the next write
 
     def write(self, data) -> int:
         try:
-            self._run_pending()
+            self._held.run_pending()
             return self._stream.write(data)
         except BaseException as error:
             if self.error is None:
@@ -379,35 +378,9 @@ class _RecordingStream:
         an interrupt after the last write is raised at the end. A SIGTERM handler set
         in Python (pcl-rg's raises like Ctrl-C) is held back and run the same way.
         """
-        held: dict[int, Callable[[int, Any], Any]] = {}
-        if threading.current_thread() is threading.main_thread():
-            if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
-                held[signal.SIGINT] = signal.default_int_handler
-            handler = signal.getsignal(signal.SIGTERM)
-            if callable(handler):  # not SIG_DFL or SIG_IGN
-                held[signal.SIGTERM] = handler
-        if not held:
+        with held_signals() as self._held:
             yield
-            return
-
-        def record(signum: int, frame: object) -> None:
-            if self._pending is None:
-                self._pending = lambda: held[signum](signum, None)
-
-        previous = {signum: signal.signal(signum, record) for signum in held}
-        try:
-            yield
-        finally:
-            for signum, handler in previous.items():
-                signal.signal(signum, handler)
-        self._run_pending()
-
-    def _run_pending(self) -> None:
-        """Run a held-back handler. One that raises stays pending, so that every later
-        write and the end raise too; one that returns has run."""
-        if self._pending is not None:
-            self._pending()
-            self._pending = None
+        self._held.run_pending()
 
     def __getattr__(self, name: str):
         return getattr(self._stream, name)
