@@ -15,32 +15,6 @@ static_assert(NANOFLANN_VERSION >= 0x140 && NANOFLANN_VERSION < 0x150,
 
 namespace pcl_rg {
 
-// nanoflann's own walk (KDTreeSingleIndexAdaptor::findNeighbors with its searchLevel):
-// the same order of branches, the same float bounds and the same leaf test, so the
-// same lists, ties included. nanoflann enters a branch when its bound is no farther
-// than the list's worst distance, yet a leaf takes only points strictly nearer than
-// the worst. So once the list is full, a branch that lies no nearer than the worst can
-// add nothing, and nanoflann walks it all the same. Among many copies of a point that
-// all lie at the k-th distance (two stacks of repeated returns a centimetre apart, or
-// a point beside such a stack), every query walked every copy: O(n^2).
-//
-// So a query walks as nanoflann does while it has visited at most kLeafBudget + k
-// leaves (an ordinary query visits a few to a few dozen leaves of 10 points), and
-// otherwise walks again from the root with one more cut: once the list is full, a branch whose box
-// lies no nearer than the worst distance is skipped. The second walk gives the list the first would
-// have given, and the first walk's partial list is dropped, so the result never depends on which
-// walk finished. (Tracking the boxes costs about 10 % of SOR's time on ordinary clouds, hence not
-// always.)
-//
-// The cut needs a bound that is never above the distance a leaf computes for a point
-// of the branch. That distance is float arithmetic: (q - p) per axis, squared, summed
-// over x, y, z in that order (no FMA contraction: CMakeLists.txt). The bound is that
-// same arithmetic on the point of the branch's box nearest to q. Per axis |q - c| <=
-// |q - p| exactly, and rounding, squaring and adding non-negative numbers never
-// reverse an order, so the bound is at most the distance of every point in the box.
-// The box starts as nanoflann's bounding box of all points and is cut at each split
-// by the extent of the child's own points along the split axis (nanoflann's divlow,
-// divhigh).
 namespace {
 
 // nanoflann's KNNResultSet keeps the k nearest found so far by (distance, index)
@@ -131,6 +105,32 @@ void finish(HeapList& list) { list.finish(); }
 
 }  // namespace
 
+// nanoflann's own walk (KDTreeSingleIndexAdaptor::findNeighbors with its searchLevel):
+// the same order of branches, the same float bounds and the same leaf test, so the
+// same lists, ties included. nanoflann enters a branch when its bound is no farther
+// than the list's worst distance, yet a leaf takes only points strictly nearer than
+// the worst. So once the list is full, a branch that lies no nearer than the worst can
+// add nothing, and nanoflann walks it all the same. Among many copies of a point that
+// all lie at the k-th distance (two stacks of repeated returns a centimetre apart, or
+// a point beside such a stack), every query walked every copy: O(n^2).
+//
+// So a query walks as nanoflann does while it has visited at most kLeafBudget + k
+// leaves (an ordinary query visits a few to a few dozen leaves of 10 points), and
+// otherwise walks again from the root with one more cut: once the list is full, a branch whose box
+// lies no nearer than the worst distance is skipped. The second walk gives the list the first would
+// have given, and the first walk's partial list is dropped, so the result never depends on which
+// walk finished. (Tracking the boxes costs about 10 % of SOR's time on ordinary clouds, hence not
+// always.)
+//
+// The cut needs a bound that is never above the distance a leaf computes for a point
+// of the branch. That distance is float arithmetic: (q - p) per axis, squared, summed
+// over x, y, z in that order (no FMA contraction: CMakeLists.txt). The bound is that
+// same arithmetic on the point of the branch's box nearest to q. Per axis |q - c| <=
+// |q - p| exactly, and rounding, squaring and adding non-negative numbers never
+// reverse an order, so the bound is at most the distance of every point in the box.
+// The box starts as nanoflann's bounding box of all points and is cut at each split
+// by the extent of the child's own points along the split axis (nanoflann's divlow,
+// divhigh).
 template <class List>
 struct KnnIndex::Search {
     using Node = Tree::Node;
