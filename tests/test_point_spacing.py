@@ -197,18 +197,29 @@ def scenes() -> list[np.ndarray]:
     return [sparse + [500_000.0, 5_000_000.0, 0.0], dense]
 
 
+def run_with_the_lengths_of_the_spacing(
+    name: str, params_type: type, points: np.ndarray
+) -> tuple[dict, object, np.ndarray]:
+    """Ground filter `name` with its default parameters: it reports the measured spacing
+    and gives what `params_type().at_spacing(spacing)` given explicitly gives. Returns
+    what it reports, those explicit parameters and the labels."""
+    ground_filter = getattr(pcl_rg, name)
+    spacing = pcl_rg.point_spacing(points)
+    with pcl_rg.collect_diagnostics() as diagnostics:
+        ground = ground_filter(points)
+    used = diagnostics[name]
+    assert used["point_spacing"] == spacing
+    explicit = params_type().at_spacing(spacing)
+    np.testing.assert_array_equal(ground_filter(points, params=explicit), ground)
+    return used, explicit, ground
+
+
 @pytest.mark.parametrize("index", [0, 1], ids=["0.8 pts/m2", "12 pts/m2"])
 def test_tin_ground_takes_and_reports_the_lengths_of_the_spacing(index: int) -> None:
     points = scenes()[index]
-    spacing = pcl_rg.point_spacing(points)
-    with pcl_rg.collect_diagnostics() as diagnostics:
-        ground = pcl_rg.tin_ground(points)
-    used = diagnostics["tin_ground"]
-    assert used["point_spacing"] == spacing
-    explicit = TinGroundParams().at_spacing(spacing)
+    used, explicit, _ = run_with_the_lengths_of_the_spacing("tin_ground", TinGroundParams, points)
     for name in TIN_LENGTHS:
         assert used[name] == getattr(explicit, name)
-    np.testing.assert_array_equal(pcl_rg.tin_ground(points, params=explicit), ground)
     # Given lengths: no spacing is measured, and the given ones are used.
     with pcl_rg.collect_diagnostics() as diagnostics:
         pcl_rg.tin_ground(points, params=TinGroundParams.lidar360())
@@ -219,13 +230,10 @@ def test_tin_ground_takes_and_reports_the_lengths_of_the_spacing(index: int) -> 
 @pytest.mark.parametrize("index", [0, 1], ids=["0.8 pts/m2", "12 pts/m2"])
 def test_grid_ground_takes_and_reports_the_cell_of_the_spacing(index: int) -> None:
     points = scenes()[index]
-    spacing = pcl_rg.point_spacing(points)
-    with pcl_rg.collect_diagnostics() as diagnostics:
-        ground = pcl_rg.grid_ground(points)
-    used = diagnostics["grid_ground"]
-    explicit = GridGroundParams().at_spacing(spacing)
-    assert used["point_spacing"] == spacing and used["cell_size"] == explicit.cell_size
-    np.testing.assert_array_equal(pcl_rg.grid_ground(points, params=explicit), ground)
+    used, explicit, ground = run_with_the_lengths_of_the_spacing(
+        "grid_ground", GridGroundParams, points
+    )
+    assert used["cell_size"] == explicit.cell_size
     np.testing.assert_array_equal(reference.grid_ground(points), ground)
     with pcl_rg.collect_diagnostics() as diagnostics:
         pcl_rg.grid_ground(points, cell_size=2.0)
