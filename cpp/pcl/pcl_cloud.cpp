@@ -3,6 +3,10 @@
 
 #include <cmath>
 #include <cstdint>
+#include <stdexcept>
+#include <string>
+
+#include "pcl_rg/check.hpp"
 
 namespace pcl_rg {
 
@@ -25,6 +29,18 @@ pcl::PointCloud<pcl::PointXYZ>::Ptr to_pcl_cloud(PointsView points,
     cloud->height = 1;
     cloud->is_dense = true;
     return cloud;
+}
+
+void check_pcl_neighbour_work(const char* name, std::int64_t k, std::size_t n) {
+    const double points = static_cast<double>(n);
+    const double work = points * static_cast<double>(k);
+    if (!(work > kPclNeighbourWork)) return;
+    const auto largest = static_cast<std::int64_t>(std::floor(kPclNeighbourWork / points));
+    throw std::invalid_argument(
+        std::string(name) + ": PCL's k-nearest searches take about two minutes from N * " + name +
+        " = " + check::format_value(kPclNeighbourWork) + " on, got " + std::to_string(n) + " * " +
+        std::to_string(k) + " = " + check::format_value(work) + "; use a smaller " + name +
+        ", at most " + std::to_string(largest) + " on " + std::to_string(n) + " points");
 }
 
 }  // namespace pcl_rg

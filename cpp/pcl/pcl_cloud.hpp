@@ -6,6 +6,8 @@
 #include <pcl/point_types.h>
 
 #include <array>
+#include <cstddef>
+#include <cstdint>
 
 #include "pcl_rg/points.hpp"
 
@@ -15,5 +17,19 @@ namespace pcl_rg {
 /// pcl::PointCloud<pcl::PointXYZ>.
 pcl::PointCloud<pcl::PointXYZ>::Ptr to_pcl_cloud(PointsView points,
                                                  const std::array<double, 3>& origin);
+
+/// Bound on n * k for PCL's k-nearest searches, which we cannot make cheaper. Measured
+/// on this project's machines (PCL 1.13, one thread), StatisticalOutlierRemoval took
+/// 11.2 s with mean_k = 5000 on 20k points and 21.9 s with mean_k = 10000: about 1.1e-7 s
+/// per n * k once k is large (not n * k^2: FLANN's result list shifts its entries in one
+/// move). 1.2e9 is about two minutes of that (NormalEstimation searches the same way,
+/// RegionGrowing searches twice); beyond it a call is refused rather than left to run
+/// for minutes that cannot be interrupted (PCL's classes have no interruption points).
+inline constexpr double kPclNeighbourWork = 1.2e9;
+
+/// Throws std::invalid_argument when n * k passes kPclNeighbourWork: "<name>: PCL's
+/// k-nearest searches take about two minutes from N * <name> = 1.2e9 on, got <n> *
+/// <k> = <product>; use a smaller <name>, at most <the largest that passes> on <n> points".
+void check_pcl_neighbour_work(const char* name, std::int64_t k, std::size_t n);
 
 }  // namespace pcl_rg

@@ -121,6 +121,7 @@ void pcl_statistical_outlier_removal(PointsView points,
     if (points.size == 0) return;
     // PCL reads past its neighbour buffers when mean_k >= N: refuse, as the core does.
     check::fewer_than_points("mean_k", params.mean_k, points.size);
+    check_pcl_neighbour_work("mean_k", params.mean_k, points.size);
     const auto cloud = to_pcl_cloud(points, local_origin(points));
     poll_interrupt();
     pcl::StatisticalOutlierRemoval<pcl::PointXYZ> filter;

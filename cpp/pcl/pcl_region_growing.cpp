@@ -61,6 +61,7 @@ using Normals = pcl::PointCloud<pcl::Normal>;
 void check_size(std::size_t n, int k) {
     check::fewer_than_points("k", k, n);
     check::indexable_by_int32(n);
+    check_pcl_neighbour_work("k", k, n);
 }
 
 Normals::Ptr estimate(const Cloud::Ptr& cloud, const pcl::search::Search<pcl::PointXYZ>::Ptr& tree,

@@ -110,7 +110,8 @@ def normals(
     Raises
     ------
     ValueError
-        Non-finite points, a wrong shape, ``k < 3`` or ``k >= N``.
+        Non-finite points, a wrong shape, ``k < 3``, ``k >= N``, or N * k
+        over 1.2e9 (PCL's search would take minutes).
     %(type_error)s
 
     Notes
@@ -182,7 +183,8 @@ def region_growing(
     ValueError
         Non-finite points, a wrong shape, or a parameter out of range
         (``k < 3``, ``k >= N``, an angle outside (0, 180), a negative
-        threshold, ``min_cluster_size > max_cluster_size``).
+        threshold, ``min_cluster_size > max_cluster_size``), or N * k over
+        1.2e9 (PCL's searches would take minutes).
     %(type_error)s
 
     Notes
