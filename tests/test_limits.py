@@ -150,7 +150,6 @@ def test_reference_seed_windows_wider_than_the_raster() -> None:
 TABLE_CASES = [
     ("region_growing", pcl_rg.region_growing),
     ("convex_segmentation", pcl_rg.convex_segmentation),
-    ("pcl.region_growing", pcl_rg.pcl.region_growing),
 ]
 
 
@@ -164,3 +163,24 @@ def test_a_neighbour_table_over_8_gib_is_refused_before_it_is_made(name, call) -
         call(points, k=len(points) - 1)
     with pytest.raises(ValueError, match=rf"k must be at most {largest} .*, got {largest + 1}$"):
         call(points, k=largest + 1)
+
+
+PCL_SEARCH_CASES = [
+    ("pcl.statistical_outlier_removal", pcl_rg.pcl.statistical_outlier_removal, "mean_k"),
+    ("pcl.normals", pcl_rg.pcl.normals, "k"),
+    ("pcl.region_growing", pcl_rg.pcl.region_growing, "k"),
+]
+
+
+@pytest.mark.parametrize(
+    ("name", "call", "k"), PCL_SEARCH_CASES, ids=[c[0] for c in PCL_SEARCH_CASES]
+)
+def test_pcl_searches_over_two_minutes_are_refused(name, call, k) -> None:
+    # PCL's k-nearest searches cost about 1.1e-7 s per N x k at large k, and cannot be
+    # interrupted: mean_k = N - 1 on 100k points would run for about 18 minutes.
+    points = np.random.default_rng(1).uniform(0.0, 10.0, (100_000, 3))
+    largest = int(1.2e9 // len(points))
+    with pytest.raises(ValueError, match=rf"^{k}: PCL's k-nearest searches .* at most {largest} "):
+        call(points, **{k: len(points) - 1})
+    with pytest.raises(ValueError, match=rf"got 100000 \* {largest + 1} = "):
+        call(points, **{k: largest + 1})

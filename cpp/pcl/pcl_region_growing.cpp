@@ -101,7 +101,6 @@ RegionGrowingTimings pcl_region_growing(PointsView points, const RegionGrowingPc
     const std::size_t n = points.size;
     if (n == 0) return timings;
     check_size(n, params.k);
-    check::neighbour_table_fits("k", params.k, n);  // RegionGrowing keeps k per point too
     const auto cloud = to_pcl_cloud(points, local_origin(points));
     poll_interrupt();  // PCL's classes cannot be interrupted: polls between their stages
 

@@ -156,8 +156,8 @@ def region_growing(
     %(points)s
     k : int, optional
         Neighbours for the normals and the growth, the point itself included
-        (default 15); >= 3, < N and at most 2^31 / N (RegionGrowing keeps the
-        neighbours of every point: 4 bytes each, kept within 8 GiB).
+        (default 15); >= 3, < N and at most 1.2e9 / N (PCL's searches would
+        take minutes, which cannot be interrupted).
     smoothness_deg : float, optional
         Maximum angle between neighbouring normals, degrees, in (0, 180)
         (default 16); passed to PCL in radians as float.
