@@ -80,7 +80,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--sizes", type=int, nargs="+", default=[1_000_000, 10_000_000])
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--mean-k", type=int, default=MEAN_K, help="SOR's mean_k")
-    parser.add_argument("--filters", nargs="+", default=["VoxelGrid", "SOR"])
+    parser.add_argument(
+        "--filters", nargs="+", choices=["VoxelGrid", "SOR"], default=["VoxelGrid", "SOR"]
+    )
     args = parser.parse_args(argv)
 
     print(f"machine: {machine()}")
