@@ -136,15 +136,29 @@ def test_both_walks_give_nanoflanns_lists() -> None:
             np.testing.assert_array_equal(default, nanoflann, err_msg=f"{name}, k={k}")
 
 
-# Lists of 192 points or more are kept in a heap instead of nanoflann's sorted list
-# (knn.cpp, HeapList): the same points in the same order are expected. A heap that
-# took a point a leaf offered past the full list's greatest (the leaf tests against the
-# worst as it was when the leaf began) returned a farther k-th point in 3 % of the
-# lists of a uniform cloud of 200k points with k = 129.
+# Long lists are kept in a heap instead of nanoflann's sorted list (knn.cpp, HeapList,
+# from k = 96 unless `heap_from_k` says otherwise): the same points in the same order
+# are expected. A heap that took a point a leaf offered past the full list's greatest
+# (the leaf tests against the worst as it was when the leaf began) returned a farther
+# k-th point in 3 % of the lists of a uniform cloud of 200k points with k = 129.
+
+
+@pytest.mark.parametrize("k", [3, 15, 64, 200, 700])
+def test_heap_and_sorted_list_give_the_same_lists(k: int) -> None:
+    rng = np.random.default_rng(k)
+    uniform = rng.uniform(0, 100, (4000, 3)) * [1, 1, 0.01] + [4.5e5, 5.4e6, 120.0]
+    stacks = np.round(rng.uniform(0, 0.05, (4000, 3)), 2)  # 216 positions: copies
+    grid = np.stack(np.meshgrid(np.arange(30.0), np.arange(30.0), [0.0]), -1).reshape(-1, 3)
+    for name, points in (("uniform", uniform), ("stacks", stacks), ("grid", grid)):
+        params = NormalsParams(k=k).to_core()
+        for budget in (None, 0):  # the first walk, and the walk by the boxes
+            sorted_list = _core.neighbour_lists(points, params, budget, heap_from_k=2**62)
+            heap = _core.neighbour_lists(points, params, budget, heap_from_k=0)
+            np.testing.assert_array_equal(heap, sorted_list, err_msg=f"{name}, budget={budget}")
 
 
 @settings(max_examples=examples(40), deadline=None)
-@given(case=clouds_of_copies(), k=st.integers(180, 300))
+@given(case=clouds_of_copies(), k=st.integers(80, 300))
 def test_hypothesis_long_lists_of_copies_match_reference(
     case: tuple[np.ndarray, int], k: int
 ) -> None:
@@ -152,7 +166,7 @@ def test_hypothesis_long_lists_of_copies_match_reference(
     assert_lists_match_reference(points, min(k, len(points) - 1))
 
 
-@pytest.mark.parametrize("k", [191, 192, 193, 400])
+@pytest.mark.parametrize("k", [95, 96, 97, 191, 192, 400])
 def test_long_lists_are_nearest_on_either_side_of_the_heap(k: int) -> None:
     rng = np.random.default_rng(k)
     uniform = rng.uniform(0, 100, (3000, 3)) * [1, 1, 0.01] + [4.5e5, 5.4e6, 120.0]

@@ -35,17 +35,20 @@ void bind_normals(py::module_& m) {
     m.def(
         "neighbour_lists",
         [](const PointsArray& points, const NormalsParams& params,
-           std::optional<std::size_t> leaf_budget) {
+           std::optional<std::size_t> leaf_budget, std::optional<std::size_t> heap_from_k) {
             const PointsView view = points_view(points);
             std::vector<std::uint32_t> lists;
-            without_gil([&] { lists = neighbour_lists(view, params, leaf_budget); });
+            without_gil([&] { lists = neighbour_lists(view, params, leaf_budget, heap_from_k); });
             const auto rows = static_cast<py::ssize_t>(view.size);
             return to_numpy(std::move(lists), {rows, static_cast<py::ssize_t>(params.k)});
         },
         py::arg("points").noconvert(), py::arg("params"), py::arg("leaf_budget") = py::none(),
+        py::arg("heap_from_k") = py::none(),
         "uint32 (N, k) neighbour lists of pcl_rg.normals and pcl_rg.region_growing. "
         "leaf_budget (tests): leaves of nanoflann's walk before a query walks again by "
-        "the branches' boxes (default 64 + k); the lists do not depend on it.");
+        "the branches' boxes (default 64 + k); heap_from_k (tests): the least k whose "
+        "lists are kept in a heap, not nanoflann's sorted list. The lists depend on "
+        "neither.");
 }
 
 }  // namespace pcl_rg::bindings

@@ -119,7 +119,8 @@ PointGeometry point_geometry(const std::vector<Eigen::Vector3d>& rel) {
 }  // namespace
 
 std::vector<std::uint32_t> neighbour_lists(PointsView points, const NormalsParams& params,
-                                           std::optional<std::size_t> leaf_budget) {
+                                           std::optional<std::size_t> leaf_budget,
+                                           std::optional<std::size_t> heap_from_k) {
     validate(params);
     const std::size_t n = points.size;
     if (n == 0) return {};
@@ -137,7 +138,7 @@ std::vector<std::uint32_t> neighbour_lists(PointsView points, const NormalsParam
 #pragma omp for schedule(dynamic, 1024)
         for (std::ptrdiff_t i = 0; i < static_cast<std::ptrdiff_t>(n); ++i)
             if (!interruption.requested())
-                index.nearest(i, k, lists.data() + i * k, sqdist.data(), leaf_budget);
+                index.nearest(i, k, lists.data() + i * k, sqdist.data(), leaf_budget, heap_from_k);
     }
     interruption.check();
     return lists;

@@ -100,7 +100,10 @@ def normals(
     npt.NDArray[np.float64],
 ]: ...
 def neighbour_lists(
-    points: npt.NDArray[np.float64], params: NormalsParams, leaf_budget: int | None = ...
+    points: npt.NDArray[np.float64],
+    params: NormalsParams,
+    leaf_budget: int | None = ...,
+    heap_from_k: int | None = ...,
 ) -> npt.NDArray[np.uint32]: ...
 
 class SeedMeasure:

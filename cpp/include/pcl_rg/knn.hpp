@@ -33,9 +33,13 @@ class KnnIndex {
     /// `leaf_budget`: the leaves nanoflann's walk may visit before the query walks
     /// again with the branches' boxes (knn.cpp); unset, 64 + k. The lists do not
     /// depend on it (tests set 0, every query by the boxes, and a huge one, none).
+    /// `heap_from_k`: the least k whose list is kept in a heap rather than nanoflann's
+    /// sorted list (knn.cpp); unset, knn.cpp's kHeapFrom. Nor do the lists depend on
+    /// it (tests set 0, always the heap, and a huge one, never).
     std::size_t nearest(std::size_t query, std::size_t k, std::uint32_t* indices,
                         float* squared_distances,
-                        std::optional<std::size_t> leaf_budget = std::nullopt) const;
+                        std::optional<std::size_t> leaf_budget = std::nullopt,
+                        std::optional<std::size_t> heap_from_k = std::nullopt) const;
 
     std::size_t size() const { return adaptor_.size; }
 

@@ -61,9 +61,10 @@ void normals(PointsView points, const NormalsParams& params, const NormalsOutput
 /// to point i, itself included, by ascending float32 squared distance in the local
 /// frame, equal distances by lower index; which of several points tied at the k-th
 /// distance is kept follows the k-d tree traversal, see knn.hpp). Throws
-/// std::invalid_argument when k >= N (non-empty input). `leaf_budget`: see
-/// KnnIndex::nearest (the lists do not depend on it).
+/// std::invalid_argument when k >= N (non-empty input). `leaf_budget`, `heap_from_k`:
+/// see KnnIndex::nearest (the lists depend on neither).
 std::vector<std::uint32_t> neighbour_lists(PointsView points, const NormalsParams& params,
-                                           std::optional<std::size_t> leaf_budget = std::nullopt);
+                                           std::optional<std::size_t> leaf_budget = std::nullopt,
+                                           std::optional<std::size_t> heap_from_k = std::nullopt);
 
 }  // namespace pcl_rg
