@@ -3,8 +3,6 @@
 
 #include <cmath>
 #include <cstdint>
-#include <stdexcept>
-#include <string>
 
 #include "pcl_rg/check.hpp"
 
@@ -32,15 +30,9 @@ pcl::PointCloud<pcl::PointXYZ>::Ptr to_pcl_cloud(PointsView points,
 }
 
 void check_pcl_neighbour_work(const char* name, std::int64_t k, std::size_t n) {
-    const double points = static_cast<double>(n);
-    const double work = points * static_cast<double>(k);
-    if (!(work > kPclNeighbourWork)) return;
-    const auto largest = static_cast<std::int64_t>(std::floor(kPclNeighbourWork / points));
-    throw std::invalid_argument(
-        std::string(name) + ": PCL's k-nearest searches take about two minutes from N * " + name +
-        " = " + check::format_value(kPclNeighbourWork) + " on, got " + std::to_string(n) + " * " +
-        std::to_string(k) + " = " + check::format_value(work) + "; use a smaller " + name +
-        ", at most " + std::to_string(largest) + " on " + std::to_string(n) + " points");
+    check::per_point_at_most(name, k, n, kPclNeighbourWork,
+                             "PCL's k-nearest searches, which cannot be interrupted, take "
+                             "about two minutes from N * k = 1.2e9 on");
 }
 
 }  // namespace pcl_rg

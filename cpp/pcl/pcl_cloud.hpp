@@ -27,9 +27,9 @@ pcl::PointCloud<pcl::PointXYZ>::Ptr to_pcl_cloud(PointsView points,
 /// for minutes that cannot be interrupted (PCL's classes have no interruption points).
 inline constexpr double kPclNeighbourWork = 1.2e9;
 
-/// Throws std::invalid_argument when n * k passes kPclNeighbourWork: "<name>: PCL's
-/// k-nearest searches take about two minutes from N * <name> = 1.2e9 on, got <n> *
-/// <k> = <product>; use a smaller <name>, at most <the largest that passes> on <n> points".
+/// Throws std::invalid_argument when n * k passes kPclNeighbourWork: "<name> must be at
+/// most <the largest that passes> for <n> points (PCL's k-nearest searches ...), got <k>"
+/// (check::per_point_at_most).
 void check_pcl_neighbour_work(const char* name, std::int64_t k, std::size_t n);
 
 }  // namespace pcl_rg

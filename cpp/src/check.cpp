@@ -91,14 +91,19 @@ void fewer_than_points(const char* name, std::int64_t count, std::size_t n) {
 // and failed with a bare MemoryError.
 constexpr double kMaxNeighbourTableBytes = 0x1p33;
 
-void neighbour_table_fits(const char* name, std::int64_t k, std::size_t n) {
-    const double largest = std::floor(kMaxNeighbourTableBytes / (4.0 * static_cast<double>(n)));
-    if (static_cast<double>(k) > largest)
+void per_point_at_most(const char* name, std::int64_t count, std::size_t n, double total,
+                       const char* why) {
+    const double largest = std::floor(total / static_cast<double>(n));
+    if (static_cast<double>(count) > largest)
         throw std::invalid_argument(std::string(name) + " must be at most " +
                                     format_value(largest) + " for " + std::to_string(n) +
-                                    " points (a table of k neighbour indices per point, 4 "
-                                    "bytes each, is kept within 8 GiB), got " +
-                                    std::to_string(k));
+                                    " points (" + why + "), got " + std::to_string(count));
+}
+
+void neighbour_table_fits(const char* name, std::int64_t k, std::size_t n) {
+    per_point_at_most(name, k, n, kMaxNeighbourTableBytes / 4.0,
+                      "a table of k neighbour indices per point, 4 bytes each, is kept "
+                      "within 8 GiB");
 }
 
 void indexable_by_int32(std::size_t n) {

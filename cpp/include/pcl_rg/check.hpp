@@ -36,8 +36,12 @@ void relation(bool ok, const char* name, const std::string& rule, double value);
 /// (<n>), got <count>", the wording of the Python layer.
 void fewer_than_points(const char* name, std::int64_t count, std::size_t n);
 
-/// A k x n table of uint32 neighbour indices within kMaxNeighbourTableBytes: "<name>
-/// must be at most <largest> for <n> points (...), got <k>".
+/// A per-point count whose total over n points stays within `total`: "<name> must be at
+/// most <floor(total / n)> for <n> points (<why>), got <count>".
+void per_point_at_most(const char* name, std::int64_t count, std::size_t n, double total,
+                       const char* why);
+
+/// A k x n table of uint32 neighbour indices within 8 GiB (per_point_at_most).
 void neighbour_table_fits(const char* name, std::int64_t k, std::size_t n);
 
 /// A cloud whose points int32 indices and labels can number: "points: at most 2^31 - 1
