@@ -79,6 +79,10 @@ def _jobs(c: dict[str, np.ndarray]) -> dict[str, Callable[[], str]]:
         "statistical_outlier_removal": lambda: _digest(
             pcl_rg.statistical_outlier_removal(uni[:200_000], mean_k=8, std_mul=1.0)
         ),
+        # Lists long enough for the k-NN heap (knn.cpp, from k = 96).
+        "statistical_outlier_removal_long_lists": lambda: _digest(
+            pcl_rg.statistical_outlier_removal(uni[:30_000], mean_k=150, std_mul=1.0)
+        ),
         "delaunay_insert_batch": delaunay_batch,
         "grid_ground": lambda: _digest(pcl_rg.grid_ground(air)),
         "grid_ground_copies": lambda: _digest(pcl_rg.grid_ground(c["stacked"])),
