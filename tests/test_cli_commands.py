@@ -200,25 +200,6 @@ def test_downsample_centroids_and_attributes(capsys, tmp_path, scene_las):
     np.testing.assert_array_equal(read_points(tmp_path / "a.xyz").points, grid.centroids)
 
 
-def test_downsample_averages_packed_colours_channel_by_channel(capsys, tmp_path):
-    from pcl_rg.io import write_pcd
-
-    # Pure red and pure blue in one voxel: PCL packs 0x00RRGGBB into a float32 (rgb) or
-    # a uint32 (rgba). As one number their mean has green in it; by channel it is purple.
-    packed = np.array([0xFF0000, 0x0000FF, 0x00FF00], np.uint32)
-    points = np.array([[0.0, 0.0, 0.0], [0.001, 0.0, 0.0], [5.0, 5.0, 5.0]])
-    fields = {"rgb": packed.view(np.float32), "rgba": packed | np.uint32(0xFF000000)}
-    write_pcd(tmp_path / "two.pcd", points, fields)
-    run_json(capsys, "downsample", tmp_path / "two.pcd", tmp_path / "one.pcd", "--leaf-size", "1")
-    out = read_points(tmp_path / "one.pcd")
-    order = np.argsort(out.points[:, 0])
-    assert [f"{v:08x}" for v in out.fields["rgb"].view(np.uint32)[order]] == [
-        "00800080",  # 255 / 2 rounds to 128 in red and in blue
-        "0000ff00",
-    ]
-    assert [f"{v:08x}" for v in out.fields["rgba"][order]] == ["ff800080", "ff00ff00"]
-
-
 @pytest.mark.parametrize("method", ["curvature", "pcl"])
 def test_segment(capsys, tmp_path, scene_las, method):
     run_json(capsys, "downsample", scene_las, tmp_path / "v.laz", "--leaf-size", "1")

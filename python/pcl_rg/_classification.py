@@ -12,6 +12,7 @@ from .io import PointFile
 
 __all__ = [
     "GROUND",
+    "CATEGORY_ATTRIBUTES",
     "MEAN_ATTRIBUTES",
     "PACKED_COLOURS",
     "NEVER_CLASSIFIED",
@@ -21,6 +22,7 @@ __all__ = [
     "class_array",
     "existing_classes",
     "ground_classes",
+    "is_category",
     "noise_classes",
     "noise_mask",
     "not_class_codes",
@@ -160,6 +162,17 @@ def ground_classes(
 MEAN_ATTRIBUTES = ("intensity", "red", "green", "blue", "nir", "gps_time")
 
 
+#: Codes and ids, never averaged even when a file stores them as floats (CloudCompare's
+#: PLY and PCD classes, mOSD's float labels): the first point's, as their integer kin.
+CATEGORY_ATTRIBUTES = ("classification", "label", "return_number", "number_of_returns")
+
+
+def is_category(name: str) -> bool:
+    """Whether a field holds codes or ids (CATEGORY_ATTRIBUTES, ``id``, ``*_id``)."""
+    key = name.lower()
+    return key in CATEGORY_ATTRIBUTES or key == "id" or key.endswith("_id")
+
+
 #: PCL's packed colours: four bytes per point (blue, green, red, alpha or 0) stored in a
 #: float32 (``rgb``) or a uint32 (``rgba``); averaged byte by byte, never as one number.
 PACKED_COLOURS = ("rgb", "rgba")
@@ -169,14 +182,16 @@ def voxel_attributes(
     fields: dict[str, np.ndarray], rows: np.ndarray, voxel: np.ndarray, counts: np.ndarray
 ) -> dict[str, np.ndarray]:
     """Per-voxel attributes: mean of float fields and MEAN_ATTRIBUTES, channel means of
-    PACKED_COLOURS, else the first point's."""
+    PACKED_COLOURS, else (and for codes and ids, is_category) the first point's."""
     m = len(counts)
     first = np.full(m, np.iinfo(np.int64).max, dtype=np.int64)
     np.minimum.at(first, voxel, rows)
     out = {}
     for name, values in fields.items():
         values = np.asarray(values)
-        if name in PACKED_COLOURS and values.ndim == 1 and values.dtype.itemsize == 4:
+        if is_category(name):
+            out[name] = values[first]
+        elif name in PACKED_COLOURS and values.ndim == 1 and values.dtype.itemsize == 4:
             channels = np.ascontiguousarray(values[rows]).view(np.uint8).reshape(len(rows), 4)
             sums = np.stack(
                 [np.bincount(voxel, weights=channels[:, j], minlength=m) for j in range(4)],

@@ -9,7 +9,7 @@ import numpy as np
 
 import pcl_rg
 
-from ..._classification import MEAN_ATTRIBUTES, voxel_attributes
+from ..._classification import CATEGORY_ATTRIBUTES, MEAN_ATTRIBUTES, voxel_attributes
 from .._common import (
     add_io_arguments,
     add_output_options,
@@ -28,8 +28,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "Voxel grid downsampling (PCL's VoxelGrid): OUTPUT holds one point per "
         "occupied voxel, at the mean of its points. Attributes of a centroid: the mean (rounded "
         "for integers) of " + ", ".join(MEAN_ATTRIBUTES) + " and of every floating-point field, "
-        "PCL's packed rgb/rgba colours channel by channel; every other field (classification, "
-        "return numbers, flags, ids) is taken from the voxel's first point in file order."
+        "PCL's packed rgb/rgba colours channel by channel; every other field (flags, ...) and "
+        "every code or id, integer or float (" + ", ".join(CATEGORY_ATTRIBUTES) + ", id, *_id), "
+        "is taken from the voxel's first point in file order."
     )
     add_io_arguments(parser, None)
     flags = add_param_flags(parser, "voxel grid parameters", {"voxel": pcl_rg.VoxelGridParams})

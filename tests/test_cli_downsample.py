@@ -1,0 +1,49 @@
+"""pcl-rg downsample's voxel attributes beyond LAS (test_cli_commands.py has the LAS
+scene): PCL's packed colours, and codes stored as floats."""
+
+from __future__ import annotations
+
+import numpy as np
+from cli_helpers import run_json
+
+from pcl_rg.io import read_points, write_pcd
+
+
+def test_downsample_averages_packed_colours_channel_by_channel(capsys, tmp_path):
+    # Pure red and pure blue in one voxel: PCL packs 0x00RRGGBB into a float32 (rgb) or
+    # a uint32 (rgba). As one number their mean has green in it; by channel it is purple.
+    packed = np.array([0xFF0000, 0x0000FF, 0x00FF00], np.uint32)
+    points = np.array([[0.0, 0.0, 0.0], [0.001, 0.0, 0.0], [5.0, 5.0, 5.0]])
+    fields = {"rgb": packed.view(np.float32), "rgba": packed | np.uint32(0xFF000000)}
+    write_pcd(tmp_path / "two.pcd", points, fields)
+    run_json(capsys, "downsample", tmp_path / "two.pcd", tmp_path / "one.pcd", "--leaf-size", "1")
+    out = read_points(tmp_path / "one.pcd")
+    order = np.argsort(out.points[:, 0])
+    assert [f"{v:08x}" for v in out.fields["rgb"].view(np.uint32)[order]] == [
+        "00800080",  # 255 / 2 rounds to 128 in red and in blue
+        "0000ff00",
+    ]
+    assert [f"{v:08x}" for v in out.fields["rgba"][order]] == ["ff800080", "ff00ff00"]
+
+
+def test_downsample_takes_float_codes_from_the_first_point(capsys, tmp_path):
+    # CloudCompare writes classes as floats; mOSD its labels. Averaged, a voxel of
+    # ground (2) and building (6) points would get class 4.0 and could not be written
+    # to LAS. Codes and ids are the first point's; other floats are averaged.
+    points = np.array([[0.1, 0.0, 0.0], [0.2, 0.0, 0.0], [0.3, 0.0, 0.0], [5.0, 5.0, 5.0]])
+    fields = {
+        "classification": np.array([2, 6, 6, 5], np.float32),
+        "label": np.array([3.0, 8.0, 8.0, 1.0]),
+        "Object_ID": np.array([10.0, 11.0, 12.0, 13.0]),
+        "intensity": np.array([1.0, 2.0, 6.0, 4.0], np.float32),
+    }
+    write_pcd(tmp_path / "floats.pcd", points, fields)
+    run_json(capsys, "downsample", tmp_path / "floats.pcd", tmp_path / "v.pcd", "--leaf-size", "1")
+    out = read_points(tmp_path / "v.pcd")
+    order = np.argsort(out.points[:, 0])
+    assert out.fields["classification"][order].tolist() == [2.0, 5.0]
+    assert out.fields["label"][order].tolist() == [3.0, 1.0]
+    assert out.fields["Object_ID"][order].tolist() == [10.0, 13.0]
+    assert out.fields["intensity"][order].tolist() == [3.0, 4.0]
+    run_json(capsys, "downsample", tmp_path / "floats.pcd", tmp_path / "v.las", "--leaf-size", "1")
+    assert sorted(read_points(tmp_path / "v.las").classification.tolist()) == [2, 5]
