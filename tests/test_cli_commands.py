@@ -8,6 +8,7 @@ import json
 import os
 import sys
 
+import laspy
 import numpy as np
 import pytest
 from cli_helpers import assert_one_error_line, run, run_json
@@ -222,6 +223,18 @@ def test_segment(capsys, tmp_path, scene_las, method):
     np.testing.assert_array_equal(
         read_points(tmp_path / "only.laz").fields["segment_id"], labels[labels >= 0]
     )
+
+
+def test_segment_replaces_another_tools_unsigned_segment_id(capsys, tmp_path, scene_las):
+    # An earlier tool's uint16 segment_id cannot hold -1: the int32 one replaces it.
+    las = laspy.read(scene_las)
+    las.add_extra_dim(laspy.ExtraBytesParams(name="segment_id", type="u2"))
+    las.write(tmp_path / "u16.las")
+    run_json(capsys, "segment", tmp_path / "u16.las", tmp_path / "s.las", "--method", "curvature")
+    written = read_points(tmp_path / "s.las")
+    assert written.fields["segment_id"].dtype == np.int32
+    assert (written.fields["segment_id"] == -1).any()
+    assert list(written.header.point_format.extra_dimension_names) == ["segment_id"]
 
 
 def test_segment_mosd_pcd_and_evaluate(capsys, tmp_path):

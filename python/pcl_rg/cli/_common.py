@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import copy
 import os
 from collections.abc import Iterator, Sequence
 from typing import Any, NamedTuple
@@ -352,6 +353,22 @@ def segments_summary(labels: np.ndarray) -> dict[str, Any]:
     }
 
 
+def _int32_segments(cloud: PointFile) -> PointFile:
+    """`cloud` as the template of segment's output: a LAS segment_id dimension of
+    another type (another tool's, often unsigned: no -1) is replaced by the int32 one
+    the command documents, rather than refused when the labels are written."""
+    header = cloud.header
+    if cloud.format not in ("las", "laz") or header is None:
+        return cloud
+    dims = {d.name: d for d in header.point_format.extra_dimensions}
+    kept = dims.get("segment_id")
+    if kept is None or (kept.dtype == np.int32 and kept.num_elements == 1):
+        return cloud
+    header = copy.deepcopy(header)
+    header.remove_extra_dim("segment_id")
+    return PointFile(cloud.points, cloud.fields, cloud.format, header, cloud.path)
+
+
 def finish_segments(
     run: Run,
     args: argparse.Namespace,
@@ -363,7 +380,7 @@ def finish_segments(
     fields = dict(cloud.fields, segment_id=segment)
     if classes is not None:
         fields["classification"] = classes
-    n_written = write_output(run, args, cloud, fields, segment >= 0)
+    n_written = write_output(run, args, _int32_segments(cloud), fields, segment >= 0)
     summary = segments_summary(segment)
     run.result.update(
         input=os.path.abspath(args.input), points_in=len(cloud), dropped=bool(args.drop), **summary
