@@ -391,3 +391,36 @@ def test_pcd_template_keeps_float64_or_integer_y_and_z(tmp_path, size, code):
     out = tmp_path / "out.pcd"
     write_points(out, cloud.points, cloud.fields, template=cloud)
     np.testing.assert_array_equal(read_points(out).points, [[1.5, y, z]])
+
+
+@pytest.mark.parametrize("ext", ["ply", "pcd", "xyz"])
+def test_classification_in_another_case_is_the_classification(tmp_path, ext):
+    # CloudCompare writes "Classification": read by another name, its noise class 7
+    # was not skipped, and a second "classification" column was written beside it.
+    path = tmp_path / f"cc.{ext}"
+    write_points(path, POINTS, {"Classification": np.array([7, 2], np.uint8)})
+    cloud = read_points(path)
+    assert list(cloud.fields) == ["classification"]
+    assert cloud.classification.tolist() == [7, 2]
+
+
+def test_classification_in_two_cases_is_left_as_it_is(tmp_path):
+    fields = {"Classification": np.array([7, 2]), "CLASSIFICATION": np.array([1, 1])}
+    write_points(tmp_path / "two.ply", POINTS, fields)
+    cloud = read_points(tmp_path / "two.ply")
+    assert list(cloud.fields) == list(fields) and cloud.classification is None
+
+
+def test_ply_upper_case_coordinates(tmp_path):
+    path = tmp_path / "upper.ply"
+    header = "ply\nformat ascii 1.0\nelement vertex 2\n" + "".join(
+        f"property double {name}\n" for name in ("X", "Y", "Z", "x_origin")
+    )
+    path.write_text(header + "end_header\n1 2 3 9\n4 5 6 9\n")
+    cloud = read_points(path)
+    np.testing.assert_array_equal(cloud.points, POINTS)
+    assert list(cloud.fields) == ["x_origin"]
+    # Both spellings: x is the coordinate and X a field.
+    path.write_text(header.replace("x_origin", "x") + "end_header\n1 2 3 7\n4 5 6 8\n")
+    cloud = read_points(path)
+    assert cloud.points[:, 0].tolist() == [7.0, 8.0] and cloud.fields["X"].tolist() == [1.0, 4.0]

@@ -241,6 +241,10 @@ def read_points(path: str | os.PathLike[str], *, format: str | None = None) -> P
     negative; float64 beyond both), others as float64: a float64 field that
     :func:`write_points` wrote comes back float64, bit for bit.
 
+    PLY, PCD and XYZ: a field named ``Classification`` (or any other case of
+    it, as CloudCompare writes it) is returned as ``classification``, the name
+    the classes are read by, unless the file has several such names.
+
     Examples
     --------
     >>> import os, tempfile
@@ -276,7 +280,19 @@ def _read(name: str, fmt: str) -> PointFile:
     points, fields, header = _READERS[fmt](name)
     if fmt in _LAYOUTS:
         header = _LAYOUTS[fmt](*header)
+    if fmt in ("ply", "pcd", "xyz"):
+        fields = _classification_named(fields)
     return PointFile(points, fields, fmt, header, name)
+
+
+def _classification_named(fields: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """`fields` with the one field named classification in another case (CloudCompare
+    writes ``Classification``) named ``classification``, the name every command reads
+    the classes by; as it is when the name is exact or several cases are present."""
+    matches = [key for key in fields if key.lower() == "classification"]
+    if len(matches) != 1 or matches[0] == "classification":
+        return fields
+    return {"classification" if key == matches[0] else key: v for key, v in fields.items()}
 
 
 def read_pcd(path: str | os.PathLike[str]) -> PointFile:

@@ -50,13 +50,17 @@ def read(path: str) -> tuple[np.ndarray, dict[str, np.ndarray], tuple]:
     if vertex.has_list:
         raise bad_ply(path, "the vertex element has list properties, which are not supported")
     names = [name for name, _ in vertex.properties]
+    if len(set(names)) != len(names):
+        raise bad_ply(path, f"the vertex element repeats a property name ({' '.join(names)})")
+    # x, y, z, else X, Y, Z (some scanners' software): the one name of any case.
+    coordinates = []
     for axis in "xyz":
-        if axis not in names:
+        spelled = [name for name in names if name.lower() == axis]
+        if axis not in names and len(spelled) != 1:
             raise bad_ply(
                 path, f"the vertex element has no {axis!r} property (got {' '.join(names)})"
             )
-    if len(set(names)) != len(names):
-        raise bad_ply(path, f"the vertex element repeats a property name ({' '.join(names)})")
+        coordinates.append(axis if axis in names else spelled[0])
     data = memoryview(raw)[offset:]
     check_counts(path, encoding, elements, len(data))
     if encoding == "ascii":
@@ -64,14 +68,14 @@ def read(path: str) -> tuple[np.ndarray, dict[str, np.ndarray], tuple]:
     else:
         table = _read_binary(path, encoding, data, elements, vertex_at)
     points = np.empty((vertex.count, 3), dtype=np.float64)
-    for i, axis in enumerate("xyz"):
-        points[:, i] = table[axis]
+    for i, name in enumerate(coordinates):
+        points[:, i] = table[name]
     fields = {
         name: np.array(table[name], dtype=np.dtype(code))
         for name, code in vertex.properties
-        if name not in ("x", "y", "z")
+        if name not in coordinates
     }
-    xyz_codes = {code for name, code in vertex.properties if name in ("x", "y", "z")}
+    xyz_codes = {code for name, code in vertex.properties if name in coordinates}
     xyz_dtype = np.dtype("f8") if xyz_codes - {"f4"} else np.dtype("f4")
     return points, fields, (encoding, xyz_dtype, comments)
 
