@@ -399,6 +399,11 @@ def test_info(capsys, tmp_path, scene_las):
     assert report["classes"] == {str(c): int(k) for c, k in zip(codes, counts)}
     assert report["las"]["point_format"] == 3 and report["las"]["version"] == "1.2"
     assert set(report["fields"]) == set(source.fields)
+    las = laspy.read(scene_las)
+    las.header.offsets = [512345.678, 5412345.25, -0.125]  # %g showed 512346 5.41235e+06
+    las.write(tmp_path / "offsets.las")
+    _, out, _ = run(capsys, "info", tmp_path / "offsets.las")
+    assert "offset        512345.678 5412345.25 -0.125\n" in out and "scale         0.01 " in out
     code, out, _ = run(capsys, "info", shared_data("mosd", "learn5.pcd"))
     assert code == 0
     invalid = int(

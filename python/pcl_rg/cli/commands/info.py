@@ -117,8 +117,10 @@ def execute(args: argparse.Namespace, run: Run) -> None:
             )
         )
     if "las" in info:
-        run.say(f"{'scale':<14}{' '.join(f'{s:g}' for s in info['las']['scales'])}")
-        run.say(f"{'offset':<14}{' '.join(f'{s:g}' for s in info['las']['offsets'])}")
+        # Every digit (the shortest text that reads back as the stored double): %g
+        # showed an offset of 512345.678 as 512346.
+        run.say(f"{'scale':<14}{' '.join(repr(float(s)) for s in info['las']['scales'])}")
+        run.say(f"{'offset':<14}{' '.join(repr(float(s)) for s in info['las']['offsets'])}")
     elif header is not None:
         run.say(f"{'layout':<14}" + ", ".join(f"{k} {v}" for k, v in info[cloud.format].items()))
     run.say(
