@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import errno
 import os
+import stat
 import struct
 
 import numpy as np
@@ -430,3 +431,24 @@ def test_interrupt_as_the_temporary_file_is_created_leaves_nothing(tmp_path, mon
         write_points(target, np.zeros((10, 3)))
     assert [p.name for p in tmp_path.iterdir()] == ["out.ply"]
     assert target.read_bytes() == b"previous content"
+
+
+@pytest.mark.parametrize("ext", ["laz", "ply", "xyz"])
+def test_a_link_is_written_through_and_a_replaced_file_keeps_its_mode(tmp_path, ext):
+    target = tmp_path / "results" / f"run42.{ext}"
+    target.parent.mkdir()
+    write_points(target, np.zeros((3, 3)))
+    os.chmod(target, 0o600)  # a private survey
+    link = tmp_path / f"latest.{ext}"
+    link.symlink_to(target)
+    write_points(link, np.ones((2, 3)))
+    # The link stays a link, its target holds the new points, still private.
+    assert link.is_symlink() and os.readlink(link) == str(target)
+    assert read_points(target).points.tolist() == [[1.0, 1.0, 1.0]] * 2
+    assert stat.S_IMODE(target.stat().st_mode) == 0o600
+    assert sorted(p.name for p in target.parent.iterdir()) == [target.name]
+    # A link to nothing yet is replaced by the new file, as before.
+    dangling = tmp_path / f"dangling.{ext}"
+    dangling.symlink_to(tmp_path / "nowhere" / f"x.{ext}")
+    write_points(dangling, np.ones((2, 3)))
+    assert not dangling.is_symlink() and len(read_points(dangling)) == 2

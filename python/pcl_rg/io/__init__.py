@@ -424,7 +424,9 @@ def write_points(
     -----
     Every format is written to a temporary file in the destination folder
     and renamed over `path` when complete (also on ``KeyboardInterrupt`` no
-    partial file remains).
+    partial file remains). A `path` that links to an existing file is
+    written through (the link stays), and a file replaced keeps its
+    permission bits.
 
     LAS/LAZ without a LAS template: version 1.4, point format 6 (7 with
     ``red``/``green``/``blue``, 8 with ``nir`` too), scale 1 mm (coarser only

@@ -11,6 +11,7 @@ from __future__ import annotations
 import contextlib
 import os
 import secrets
+import stat
 from collections.abc import Callable
 from typing import BinaryIO
 
@@ -64,7 +65,18 @@ def write_chunked(stream: BinaryIO, payload: bytes | memoryview) -> None:
 
 
 def atomic_write(path: str, write: Callable[[BinaryIO], None]) -> None:
-    """Write through a temporary file in the same folder, renamed into place."""
+    """Write through a temporary file in the same folder, renamed into place.
+
+    A `path` that is a link to an existing file is written through, as ``cp`` does:
+    its target is replaced and the link kept. A file replaced keeps its permission
+    bits (the umask's are for new files: a private 0600 output stays private).
+    """
+    if os.path.islink(path) and os.path.exists(path):
+        path = os.path.realpath(path)
+    try:
+        mode: int | None = stat.S_IMODE(os.stat(path).st_mode)
+    except OSError:
+        mode = None  # a new file
     folder, base = os.path.split(os.path.abspath(path))
     # The temporary name adds about 22 bytes to the target's: of a long name (file
     # systems allow 255 bytes) only the characters in its first 64 bytes are kept (never
@@ -94,6 +106,8 @@ def atomic_write(path: str, write: Callable[[BinaryIO], None]) -> None:
         with stream:
             write(stream)
             stream.flush()
+            if mode is not None:
+                os.fchmod(stream.fileno(), mode)
             os.fsync(stream.fileno())
         os.replace(temp, path)
     except BaseException:
