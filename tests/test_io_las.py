@@ -4,6 +4,7 @@ VLRs kept bit for bit, templates, scales, what LAS cannot store, and damaged fil
 from __future__ import annotations
 
 import warnings
+from datetime import datetime, timezone
 
 import laspy
 import numpy as np
@@ -11,6 +12,7 @@ import pytest
 from las_helpers import random_las, raw_points
 from laspy.vlrs.vlrlist import VLRList
 
+import pcl_rg
 from pcl_rg.io import read_points, write_points
 
 LAS_LAYOUTS = [("1.2", 0), ("1.2", 1), ("1.2", 3), ("1.3", 1), ("1.4", 6), ("1.4", 7), ("1.4", 8)]
@@ -23,6 +25,7 @@ LAS_LAYOUTS = [("1.2", 0), ("1.2", 1), ("1.2", 3), ("1.3", 1), ("1.4", 6), ("1.4
 @pytest.mark.parametrize("version, point_format", LAS_LAYOUTS)
 def test_las_round_trip_keeps_every_dimension_bit_for_bit(tmp_path, ext, version, point_format):
     las = random_las(version, point_format, 500, seed=point_format)
+    las.header.system_identifier, las.header.generating_software = "RIEGL VQ-1560", "TerraScan"
     source = tmp_path / f"in.{ext}"
     las.write(source)
     cloud = read_points(source)
@@ -39,6 +42,7 @@ def test_las_round_trip_keeps_every_dimension_bit_for_bit(tmp_path, ext, version
     assert list(cloud.fields) == names
 
     target = tmp_path / f"out.{ext}"
+    date_before = datetime.now(timezone.utc).date()
     write_points(target, cloud.points, cloud.fields, template=cloud)
     assert raw_points(target).tobytes() == raw.tobytes()
     back = read_points(target)
@@ -50,6 +54,11 @@ def test_las_round_trip_keeps_every_dimension_bit_for_bit(tmp_path, ext, version
     assert len(vlr) == 1 and vlr[0].record_data == las.header.vlrs[-1].record_data
     np.testing.assert_allclose(back.header.mins, cloud.points.min(axis=0))
     np.testing.assert_allclose(back.header.maxs, cloud.points.max(axis=0))
+    # The header names the program that wrote this file and its day; the system
+    # identifier (the acquiring hardware) stays the source's.
+    assert back.header.generating_software == f"pcl_rg {pcl_rg.__version__}"
+    assert back.header.creation_date in (date_before, datetime.now(timezone.utc).date())
+    assert back.header.system_identifier == "RIEGL VQ-1560"
 
 
 @pytest.mark.parametrize("other", ["ply", "pcd", "xyz"])

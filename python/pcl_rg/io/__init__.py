@@ -394,7 +394,8 @@ def write_points(
         A file read before, whose layout is kept when the output has the same
         format family (LAS/LAZ, PCD or PLY): for LAS the version, point format,
         scale, offset, VLRs (CRS included), extra-bytes definitions and
-        header fields; for PCD the encoding, x/y/z type, viewpoint and, when N
+        header fields (but the generating software and creation date, which
+        name pcl_rg and the day of writing); for PCD the encoding, x/y/z type, viewpoint and, when N
         is unchanged, width and height; for PLY the encoding, x/y/z type and
         comments.
     format : {"las", "laz", "ply", "pcd", "xyz"}, optional

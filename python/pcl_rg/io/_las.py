@@ -8,6 +8,7 @@ allocate; laspy is imported only when a LAS/LAZ file is read or written.
 from __future__ import annotations
 
 import contextlib
+import datetime
 import math
 import os
 import sys
@@ -210,6 +211,13 @@ def _write_las(
         with np.errstate(over="ignore", invalid="ignore"):  # checked right after
             header = _new_las_header(laspy, xyz, set(columns))
     _check_scales_and_offsets(xyz, header, template is None)
+    # The header describes this file: the program that wrote it, and when (a template's
+    # named another program and its day). The system identifier, the hardware that
+    # acquired the points, is kept.
+    from .. import __version__
+
+    header.generating_software = f"pcl_rg {__version__}"
+    header.creation_date = datetime.datetime.now(datetime.timezone.utc).date()
     standard = {d.name: d for d in header.point_format.dimensions}
     new_dims = []
     for key, array in columns.items():
