@@ -45,21 +45,11 @@ def test_the_python_examples_run(monkeypatch) -> None:
     assert named and set(named) <= set(namespace["diagnostics"]["tin_ground"])
 
 
-def _las_with_classes(path: Path, scene: datasets.SyntheticScene) -> None:
-    header = laspy.LasHeader(version="1.2", point_format=3)
-    header.scales = [0.01, 0.01, 0.01]
-    header.offsets = [500_000.0, 5_000_000.0, 0.0]
-    las = laspy.LasData(header)
-    las.x, las.y, las.z = scene.points.T
-    las.classification = scene.labels
-    las.write(path)
-
-
-def test_the_command_lines_run(tmp_path) -> None:
+def test_the_command_lines_run(tmp_path, scene_las) -> None:
     # The files the lines start from; the others are made by the lines before them.
-    scene = datasets.synthetic_scene(seed=5, size=80.0, offset=(500_000.0, 5_000_000.0, 0.0))
-    _las_with_classes(tmp_path / "tile.laz", scene)
-    _las_with_classes(tmp_path / "reference.laz", scene)  # its classes are the truth
+    scene = laspy.read(scene_las)
+    scene.write(tmp_path / "tile.laz")
+    scene.write(tmp_path / "reference.laz")  # its classes are the truth
     frame = datasets.load_mosd(shared_data("mosd", "learn0.pcd")).points
     for name in ("scan.ply", "scene.pcd", "scan.pcd"):
         write_points(tmp_path / name, frame)
