@@ -205,6 +205,15 @@ def test_xyz_column_names(tmp_path):
     cloud = read_points(tmp_path / "scan.pts")
     assert list(cloud.fields) == ["intensity", "red", "green", "blue"]
     np.testing.assert_array_equal(cloud.fields["intensity"], [-1200, 300])
+    # Written back in Leica's layout (the count, no names line), and read the same.
+    write_points(tmp_path / "back.pts", cloud.points, cloud.fields)
+    assert (tmp_path / "back.pts").read_text().startswith("2\n1.0 2.0 3.0 -1200 10 20 30\n")
+    again = read_points(tmp_path / "back.pts")
+    assert {k: v.tolist() for k, v in again.fields.items()} == {
+        k: v.tolist() for k, v in cloud.fields.items()
+    }
+    write_points(tmp_path / "own.pts", cloud.points, {"scan_id": np.arange(2)})
+    assert (tmp_path / "own.pts").read_text().startswith("# x y z scan_id\n")
     (tmp_path / "empty.xyz").write_text("# x y z classification\n")
     empty = read_points(tmp_path / "empty.xyz")
     assert empty.points.shape == (0, 3) and list(empty.fields) == ["classification"]

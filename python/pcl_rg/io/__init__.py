@@ -445,7 +445,9 @@ def write_points(
     uint8); (N, count) fields become ``name_0``, ``name_1``, ... in PLY and
     XYZ, and in the text formats (PCD, PLY, XYZ) white space in a field name
     becomes ``_``. XYZ text writes a ``# x y z ...`` header comment and every number as
-    the shortest text that reads back to the same value.
+    the shortest text that reads back to the same value; ``.pts`` whose fields
+    are Leica's (none, ``intensity``, ``red green blue`` or all four) gets the
+    point count as its first line instead, as Leica's readers expect.
 
     Examples
     --------

@@ -147,7 +147,8 @@ def _exact_integers(tokens: list[str]) -> np.ndarray | None:
 
 
 def write(path: str, xyz: np.ndarray, columns: dict[str, np.ndarray], layout: None = None) -> None:
-    """write_points for XYZ text: a ``# x y z ...`` comment, then one row per point."""
+    """write_points for XYZ text: a ``# x y z ...`` comment, then one row per point
+    (``.pts`` in Leica's layout: the point count instead, see below)."""
     data = [("x", xyz[:, 0]), ("y", xyz[:, 1]), ("z", xyz[:, 2])]
     for key, array in split_columns(columns):
         if not _COLUMN_NAME.fullmatch(key):
@@ -157,6 +158,16 @@ def write(path: str, xyz: np.ndarray, columns: dict[str, np.ndarray], layout: No
             )
         data.append((key, array.astype(np.uint8) if array.dtype == np.bool_ else array))
     head = ("# " + " ".join(key for key, _ in data) + "\n").encode("ascii")
+    extra = [key for key, _ in data[3:]]
+    if (
+        os.path.splitext(path)[1].lower() == ".pts"
+        and len(xyz) > 0
+        and (not extra or extra == _PTS_NAMES.get(len(data)))
+    ):
+        # Leica's .pts: the point count on the first line and no names (strict readers
+        # take a comment for a bad count); the columns are named by their number on
+        # reading. Other fields, or no rows, keep the "# x y z ..." line.
+        head = f"{len(xyz)}\n".encode("ascii")
 
     def write_data(stream: BinaryIO) -> None:
         stream.write(head)
