@@ -395,9 +395,9 @@ def write_points(
         format family (LAS/LAZ, PCD or PLY): for LAS the version, point format,
         scale, offset, VLRs (CRS included), extra-bytes definitions and
         header fields (but the generating software and creation date, which
-        name pcl_rg and the day of writing); for PCD the encoding, x/y/z type, viewpoint and, when N
-        is unchanged, width and height; for PLY the encoding, x/y/z type and
-        comments.
+        name pcl_rg and the day of writing); for PCD the encoding, x/y/z type,
+        viewpoint and, when N is unchanged, width and height; for PLY the
+        encoding, x/y/z type and comments.
     format : {"las", "laz", "ply", "pcd", "xyz"}, optional
         Write as this format whatever the extension.
 
