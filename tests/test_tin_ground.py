@@ -404,6 +404,23 @@ def test_many_points_at_one_position_are_named_as_the_likely_cause() -> None:
         assert "left unset" not in str(raised.value)
 
 
+def test_a_cloud_far_sparser_than_lidar_is_told_of_the_seed_cells_cap() -> None:
+    # 50 m spacing: the unset seed_cell, capped at 2 m, makes 2,500 cells a point. The
+    # error names the cap and the cell the spacing asks for, not copies of points.
+    xy = np.random.default_rng(0).uniform(0.0, 5000.0, (10_000, 2))
+    points = np.c_[xy, 0.02 * xy[:, 0]]
+    wanted = pcl_rg.TinGroundParams.SPACING_MULTIPLES["seed_cell"] * pcl_rg.point_spacing(points)
+    for function in (pcl_rg.tin_ground, reference.tin_ground):
+        with pytest.raises(ValueError) as raised:
+            function(points)
+        message = str(raised.value)
+        assert "the least of 2 m and" in message and "many points" not in message
+        assert float(message.split("set seed_cell to about ")[1].split(" m")[0]) == pytest.approx(
+            wanted, rel=1e-12
+        )
+        assert len(function(points, seed_cell=wanted)) == len(points)
+
+
 def test_keywords_override_params() -> None:
     points = scene(1).points
     np.testing.assert_array_equal(

@@ -210,12 +210,21 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
     } catch (const std::invalid_argument& error) {
         if (given.seed_cell) throw;
         // An unset seed_cell follows the measured spacing, which counts every point: many
-        // at one XY position (copies, poles, a scanner's footprint) make it tiny.
-        throw std::invalid_argument(
-            std::string(error.what()) +
-            " (seed_cell was left unset: " + std::to_string(kTinSeedCellPerSpacing) +
-            " x the measured point spacing, " + check::format_value(stats.point_spacing) +
-            " m, which many points at one XY position make small)");
+        // at one XY position (copies, poles, a scanner's footprint) make it tiny. Or, on
+        // a cloud far sparser than airborne LiDAR, its cap binds.
+        const double spacing = stats.point_spacing;
+        const std::string unset =
+            " (seed_cell was left unset: the least of " + check::format_value(kTinSeedCellCap) +
+            " m and " + check::format_value(kTinSeedCellPerSpacing) +
+            " x the measured point spacing, " + check::format_value(spacing) + " m, ";
+        if (kTinSeedCellPerSpacing * spacing > kTinSeedCellCap)
+            throw std::invalid_argument(std::string(error.what()) + unset +
+                                        "so the cap, made for airborne densities; at this "
+                                        "spacing set seed_cell to about " +
+                                        check::format_value(kTinSeedCellPerSpacing * spacing) +
+                                        " m)");
+        throw std::invalid_argument(std::string(error.what()) + unset +
+                                    "which many points at one XY position make small)");
     }
     interruption.check_now();
     stats.seeds = static_cast<std::int64_t>(seeds.size());

@@ -23,7 +23,7 @@ import numpy.typing as npt
 from scipy import ndimage
 from scipy.spatial import Delaunay, cKDTree
 
-from .._params import resolve_arguments
+from .._params import format_value, resolve_arguments
 from .._point_spacing import with_spacing_lengths
 from .._tin_ground import TinGroundParams
 from .._validation import as_points
@@ -438,10 +438,20 @@ def tin_ground(
     except ValueError as error:
         if not seed_cell_unset:
             raise
+        cap = TinGroundParams.SPACING_CAPS["seed_cell"]
         multiple = TinGroundParams.SPACING_MULTIPLES["seed_cell"]
+        spacing = point_spacing(xyz)
+        unset = (
+            f" (seed_cell was left unset: the least of {format_value(cap)} m and "
+            f"{format_value(multiple)} x the measured point spacing, {format_value(spacing)} m, "
+        )
+        if multiple * spacing > cap:
+            raise ValueError(
+                f"{error}{unset}so the cap, made for airborne densities; at this spacing set "
+                f"seed_cell to about {format_value(multiple * spacing)} m)"
+            ) from None
         raise ValueError(
-            f"{error} (seed_cell was left unset: {multiple:.7g} x the measured point spacing, "
-            f"{point_spacing(xyz):.17g} m, which many points at one XY position make small)"
+            f"{error}{unset}which many points at one XY position make small)"
         ) from None
     ground = np.zeros(n, dtype=bool)
     ground[seed] = True
