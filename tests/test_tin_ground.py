@@ -427,6 +427,17 @@ def test_keywords_override_params() -> None:
         pcl_rg.tin_ground(points, params=ISPRS, iteration_angle=12.0),
         pcl_rg.tin_ground(points, params=dataclasses.replace(ISPRS, iteration_angle=12.0)),
     )
+    # None leaves the params' field (the docstring's params entry): a length is unset by
+    # replacing it in the params, and that differs here.
+    fixed = dataclasses.replace(ISPRS, stop_edge=50.0)
+    np.testing.assert_array_equal(
+        pcl_rg.tin_ground(points, params=fixed, stop_edge=None),
+        pcl_rg.tin_ground(points, params=fixed),
+    )
+    assert not np.array_equal(
+        pcl_rg.tin_ground(points, params=fixed),
+        pcl_rg.tin_ground(points, params=dataclasses.replace(fixed, stop_edge=None)),
+    )
 
 
 def point_arrays():

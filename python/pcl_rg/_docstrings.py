@@ -24,7 +24,9 @@ points : array_like, shape (N, 3)
     # {params_type} is the function's own annotation of `params`, without "| None".
     "params": """\
 params : {params_type}, optional
-    All parameters at once; keywords given explicitly override it.""",
+    All parameters at once; keywords given explicitly override it. A keyword
+    given as None leaves the field as `params` has it: to unset a field that
+    may be None, ``dataclasses.replace(params, name=None)``.""",
     "points_value_error": """\
 ValueError
     Non-finite points or a wrong shape.""",
