@@ -99,17 +99,17 @@ def test_masked_arrays_are_refused_not_unmasked():
 
 
 @pytest.mark.parametrize(
-    ("truth", "predicted", "match"),
+    ("truth", "predicted", "error", "match"),
     [
-        (np.ones(3, bool), np.ones(4, bool), "same length, got 3 and 4"),
-        (np.ones(3, int), np.ones(3, bool), "truth must be a boolean array, got dtype int"),
-        (np.ones(3, bool), np.ones(3, float), "predicted must be a boolean array"),
-        (np.ones((2, 2), bool), np.ones((2, 2), bool), "truth must be one-dimensional"),
-        (np.ones(2, bool), np.bool_(True), "predicted must be one-dimensional"),
+        (np.ones(3, bool), np.ones(4, bool), ValueError, "same length, got 3 and 4"),
+        (np.ones(3, int), np.ones(3, bool), TypeError, "truth must be a boolean array, got dtype"),
+        (np.ones(3, bool), np.ones(3, float), TypeError, "predicted must be a boolean array"),
+        (np.ones((2, 2), bool), np.ones((2, 2), bool), ValueError, "truth must be one-dimensional"),
+        (np.ones(2, bool), np.bool_(True), ValueError, "predicted must be one-dimensional"),
     ],
 )
-def test_bad_input(truth, predicted, match):
-    with pytest.raises(ValueError, match=match):
+def test_bad_input(truth, predicted, error, match):
+    with pytest.raises(error, match=match):
         ground_errors(truth, predicted)
 
 

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from decimal import Decimal
+
 import numpy as np
 import pytest
 from conftest import (
@@ -195,6 +197,7 @@ def test_empty_and_single_point():
         ({"leaf_size": (1.0, 0.0, 1.0)}, ValueError, "leaf_size must be > 0"),
         ({"leaf_size": "big"}, TypeError, "leaf_size must be a number or 3 numbers"),
         ({"leaf_size": True}, TypeError, "leaf_size must be a number or 3 numbers"),
+        ({"leaf_size": Decimal(1)}, TypeError, "leaf_size must be a number or 3 numbers"),
         ({"leaf_size": (0.5, True, 0.5)}, TypeError, "leaf_size must be a number or 3 numbers"),
         (
             {"leaf_size": 1.0, "min_points_per_voxel": 0},

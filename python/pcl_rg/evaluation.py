@@ -31,7 +31,7 @@ class GroundErrors(NamedTuple):
 def _labels(name: str, value: npt.ArrayLike) -> np.ndarray:
     array = np.asarray(value)
     if array.dtype != np.bool_ and not (array.size == 0 and array.dtype.kind == "f"):
-        raise ValueError(f"{name} must be a boolean array, got dtype {array.dtype}")
+        raise TypeError(f"{name} must be a boolean array, got dtype {array.dtype}")
     return as_labels(name, value, np.bool_)
 
 
@@ -55,9 +55,11 @@ def ground_errors(truth: npt.ArrayLike, predicted: npt.ArrayLike) -> GroundError
 
     Raises
     ------
+    TypeError
+        If an input is not a boolean array (segmentation_scores likewise
+        refuses labels that are not integers).
     ValueError
-        If an input is not a one-dimensional boolean array, or the lengths
-        differ.
+        If an input is not one-dimensional, or the lengths differ.
 
     Notes
     -----
