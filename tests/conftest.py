@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import signal
 import subprocess
 import sys
 import threading
@@ -168,6 +169,15 @@ CLI_WITH_SIGINT = [
     "import runpy, signal; signal.signal(signal.SIGINT, signal.default_int_handler); "
     "runpy.run_module('pcl_rg', run_name='__main__', alter_sys=True)",
 ]
+
+
+@pytest.fixture
+def python_sigint_handler():
+    """Python's own SIGINT handler, as in a terminal: a shell that runs the tests in the
+    background starts them with SIGINT ignored, and then nothing is recorded."""
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, previous)
 
 
 @pytest.fixture(scope="session")

@@ -345,7 +345,9 @@ def test_the_warnings_of_tasks_on_two_threads_stay_apart():
 # ---------------------------------------------------------------- interrupts at start-up
 
 
-def test_an_interrupt_while_the_local_cluster_starts_waits_for_it_then_closes_it(monkeypatch):
+def test_an_interrupt_while_the_local_cluster_starts_waits_for_it_then_closes_it(
+    monkeypatch, python_sigint_handler
+):
     # Ctrl-C while LocalCluster started its workers left a cluster nobody owned, which
     # Dask's exit hook failed to close (a traceback ending in "AssertionError:
     # Status.init"). Now the interrupt is raised once the cluster is whole, and closed.
@@ -384,7 +386,7 @@ def test_an_interrupt_while_the_local_cluster_starts_waits_for_it_then_closes_it
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
 
 
-def test_signals_are_held_in_the_main_thread_only():
+def test_signals_are_held_in_the_main_thread_only(python_sigint_handler):
     from pcl_rg._held_signals import held_signals
 
     outcome = []

@@ -250,15 +250,6 @@ class _Sink:
         return len(data)
 
 
-@pytest.fixture
-def python_sigint_handler():
-    """Python's own SIGINT handler, as in a terminal: a shell that runs the tests in the
-    background starts them with SIGINT ignored, and then nothing is recorded."""
-    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
-    yield
-    signal.signal(signal.SIGINT, previous)
-
-
 def test_ctrl_c_while_lazrs_writes_is_an_interrupt_of_the_write(python_sigint_handler):
     # Python would raise the KeyboardInterrupt in whatever Python code runs next, and
     # inside a call from lazrs that turns into lazrs's own "failed to call write". The
