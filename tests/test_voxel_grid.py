@@ -242,6 +242,16 @@ def test_bad_points(points, error, match):
         pcl_rg.voxel_grid(points, 1.0)
 
 
+def test_leaf_size_as_numpy_values():
+    # A NumPy scalar or 0-d array is one number; a Decimal is no real number type.
+    points = uniform_cloud(500, 3)
+    expected = pcl_rg.voxel_grid(points, 0.5).centroids
+    for leaf in (np.float32(0.5), np.array(0.5), np.array([0.5, 0.5, 0.5])):
+        np.testing.assert_array_equal(pcl_rg.voxel_grid(points, leaf).centroids, expected)
+    with pytest.raises(TypeError, match="leaf_size must be a number or 3 numbers"):
+        pcl_rg.voxel_grid(points, np.array(True))
+
+
 def test_absurd_leaf_for_coordinates():
     with pytest.raises(ValueError, match="leaf_size is too small"):
         pcl_rg.voxel_grid([[0.0, 0.0, 0.0], [1e300, 0, 0]], 1e-300)

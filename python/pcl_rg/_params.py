@@ -210,9 +210,11 @@ def _per_axis(name: str, value: Any, spec: Spec) -> tuple[float, ...]:
             values = tuple(array.ravel().tolist())
         except Exception:  # pragma: no cover - exotic objects
             raise TypeError(f"{name} must be a number or {axes} numbers, got {value!r}") from None
-        if array.ndim == 0:  # one value of no real number type (a Decimal, an object)
+        if array.ndim == 0 and array.dtype.kind in "iuf":  # a 0-d array: one number
+            values = (array.item(),) * axes
+        elif array.ndim == 0:  # one value of no real number type (a Decimal, an object)
             raise TypeError(f"{name} must be a number or {axes} numbers, got {value!r}")
-        if len(values) != axes or array.ndim != 1:
+        elif len(values) != axes or array.ndim != 1:
             raise ValueError(f"{name} must be a number or a sequence of {axes}, got {value!r}")
     return tuple(_number(name, v, spec) for v in values)
 
