@@ -208,7 +208,9 @@ CellGrid build_grid(PointsView points, const GridGroundParams& params,
         }
     }
     interruption.check();
-    UnfilledVector<std::uint32_t>().swap(key);  // freed (assigning {} keeps the capacity)
+    // The cell numbers' array becomes the block numbers' (written in full below): one
+    // fresh array of N fewer to fault in.
+    grid.block = std::move(key);
     // Per band, its crowded cells and their boxes (written by the band's thread).
     std::vector<std::vector<std::pair<std::size_t, CellBox>>> crowded_in_band(bands);
 #pragma omp parallel if (parallel) firstprivate(interruption)
@@ -286,7 +288,6 @@ CellGrid build_grid(PointsView points, const GridGroundParams& params,
     // Blocks, numbered densely unless the block grid is far larger than the cloud.
     const std::int64_t nbx = grid_index(extent[0], params.block_size[0]) + 1;
     const std::int64_t nby = grid_index(extent[1], params.block_size[1]) + 1;
-    grid.block.resize(n);
     if (static_cast<double>(nbx) * static_cast<double>(nby) <= limit) {
         grid.blocks = static_cast<std::size_t>(nbx * nby);
 #pragma omp parallel for schedule(guided) if (parallel)

@@ -237,25 +237,37 @@ bool worth_growing(const CellGrid& grid, const std::vector<unsigned char>& candi
     return superset && cell_mates <= kCellMatesPerPoint * static_cast<std::int64_t>(grid.p.size());
 }
 
+// Per-position arrays that every pass of grow() overwrites in full before reading them:
+// allocated once per call, as each fresh array of N entries costs a page fault per 4 KiB
+// (about a tenth of grid_ground's time at 10M points went to faulting in fresh pages).
+struct GrowScratch {
+    UnfilledVector<std::uint32_t> root;
+    // Component sizes: neighbouring positions mostly share a root, so each thread adds
+    // runs of one root at a time (integer sums: the same whatever the sharing).
+    UnfilledVector<std::atomic<std::uint32_t>> size;
+    UnfilledVector<unsigned char> seeded;
+};
+
 // Steps 3 and 4 on the candidates: components of the link graph, one seed per block,
 // ground[s] = 1 for the members of the seeds' components. `before` (or null): the
 // candidates whose components `sets` already holds (add_to_components).
 void grow(const CellGrid& grid, const GridGroundParams& params,
           const std::vector<unsigned char>& candidate, const std::vector<unsigned char>* before,
-          ConcurrentDisjointSets& sets, std::vector<unsigned char>& ground) {
+          ConcurrentDisjointSets& sets, GrowScratch& scratch, std::vector<unsigned char>& ground) {
     const std::size_t n = grid.p.size();
     const auto count = static_cast<std::ptrdiff_t>(n);
     const bool parallel = n >= kGridParallelMin;
+    UnfilledVector<std::uint32_t>& root = scratch.root;
     if (before)
         add_to_components(grid, params, candidate, *before, sets);
     else
-        label_components(grid, params, candidate, sets);
+        label_components(grid, params, candidate, sets, root);
     poll_interrupt();
-    // Both written in full by the first loop below, so not zero-filled first.
-    UnfilledVector<std::uint32_t> root(n);
-    // Component sizes: neighbouring positions mostly share a root, so each thread adds
-    // runs of one root at a time (integer sums: the same whatever the sharing).
-    UnfilledVector<std::atomic<std::uint32_t>> size(n);
+    // Both written in full by the first loop below. Atomics cannot be moved, so the
+    // sizes' array is made once, not resized.
+    root.resize(n);
+    if (scratch.size.size() != n) scratch.size = UnfilledVector<std::atomic<std::uint32_t>>(n);
+    UnfilledVector<std::atomic<std::uint32_t>>& size = scratch.size;
 #pragma omp parallel if (parallel)
     {
 #pragma omp for schedule(static)
@@ -296,7 +308,8 @@ void grow(const CellGrid& grid, const GridGroundParams& params,
         }
         seed[b] = lowest_large != kNone ? lowest_large : lowest;
     }
-    UnfilledVector<unsigned char> seeded(n);  // zeroed by the threads, not by one
+    UnfilledVector<unsigned char>& seeded = scratch.seeded;  // zeroed by the threads, not by one
+    seeded.resize(n);
 #pragma omp parallel for schedule(static) if (parallel)
     for (std::ptrdiff_t s = 0; s < count; ++s) seeded[s] = 0;
     for (const std::uint32_t s : seed)
@@ -389,6 +402,7 @@ void grid_ground(PointsView points, const GridGroundParams& given, bool* ground,
         for (std::ptrdiff_t s = 0; s < count; ++s) candidate[s] = against[s] = !outlier[s];
     }
     ConcurrentDisjointSets sets;  // reset by the first labelling
+    GrowScratch scratch;
     const std::int64_t passes = std::max<std::int64_t>(params.filter_passes, 1);
     for (std::int64_t pass = 0; pass < passes; ++pass) {
         poll_interrupt();
@@ -401,7 +415,7 @@ void grid_ground(PointsView points, const GridGroundParams& given, bool* ground,
             if (pass == 0 && passes > 1) kept_by_all = candidate;
         }
         const bool grows = pass > 0 && worth_growing(grid, candidate, before, parallel);
-        grow(grid, params, candidate, grows ? &before : nullptr, sets, result);
+        grow(grid, params, candidate, grows ? &before : nullptr, sets, scratch, result);
         // The ground the last pass tested against came back: every later pass would too.
         if (pass > 0 && result == against) break;
         if (pass + 1 < passes) before = candidate;

@@ -74,8 +74,11 @@ class ConcurrentDisjointSets {
 /// points (crowded, grid_cells.hpp) are sampled near each point's height, scanned only
 /// at the heights their XY box allows and stepped over by runs (grid_links.cpp), so that
 /// a dense spot of distinct points does not cost quadratic time.
+/// `root` is scratch space (resized to N and overwritten), so that the caller's passes
+/// reuse one array instead of faulting in a fresh one each.
 void label_components(const CellGrid& grid, const GridGroundParams& params,
-                      const std::vector<unsigned char>& candidate, ConcurrentDisjointSets& sets);
+                      const std::vector<unsigned char>& candidate, ConcurrentDisjointSets& sets,
+                      UnfilledVector<std::uint32_t>& root);
 
 /// Components after candidates were added: `sets` holds the components of the link graph
 /// among `before`, a subset of `candidate`, so only the links of the added points are
