@@ -262,6 +262,15 @@ def test_same_file_names_from_two_folders_are_refused(tmp_path, survey):
         shutil.copytree(os.path.dirname(survey.paths[0]), tmp_path / name)
     with pytest.raises(ValueError, match="same file name"):
         batch.ground([tmp_path / "a", tmp_path / "b"], tmp_path / "out")
+    assert not (tmp_path / "out").exists()  # refused before the folder is made
+
+
+def test_an_out_that_is_a_file_is_refused_as_such(tmp_path, survey):
+    (tmp_path / "afile").write_text("notes")
+    result = run_pcl_rg("batch", "ground", *survey.paths[:1], "--out", tmp_path / "afile")
+    assert result.returncode == 2
+    assert "--out must be a folder, not a file" in result.stderr
+    assert (tmp_path / "afile").read_text() == "notes"
 
 
 def test_the_embedded_local_cluster_and_the_command_line(tmp_path):

@@ -405,3 +405,50 @@ def test_signals_are_held_in_the_main_thread_only(python_sigint_handler):
     with pytest.raises(KeyboardInterrupt):
         held.run_pending()
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+def test_what_killed_runs_left_in_the_output_folder_is_removed(tmp_path, scheduler):
+    # SIGKILL, the OOM killer or a power cut skip every clean-up: the next run removes
+    # their temporary files (also of names over 64 bytes, which atomic_write shortens)
+    # and scratch folders, but not a scratch folder whose run still holds its lock.
+    import fcntl
+
+    from pcl_rg.batch._engine import SCRATCH_LOCK, SCRATCH_PREFIX
+    from pcl_rg.io._atomic import partial_files
+
+    source = synthetic_survey(tmp_path / "in", tiles=(1, 2), tile_size=40.0, seed=4)
+    long_name = "survey_2024_block_a_flightline_0042_classified_denoised_tile_0_0_epsg32632.laz"
+    tiles = [shutil.copy(source.paths[0], tmp_path / long_name), source.paths[1]]
+    out = tmp_path / "out"
+    out.mkdir()
+    strays = [
+        out / f".{long_name[:64]}.4242.0123abcd.tmp",
+        out / f".{Path(tiles[1]).name}.4242.0123abcd.tmp",
+        out / f".{MANIFEST}.4242.0123abcd.tmp",
+    ]
+    for stray in strays:
+        stray.write_bytes(b"half a file")
+    assert sorted(map(str, strays[:1])) == partial_files(str(out / long_name))
+
+    def scratch(name, age, lock=True):
+        folder = out / (SCRATCH_PREFIX + name)
+        (folder / "0").mkdir(parents=True)
+        (folder / "0" / "points.npy").write_bytes(b"x" * 100)
+        if lock:
+            (folder / SCRATCH_LOCK).touch()
+        os.utime(folder, (os.path.getmtime(folder) - age,) * 2)
+        return folder
+
+    killed, unlocked = scratch("0" * 16, 600), scratch("1" * 16, 600, lock=False)
+    live, young = scratch("2" * 16, 600), scratch("3" * 16, 0)
+    with open(live / SCRATCH_LOCK, "r+") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        report = batch.ground(tiles, out, scheduler=scheduler)
+    assert [t.status for t in report.tiles] == ["done", "done"]
+    assert not [s for s in strays if s.exists()]
+    assert (killed.exists(), unlocked.exists(), live.exists(), young.exists()) == (
+        False,
+        False,
+        True,
+        True,
+    )

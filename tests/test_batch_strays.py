@@ -129,3 +129,22 @@ def test_a_stray_point_leaves_the_survey_lengths_alone(tmp_path, scheduler) -> N
     # the survey's border there (3 of its 6,980 points change, as on one file).
     assert changed[2] < 0.002 * clean.tiles[2].points
     assert changed[:2] + changed[3:] == [0] * 8
+
+
+def test_neighbours_are_the_tiles_whose_boxes_meet_the_grown_box():
+    from pcl_rg.batch._plan import grow, meets, neighbours
+
+    rng = np.random.default_rng(5)
+    corners = rng.integers(0, 40, size=(300, 2)).astype(float)  # touching edges are common
+    sizes = rng.choice([1.0, 5.0, 10.0, 200.0], size=(300, 2))
+    boxes = [Box(x, y, x + w, y + h) for (x, y), (w, h) in zip(corners, sizes, strict=True)]
+    boxes[7] = boxes[50] = None
+    for margin in (0.0, 2.5, 15.0):
+        expected = [
+            []
+            if box is None
+            else [j for j, b in enumerate(boxes) if j != i and b and meets(grow(box, margin), b)]
+            for i, box in enumerate(boxes)
+        ]
+        assert neighbours(boxes, margin) == expected
+        assert any(expected) and not all(expected)

@@ -196,16 +196,25 @@ def neighbours(boxes: Sequence[Box | None], margin: float) -> list[list[int]]:
     """For each tile, the other tiles whose box meets its box grown by `margin`.
 
     A tile without a box (unreadable, or no finite point) has and is no neighbour.
+    Each tile's test runs over all the boxes at once in NumPy, in the arithmetic of
+    :func:`grow` and :func:`meets`: a survey of 10,000 tiles took 11 s in Python.
     """
+    others = np.array([b if b is not None else (np.nan,) * 4 for b in boxes], float)
+    others = others.reshape(len(boxes), 4)
     result: list[list[int]] = []
     for i, box in enumerate(boxes):
         if box is None:
             result.append([])
             continue
         reach = grow(box, margin)
-        result.append(
-            [j for j, other in enumerate(boxes) if j != i and other and meets(reach, other)]
+        hit = (  # NaN, a tile without a box, meets nothing
+            (reach.xmin <= others[:, 2])
+            & (others[:, 0] <= reach.xmax)
+            & (reach.ymin <= others[:, 3])
+            & (others[:, 1] <= reach.ymax)
         )
+        hit[i] = False
+        result.append(np.flatnonzero(hit).tolist())
     return result
 
 

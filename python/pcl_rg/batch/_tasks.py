@@ -12,6 +12,7 @@ result, so its neighbours still run (without its buffer).
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import os
 import pickle
@@ -147,7 +148,10 @@ def cache_tile(job: Job, tile: Tile) -> dict[str, Any]:
         cloud = read_points(tile.path)
         check_header_box(tile.path, tile.box, cloud)
         folder = _folder(job, tile)
-        os.makedirs(folder, exist_ok=True)
+        # Not makedirs: a task still running after an interrupted run removed its scratch
+        # folder (on a cluster's worker) must fail, not make that folder again.
+        with contextlib.suppress(FileExistsError):  # a retried task's
+            os.mkdir(folder)
         np.save(os.path.join(folder, "points.npy"), cloud.points)
         names = list(cloud.fields)
         for k, name in enumerate(names):

@@ -9,7 +9,9 @@ into that temporary file in bounded pieces.
 from __future__ import annotations
 
 import contextlib
+import glob
 import os
+import re
 import secrets
 import stat
 from collections.abc import Callable
@@ -22,6 +24,7 @@ __all__ = [
     "BINARY_CHUNK_BYTES",
     "ascii_strings",
     "atomic_write",
+    "partial_files",
     "write_ascii",
     "write_chunked",
 ]
@@ -64,6 +67,36 @@ def write_chunked(stream: BinaryIO, payload: bytes | memoryview) -> None:
         stream.write(view[start : start + BINARY_CHUNK_BYTES])
 
 
+def _temporary_stem(base: str) -> str:
+    """The part of file name `base` that its temporary files' names begin with."""
+    # The temporary name adds about 22 bytes to the target's: of a long name (file
+    # systems allow 255 bytes) only the characters in its first 64 bytes are kept (never
+    # half a character), so that any name the file system takes can be written.
+    stem = base
+    while len(os.fsencode(stem)) > 64:
+        stem = stem[:-1]
+    return stem
+
+
+#: What atomic_write appends to the stem: ``.{process id}.{8 hex digits}.tmp``.
+_TEMPORARY_SUFFIX = re.compile(r"\.[0-9]+\.[0-9a-f]{8}\.tmp")
+
+
+def partial_files(path: str) -> list[str]:
+    """The temporary files that :func:`atomic_write` calls for `path` left behind (a
+    process killed while writing): names of its pattern in the same folder. Of a
+    target whose name is longer than 64 bytes, also those of targets that share its
+    first 64 bytes."""
+    folder, base = os.path.split(os.path.abspath(path))
+    stem = _temporary_stem(base)
+    pattern = os.path.join(glob.escape(folder), f".{glob.escape(stem)}.*.tmp")
+    return [
+        name
+        for name in glob.glob(pattern)
+        if _TEMPORARY_SUFFIX.fullmatch(os.path.basename(name)[len(stem) + 1 :])
+    ]
+
+
 def atomic_write(path: str, write: Callable[[BinaryIO], None]) -> None:
     """Write through a temporary file in the same folder, renamed into place.
 
@@ -78,12 +111,7 @@ def atomic_write(path: str, write: Callable[[BinaryIO], None]) -> None:
     except OSError:
         mode = None  # a new file
     folder, base = os.path.split(os.path.abspath(path))
-    # The temporary name adds about 22 bytes to the target's: of a long name (file
-    # systems allow 255 bytes) only the characters in its first 64 bytes are kept (never
-    # half a character), so that any name the file system takes can be written.
-    stem = base
-    while len(os.fsencode(stem)) > 64:
-        stem = stem[:-1]
+    stem = _temporary_stem(base)
     temp = ""  # set once the file is ours and its stream is stored
     # The name being created, set before the call: a KeyboardInterrupt raised as the call
     # returns, before its result is stored, must still remove the file the call made.
