@@ -16,12 +16,16 @@ from pcl_rg.datasets import synthetic_survey
 from pcl_rg.io import read_points
 
 
-def test_ctrl_c_stops_the_run_and_leaves_no_partial_file(tmp_path):
-    # About 4M points: the TIN filter keeps both workers busy for seconds after the
-    # first tile is written, so the signal lands mid-run.
-    source = synthetic_survey(tmp_path / "in", tiles=(4, 4), tile_size=250.0, seed=9)
-    out = tmp_path / "out"
-    proc = subprocess.Popen(
+@pytest.fixture(scope="module")
+def long_survey(tmp_path_factory):
+    """About 4M points: the TIN filter keeps both workers busy for seconds after the
+    first tile is written, so a signal then lands mid-run."""
+    folder = tmp_path_factory.mktemp("long_survey")
+    return synthetic_survey(folder, tiles=(4, 4), tile_size=250.0, seed=9)
+
+
+def start_batch(source, out, **popen):
+    return subprocess.Popen(
         [
             *CLI_WITH_SIGINT,
             "batch",
@@ -38,12 +42,39 @@ def test_ctrl_c_stops_the_run_and_leaves_no_partial_file(tmp_path):
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
+        **popen,
     )
+
+
+def wait_for_a_tile(out):
     deadline = time.time() + 120
     while time.time() < deadline and not (
         out.exists() and any(n.endswith(".laz") for n in os.listdir(out))
     ):
         time.sleep(0.05)
+
+
+@pytest.mark.parametrize("when", ["starting", "running"])
+def test_ctrl_c_in_a_terminal_is_one_line_and_exit_130(when, tmp_path, long_survey):
+    # A terminal's Ctrl-C signals the whole foreground process group, the local
+    # cluster's workers too: each printed a KeyboardInterrupt traceback, and a worker
+    # that was starting failed the run with "Nanny failed to start", exit 1.
+    out = tmp_path / "out"
+    proc = start_batch(long_survey, out, start_new_session=True)
+    if when == "starting":
+        time.sleep(0.8)  # the cluster's processes are being spawned
+    else:
+        wait_for_a_tile(out)
+    os.killpg(proc.pid, signal.SIGINT)
+    _, err = proc.communicate(timeout=120)
+    assert (proc.returncode, err) == (130, "pcl-rg: error: interrupted\n")
+
+
+def test_ctrl_c_stops_the_run_and_leaves_no_partial_file(tmp_path, long_survey):
+    source = long_survey
+    out = tmp_path / "out"
+    proc = start_batch(source, out)
+    wait_for_a_tile(out)
     proc.send_signal(signal.SIGINT)
     _, err = proc.communicate(timeout=120)
     assert proc.returncode == 130, err

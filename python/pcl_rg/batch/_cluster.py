@@ -5,10 +5,82 @@ from __future__ import annotations
 import contextlib
 import logging
 import os
+import signal
+import threading
 from collections.abc import Iterator
+from multiprocessing import resource_tracker
 from typing import Any
 
 from .._held_signals import held_signals
+
+
+@contextlib.contextmanager
+def _workers_deaf_to_ctrl_c() -> Iterator[None]:
+    """SIGINT blocked in the calling thread for the block, so that the threads started
+    in it (Dask's event loop, which starts and restarts the worker processes) and the
+    processes they start inherit the blocked signal.
+
+    Ctrl-C in a terminal signals the whole foreground process group, the workers too:
+    each printed a KeyboardInterrupt traceback beside pcl-rg's one-line message, and
+    one that died while starting failed the run with "Nanny failed to start" (exit 1,
+    not 130). The main process alone handles Ctrl-C and closes the cluster, which
+    ends the workers. A SIGINT that reaches the calling thread meanwhile is delivered
+    when the block ends (held_signals then holds it).
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    # The first process a thread starts by "spawn" starts multiprocessing's resource
+    # tracker, and the thread unblocks SIGINT and SIGTERM after: started here, before the
+    # block, the tracker leaves the event loop's mask alone.
+    resource_tracker.ensure_running()
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
+
+
+def _connect(scheduler: str) -> Any:
+    """A Client of the scheduler at `scheduler`, or ConnectionError when what answers
+    there is not one.
+
+    Dask's own connect timeout does not cover a server that accepts the connection and
+    then stays silent (dask/distributed#8071): the Client waited for ever. And an HTTP
+    server (the dashboard's port, 8787) sent back bytes that Dask read as a message
+    length, which failed as "MemoryError: Unable to allocate 3.07 EiB". So the Client
+    is made in a thread of its own, given twice Dask's connect timeout and 5 s.
+    """
+    import dask
+    from dask.utils import parse_timedelta
+    from distributed import Client
+
+    limit = 2.0 * parse_timedelta(dask.config.get("distributed.comm.timeouts.connect")) + 5.0
+    hint = "is it a dashboard's address? A scheduler listens on port 8786 unless told otherwise"
+    outcome: dict[str, Any] = {}
+
+    def connect() -> None:
+        try:
+            outcome["client"] = Client(scheduler)
+        except BaseException as error:  # handed to the caller's thread below
+            outcome["error"] = error
+
+    # A daemon thread: one still waiting on a silent server must not hold up the exit.
+    attempt = threading.Thread(target=connect, name="pcl_rg connect", daemon=True)
+    attempt.start()
+    attempt.join(limit)
+    if attempt.is_alive():
+        raise ConnectionError(
+            f"no Dask scheduler answered at {scheduler} within {limit:g} s ({hint})"
+        )
+    error = outcome.get("error")
+    if isinstance(error, MemoryError):
+        raise ConnectionError(
+            f"what answered at {scheduler} is not a Dask scheduler ({hint})"
+        ) from error
+    if error is not None:
+        raise error
+    return outcome["client"]
 
 
 @contextlib.contextmanager
@@ -17,7 +89,7 @@ def dask_client(workers: int | None, scheduler: str | None) -> Iterator[Any]:
     from distributed import Client, LocalCluster
 
     if scheduler:
-        with Client(scheduler) as client:
+        with _connect(scheduler) as client:
             yield client
         return
     # A LocalCluster registers itself with Dask before its workers have started. An
@@ -26,7 +98,7 @@ def dask_client(workers: int | None, scheduler: str | None) -> Iterator[Any]:
     # pcl-rg's own one-line message. Held back, the interrupt is raised once the
     # cluster is whole, and the stack closes it.
     with contextlib.ExitStack() as stack:
-        with held_signals() as held:
+        with held_signals() as held, _workers_deaf_to_ctrl_c():
             cluster = stack.enter_context(
                 LocalCluster(
                     n_workers=workers or os.cpu_count() or 1,

@@ -1,0 +1,72 @@
+"""``pcl-rg batch --scheduler`` at an address where no Dask scheduler answers: a clear
+one-line error within Dask's connect timeout, not a hang or a bogus MemoryError."""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import socket
+import threading
+
+import pytest
+from conftest import run_pcl_rg
+
+from pcl_rg.datasets import synthetic_survey
+
+# Dask's connect timeout for the commands below (pcl-rg waits twice that and 5 s).
+CONNECT_TIMEOUT = {"DASK_DISTRIBUTED__COMM__TIMEOUTS__CONNECT": "1s"}
+
+
+@contextlib.contextmanager
+def tcp_server(reply: bytes | None):
+    """A local TCP server that answers every connection with `reply` and closes it, or
+    (None) accepts and then says nothing; yields its address."""
+    listener = socket.create_server(("127.0.0.1", 0))
+    accepted: list[socket.socket] = []
+
+    def serve() -> None:
+        with contextlib.suppress(OSError):  # the listener closed
+            while True:
+                connection, _ = listener.accept()
+                accepted.append(connection)
+                if reply is not None:
+                    with contextlib.suppress(OSError):
+                        connection.recv(4096)
+                        connection.sendall(reply)
+                    connection.close()
+
+    thread = threading.Thread(target=serve, daemon=True)
+    thread.start()
+    try:
+        yield f"tcp://127.0.0.1:{listener.getsockname()[1]}"
+    finally:
+        listener.close()
+        for connection in accepted:
+            connection.close()
+
+
+@pytest.mark.parametrize(
+    ("reply", "message"),
+    [
+        (None, "no Dask scheduler answered at"),  # a silent service
+        (b"HTTP/1.1 400 Bad Request\r\ncontent-length: 0\r\n\r\n", "is not a Dask scheduler"),
+    ],
+)
+def test_an_address_without_a_scheduler_is_a_clear_error(reply, message, tmp_path):
+    source = synthetic_survey(tmp_path / "in", tiles=(1, 1), tile_size=20.0, seed=1)
+    with tcp_server(reply) as address:
+        result = run_pcl_rg(
+            "batch",
+            "ground",
+            *source.paths,
+            "--out",
+            tmp_path / "out",
+            "--scheduler",
+            address,
+            timeout=60,
+            env={**os.environ, **CONNECT_TIMEOUT},
+        )
+    assert result.returncode == 2, result.stderr
+    assert message in result.stderr and "8786" in result.stderr, result.stderr
+    assert len(result.stderr.splitlines()) == 1, result.stderr
+    assert not os.path.exists(tmp_path / "out" / "tile_0_0.laz")
