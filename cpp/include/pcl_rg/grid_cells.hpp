@@ -102,6 +102,14 @@ struct CellGrid {
     int neighbours(std::size_t c, std::ptrdiff_t out[9]) const {
         const auto [cx, cy] = cell_xy(c);
         int count = 0;
+        if (dense && cx > 0 && cy > 0 && cx + 1 < width && cy + 1 < height) {
+            // Inside the grid: the 3 x 3 cells are c + du + dv * width, no bounds to test.
+            const auto centre = static_cast<std::ptrdiff_t>(c);
+            for (std::ptrdiff_t dv = -width; dv <= width; dv += width)
+                for (std::ptrdiff_t other = centre + dv - 1; other <= centre + dv + 1; ++other)
+                    if (start[other] != start[other + 1]) out[count++] = other;
+            return count;
+        }
         for (int dv = -1; dv <= 1; ++dv)
             for (int du = -1; du <= 1; ++du) {
                 const std::ptrdiff_t other = find(cx + du, cy + dv);
