@@ -413,7 +413,7 @@ def test_what_killed_runs_left_in_the_output_folder_is_removed(tmp_path, schedul
     # and scratch folders, but not a scratch folder whose run still holds its lock.
     import fcntl
 
-    from pcl_rg.batch._engine import SCRATCH_LOCK, SCRATCH_PREFIX
+    from pcl_rg.batch._scratch import SCRATCH_LOCK, SCRATCH_PREFIX
     from pcl_rg.io._atomic import partial_files
 
     source = synthetic_survey(tmp_path / "in", tiles=(1, 2), tile_size=40.0, seed=4)

@@ -97,7 +97,7 @@ def test_an_interrupt_as_the_scratch_folder_is_made_leaves_nothing(tmp_path, sur
         if "pcl_rg-scratch" in os.fspath(path):
             raise KeyboardInterrupt
 
-    monkeypatch.setattr(batch._engine.os, "mkdir", mkdir_then_interrupt)
+    monkeypatch.setattr(batch._scratch.os, "mkdir", mkdir_then_interrupt)
     out = tmp_path / "out"
     with pytest.raises(KeyboardInterrupt):
         batch.ground(survey.paths, out)
