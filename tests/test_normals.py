@@ -194,7 +194,12 @@ def test_real_scene_matches_reference() -> None:
     # A voxelised mOSD scene (8 mm: about 17k Kinect points, table and boxes).
     scene = load_mosd(shared_data("mosd", f"{MOSD_SCENES[0]}.pcd"))
     pts = pcl_rg.voxel_grid(scene.points, leaf_size=0.008).centroids
-    assert_geometry_close(pcl_rg.normals(pts, k=15), reference.normals(pts, k=15))
+    # Where the 15th and 16th float32 distances tie, the k-d tree may keep either
+    # point (reference.neighbour_lists): 3 of 17,115 points here.
+    _, ties = neighbour_lists(pts, 15, return_boundary_ties=True)
+    assert ties.sum() < 10
+    core, ref = pcl_rg.normals(pts, k=15), reference.normals(pts, k=15)
+    assert_geometry_close(*(type(r)(*(f[~ties] for f in r)) for r in (core, ref)))
 
 
 # -------------------------------------------------------------------- invariants

@@ -183,7 +183,8 @@ def test_grow_regions_rejects_bad_neighbour_index() -> None:
     nbr = np.array([[0, 1, 5], [1, 0, 2], [2, 1, 0]], dtype=np.uint32)
     normals = np.tile([0.0, 0.0, 1.0], (3, 1))
     with pytest.raises(ValueError, match="neighbours: index 5 out of range"):
-        _core.grow_regions(nbr, normals, np.zeros(3), RegionGrowingParams(k=3).to_core())
+        params = RegionGrowingParams(k=3, seed_measure="surface_variation")
+        _core.grow_regions(nbr, normals, np.zeros(3), params.to_core())
 
 
 def test_seed_order_is_measure_then_index_nan_last() -> None:
@@ -334,6 +335,12 @@ def test_params_defaults_match_core() -> None:
     ("kwargs", "error", "match"),
     [
         ({"k": 2}, ValueError, "k must be >= 3, got 2"),
+        (
+            {"k": 5},  # the curvatures of the default seed measure would all be NaN
+            ValueError,
+            r"k must be >= 6 unless seed_measure is surface_variation \(the other measures "
+            r"are curvatures, which need 6 neighbours\), got 5",
+        ),
         ({"k": 40}, ValueError, r"k must be < the number of points \(40\), got 40"),
         ({"k": 2.0}, TypeError, "k must be an integer"),
         ({"smoothness_deg": 0}, ValueError, r"smoothness_deg must be in \(0, 180\)"),
@@ -373,15 +380,30 @@ def test_core_validates_too() -> None:
     core.max_cluster_size = 3
     with pytest.raises(ValueError, match="max_cluster_size must be >= min_cluster_size"):
         _core.region_growing(box_scene(seed=13), core)
+    core = RegionGrowingParams().to_core()
+    core.k = 5
+    with pytest.raises(ValueError) as from_core:
+        _core.region_growing(box_scene(seed=13), core)
+    with pytest.raises(ValueError) as from_python:
+        RegionGrowingParams(k=5)
+    assert str(from_core.value) == str(from_python.value)
+
+
+def test_few_neighbours_grow_on_surface_variation() -> None:
+    # Surface variation needs no quadric: k = 3 to 5 stay allowed for it.
+    labels = pcl_rg.region_growing(
+        box_scene(seed=15), k=5, seed_measure="surface_variation", curvature_threshold=0.05
+    )
+    assert labels.max() >= 0
 
 
 def test_bad_points_and_empty_input() -> None:
     pts = box_scene(seed=14)[:50]
     pts[7] = np.nan
     with pytest.raises(ValueError, match="points has 1 point"):
-        pcl_rg.region_growing(pts, k=5)
+        pcl_rg.region_growing(pts, k=6)
     with pytest.raises(TypeError, match="dtype"):
-        pcl_rg.region_growing(np.zeros((50, 3), dtype=complex), k=5)
+        pcl_rg.region_growing(np.zeros((50, 3), dtype=complex), k=6)
     empty = pcl_rg.region_growing(np.empty((0, 3)))
     assert empty.dtype == np.int32 and empty.shape == (0,)
     assert reference.region_growing(np.empty((0, 3))).shape == (0,)

@@ -122,7 +122,7 @@ void pcl_statistical_outlier_removal(PointsView points,
     // PCL reads past its neighbour buffers when mean_k >= N: refuse, as the core does.
     check::fewer_than_points("mean_k", params.mean_k, points.size);
     check_pcl_neighbour_work("mean_k", params.mean_k, points.size);
-    const auto cloud = to_pcl_cloud(points, local_origin(points));
+    const auto cloud = to_pcl_cloud(points, float32_origin(points));
     poll_interrupt();
     pcl::StatisticalOutlierRemoval<pcl::PointXYZ> filter;
     filter.setInputCloud(cloud);

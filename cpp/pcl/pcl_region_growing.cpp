@@ -64,13 +64,32 @@ void check_size(std::size_t n, int k) {
     check_pcl_neighbour_work("k", k, n);
 }
 
-Normals::Ptr estimate(const Cloud::Ptr& cloud, const pcl::search::Search<pcl::PointXYZ>::Ptr& tree,
+// The points in PCL's float32 frame, whose origin is float32_origin, with the minimum
+// corner in that frame: PCL flips each normal towards its viewpoint, by default (0, 0, 0)
+// of the frame, which was the minimum corner while the frame started there; it is set
+// there, so that the normals keep that orientation.
+struct Frame {
+    Cloud::Ptr cloud;
+    std::array<float, 3> corner;
+};
+
+Frame to_frame(PointsView points) {
+    const std::array<double, 3> origin = float32_origin(points);
+    const std::array<double, 3> lowest = local_origin(points);
+    Frame frame{to_pcl_cloud(points, origin), {}};
+    for (int a = 0; a < 3; ++a) frame.corner[a] = static_cast<float>(lowest[a] - origin[a]);
+    return frame;
+}
+
+Normals::Ptr estimate(const Frame& frame, const pcl::search::Search<pcl::PointXYZ>::Ptr& tree,
                       int k) {
+    const Cloud::Ptr& cloud = frame.cloud;
     Normals::Ptr normals(new Normals);
     pcl::NormalEstimation<pcl::PointXYZ, pcl::Normal> estimation;
     estimation.setSearchMethod(tree);
     estimation.setInputCloud(cloud);
     estimation.setKSearch(k);
+    estimation.setViewPoint(frame.corner[0], frame.corner[1], frame.corner[2]);
     estimation.compute(*normals);
     return normals;
 }
@@ -83,10 +102,11 @@ void pcl_normal_estimation(PointsView points, const NormalEstimationParams& para
     const std::size_t n = points.size;
     if (n == 0) return;
     check_size(n, params.k);
-    const auto cloud = to_pcl_cloud(points, local_origin(points));
+    const Frame frame = to_frame(points);
+    const Cloud::Ptr& cloud = frame.cloud;
     poll_interrupt();  // PCL's classes cannot be interrupted: polls between their stages
     pcl::search::Search<pcl::PointXYZ>::Ptr tree(new pcl::search::KdTree<pcl::PointXYZ>);
-    const auto normals = estimate(cloud, tree, params.k);
+    const auto normals = estimate(frame, tree, params.k);
     poll_interrupt();
     for (std::size_t i = 0; i < n; ++i) {
         for (int a = 0; a < 3; ++a) normal[3 * i + a] = (*normals)[i].normal[a];
@@ -101,12 +121,13 @@ RegionGrowingTimings pcl_region_growing(PointsView points, const RegionGrowingPc
     const std::size_t n = points.size;
     if (n == 0) return timings;
     check_size(n, params.k);
-    const auto cloud = to_pcl_cloud(points, local_origin(points));
+    const Frame frame = to_frame(points);
+    const Cloud::Ptr& cloud = frame.cloud;
     poll_interrupt();  // PCL's classes cannot be interrupted: polls between their stages
 
     const auto start = std::chrono::steady_clock::now();
     pcl::search::Search<pcl::PointXYZ>::Ptr tree(new pcl::search::KdTree<pcl::PointXYZ>);
-    const auto normals = estimate(cloud, tree, params.k);
+    const auto normals = estimate(frame, tree, params.k);
     poll_interrupt();
     timings.normals_seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

@@ -71,7 +71,7 @@ PointGeometry point_geometry(const std::vector<Eigen::Vector3d>& rel) {
 
     // Step 2: quadric in the tangent frame (x: largest-variance axis, y = n x x, z = n),
     // centred at the point itself. Six unknowns need six neighbours.
-    if (k < 6) return g;
+    if (k < kMinCurvatureK) return g;
     const Eigen::Vector3d x_axis = eigen.eigenvectors().col(2).normalized();
     const Eigen::Vector3d y_axis = n.cross(x_axis);
     // Scale the tangent coordinates to unit RMS radius so the design is well
@@ -127,7 +127,7 @@ std::vector<std::uint32_t> neighbour_lists(PointsView points, const NormalsParam
     check::fewer_than_points("k", params.k, n);
     check::neighbour_table_fits("k", params.k, n);
     const auto k = static_cast<std::size_t>(params.k);
-    const std::vector<float> local = to_local_float(points, local_origin(points));
+    const std::vector<float> local = to_local_float(points, float32_origin(points));
     const KnnIndex index(local.data(), n);
     std::vector<std::uint32_t> lists(n * k);
     const Interruption interruption;
@@ -154,7 +154,7 @@ void normals(PointsView points, const NormalsParams& params, const NormalsOutput
     if (neighbours) check::neighbour_table_fits("k", params.k, n);
     const auto k = static_cast<std::size_t>(params.k);
 
-    const std::vector<float> local = to_local_float(points, local_origin(points));
+    const std::vector<float> local = to_local_float(points, float32_origin(points));
     const KnnIndex index(local.data(), n);
     if (neighbours) neighbours->resize(n * k);
     const Interruption interruption;

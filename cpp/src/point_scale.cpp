@@ -37,7 +37,7 @@ PointScale point_scale(PointsView points) {
         scale.spacing = scale.noise = std::numeric_limits<double>::quiet_NaN();
         return scale;
     }
-    const std::vector<float> local = to_local_float(points, local_origin(points));
+    const std::vector<float> local = to_local_float(points, float32_origin(points));
     const KnnIndex index(local.data(), n);
     const std::size_t step = std::max<std::size_t>(1, n / kPointScaleSamples);
     const std::size_t m = (n + step - 1) / step;

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <stdexcept>
+#include <vector>
 
 namespace pcl_rg {
 
@@ -51,6 +52,30 @@ std::array<double, 3> local_origin(PointsView points) {
     if (points.size == 0) return {0.0, 0.0, 0.0};
     const double inf = std::numeric_limits<double>::infinity();
     return corner(points, false, {inf, inf, inf});
+}
+
+std::array<double, 3> float32_origin(PointsView points) {
+    std::array<double, 3> origin{0.0, 0.0, 0.0};
+    if (points.size == 0) return origin;
+    const auto first = static_cast<std::ptrdiff_t>((points.size - 1) / 4);
+    const auto third = static_cast<std::ptrdiff_t>(3 * (points.size - 1) / 4);
+#pragma omp parallel for schedule(static, 1) if (points.size > 65536)
+    for (int a = 0; a < 3; ++a) {
+        std::vector<double> axis(points.size);
+        for (std::size_t i = 0; i < points.size; ++i) axis[i] = points.coord(i, a);
+        std::nth_element(axis.begin(), axis.begin() + third, axis.end());
+        const double q3 = axis[third];
+        std::nth_element(axis.begin(), axis.begin() + first, axis.begin() + third);
+        const double q1 = axis[first];
+        const double fence = q1 - kOriginFence * (q3 - q1);
+        double lowest = q1;  // the least coordinate >= fence: q1 is one
+        for (std::size_t i = 0; i < points.size; ++i) {
+            const double value = points.coord(i, a);
+            if (value >= fence && value < lowest) lowest = value;
+        }
+        origin[a] = lowest;
+    }
+    return origin;
 }
 
 std::array<double, 3> upper_corner(PointsView points, const std::array<double, 3>& origin) {

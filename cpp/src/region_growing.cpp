@@ -54,6 +54,14 @@ void validate(const RegionGrowingParams& params) {
             throw std::invalid_argument("seed_measure is not a known measure");
     }
     for (const double v : params.viewpoint) check::real("viewpoint", v, check::any());
+    // The curvatures are a quadric's, fitted to the neighbours: below kMinCurvatureK they are NaN,
+    // no point may seed, and every point came out unassigned without a word.
+    const std::string needed = std::to_string(kMinCurvatureK);
+    check::relation(
+        params.k >= kMinCurvatureK || params.seed_measure == SeedMeasure::surface_variation, "k",
+        ">= " + needed + " unless seed_measure is surface_variation (the other measures are " +
+            "curvatures, which need " + needed + " neighbours)",
+        static_cast<double>(params.k));
 }
 
 void grow_regions(std::size_t n, std::size_t k, const std::uint32_t* neighbours,

@@ -46,7 +46,7 @@ StatisticalOutlierRemovalResult statistical_outlier_removal(
 
     // Query in Morton order on a Morton-ordered copy: the same float32 coordinates
     // (so the same distances), but memory is touched in order.
-    const std::vector<float> unordered = to_local_float(points, local_origin(points));
+    const std::vector<float> unordered = to_local_float(points, float32_origin(points));
     const std::vector<std::uint32_t> order =
         morton_order(unordered.data(), static_cast<std::uint32_t>(n));
     std::vector<float> local(3 * n);

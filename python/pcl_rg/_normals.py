@@ -17,6 +17,11 @@ from ._validation import MAX_POINTS_UINT32, as_points
 __all__ = ["NormalsParams", "NormalsResult", "normals"]
 
 
+#: The fewest neighbours (the point itself included) whose quadric fit gives curvatures;
+#: with fewer they are NaN. The core's kMinCurvatureK (normals.hpp).
+MIN_CURVATURE_K = 6
+
+
 @dataclass(frozen=True, kw_only=True, slots=True)
 class NormalsParams:
     """Parameters of :func:`normals` (mirrors ``pcl_rg::NormalsParams``)."""

@@ -10,6 +10,7 @@ import numpy.typing as npt
 from . import _core
 from ._diagnostics import record_segmentation
 from ._docstrings import fill_docstring
+from ._normals import MIN_CURVATURE_K
 from ._params import check_fields, param, resolve_arguments, to_core
 from ._validation import as_points
 
@@ -70,6 +71,14 @@ class RegionGrowingParams:
     def __post_init__(self) -> None:
         check_fields(self)
         check_cluster_sizes(self.min_cluster_size, self.max_cluster_size)
+        # The curvatures are a quadric's: below MIN_CURVATURE_K neighbours they are NaN,
+        # no point may seed, and every point came out unassigned without a word.
+        if self.k < MIN_CURVATURE_K and self.seed_measure != "surface_variation":
+            raise ValueError(
+                f"k must be >= {MIN_CURVATURE_K} unless seed_measure is surface_variation (the "
+                f"other measures are curvatures, which need {MIN_CURVATURE_K} neighbours), "
+                f"got {self.k}"
+            )
 
     def to_core(self) -> _core.RegionGrowingParams:
         return to_core(self, _core.RegionGrowingParams())

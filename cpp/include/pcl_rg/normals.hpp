@@ -12,6 +12,11 @@
 
 namespace pcl_rg {
 
+/// The fewest neighbours (the point itself included) whose quadric fit gives curvatures:
+/// with fewer, K, H, k1, k2 and the curvedness are NaN. Python mirror:
+/// pcl_rg._normals.MIN_CURVATURE_K.
+inline constexpr int kMinCurvatureK = 6;
+
 struct NormalsParams {
     /// Neighbours per point, the point itself included (>= 3, < N); PCL setKSearch.
     int k = 30;

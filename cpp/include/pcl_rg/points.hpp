@@ -21,6 +21,22 @@ struct PointsView {
 /// becomes float32, so UTM-sized coordinates lose nothing (zeros for an empty view).
 std::array<double, 3> local_origin(PointsView points);
 
+/// The float64 origin of the float32 frames in which the k-nearest-neighbour steps and
+/// PCL's k-nearest-neighbour classes see the points: per axis the least coordinate that
+/// is not below the fence q1 - kOriginFence * (q3 - q1), q1 and q3 the coordinates at
+/// sorted positions (N - 1) / 4 and 3 (N - 1) / 4 (zeros for an empty view). That is the
+/// minimum corner unless some points lie far below the rest: float32 resolves a
+/// coordinate relative to its size, so one stray point 100 km below a Kinect scene (a
+/// bad GPS fix) moved the frame that far from every other point, which lost its
+/// millimetres, and its normals and segments silently went wrong. Order-independent.
+/// NumPy twin: pcl_rg.reference._local.float32_origin.
+std::array<double, 3> float32_origin(PointsView points);
+
+/// The fence of float32_origin, in interquartile ranges below the first quartile: far
+/// enough that no ordinary cloud (a tile, a scan) has a point beyond it, so that their
+/// frame stays the minimum corner.
+constexpr double kOriginFence = 4.0;
+
 /// Upper corner of the bounding box, `origin` being local_origin(points) (itself for an
 /// empty view).
 std::array<double, 3> upper_corner(PointsView points, const std::array<double, 3>& origin);

@@ -7,8 +7,10 @@ Each function runs one PCL 1.13 class as PCL ships it (``pcl::VoxelGrid``,
 ``pcl::ApproximateProgressiveMorphologicalFilter``) behind the signature and the
 result type of the matching :mod:`pcl_rg` function, so the two can be swapped in
 a comparison. Only the crossing is ours: input is checked as everywhere in
-pcl_rg, a float64 local origin (the minimum corner) is subtracted before the
-points become PCL's float32 ``PointXYZ``, coordinate outputs are shifted back,
+pcl_rg, a float64 local origin (the minimum corner for the voxel grid and the
+morphological filters, the per-axis median for the k-nearest-neighbour classes,
+so that a stray point far away does not coarsen the rest) is subtracted before
+the points become PCL's float32 ``PointXYZ``, coordinate outputs are shifted back,
 and results are per input point. Bad parameters raise instead of PCL's warnings.
 
 PCL's classes are single-threaded (the approximate morphological filter aside)

@@ -117,9 +117,9 @@ def normals(
     Notes
     -----
     PCA of the k nearest neighbours (``pcl::search::KdTree``) in float32 in
-    the local frame; normals are flipped towards PCL's default viewpoint
-    (0, 0, 0) of that frame, which is the minimum corner of the points. These
-    are the normals :func:`region_growing` grows on.
+    the local frame (origin: the per-axis median of the points); normals are
+    flipped towards PCL's viewpoint, set to the minimum corner of the points.
+    These are the normals :func:`region_growing` grows on.
 
     Examples
     --------

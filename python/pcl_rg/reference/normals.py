@@ -29,10 +29,11 @@ def neighbour_lists(
     """The k nearest points of every point, itself included: intp (N, k).
 
     Same definition as the core: float32 coordinates relative to the float64
-    minimum corner, float32 squared distances summed over x, y, z in that
-    order, ascending, equal distances by lower index. cKDTree proposes
-    candidates in float64; they are re-ranked in float32 and the query is
-    widened wherever a non-candidate could still rank among the first k.
+    per-axis median (``_local.float32_origin``), float32 squared distances
+    summed over x, y, z in that order, ascending, equal distances by lower
+    index. cKDTree proposes candidates in float64; they are re-ranked in
+    float32 and the query is widened wherever a non-candidate could still
+    rank among the first k.
 
     With ``return_boundary_ties=True`` also returns a bool (N,) mask of the
     points whose k-th and (k+1)-th float32 distances are equal: there the
