@@ -147,3 +147,17 @@ def test_errors_and_empty_input() -> None:
     empty = seed004(np.empty((0, 3)), voxel=VoxelGridParams(leaf_size=1.0))
     assert empty.labels.shape == (0,) and empty.labels.dtype == np.int32
     assert empty.report.clusters == 0
+
+
+def test_the_callers_diagnostics_see_every_stage() -> None:
+    # seed004 collects the region growing's times for its own report; that inner
+    # collector hid the call from the caller's.
+    points, _ = scene_with_outliers(seed=3)
+    with pcl_rg.collect_diagnostics() as outer:
+        pcl_rg.statistical_outlier_removal(points[:50], mean_k=5)
+        result = seed004(points, time_original=True)
+        pcl_rg.voxel_grid(points[:50], leaf_size=0.1)
+    assert "region_growing" in outer
+    assert outer["region_growing"]["clusters"] >= 1 and result.labels.max() >= 0
+    assert list(outer)[0] == "statistical_outlier_removal"
+    assert outer["voxel_grid"]["points"] == 50

@@ -73,7 +73,10 @@ def collect_diagnostics() -> Iterator[Diagnostics]:
     """Collect the measurements of every pcl_rg call made in this block.
 
     Collection is per thread (and per asyncio task): calls made by other
-    threads are not recorded. Collectors nest; the innermost one records.
+    threads are not recorded. Collectors nest: what an inner one records
+    reaches every one around it when its block ends (pcl_rg's own functions
+    that collect for themselves, as :func:`pcl_rg.pipeline.seed004` does, hide
+    nothing from the caller's).
 
     Yields
     ------
@@ -96,6 +99,9 @@ def collect_diagnostics() -> Iterator[Diagnostics]:
         yield collector
     finally:
         _ACTIVE.reset(token)
+        outer = _ACTIVE.get()
+        if outer is not None:
+            outer.records.extend(collector.records)
 
 
 def record_segmentation(

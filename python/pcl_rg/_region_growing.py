@@ -39,7 +39,8 @@ class RegionGrowingParams:
         above=0.0,
         below=180.0,
         unit="deg",
-        help="max angle between neighbouring normals (PCL setSmoothnessThreshold, radians)",
+        help="max angle between neighbouring normals, in degrees (PCL's "
+        "setSmoothnessThreshold takes radians)",
     )
     curvature_threshold: float = param(
         80.0,

@@ -75,7 +75,8 @@ def statistical_outlier_removal(
     deviation (n - 1) of all d_i, point i is an inlier when
     ``d_i <= mu + std_mul * sigma``. This is ``pcl::StatisticalOutlierRemoval``
     of PCL 1.13 to the bit: distances are computed in float32 after a float64
-    local origin (the per-axis median) is subtracted, and the sums are taken in
+    local origin (the minimum corner, stray points far below left out) is
+    subtracted, and the sums are taken in
     the same order and precision. Neighbour queries run in parallel on an
     exact k-d tree (nanoflann) with the GIL released.
 

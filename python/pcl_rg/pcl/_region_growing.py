@@ -117,9 +117,10 @@ def normals(
     Notes
     -----
     PCA of the k nearest neighbours (``pcl::search::KdTree``) in float32 in
-    the local frame (origin: the per-axis median of the points); normals are
-    flipped towards PCL's viewpoint, set to the minimum corner of the points.
-    These are the normals :func:`region_growing` grows on.
+    the local frame (origin: the minimum corner, stray points far below left
+    out); normals are flipped towards PCL's viewpoint, set to the minimum
+    corner of the points. These are the normals :func:`region_growing` grows
+    on.
 
     Examples
     --------

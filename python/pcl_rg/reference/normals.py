@@ -29,7 +29,8 @@ def neighbour_lists(
     """The k nearest points of every point, itself included: intp (N, k).
 
     Same definition as the core: float32 coordinates relative to the float64
-    per-axis median (``_local.float32_origin``), float32 squared distances
+    origin ``_local.float32_origin`` (the minimum corner, stray points far
+    below left out), float32 squared distances
     summed over x, y, z in that order, ascending, equal distances by lower
     index. cKDTree proposes candidates in float64; they are re-ranked in
     float32 and the query is widened wherever a non-candidate could still
