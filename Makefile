@@ -62,9 +62,12 @@ install: $(VENV)/.installed
 #   shared_ptr deleter) was ours, fixed by hidden visibility (CMakeLists.txt).
 # - -s: pytest's fd capture would swallow the report of a process that aborts
 #   (UBSan ignores log_path next to ASan; --capture=sys breaks faulthandler).
+# - allocator_may_return_null: an absurd allocation fails as in a plain run (NumPy
+#   raises MemoryError), not as an ASan abort: Dask reads an HTTP server's reply as a
+#   3 EiB message length, and pcl-rg batch must report that address as no scheduler.
 sanitize: $(SAN_VENV)/.installed
 	LD_PRELOAD="$$(gcc -print-file-name=libasan.so) $$(gcc -print-file-name=libstdc++.so)" \
-	ASAN_OPTIONS=detect_leaks=0 \
+	ASAN_OPTIONS=detect_leaks=0:allocator_may_return_null=1 \
 	UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
 	    $(SAN_PY) -m pytest -q -s
 

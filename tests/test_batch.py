@@ -8,6 +8,7 @@ test_batch_interrupts.py).
 
 from __future__ import annotations
 
+import contextlib
 import inspect
 import json
 import os
@@ -315,10 +316,15 @@ def test_a_cluster_of_dask_scheduler_and_dask_worker_processes(tmp_path, survey,
         )
     ]
     try:
+        # The scheduler writes its file in place: it may exist and be empty or half
+        # written for a moment.
         deadline = time.time() + 60
-        while not port_file.exists() and time.time() < deadline:
+        address = None
+        while address is None:
+            assert time.time() < deadline, "the scheduler wrote no scheduler file"
             time.sleep(0.2)
-        address = json.loads(port_file.read_text())["address"]
+            with contextlib.suppress(FileNotFoundError, json.JSONDecodeError):
+                address = json.loads(port_file.read_text())["address"]
         for _ in range(2):
             procs.append(
                 subprocess.Popen(
