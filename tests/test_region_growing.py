@@ -13,6 +13,7 @@ from hypothesis import strategies as st
 from scipy.optimize import linear_sum_assignment
 
 import pcl_rg
+import pcl_rg.pcl
 from pcl_rg import _core, reference
 from pcl_rg._normals import NormalsParams
 from pcl_rg._region_growing import SEED_MEASURES, RegionGrowingParams
@@ -390,11 +391,13 @@ def test_core_validates_too() -> None:
 
 
 def test_few_neighbours_grow_on_surface_variation() -> None:
-    # Surface variation needs no quadric: k = 3 to 5 stay allowed for it.
+    # Surface variation needs no quadric: k = 3 to 5 stay allowed for it, and for PCL's
+    # region growing, which gates on it.
     labels = pcl_rg.region_growing(
         box_scene(seed=15), k=5, seed_measure="surface_variation", curvature_threshold=0.05
     )
     assert labels.max() >= 0
+    assert pcl_rg.pcl.region_growing(box_scene(seed=15), k=5).max() >= 0
 
 
 def test_bad_points_and_empty_input() -> None:

@@ -50,6 +50,8 @@ void validate(const RegionGrowingPclParams& params) {
     common.curvature_threshold = params.curvature_threshold;
     common.min_cluster_size = params.min_cluster_size;
     common.max_cluster_size = params.max_cluster_size;
+    // PCL's growth gates on the surface variation, which needs no quadric: k from 3.
+    common.seed_measure = SeedMeasure::surface_variation;
     validate(common);
 }
 
