@@ -59,9 +59,11 @@ std::array<double, 3> float32_origin(PointsView points) {
     if (points.size == 0) return origin;
     const auto first = static_cast<std::ptrdiff_t>((points.size - 1) / 4);
     const auto third = static_cast<std::ptrdiff_t>(3 * (points.size - 1) / 4);
-#pragma omp parallel for schedule(static, 1) if (points.size > 65536)
+    // One copy for the three axes, in turn, outside any parallel region: a bad_alloc
+    // then reaches the caller as MemoryError instead of terminating inside OpenMP, and
+    // the selections take a fraction of the k-nearest-neighbour step that follows.
+    std::vector<double> axis(points.size);
     for (int a = 0; a < 3; ++a) {
-        std::vector<double> axis(points.size);
         for (std::size_t i = 0; i < points.size; ++i) axis[i] = points.coord(i, a);
         std::nth_element(axis.begin(), axis.begin() + third, axis.end());
         const double q3 = axis[third];
