@@ -32,7 +32,7 @@ class RegionGrowingParams:
         minimum=3,
         bits=32,
         help="neighbours per point, itself included, for normals, curvatures and growth "
-        "(PCL setNumberOfNeighbours)",
+        "(PCL setNumberOfNeighbours); >= 6 unless seed_measure is surface_variation",
     )
     smoothness_deg: float = param(
         16.0,
@@ -147,7 +147,8 @@ def region_growing(
     ------
     ValueError
         Non-finite points, a wrong shape, or a parameter out of range
-        (``k < 3``, ``k >= N``, an angle outside (0, 180), a negative
+        (``k < 3``, ``k < 6`` with a seed measure other than
+        ``"surface_variation"``, ``k >= N``, an angle outside (0, 180), a negative
         threshold, ``min_cluster_size > max_cluster_size``, an unknown
         ``seed_measure``).
     %(type_error)s
