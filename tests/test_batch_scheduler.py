@@ -72,3 +72,31 @@ def test_an_address_without_a_scheduler_is_a_clear_error(reply, message, tmp_pat
     lines = [line for line in result.stderr.splitlines() if not line.startswith("==")]
     assert len(lines) == 1 and "Traceback" not in result.stderr, result.stderr
     assert not os.path.exists(tmp_path / "out" / "tile_0_0.laz")
+
+
+def test_a_client_that_connects_after_the_deadline_is_closed(monkeypatch):
+    """The connecting thread outlives the caller's deadline: a Client it makes then is
+    closed at once, not left open and unowned."""
+    import dask
+    import distributed
+
+    from pcl_rg.batch import _cluster
+
+    made: list[object] = []
+    closed = threading.Event()
+    release = threading.Event()
+
+    class SlowClient:
+        def __init__(self, address: str) -> None:
+            release.wait(30)
+            made.append(self)
+
+        def close(self) -> None:
+            closed.set()
+
+    monkeypatch.setattr(distributed, "Client", SlowClient)
+    with dask.config.set({"distributed.comm.timeouts.connect": "0s"}):
+        with pytest.raises(ConnectionError, match="no Dask scheduler answered.*8786"):
+            _cluster._connect("tcp://127.0.0.1:1")
+    release.set()
+    assert closed.wait(30) and len(made) == 1

@@ -56,27 +56,43 @@ def _connect(scheduler: str) -> Any:
     from distributed import Client
 
     limit = 2.0 * parse_timedelta(dask.config.get("distributed.comm.timeouts.connect")) + 5.0
-    hint = "is it a dashboard's address? A scheduler listens on port 8786 unless told otherwise"
+    port_hint = "a scheduler listens on port 8786 unless told otherwise"
     outcome: dict[str, Any] = {}
+    # A Client that connects after the caller gave up is closed at once, not left open
+    # in a thread that nobody joins.
+    given_up = False
+    lock = threading.Lock()
 
     def connect() -> None:
         try:
-            outcome["client"] = Client(scheduler)
+            client = Client(scheduler)
         except BaseException as error:  # handed to the caller's thread below
-            outcome["error"] = error
+            with lock:
+                outcome["error"] = error
+            return
+        with lock:
+            late = given_up
+            if not late:
+                outcome["client"] = client
+        if late:
+            client.close()
 
     # A daemon thread: one still waiting on a silent server must not hold up the exit.
     attempt = threading.Thread(target=connect, name="pcl_rg connect", daemon=True)
     attempt.start()
     attempt.join(limit)
-    if attempt.is_alive():
+    with lock:
+        given_up = not outcome
+    if given_up:
         raise ConnectionError(
-            f"no Dask scheduler answered at {scheduler} within {limit:g} s ({hint})"
+            f"no Dask scheduler answered at {scheduler} within {limit:g} s "
+            f"(is one running there? {port_hint})"
         )
     error = outcome.get("error")
     if isinstance(error, MemoryError):
         raise ConnectionError(
-            f"what answered at {scheduler} is not a Dask scheduler ({hint})"
+            f"what answered at {scheduler} is not a Dask scheduler (is it a dashboard's "
+            f"address? {port_hint})"
         ) from error
     if error is not None:
         raise error
