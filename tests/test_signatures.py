@@ -141,3 +141,9 @@ def test_old_preset_name_warns() -> None:
     with pytest.warns(DeprecationWarning, match="use TinGroundParams.isprs"):
         params = pcl_rg.TinGroundParams.tuned_isprs()
     assert params == pcl_rg.TinGroundParams.isprs()
+
+
+def test_old_preset_name_takes_the_same_overrides() -> None:
+    with pytest.warns(DeprecationWarning, match="use TinGroundParams.isprs"):
+        params = pcl_rg.TinGroundParams.tuned_isprs(stop_edge=1.0)
+    assert params == pcl_rg.TinGroundParams.isprs(stop_edge=1.0)

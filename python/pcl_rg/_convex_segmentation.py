@@ -129,7 +129,9 @@ def convex_segmentation(
         grid of about 4.5 mm; data already that coarse is segmented as it is.
         The grid is anchored at multiples of the leaf in world coordinates, as
         :func:`pcl_rg.voxel_grid`'s: a cloud moved by other than whole leaves
-        is cut into other voxels, and some labels near voxel boundaries change.
+        is cut into other voxels, and labels near voxel boundaries change: on a
+        Kinect frame of mOSD moved by (500 km, 5,000 km), 16 % of the labels and
+        one segment more (``noise_leaves=0``, or a move by whole leaves: none).
         The noise is read on surface neighbourhoods only, so vegetation (thick
         volumes of points) does not count as sensor noise.
     viewpoint : sequence of 3 float, optional
@@ -185,8 +187,10 @@ def convex_segmentation(
        with fewer than `min_cluster_size` points are dropped.
 
     Every step is order-independent except the growth's tie breaks (as in
-    :func:`pcl_rg.region_growing`); the result does not depend on the number
-    of threads.
+    :func:`pcl_rg.region_growing`) and the voxel grid's leaf, which comes from
+    :func:`pcl_rg.point_scale`'s sample of every s-th point in input order
+    (a permuted Kinect frame: leaf 5.576 against 5.582 mm, 143 of 91k labels
+    changed); the result does not depend on the number of threads.
 
     The defaults were chosen by leave-one-scene-out cross-validation over the
     seven mOSD learn scenes (Kinect, raw frames and 3 to 8 mm voxel grids,

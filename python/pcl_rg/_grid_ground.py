@@ -405,13 +405,16 @@ def grid_ground(
     grid; ``growth_seconds``: low outliers, pre-filter and components;
     ``final_pass_seconds``: every final-pass round).
 
-    Links are symmetric, so the result does not depend on the visiting
-    order; the C++ core (a counting sort into a flat CSR cell grid, a
-    lock-free union-find over the links and the seeds picked per block, all
-    parallel with OpenMP and the GIL released) equals the NumPy/SciPy
-    reference :func:`pcl_rg.reference.grid_ground` point for point (with the
-    final pass, wherever the TIN is unique: four or more co-circular
-    vertices may be triangulated differently). No PCL
+    Links are symmetric, so the growth does not depend on the visiting
+    order. The final pass's TIN breaks exact co-circular ties by input index,
+    so permuted input can change a few labels there (one point of samp52's
+    53k in three of six permutations; none with ``final_cell=0``). The C++
+    core (a counting sort into a flat CSR cell grid, a lock-free union-find
+    over the links and the seeds picked per block, all parallel with OpenMP
+    and the GIL released) equals the NumPy/SciPy reference
+    :func:`pcl_rg.reference.grid_ground` point for point (with the final
+    pass, wherever the TIN is unique: four or more co-circular vertices may
+    be triangulated differently). No PCL
     class implements this filter; ``pcl::ProgressiveMorphologicalFilter`` is
     the baseline of ``benchmarks/studies/ground_isprs.py``.
 

@@ -320,13 +320,13 @@ def presets(cls: type[P]) -> dict[str, Callable[[], P]]:
 def deprecated_preset(old: str, new: str) -> classmethod:  # type: ignore[type-arg]
     """A classmethod `old` that warns and returns the preset `new`."""
 
-    def alias(cls: type[P]) -> P:
+    def alias(cls: type[P], **overrides: Any) -> P:
         warnings.warn(
             f"{cls.__name__}.{old}() is deprecated; use {cls.__name__}.{new}()",
             DeprecationWarning,
             stacklevel=2,
         )
-        return getattr(cls, new)()
+        return getattr(cls, new)(**overrides)
 
     alias.__name__ = old
     alias.__doc__ = f"Deprecated alias of :meth:`{new}`."

@@ -84,7 +84,8 @@ def voxel_grid(
     The voxel of a point p is ``floor(p / leaf_size)`` per axis, computed in
     float64 in the caller's coordinates, so the grid is anchored at the world
     origin as in PCL and tiles of one survey share their voxels. The result
-    equals ``pcl::VoxelGrid`` (PCL 1.13) wherever PCL works; unlike PCL, any
+    equals ``pcl::VoxelGrid`` (PCL 1.13) wherever PCL works, up to PCL's
+    float32 rounding of the centroids (a few micrometres); unlike PCL, any
     extent is handled (64-bit voxel keys): PCL warns and returns its input
     unchanged when the grid has more than 2**31 - 1 voxels. Centroids are
     averaged in float64, with each voxel's points in input order, so the
