@@ -316,3 +316,15 @@ def test_laz_with_whole_chunks_beyond_its_count_warns(tmp_path):
             with warnings.catch_warnings():
                 warnings.simplefilter("error")
                 assert len(read_points(tmp_path / "b.laz").points) == count
+
+
+def test_an_extra_bytes_name_over_32_bytes_is_refused_naming_the_field(tmp_path):
+    # laspy's own message ("bytes too long (41, maximum length 32)") named no field.
+    longest, too_long = "n" * 32, "é" * 16 + "x"  # 32 bytes; 33 bytes in UTF-8
+    write_points(tmp_path / "ok.las", np.zeros((3, 3)), {longest: np.arange(3)})
+    np.testing.assert_array_equal(read_points(tmp_path / "ok.las").fields[longest], np.arange(3))
+    with pytest.raises(
+        ValueError, match=r"fields\['é+x'\]: a LAS extra-bytes name holds at most 32"
+    ):
+        write_points(tmp_path / "long.las", np.zeros((3, 3)), {too_long: np.arange(3)})
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["ok.las"]

@@ -413,6 +413,20 @@ def test_failed_write_leaves_nothing(tmp_path, monkeypatch, ext, error):
     assert sorted(p.name for p in tmp_path.iterdir()) == [f"out.{ext}"]
 
 
+@pytest.mark.parametrize("ext", ["las", "ply"])
+def test_a_failed_write_names_the_callers_path_not_the_temporary_file(tmp_path, ext):
+    missing = tmp_path / "no" / "such" / f"x.{ext}"
+    with pytest.raises(FileNotFoundError) as error:
+        write_points(missing, np.zeros((3, 3)))
+    assert error.value.filename == str(missing) and ".tmp" not in str(error.value)
+    folder = tmp_path / f"folder.{ext}"
+    folder.mkdir()
+    with pytest.raises(IsADirectoryError) as error:
+        write_points(folder, np.zeros((3, 3)))
+    assert error.value.filename == str(folder) and ".tmp" not in str(error.value)
+    assert [p.name for p in folder.iterdir()] == [] and len(list(tmp_path.iterdir())) == 1
+
+
 def test_interrupt_as_the_temporary_file_is_created_leaves_nothing(tmp_path, monkeypatch):
     # Ctrl-C handled as the creating call returns, before its result is stored (CPython
     # runs signal handlers right after a call): the file exists, nothing refers to it.

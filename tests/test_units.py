@@ -240,6 +240,17 @@ def test_info_gives_the_units_and_a_broken_record_stops_the_work(scene_files, tm
     assert given.returncode == 0, given.stderr
 
 
+def test_info_says_how_an_unstated_z_is_taken(scene_files, tmp_path):
+    # WKT 2 of a projected CRS alone: x and y in US feet, no vertical CRS. The commands
+    # take z as x and y, and info says so instead of only "not stated".
+    points = read_points(scene_files / "feet.las").points[:100]
+    write_las(tmp_path / "xy.las", points, [wkt_record(NEW_YORK_FTUS_WKT2)])
+    text = run_pcl_rg("info", tmp_path / "xy.las").stdout
+    assert "x, y US survey foot, z not stated, taken as x and y (WKT)" in text
+    ground = run_pcl_rg("ground", tmp_path / "xy.las", tmp_path / "out.las", "--json")
+    assert "z as x and y" in json.loads(ground.stdout)["units"]["source"]
+
+
 def test_an_empty_wkt_leaves_the_geotiff_keys_their_say():
     keys = geokeys_record({1024: 1, 3072: 2263, 3076: 9003})
     for text in ("", 'VERT_CS["NAVD88",UNIT["US survey foot",0.304800609601219]]'):

@@ -97,6 +97,11 @@ def partial_files(path: str) -> list[str]:
     ]
 
 
+def _naming(error: OSError, path: str) -> OSError:
+    """`error` (same type and errno) naming `path`, not the hidden temporary file."""
+    return type(error)(error.errno, error.strerror, path)
+
+
 def atomic_write(path: str, write: Callable[[BinaryIO], None]) -> None:
     """Write through a temporary file in the same folder, renamed into place.
 
@@ -130,6 +135,9 @@ def atomic_write(path: str, write: Callable[[BinaryIO], None]) -> None:
             except FileExistsError:
                 creating = ""  # not ours: draw another name
                 continue
+            except OSError as error:  # no such folder, no permission: the caller's path
+                creating = ""
+                raise _naming(error, path) from None
             temp = creating
         with stream:
             write(stream)
@@ -137,7 +145,10 @@ def atomic_write(path: str, write: Callable[[BinaryIO], None]) -> None:
             if mode is not None:
                 os.fchmod(stream.fileno(), mode)
             os.fsync(stream.fileno())
-        os.replace(temp, path)
+        try:
+            os.replace(temp, path)
+        except OSError as error:  # e.g. `path` is a folder
+            raise _naming(error, path) from None
     except BaseException:
         if temp or creating:
             with contextlib.suppress(OSError):  # an open interrupted before it created

@@ -232,6 +232,11 @@ def _write_las(
                 f"fields[{key!r}] has {array.shape[1]} values per point; LAS extra bytes "
                 "hold 1, 2 or 3"
             )
+        if len(key.encode("utf-8")) > 32:  # the extra-bytes record's name field
+            raise ValueError(
+                f"fields[{key!r}]: a LAS extra-bytes name holds at most 32 bytes, this one "
+                f"{len(key.encode('utf-8'))}; rename the field, or write PLY or PCD"
+            )
         kind = base.newbyteorder("<").str.lstrip("<|=")
         type_str = kind if array.ndim == 1 or array.shape[1] == 1 else f"{array.shape[1]}{kind}"
         new_dims.append(laspy.ExtraBytesParams(name=key, type=type_str))

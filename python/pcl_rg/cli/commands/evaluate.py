@@ -31,7 +31,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "else = object) against the truth: Type I (ground rejected / all ground), Type II "
         "(object accepted / all object), total error and Cohen's kappa (Sithole & Vosselman "
         "2004). PREDICTION must hold the truth's points in the same order (an output written "
-        "without --drop). With --segments, score its segment_id against a truth segment field."
+        "without --drop). With --segments, score its segment_id against a truth segment field. "
+        "--json gives the rates as fractions (total 0.0333 for 3.33 %), as "
+        "pcl_rg.evaluation does."
     )
     p.add_argument("prediction", metavar="PREDICTION", help="classified point file")
     truth = p.add_argument_group("truth (one of)")

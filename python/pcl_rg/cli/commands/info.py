@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import argparse
 import os
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -24,6 +24,9 @@ from .._common import (
 )
 from .._flags import CliError
 from .._run import Run
+
+if TYPE_CHECKING:
+    from ...io import CoordinateUnits
 
 __all__ = ["configure", "execute"]
 
@@ -97,7 +100,11 @@ def execute(args: argparse.Namespace, run: Run) -> None:
     )
     run.say(
         f"{'points':<14}{len(cloud):,}"
-        + (f" ({info['invalid_points']:,} with NaN coordinates)" if info["invalid_points"] else "")
+        + (
+            f" ({info['invalid_points']:,} with NaN or Inf coordinates)"
+            if info["invalid_points"]
+            else ""
+        )
     )
     if "bounds" in info:
         lo, hi = info["bounds"]["min"], info["bounds"]["max"]
@@ -113,7 +120,7 @@ def execute(args: argparse.Namespace, run: Run) -> None:
             + (
                 stated.problem
                 or f"x, y {stated.xy_name or 'not stated'}, "
-                f"z {stated.z_name or 'not stated'} ({stated.source})"
+                f"z {stated.z_name or _z_not_stated(stated)} ({stated.source})"
             )
         )
     if "las" in info:
@@ -143,3 +150,8 @@ def execute(args: argparse.Namespace, run: Run) -> None:
         segments=None,
         title=os.path.basename(args.input),
     )
+
+
+def _z_not_stated(stated: CoordinateUnits) -> str:
+    """What the commands make of z when the file states x and y only (io._crs)."""
+    return "not stated, taken as x and y" if stated.xy_name else "not stated"
