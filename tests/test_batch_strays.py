@@ -16,7 +16,7 @@ import pcl_rg
 from pcl_rg import batch
 from pcl_rg.batch._plan import FOOTPRINT_GAP, Box, footprint, survey_spacing
 from pcl_rg.datasets import synthetic_survey
-from pcl_rg.io import Extent, read_points
+from pcl_rg.io import Extent, read_points, write_points
 
 
 def add_stray_point(path, classification: int) -> None:
@@ -129,6 +129,23 @@ def test_a_stray_point_leaves_the_survey_lengths_alone(tmp_path, scheduler) -> N
     # the survey's border there (3 of its 6,980 points change, as on one file).
     assert changed[2] < 0.002 * clean.tiles[2].points
     assert changed[:2] + changed[3:] == [0] * 8
+
+
+def test_denoise_flags_a_record_at_the_origin_with_the_ordinary_noise(tmp_path, scheduler):
+    # (0, 0, 0) in a UTM survey lies beyond float32's reach of its local origin: the
+    # merged run leaves it out of its deviation and flags it; the tiles agree.
+    source = synthetic_survey(tmp_path / "in", tiles=(3, 3), tile_size=40.0, seed=5)
+    tile = read_points(source.paths[4])
+    fields = {k: np.concatenate([v, np.zeros_like(v[:1])]) for k, v in tile.fields.items()}
+    write_points(source.paths[4], np.r_[tile.points, [[0.0, 0.0, 0.0]]], fields)
+    params = pcl_rg.StatisticalOutlierRemovalParams(mean_k=12, std_mul=1.0)
+    report = batch.denoise(source.paths, tmp_path / "out", params=params, scheduler=scheduler)
+    assert [t.status for t in report.tiles] == ["done"] * 9
+    merged = np.concatenate([read_points(p).points for p in source.paths])
+    expected = ~pcl_rg.statistical_outlier_removal(merged, params=params)
+    got = np.concatenate([read_points(t.output).classification for t in report.tiles]) == 7
+    assert expected.sum() > 1 and np.array_equal(got, expected)
+    assert read_points(report.tiles[4].output).classification[-1] == 7
 
 
 def test_neighbours_are_the_tiles_whose_boxes_meet_the_grown_box():

@@ -174,6 +174,23 @@ def test_denoise(capsys, tmp_path, scene_las):
     np.testing.assert_array_equal(read_points(tmp_path / "kept.las").points, source.points[inlier])
 
 
+def test_a_record_at_the_origin_of_a_utm_tile_is_noise_and_no_segment(capsys, tmp_path, scene_las):
+    # (0, 0, 0) lies 5,000 km from the tile, beyond float32's reach of its local origin:
+    # both commands refused the file. The other points come out as without it.
+    source = read_points(scene_las)
+    fields = {k: np.concatenate([v, np.zeros_like(v[:1])]) for k, v in source.fields.items()}
+    stray = tmp_path / "stray.las"
+    write_points(stray, np.r_[source.points, [[0.0, 0.0, 0.0]]], fields, template=source)
+    cases = (("denoise", "classification", 7), ("segment", "segment_id", -1))
+    for command, field, expected in cases:
+        run_json(capsys, command, scene_las, tmp_path / f"{command}.las")
+        run_json(capsys, command, stray, tmp_path / f"{command}-stray.las")
+        clean = read_points(tmp_path / f"{command}.las").fields[field]
+        beside = read_points(tmp_path / f"{command}-stray.las").fields[field]
+        np.testing.assert_array_equal(beside[:-1], clean)
+        assert beside[-1] == expected
+
+
 def test_downsample_centroids_and_attributes(capsys, tmp_path, scene_las):
     result = run_json(capsys, "downsample", scene_las, tmp_path / "v.las", "--leaf-size", "2")
     source = read_points(scene_las)
@@ -409,7 +426,7 @@ def test_info(capsys, tmp_path, scene_las):
     invalid = int(
         (~np.isfinite(read_points(shared_data("mosd", "learn5.pcd")).points).all(axis=1)).sum()
     )
-    assert f"{invalid:,} with NaN coordinates" in out and "label (uint32)" in out
+    assert f"{invalid:,} with NaN or Inf coordinates" in out and "label (uint32)" in out
 
 
 def test_plots(capsys, tmp_path, scene_las):

@@ -281,6 +281,19 @@ def test_sor_flags_only_a_far_point_and_a_second_run_the_ordinary_noise() -> Non
     np.testing.assert_array_equal(pcl_rg.statistical_outlier_removal(stray[first]), clean)
 
 
+def test_sor_leaves_a_point_beyond_float32s_reach_out_of_its_deviation() -> None:
+    # A record at (0, 0, 0) in a UTM tile lies 5,400 km from it, beyond float32's reach
+    # of the tile's local origin: it was refused. Now it is an outlier by rule and stays
+    # out of mu and sigma, so one run also flags the ordinary noise, as without it.
+    points = terrain(20_000, 100.0) + [5e5, 5.4e6, 100.0]
+    points[::500, 2] += 3.0
+    stray = np.r_[points, [[0.0, 0.0, 0.0]]]
+    for sor in (pcl_rg.statistical_outlier_removal, reference.statistical_outlier_removal):
+        clean, inlier = sor(points), sor(stray)
+        assert (~clean).sum() >= 40 and not inlier[-1]
+        np.testing.assert_array_equal(inlier[:-1], clean)
+
+
 # ------------------------------------------------------------------ on ISPRS
 
 

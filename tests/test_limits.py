@@ -2,8 +2,9 @@
 
 A zero-stride view of billions of rows costs no memory, so the refusal is tested
 for real: it must come before any copy or conversion of the input. Coordinates
-that the float32 local frame cannot hold are refused too, instead of becoming inf,
-and masked arrays, whose masks np.asarray would drop.
+that the float32 local frame cannot hold are left out as stray points (up to 1 %)
+or refused, instead of becoming inf, and so are masked arrays, whose masks
+np.asarray would drop.
 """
 
 from __future__ import annotations
@@ -53,38 +54,81 @@ def test_the_message_names_the_index_type_and_the_count(limit) -> None:
     assert as_points(np.ones((4, 3)), max_points=limit).shape == (4, 3)
 
 
-FLOAT32_STEPS = [
+def _per_point(result) -> np.ndarray:
+    """A step's result as one row per point (normals: every field side by side)."""
+    if isinstance(result, pcl_rg.NormalsResult):
+        return np.column_stack(list(result))
+    return np.asarray(result)
+
+
+# Ours and the references: a far point is left out (reference._local.near_rows).
+LEAVING_OUT_STEPS = [
     ("statistical_outlier_removal", pcl_rg.statistical_outlier_removal),
     ("normals", pcl_rg.normals),
     ("region_growing", pcl_rg.region_growing),
     ("convex_segmentation", pcl_rg.convex_segmentation),
     ("point_scale", pcl_rg.point_scale),
-    ("pcl.voxel_grid", lambda p: pcl_rg.pcl.voxel_grid(p, leaf_size=1.0)),
-    ("pcl.statistical_outlier_removal", pcl_rg.pcl.statistical_outlier_removal),
-    ("pcl.normals", pcl_rg.pcl.normals),
-    ("pcl.region_growing", pcl_rg.pcl.region_growing),
-    ("pcl.progressive_morphological_filter", pcl_rg.pcl.progressive_morphological_filter),
-    # The references refuse what the core refuses (in float64, a point at 1e160
-    # overflowed SOR's deviation and made every point an outlier).
     ("reference.statistical_outlier_removal", reference.statistical_outlier_removal),
     ("reference.normals", reference.normals),
     ("reference.region_growing", reference.region_growing),
     ("reference.convex_segmentation", reference.convex_segmentation),
     ("reference.point_scale", reference.point_scale),
 ]
+# PCL's classes work on one float32 cloud, which cannot hold the far point with the rest.
+REFUSING_STEPS = [
+    ("pcl.voxel_grid", lambda p: pcl_rg.pcl.voxel_grid(p, leaf_size=1.0)),
+    ("pcl.statistical_outlier_removal", pcl_rg.pcl.statistical_outlier_removal),
+    ("pcl.normals", pcl_rg.pcl.normals),
+    ("pcl.region_growing", pcl_rg.pcl.region_growing),
+    ("pcl.progressive_morphological_filter", pcl_rg.pcl.progressive_morphological_filter),
+]
+FLOAT32_STEPS = LEAVING_OUT_STEPS + REFUSING_STEPS
+# Nothing at all for a point without neighbours: an outlier, NaN geometry, no segment.
+NO_NEIGHBOURS = {"statistical_outlier_removal": False, "region_growing": -1}
+NO_NEIGHBOURS["convex_segmentation"] = -1
 
 
 @pytest.mark.parametrize("far", [-1e39, 1e39, -1e300, -1e9, 2e6])
-@pytest.mark.parametrize(("name", "call"), FLOAT32_STEPS, ids=[c[0] for c in FLOAT32_STEPS])
-def test_a_point_beyond_float32s_reach_is_refused(name, call, far) -> None:
-    # One far point below the rest makes the minimum corner far, and every other point
-    # minus it loses its precision in float32 (all inf beyond 3.4e38; at 1e9, steps of
-    # 64 m): silently wrong before. Above the rest only the far point did.
+@pytest.mark.parametrize(("name", "call"), LEAVING_OUT_STEPS, ids=[c[0] for c in LEAVING_OUT_STEPS])
+def test_a_point_beyond_float32s_reach_is_left_out(name, call, far) -> None:
+    # One far point below the rest made the minimum corner far, and every other point
+    # minus it lost its precision in float32 (all inf beyond 3.4e38; at 1e9, steps of
+    # 64 m): silently wrong, then refused. Such a stray point (a record at (0, 0, 0) in
+    # a UTM tile) is now left out: the others get the run without it, and it gets the
+    # result of a point without neighbours.
     points = np.random.default_rng(0).random((300, 3)) * [50.0, 50.0, 5.0]
-    points = np.r_[points, [[0.0, far, 0.0]]]
+    beside = _per_point(call(np.r_[points, [[0.0, far, 0.0]]]))
+    alone = _per_point(call(points))
+    if name.endswith("point_scale"):  # measured on the others
+        np.testing.assert_array_equal(beside, alone)
+        return
+    np.testing.assert_array_equal(beside[:-1], alone)
+    expected = NO_NEIGHBOURS.get(name.removeprefix("reference."))
+    if expected is None:  # normals: every field NaN
+        assert np.isnan(beside[-1]).all()
+    else:
+        assert beside[-1] == expected
+
+
+@pytest.mark.parametrize(("name", "call"), FLOAT32_STEPS, ids=[c[0] for c in FLOAT32_STEPS])
+def test_more_far_points_than_one_percent_are_refused(name, call) -> None:
+    # 1 % of the points may be strays; more mean a cloud wider than one float32 frame
+    # (two surveys 2,000 km apart), whose far part would all come out as outliers.
+    points = np.random.default_rng(0).random((300, 3)) * [50.0, 50.0, 5.0]
+    far = np.zeros((4, 3)) + [0.0, 2e6, 0.0]
+    if (name, call) in LEAVING_OUT_STEPS:
+        call(np.r_[points, far[:3]])  # 3 of 303 are left out
     with pytest.raises(ValueError, match=r"more than 2\^24 x 0.1"):
-        call(points)
-    call(points[:-1])  # the same cloud without it runs
+        call(np.r_[points, far])
+
+
+@pytest.mark.parametrize("far", [-1e39, 1e39, -1e300, -1e9, 2e6])
+@pytest.mark.parametrize(("name", "call"), REFUSING_STEPS, ids=[c[0] for c in REFUSING_STEPS])
+def test_pcl_refuses_a_point_beyond_float32s_reach(name, call, far) -> None:
+    points = np.random.default_rng(0).random((300, 3)) * [50.0, 50.0, 5.0]
+    with pytest.raises(ValueError, match=r"more than 2\^24 x 0.1"):
+        call(np.r_[points, [[0.0, far, 0.0]]])
+    call(points)  # the same cloud without it runs
 
 
 @pytest.mark.parametrize(("name", "call"), FLOAT32_STEPS, ids=[c[0] for c in FLOAT32_STEPS])

@@ -222,13 +222,25 @@ ConvexSegmentationTimings convex_segmentation(PointsView points,
     const std::size_t n = points.size;
     if (n == 0) return ConvexSegmentationTimings{};
     check::indexable_by_int32(n);
+    // Far points (float32_frame) are left out of every step, the viewpoint, the scale
+    // and the grid included (one at 1e39 overflowed the grid's voxel indices).
+    const Float32Frame frame = float32_frame(points);
+    if (frame.has_far_points()) {
+        const std::vector<double> kept = gather_points(points, frame.near);
+        std::vector<std::int32_t> kept_labels(frame.near.size());
+        const ConvexSegmentationTimings timings = convex_segmentation(
+            PointsView{kept.data(), frame.near.size()}, given, kept_labels.data());
+        std::fill_n(labels, n, -1);
+        for (std::size_t s = 0; s < frame.near.size(); ++s) labels[frame.near[s]] = kept_labels[s];
+        return timings;
+    }
     const auto start = std::chrono::steady_clock::now();
     // Resolved on the input, so that a grid's centroids are seen from the same place.
     ConvexSegmentationParams params = given;
     params.viewpoint = given.viewpoint ? *given.viewpoint : default_viewpoint(points);
     double leaf = 0.0;
     if (params.noise_leaves > 0.0) {
-        const PointScale scale = point_scale(points);
+        const PointScale scale = point_scale(points, frame);
         if (params.noise_leaves * scale.noise > scale.spacing)  // NaN (tiny cloud): no grid
             leaf = params.noise_leaves * scale.noise;
     }

@@ -12,6 +12,7 @@
 #include "pcl_rg/normals.hpp"
 
 #include <Eigen/Dense>
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -116,6 +117,56 @@ PointGeometry point_geometry(const std::vector<Eigen::Vector3d>& rel) {
     return g;
 }
 
+// The lists of the points `near` (kept_lists, numbered among them) numbered in the whole
+// view of n points, whose far points (float32_frame) get rows of themselves alone: no
+// neighbours, so their geometry is undefined (NaN) and no region reaches them.
+std::vector<std::uint32_t> lists_with_far_points(std::size_t n, std::size_t k,
+                                                 const std::vector<std::size_t>& near,
+                                                 const std::vector<std::uint32_t>& kept_lists) {
+    std::vector<std::uint32_t> lists(n * k);
+    for (std::size_t i = 0; i < n; ++i)
+        std::fill_n(lists.begin() + static_cast<std::ptrdiff_t>(i * k), k,
+                    static_cast<std::uint32_t>(i));
+    for (std::size_t s = 0; s < near.size(); ++s)
+        for (std::size_t j = 0; j < k; ++j)
+            lists[near[s] * k + j] = static_cast<std::uint32_t>(near[kept_lists[s * k + j]]);
+    return lists;
+}
+
+// normals() on the points `near` alone, copied, with NaN for the far points.
+void normals_without_far_points(PointsView points, const std::vector<std::size_t>& near,
+                                const NormalsParams& params, const NormalsOutput& out,
+                                std::vector<std::uint32_t>* neighbours) {
+    const std::size_t n = points.size, m = near.size();
+    const std::vector<double> kept = gather_points(points, near);
+    std::vector<double> normal(3 * m);
+    NormalsOutput kept_out;
+    kept_out.normal = normal.data();
+    double* const wanted[5] = {out.surface_variation, out.gaussian_curvature, out.mean_curvature,
+                               out.k1, out.k2};
+    double** const kept_fields[5] = {&kept_out.surface_variation, &kept_out.gaussian_curvature,
+                                     &kept_out.mean_curvature, &kept_out.k1, &kept_out.k2};
+    std::vector<double> values[5];
+    for (int f = 0; f < 5; ++f)
+        if (wanted[f]) {
+            values[f].resize(m);
+            *kept_fields[f] = values[f].data();
+        }
+    std::vector<std::uint32_t> kept_lists;
+    normals(PointsView{kept.data(), m}, params, kept_out, neighbours ? &kept_lists : nullptr);
+    std::fill_n(out.normal, 3 * n, kNaN);
+    for (int f = 0; f < 5; ++f)
+        if (wanted[f]) std::fill_n(wanted[f], n, kNaN);
+    for (std::size_t s = 0; s < m; ++s) {
+        for (int a = 0; a < 3; ++a) out.normal[3 * near[s] + a] = normal[3 * s + a];
+        for (int f = 0; f < 5; ++f)
+            if (wanted[f]) wanted[f][near[s]] = values[f][s];
+    }
+    if (neighbours)
+        *neighbours =
+            lists_with_far_points(n, static_cast<std::size_t>(params.k), near, kept_lists);
+}
+
 }  // namespace
 
 std::vector<std::uint32_t> neighbour_lists(PointsView points, const NormalsParams& params,
@@ -127,8 +178,14 @@ std::vector<std::uint32_t> neighbour_lists(PointsView points, const NormalsParam
     check::fewer_than_points("k", params.k, n);
     check::neighbour_table_fits("k", params.k, n);
     const auto k = static_cast<std::size_t>(params.k);
-    const std::vector<float> local = to_local_float(points, float32_origin(points));
-    const KnnIndex index(local.data(), n);
+    const Float32Frame frame = float32_frame(points);
+    if (frame.has_far_points()) {
+        const std::vector<double> kept = gather_points(points, frame.near);
+        return lists_with_far_points(n, k, frame.near,
+                                     neighbour_lists(PointsView{kept.data(), frame.near.size()},
+                                                     params, leaf_budget, heap_from_k));
+    }
+    const KnnIndex index(frame.local.data(), n);
     std::vector<std::uint32_t> lists(n * k);
     const Interruption interruption;
     interruption.check_now();
@@ -154,8 +211,10 @@ void normals(PointsView points, const NormalsParams& params, const NormalsOutput
     if (neighbours) check::neighbour_table_fits("k", params.k, n);
     const auto k = static_cast<std::size_t>(params.k);
 
-    const std::vector<float> local = to_local_float(points, float32_origin(points));
-    const KnnIndex index(local.data(), n);
+    const Float32Frame frame = float32_frame(points);
+    if (frame.has_far_points())
+        return normals_without_far_points(points, frame.near, params, out, neighbours);
+    const KnnIndex index(frame.local.data(), n);
     if (neighbours) neighbours->resize(n * k);
     const Interruption interruption;
     interruption.check_now();

@@ -31,14 +31,22 @@ double lower_median(std::vector<double>& values) {
 }  // namespace
 
 PointScale point_scale(PointsView points) {
+    if (points.size <= kPointScaleNeighbours) return point_scale(points, Float32Frame{});
+    return point_scale(points, float32_frame(points));
+}
+
+PointScale point_scale(PointsView points, const Float32Frame& frame) {
     const std::size_t n = points.size, k = kPointScaleNeighbours;
     PointScale scale;
     if (n <= k) {
         scale.spacing = scale.noise = std::numeric_limits<double>::quiet_NaN();
         return scale;
     }
-    const std::vector<float> local = to_local_float(points, float32_origin(points));
-    const KnnIndex index(local.data(), n);
+    if (frame.has_far_points()) {  // measured on the others alone
+        const std::vector<double> kept = gather_points(points, frame.near);
+        return point_scale(PointsView{kept.data(), frame.near.size()});
+    }
+    const KnnIndex index(frame.local.data(), n);
     const std::size_t step = std::max<std::size_t>(1, n / kPointScaleSamples);
     const std::size_t m = (n + step - 1) / step;
     std::vector<double> spacing(m), noise(m);

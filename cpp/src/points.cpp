@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <stdexcept>
+#include <string>
 #include <vector>
 
 namespace pcl_rg {
@@ -93,19 +94,44 @@ double lattice_floor(double low, double size) {
     return corner;
 }
 
-std::vector<float> to_local_float(PointsView points, const std::array<double, 3>& origin) {
-    std::vector<float> local(3 * points.size);
+Float32Frame float32_frame(PointsView points) {
+    const std::array<double, 3> origin = float32_origin(points);
+    Float32Frame frame;
+    frame.local.resize(3 * points.size);
     const auto n = static_cast<std::ptrdiff_t>(points.size);
     bool beyond = false;
 #pragma omp parallel for schedule(static) reduction(|| : beyond)
     for (std::ptrdiff_t i = 0; i < n; ++i)
         for (int a = 0; a < 3; ++a) {
             const double value = points.coord(i, a) - origin[a];
-            local[3 * i + a] = static_cast<float>(value);
+            frame.local[3 * i + a] = static_cast<float>(value);
             beyond = beyond || !(std::fabs(value) <= kFloat32Reach);
         }
-    if (beyond) throw_beyond_float32_reach();
-    return local;
+    if (!beyond) return frame;
+    frame.local = std::vector<float>();
+    for (std::size_t i = 0; i < points.size; ++i) {
+        bool within = true;
+        for (int a = 0; a < 3; ++a)
+            within = within && std::fabs(points.coord(i, a) - origin[a]) <= kFloat32Reach;
+        if (within) frame.near.push_back(i);
+    }
+    const std::size_t far = points.size - frame.near.size();
+    if (far > max_far_points(points.size))
+        throw std::invalid_argument(
+            "points: " + std::to_string(far) + " of " + std::to_string(points.size) +
+            " points lie more than 2^24 x 0.1 = 1677721.6 (metres for LiDAR) from the local "
+            "origin on some axis, where float32, which this step computes in, resolves no "
+            "better than 0.125; up to 1 % of the points (at least one) are taken for stray "
+            "points and left out, more mean a cloud too wide for one float32 frame: split "
+            "it into tiles");
+    return frame;
+}
+
+std::vector<double> gather_points(PointsView points, const std::vector<std::size_t>& rows) {
+    std::vector<double> xyz(3 * rows.size());
+    for (std::size_t r = 0; r < rows.size(); ++r)
+        for (int a = 0; a < 3; ++a) xyz[3 * r + a] = points.coord(rows[r], a);
+    return xyz;
 }
 
 void throw_beyond_float32_reach() {

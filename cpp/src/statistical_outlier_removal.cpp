@@ -9,14 +9,18 @@
 //   * mu and sigma use the sample (n - 1) variance, sum and sum of squares taken in
 //     index order, the squares formed in float;
 //   * a point is an inlier when d_i <= mu + std_mul * sigma (so a NaN sigma, which
-//     only arises when all d_i are equal within rounding, keeps every point).
+//     only arises when all d_i are equal within rounding, keeps every point);
+// except for far points (float32_frame), which PCL's float32 cloud cannot hold with
+// the rest: outliers with d_i = inf, left out of mu and sigma.
 // The differences are speed only: nanoflann instead of FLANN and the neighbour
 // queries run in parallel.
 #include "pcl_rg/statistical_outlier_removal.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <memory>
 #include <stdexcept>
 #include <string>
 
@@ -32,6 +36,35 @@ void validate(const StatisticalOutlierRemovalParams& params) {
     check::real("std_mul", params.std_mul, check::non_negative());
 }
 
+namespace {
+
+// The run without the far points of float32_frame (`near`: the others): a far point is
+// an outlier at an infinite distance and stays out of mu and sigma, which it would
+// otherwise inflate until no other point is an outlier.
+StatisticalOutlierRemovalResult without_far_points(PointsView points,
+                                                   const std::vector<std::size_t>& near,
+                                                   const StatisticalOutlierRemovalParams& params,
+                                                   bool* inlier) {
+    const std::vector<double> kept = gather_points(points, near);
+    const std::unique_ptr<bool[]> kept_inlier(new bool[near.size()]);
+    const StatisticalOutlierRemovalResult part = statistical_outlier_removal(
+        PointsView{kept.data(), near.size()}, params, kept_inlier.get());
+    const float inf = std::numeric_limits<float>::infinity();
+    StatisticalOutlierRemovalResult result;
+    result.threshold = part.threshold;
+    result.mean_distance.assign(points.size, inf);
+    result.farthest_distance.assign(points.size, inf);
+    std::fill(inlier, inlier + points.size, false);
+    for (std::size_t s = 0; s < near.size(); ++s) {
+        result.mean_distance[near[s]] = part.mean_distance[s];
+        result.farthest_distance[near[s]] = part.farthest_distance[s];
+        inlier[near[s]] = kept_inlier[s];
+    }
+    return result;
+}
+
+}  // namespace
+
 StatisticalOutlierRemovalResult statistical_outlier_removal(
     PointsView points, const StatisticalOutlierRemovalParams& params, bool* inlier) {
     validate(params);
@@ -44,9 +77,11 @@ StatisticalOutlierRemovalResult statistical_outlier_removal(
     check::fewer_than_points("mean_k", params.mean_k, n);
     const auto mean_k = static_cast<std::size_t>(params.mean_k);
 
+    const Float32Frame frame = float32_frame(points);
+    if (frame.has_far_points()) return without_far_points(points, frame.near, params, inlier);
     // Query in Morton order on a Morton-ordered copy: the same float32 coordinates
     // (so the same distances), but memory is touched in order.
-    const std::vector<float> unordered = to_local_float(points, float32_origin(points));
+    const std::vector<float>& unordered = frame.local;
     const std::vector<std::uint32_t> order =
         morton_order(unordered.data(), static_cast<std::uint32_t>(n));
     std::vector<float> local(3 * n);

@@ -155,6 +155,7 @@ def convex_segmentation(
     ValueError
         Non-finite points, a wrong shape, or a parameter out of range
         (``k < 6``, ``k >= N``, an angle out of range, a negative threshold).
+    %(far_points_value_error)s
     %(type_error)s
 
     Notes
@@ -191,6 +192,10 @@ def convex_segmentation(
     :func:`pcl_rg.point_scale`'s sample of every s-th point in input order
     (a permuted Kinect frame: leaf 5.576 against 5.582 mm, 143 of 91k labels
     changed); the result does not depend on the number of threads.
+
+    %(far_points)s
+    Far points are labelled -1, and the default viewpoint, the scale and the
+    grid are those of the other points.
 
     The defaults were chosen by leave-one-scene-out cross-validation over the
     seven mOSD learn scenes (Kinect, raw frames and 3 to 8 mm voxel grids,

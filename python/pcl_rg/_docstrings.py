@@ -33,6 +33,20 @@ ValueError
     "type_error": """\
 TypeError
     Non-numeric points or parameters of the wrong type.""",
+    # The k-nearest-neighbour steps' float32 frame (points.hpp, float32_frame).
+    "far_points_value_error": """\
+ValueError
+    More than 1 % of the points (and more than one) far from the rest (see
+    Notes): a cloud too wide for one float32 frame, to be split into tiles.""",
+    "far_points": """\
+Far points: the neighbour search runs in float32, relative to a float64
+local origin (the minimum corner, stray points far below left out). A point
+more than 2^24 x 0.1 = 1677721.6 m from that origin on some axis, where
+float32 resolves no better than 0.125 m, is far: a stray point such as a bad
+GPS fix, or a record at (0, 0, 0) in a UTM tile. Up to 1 % of the points (at
+least one) may be far. They are left out: the other points get the result
+of the cloud without them, and each far point gets that of a point without
+neighbours.""",
 }
 
 Function = TypeVar("Function", bound=Callable)

@@ -79,6 +79,7 @@ def normals(
     ------
     ValueError
         Non-finite points, a wrong shape, ``k < 3`` or ``k >= N``.
+    %(far_points_value_error)s
     %(type_error)s
 
     Notes
@@ -114,6 +115,9 @@ def normals(
     k2 are NaN while the normal and surface variation are kept (for collinear
     neighbours the normal is then an arbitrary unit vector perpendicular to
     the line, as in PCL).
+
+    %(far_points)s
+    Every output of a far point is NaN.
 
     Runs in parallel (OpenMP) with the GIL released; results do not depend on
     the number of threads.

@@ -50,6 +50,7 @@ def point_scale(points: npt.ArrayLike) -> PointScale:
     Raises
     ------
     %(points_value_error)s
+    %(far_points_value_error)s
     %(type_error)s
 
     Notes
@@ -79,6 +80,9 @@ def point_scale(points: npt.ArrayLike) -> PointScale:
     (:func:`pcl_rg.tin_ground`, :func:`pcl_rg.grid_ground`) scale their unset
     lengths with: this spacing is 3-D, a median nearest-neighbour distance on
     a scanned surface, and comes with its noise.
+
+    %(far_points)s
+    Both are measured on the other points alone.
 
     Examples
     --------

@@ -151,6 +151,7 @@ def region_growing(
         ``"surface_variation"``, ``k >= N``, an angle outside (0, 180), a negative
         threshold, ``min_cluster_size > max_cluster_size``, an unknown
         ``seed_measure``).
+    %(far_points_value_error)s
     %(type_error)s
 
     Notes
@@ -190,6 +191,10 @@ def region_growing(
     growth. The result is deterministic and does not depend on the number of
     threads. It does depend on the input order wherever two measures tie or
     neighbour distances tie (the index breaks the tie).
+
+    %(far_points)s
+    A far point, with undefined normal and measure, is a region of its own
+    (-1 unless ``min_cluster_size`` is 1).
 
     References
     ----------

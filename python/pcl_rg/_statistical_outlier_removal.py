@@ -66,6 +66,7 @@ def statistical_outlier_removal(
     ValueError
         Non-finite points, a wrong shape, ``mean_k < 1``, ``mean_k >= N``,
         or a negative or non-finite ``std_mul``.
+    %(far_points_value_error)s
     %(type_error)s
 
     Notes
@@ -74,16 +75,19 @@ def statistical_outlier_removal(
     nearest neighbours. With mu and sigma the mean and sample standard
     deviation (n - 1) of all d_i, point i is an inlier when
     ``d_i <= mu + std_mul * sigma``. This is ``pcl::StatisticalOutlierRemoval``
-    of PCL 1.13 to the bit: distances are computed in float32 after a float64
-    local origin (the minimum corner, stray points far below left out) is
-    subtracted, and the sums are taken in
-    the same order and precision. Neighbour queries run in parallel on an
+    of PCL 1.13 to the bit (far points aside, below): distances are computed
+    in float32 after a float64 local origin (the minimum corner, stray points
+    far below left out) is subtracted, and the sums are taken in the same
+    order and precision. Neighbour queries run in parallel on an
     exact k-d tree (nanoflann) with the GIL released.
 
     mu and sigma are taken over every point, outliers included, so a few
     points very far from the rest (a bad GPS fix hundreds of km away) raise
     the threshold until only they are outliers: remove them, then run it
-    again for the ordinary noise (as PCL's class behaves).
+    again for the ordinary noise (as PCL's class behaves). Far points (below)
+    are the exception: outliers by rule, with d_i = inf, outside mu and sigma.
+
+    %(far_points)s
 
     References
     ----------
@@ -103,11 +107,12 @@ def statistical_outlier_removal(
     p = resolve_arguments(StatisticalOutlierRemovalParams, locals())
     xyz = as_points(points, max_points=MAX_POINTS_UINT32)
     inlier, mean_distance, threshold, _ = _core.statistical_outlier_removal(xyz, p.to_core())
+    counted = mean_distance[np.isfinite(mean_distance)]  # far points' d_i is inf
     record(
         "statistical_outlier_removal",
         points=len(xyz),
         inliers=int(inlier.sum()),
         threshold=float(threshold),
-        mean_distance=float(mean_distance.mean()) if len(xyz) else float("nan"),
+        mean_distance=float(counted.mean()) if len(counted) else float("nan"),
     )
     return inlier

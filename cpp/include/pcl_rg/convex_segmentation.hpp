@@ -84,6 +84,7 @@ void merge_convex(PointsView points, std::size_t k, const std::uint32_t* neighbo
                   const double* normals, const std::int32_t* patches,
                   const ConvexSegmentationParams& params, std::int32_t* labels);
 
+/// Far points (float32_frame, points.hpp) are left out of every step below and get -1.
 /// The viewpoint, when unset, is default_viewpoint() of the input points (not of a
 /// grid's centroids). When noise_leaves x noise > spacing (point_scale()), the steps
 /// below run on the centroids of a voxel grid of that leaf (voxel_grid.hpp) and each

@@ -56,7 +56,8 @@ inline constexpr double kQuadricConditionLimit = 1e-10;
 /// Degenerate neighbourhoods: all k points coincident -> every output NaN; fewer than
 /// 6 neighbours or a rank-deficient quadric design (e.g. collinear points) -> K, H,
 /// k1, k2 NaN while the normal and surface variation are kept (for collinear points
-/// the normal is an arbitrary unit vector perpendicular to the line).
+/// the normal is an arbitrary unit vector perpendicular to the line). Far points
+/// (float32_frame, points.hpp) are left out: every output NaN, and a row of themselves.
 /// When `neighbours` is not null it receives the N x k neighbour lists (row-major).
 /// Throws std::invalid_argument when k >= N (non-empty input).
 void normals(PointsView points, const NormalsParams& params, const NormalsOutput& out,
@@ -67,7 +68,8 @@ void normals(PointsView points, const NormalsParams& params, const NormalsOutput
 /// frame, equal distances by lower index; which of several points tied at the k-th
 /// distance is kept follows the k-d tree traversal, see knn.hpp). Throws
 /// std::invalid_argument when k >= N (non-empty input). `leaf_budget`, `heap_from_k`:
-/// see KnnIndex::nearest (the lists depend on neither).
+/// see KnnIndex::nearest (the lists depend on neither). Far points (float32_frame) are
+/// left out: in no other row, and each a row of itself alone.
 std::vector<std::uint32_t> neighbour_lists(PointsView points, const NormalsParams& params,
                                            std::optional<std::size_t> leaf_budget = std::nullopt,
                                            std::optional<std::size_t> heap_from_k = std::nullopt);

@@ -38,4 +38,8 @@ struct PointScale {
 /// noise NaN.
 PointScale point_scale(PointsView points);
 
+/// point_scale(points) with float32_frame(points) already made: convex_segmentation
+/// needs the frame first and so makes it once.
+PointScale point_scale(PointsView points, const Float32Frame& frame);
+
 }  // namespace pcl_rg

@@ -57,11 +57,6 @@ inline std::int64_t floor_to_int(double q) {
     return truncated - (q < static_cast<double>(truncated) ? 1 : 0);
 }
 
-/// The points minus `origin`, as row-major float32 x, y, z: the local frame in which
-/// distances are computed exactly as PCL computes them on its float clouds. Throws
-/// std::invalid_argument when a coordinate lies beyond kFloat32Reach of the origin.
-std::vector<float> to_local_float(PointsView points, const std::array<double, 3>& origin);
-
 /// How far from the local origin a float32 coordinate may lie: 2^24 x 0.1, about 1.68e6
 /// (1,678 km for LiDAR in metres), where float32's step reaches 0.125, so points about
 /// 0.1 apart could merge (and a point beyond 3.4e38 becomes infinite). No tile spans
@@ -69,7 +64,34 @@ std::vector<float> to_local_float(PointsView points, const std::array<double, 3>
 constexpr double kFloat32Reach = 0x1p24 * 0.1;
 
 /// Throws the error of a float32 frame that cannot hold the points (a coordinate beyond
-/// kFloat32Reach of the local origin; with a far minimum corner, every other point).
+/// kFloat32Reach of the local origin): PCL's clouds (pcl_cloud.cpp), which hold every
+/// point; our own steps leave a few far points out instead (float32_frame).
 [[noreturn]] void throw_beyond_float32_reach();
+
+/// The float32 frame of one of our k-nearest-neighbour steps (normals, neighbour lists,
+/// outlier removal, point_scale). A point beyond kFloat32Reach of float32_origin on some
+/// axis is far: a stray point (a bad GPS fix, a record at (0, 0, 0) in a UTM tile) that
+/// float32 cannot place among the rest, and whose neighbours lie at least that far away.
+/// Up to max_far_points(N) far points are left out: the step runs on the others as if
+/// the far ones were absent (in their own frame) and gives each far point the result of
+/// a point without neighbours. More are refused: the cloud is too wide for one frame.
+struct Float32Frame {
+    std::vector<float> local;       ///< the points less the origin, when none is far
+    std::vector<std::size_t> near;  ///< else the points that are not far, ascending
+
+    bool has_far_points() const { return !near.empty(); }
+};
+
+/// The frame of `points` (a non-empty view); throws std::invalid_argument when more
+/// than max_far_points(points.size) points are far. NumPy twin:
+/// pcl_rg.reference._local.near_rows.
+Float32Frame float32_frame(PointsView points);
+
+/// How many far points (Float32Frame) a step leaves out of N: 1 % of N, and at least one.
+inline std::size_t max_far_points(std::size_t n) { return n / 100 > 1 ? n / 100 : 1; }
+
+/// The points `rows` of `points`, copied row-major: the cloud a step runs on when it
+/// leaves the far points out.
+std::vector<double> gather_points(PointsView points, const std::vector<std::size_t>& rows);
 
 }  // namespace pcl_rg

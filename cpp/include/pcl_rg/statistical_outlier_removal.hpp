@@ -19,9 +19,11 @@ struct StatisticalOutlierRemovalParams {
 void validate(const StatisticalOutlierRemovalParams& params);
 
 struct StatisticalOutlierRemovalResult {
-    std::vector<float> mean_distance;  ///< d_i per point, in float32 as PCL keeps it (m)
+    /// d_i per point, in float32 as PCL keeps it (m); inf for far points (float32_frame).
+    std::vector<float> mean_distance;
     /// Distance to the farthest of the mean_k neighbours (m): a caller that ran on a tile
-    /// plus a buffer knows d_i is exact where this is below the distance to the buffer's edge.
+    /// plus a buffer knows d_i is exact where this is below the distance to the buffer's
+    /// edge. Inf for far points.
     std::vector<float> farthest_distance;
     double threshold = 0.0;  ///< mu + std_mul * sigma (m); NaN when sigma is
                              ///< not a number, in which case every point is kept

@@ -379,16 +379,18 @@ def denoise_distances(job: Job, tile: Tile, survey: Box, others: list[Tile]) -> 
             )
             # Distances in metres; farthest as a bound on x, y offsets in their unit.
             distance, farthest = distance[: len(mine)], farthest[: len(mine)] / job.scale[0]
-            short = farthest > _room(mine, reach, survey)
+            # A far point (inf: left out, as in the merged run) waits for no buffer.
+            short = np.isfinite(farthest) & (farthest > _room(mine, reach, survey))
             if not short.any() or whole:
                 break
             margin = max(2.0 * margin, float(farthest[short].max()) * 1.01 + margin)
         np.save(os.path.join(_folder(job, tile), "distance.npy"), distance)
-        d64 = distance.astype(np.float64)
-        squares = (distance * distance).astype(np.float64)  # float products, as PCL sums them
+        counted = distance[np.isfinite(distance)]  # far points stay out of mu and sigma
+        d64 = counted.astype(np.float64)
+        squares = (counted * counted).astype(np.float64)  # float products, as PCL sums them
         return {
             "points": len(own),
-            "count": len(distance),
+            "count": len(counted),
             "sum": float(d64.sum()),
             "sum_sq": float(squares.sum()),
             "buffer_used": margin,
@@ -410,7 +412,7 @@ def denoise_write(
         valid = usable_points(own)
         distance = np.load(os.path.join(_folder(job, tile), "distance.npy"))
         outlier = np.zeros(len(own), bool)
-        outlier[valid] = distance > threshold
+        outlier[valid] = (distance > threshold) | np.isinf(distance)  # far: always
         classes = noise_classes(own, valid, outlier)
         write_points(
             tile.output, own.points, dict(own.fields, classification=classes), template=own

@@ -1,16 +1,14 @@
-"""The local frame of the k-nearest-neighbour references, and the reach it refuses."""
+"""The local frame of the k-nearest-neighbour references, and the far points it leaves out."""
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["FLOAT32_REACH", "float32_origin", "local_frame"]
+__all__ = ["FLOAT32_REACH", "float32_origin", "local_frame", "max_far_points", "near_rows"]
 
 #: How far from the local origin (float32_origin) a coordinate may lie: 2^24 x 0.1,
-#: where float32's step reaches 0.125. The core's kFloat32Reach (points.hpp), whose
-#: message local_frame repeats, so that the reference refuses what the core refuses
-#: (in float64 a stray point at 1e160 overflowed the deviation and made every point an
-#: outlier).
+#: where float32's step reaches 0.125. The core's kFloat32Reach (points.hpp). A point
+#: beyond it on some axis is far (near_rows).
 FLOAT32_REACH = 2.0**24 * 0.1
 
 
@@ -34,14 +32,37 @@ def float32_origin(xyz: np.ndarray) -> np.ndarray:
     return np.where(xyz >= fence, xyz, np.inf).min(axis=0)
 
 
-def local_frame(xyz: np.ndarray) -> np.ndarray:
-    """`xyz` less :func:`float32_origin` (float64), or ValueError beyond FLOAT32_REACH."""
-    local = xyz - float32_origin(xyz)
-    if not (np.abs(local) <= FLOAT32_REACH).all():
+def max_far_points(n: int) -> int:
+    """How many far points (:func:`near_rows`) a step leaves out of `n`: 1 % of n, at
+    least one (the core's max_far_points, points.hpp)."""
+    return max(1, n // 100)
+
+
+def near_rows(xyz: np.ndarray) -> np.ndarray | None:
+    """The rows of `xyz` (non-empty) that are not far, or None when none is far.
+
+    A point is far when it lies more than FLOAT32_REACH from :func:`float32_origin`
+    on some axis: a stray point that float32 cannot place among the rest. The
+    k-nearest-neighbour steps leave up to :func:`max_far_points` of them out, running on
+    the other rows as if they were absent (the core's float32_frame, points.hpp); more
+    raise ValueError, with the core's message.
+    """
+    with np.errstate(over="ignore"):  # 1e308 - -1e308: inf, far all the same
+        near = (np.abs(xyz - float32_origin(xyz)) <= FLOAT32_REACH).all(axis=1)
+    far = len(xyz) - int(near.sum())
+    if far == 0:
+        return None
+    if far > max_far_points(len(xyz)):
         raise ValueError(
-            "points: a coordinate lies more than 2^24 x 0.1 = 1677721.6 (metres for LiDAR) "
-            "from the local origin on some axis, where float32, which this step computes "
-            "in, resolves no better than 0.125; a stray point far from the rest? drop it, "
-            "or split the cloud into tiles"
+            f"points: {far} of {len(xyz)} points lie more than 2^24 x 0.1 = 1677721.6 "
+            "(metres for LiDAR) from the local origin on some axis, where float32, which "
+            "this step computes in, resolves no better than 0.125; up to 1 % of the points "
+            "(at least one) are taken for stray points and left out, more mean a cloud too "
+            "wide for one float32 frame: split it into tiles"
         )
-    return local
+    return np.flatnonzero(near)
+
+
+def local_frame(xyz: np.ndarray) -> np.ndarray:
+    """`xyz` less :func:`float32_origin` (float64), for a cloud without far points."""
+    return xyz - float32_origin(xyz)

@@ -12,6 +12,7 @@ from .._convex_segmentation import ConvexSegmentationParams
 from .._params import resolve_arguments
 from .._region_growing import RegionGrowingParams
 from .._validation import as_points
+from ._local import near_rows
 from .normals import neighbour_lists, normals
 from .point_scale import point_scale
 from .region_growing import grow_regions
@@ -191,6 +192,11 @@ def convex_segmentation(
     xyz = as_points(points)
     if len(xyz) == 0:
         return np.empty(0, dtype=np.int32)
+    near = near_rows(xyz)
+    if near is not None:  # far points: left out of every step, the viewpoint included
+        labels = np.full(len(xyz), -1, dtype=np.int32)
+        labels[near] = convex_segmentation(xyz[near], params=p)
+        return labels
     if p.viewpoint is None:  # resolved on the input, so a grid is seen from the same place
         p = dataclasses.replace(p, viewpoint=default_viewpoint(xyz))
     if p.noise_leaves > 0:

@@ -9,7 +9,7 @@ from scipy.spatial import cKDTree
 from .._normals import NormalsParams, NormalsResult
 from .._params import check_number, resolve_arguments
 from .._validation import as_points
-from ._local import local_frame
+from ._local import local_frame, near_rows
 
 __all__ = ["neighbour_lists", "normals", "QUADRIC_CONDITION_LIMIT"]
 
@@ -30,7 +30,8 @@ def neighbour_lists(
 
     Same definition as the core: float32 coordinates relative to the float64
     origin ``_local.float32_origin`` (the minimum corner, stray points far
-    below left out), float32 squared distances
+    below left out; far points, ``_local.near_rows``, have only themselves in
+    their rows and are in no other row), float32 squared distances
     summed over x, y, z in that order, ascending, equal distances by lower
     index. cKDTree proposes candidates in float64; they are re-ranked in
     float32 and the query is widened wherever a non-candidate could still
@@ -50,6 +51,14 @@ def neighbour_lists(
         return (empty, np.empty(0, dtype=bool)) if return_boundary_ties else empty
     if k >= n:
         raise ValueError(f"k must be < the number of points ({n}), got {k}")
+    near = near_rows(xyz)
+    if near is not None:  # far points: rows of themselves alone, no neighbours
+        out = np.repeat(np.arange(n)[:, None], k, axis=1)
+        ties = np.zeros(n, dtype=bool)
+        kept, kept_ties = neighbour_lists(xyz[near], k, return_boundary_ties=True)
+        ties[near] = kept_ties
+        out[near] = near[kept]
+        return (out, ties) if return_boundary_ties else out
     local = local_frame(xyz).astype(np.float32)
     tree = cKDTree(local.astype(np.float64))
     out = np.empty((n, k), dtype=np.intp)

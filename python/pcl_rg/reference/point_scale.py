@@ -7,6 +7,7 @@ import numpy.typing as npt
 
 from .._point_scale import NEIGHBOURS, SAMPLES, SURFACE_RATIO, PointScale
 from .._validation import as_points
+from ._local import near_rows
 from .normals import neighbour_lists
 
 __all__ = ["point_scale"]
@@ -38,6 +39,9 @@ def point_scale(points: npt.ArrayLike) -> PointScale:
     n = len(xyz)
     if n <= NEIGHBOURS:
         return PointScale(float("nan"), float("nan"))
+    near = near_rows(xyz)
+    if near is not None:  # measured on the others alone
+        return point_scale(xyz[near])
     rows = np.arange(0, n, max(1, n // SAMPLES))
     relative = xyz[neighbour_lists(xyz, NEIGHBOURS)[rows]] - xyz[rows, None, :]
     spacing = np.linalg.norm(relative[:, 1], axis=1)

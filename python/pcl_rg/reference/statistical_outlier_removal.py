@@ -9,17 +9,23 @@ from scipy.spatial import cKDTree
 from .._params import check_number, resolve_arguments
 from .._statistical_outlier_removal import StatisticalOutlierRemovalParams
 from .._validation import as_points
-from ._local import local_frame
+from ._local import local_frame, near_rows
 
 __all__ = ["statistical_outlier_removal", "mean_neighbour_distance"]
 
 
 def mean_neighbour_distance(points: npt.ArrayLike, mean_k: int) -> np.ndarray:
-    """d_i: mean float64 distance of each point to its `mean_k` nearest others."""
+    """d_i: mean float64 distance of each point to its `mean_k` nearest others; inf for
+    the far points (``_local.near_rows``), which have none."""
     xyz = as_points(points)
     mean_k = check_number("mean_k", mean_k, int, minimum=1)
     if mean_k >= len(xyz):
         raise ValueError(f"mean_k must be < the number of points ({len(xyz)}), got {mean_k}")
+    near = near_rows(xyz)
+    if near is not None:
+        distance = np.full(len(xyz), np.inf)
+        distance[near] = mean_neighbour_distance(xyz[near], mean_k)
+        return distance
     local = local_frame(xyz)
     # k + 1 neighbours: the nearest is the point itself (or a duplicate), at distance 0.
     distance, _ = cKDTree(local).query(local, k=mean_k + 1)
@@ -51,5 +57,6 @@ def statistical_outlier_removal(
     if len(xyz) == 0:
         return np.empty(0, dtype=bool)
     d = mean_neighbour_distance(xyz, p.mean_k)
-    threshold = d.mean() + p.std_mul * d.std(ddof=1)
+    finite = d[np.isfinite(d)]  # far points: outliers, outside mu and sigma
+    threshold = finite.mean() + p.std_mul * finite.std(ddof=1)
     return d <= threshold

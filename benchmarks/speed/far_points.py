@@ -1,0 +1,111 @@
+"""The k-nearest-neighbour steps with and without a far point, and against another build.
+
+Usage:
+    python benchmarks/speed/far_points.py [--before SITE] [--rounds 3] [--points 1000000]
+
+A far point lies beyond float32's reach of the cloud's local origin (a record at
+(0, 0, 0) in a UTM tile): the steps leave it out, which copies the other points
+and makes their frame again. Each cell is the median over the rounds of the best
+of 3 calls in a fresh child process; the rounds alternate the builds (the other
+one, with --before, is a site folder of an older commit's build, as in
+ground_builds.py; older builds refused the far point). Clouds: `--points`
+uniform points over 100 x 100 x 5 m at UTM coordinates, with the record at the
+origin appended for "stray"; convex segmentation on the mOSD frame learn0 (its
+defaults, voxel grid and all), with a point 5,400 km away for "stray".
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/_common.py
+from _common import SHARED_DATA  # noqa: E402
+
+CHILD = r"""
+import json, sys, time
+import numpy as np
+import pcl_rg
+steps = {
+    "statistical_outlier_removal": pcl_rg.statistical_outlier_removal,
+    "normals (k = 15)": lambda p: pcl_rg.normals(p, k=15),
+    "convex_segmentation": pcl_rg.convex_segmentation,
+}
+points = np.load(sys.argv[2])
+best = []
+for _ in range(3):
+    start = time.perf_counter()
+    try:
+        steps[sys.argv[1]](points)
+    except ValueError:  # an older build refuses a far point
+        print(json.dumps(None))
+        sys.exit()
+    best.append(time.perf_counter() - start)
+print(json.dumps(min(best)))
+"""
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--before", help="site folder of another build")
+    parser.add_argument("--points", type=int, default=1_000_000)
+    parser.add_argument("--rounds", type=int, default=3)
+    args = parser.parse_args(argv)
+
+    from pcl_rg.datasets import load_mosd
+
+    data = SHARED_DATA / "mosd" / "learn0.pcd"
+    if not data.exists():
+        sys.exit(f"far_points.py: {data} is missing (../shared/data, see its README)")
+    rng = np.random.default_rng(0)
+    uniform = rng.random((args.points, 3)) * [100.0, 100.0, 5.0] + [5e5, 5.4e6, 0.0]
+    frame = load_mosd(data).points
+    builds = {"this build": None} | ({"before": args.before} if args.before else {})
+    with tempfile.TemporaryDirectory() as folder:
+        clouds = {}
+        for name, points in (
+            ("uniform", uniform),
+            ("uniform + stray", np.r_[uniform, [[0.0, 0.0, 0.0]]]),
+            ("learn0", frame),
+            ("learn0 + stray", np.r_[frame, [[-5e5, -5.4e6, 0.0]]]),
+        ):
+            clouds[name] = os.path.join(folder, f"{name}.npy")
+            np.save(clouds[name], points)
+        cases = [
+            (step, cloud)
+            for step in ("statistical_outlier_removal", "normals (k = 15)")
+            for cloud in ("uniform", "uniform + stray")
+        ] + [("convex_segmentation", "learn0"), ("convex_segmentation", "learn0 + stray")]
+        times: dict[tuple[str, str, str], list[float]] = {}
+        for _ in range(args.rounds):
+            for step, cloud in cases:
+                for build, site in builds.items():
+                    env = dict(os.environ) | ({"PYTHONPATH": site} if site else {})
+                    done = subprocess.run(
+                        [sys.executable, "-c", CHILD, step, clouds[cloud]],
+                        env=env, capture_output=True, text=True, check=True,
+                    )  # fmt: skip
+                    times.setdefault((step, cloud, build), []).append(json.loads(done.stdout))
+    print("| step | cloud | " + " | ".join(f"{b} (s)" for b in builds) + " |")
+    print("|---|---|" + "---:|" * len(builds))
+    for step, cloud in cases:
+        cells = [
+            "refused"
+            if None in times[step, cloud, b]
+            else f"{statistics.median(times[step, cloud, b]):.3f}"
+            for b in builds
+        ]
+        print(f"| {step} | {cloud} | " + " | ".join(cells) + " |")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
