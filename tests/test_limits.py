@@ -110,6 +110,21 @@ def test_a_point_beyond_float32s_reach_is_left_out(name, call, far) -> None:
         assert beside[-1] == expected
 
 
+def test_the_core_neighbour_lists_leave_far_points_out_as_the_reference_does() -> None:
+    from pcl_rg import _core
+    from pcl_rg._normals import NormalsParams
+    from pcl_rg.reference.normals import neighbour_lists
+
+    utm = np.random.default_rng(2).random((400, 3)) * [50.0, 50.0, 5.0] + [5e5, 5.4e6, 0.0]
+    points = np.r_[utm[:200], [[0.0, 0.0, 0.0]], utm[200:], [[5e5, 1e7, 0.0]]]
+    core = np.asarray(_core.neighbour_lists(points, NormalsParams(k=8).to_core()))
+    np.testing.assert_array_equal(core, neighbour_lists(points, 8))
+    assert (core[200] == 200).all() and (core[401] == 401).all()  # themselves alone
+    # The others: their lists without the far points, numbered in the whole cloud.
+    alone = np.asarray(_core.neighbour_lists(utm, NormalsParams(k=8).to_core()))
+    np.testing.assert_array_equal(np.delete(core, [200, 401], axis=0), alone + (alone >= 200))
+
+
 @pytest.mark.parametrize(("name", "call"), FLOAT32_STEPS, ids=[c[0] for c in FLOAT32_STEPS])
 def test_more_far_points_than_one_percent_are_refused(name, call) -> None:
     # 1 % of the points may be strays; more mean a cloud wider than one float32 frame
