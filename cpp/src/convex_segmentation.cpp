@@ -224,7 +224,7 @@ ConvexSegmentationTimings convex_segmentation(PointsView points,
     check::indexable_by_int32(n);
     // Far points (float32_frame) are left out of every step, the viewpoint, the scale
     // and the grid included (one at 1e39 overflowed the grid's voxel indices).
-    const Float32Frame frame = float32_frame(points);
+    Float32Frame frame = float32_frame(points);
     if (frame.has_far_points()) {
         const std::vector<double> kept = gather_points(points, frame.near);
         std::vector<std::int32_t> kept_labels(frame.near.size());
@@ -241,6 +241,7 @@ ConvexSegmentationTimings convex_segmentation(PointsView points,
     double leaf = 0.0;
     if (params.noise_leaves > 0.0) {
         const PointScale scale = point_scale(points, frame);
+        frame = Float32Frame();  // its float32 copy is not needed past the scale
         if (params.noise_leaves * scale.noise > scale.spacing)  // NaN (tiny cloud): no grid
             leaf = params.noise_leaves * scale.noise;
     }
