@@ -378,11 +378,14 @@ def test_an_interrupt_while_the_local_cluster_starts_waits_for_it_then_closes_it
         def __exit__(self, *exc):
             events.append("client closed")
 
+        def register_plugin(self, plugin, name):
+            events.append("plugin")
+
     monkeypatch.setattr(distributed, "LocalCluster", StartingCluster)
     monkeypatch.setattr(distributed, "Client", FakeClient)
     with pytest.raises(KeyboardInterrupt), dask_client(1, None):
         events.append("ran")  # never: the interrupt comes first
-    assert events == ["started", "client", "client closed", "closed"]
+    assert events == ["started", "client", "plugin", "client closed", "closed"]
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
 
 

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import contextlib
-import logging
 import os
 import signal
 import threading
@@ -104,6 +103,8 @@ def dask_client(workers: int | None, scheduler: str | None) -> Iterator[Any]:
     """A Dask client: of `scheduler`, or of a local cluster of one-thread processes."""
     from distributed import Client, LocalCluster
 
+    from ._dask_logs import DASK_LOG_LEVEL, QuietDaskLogs
+
     if scheduler:
         with _connect(scheduler) as client:
             yield client
@@ -123,9 +124,12 @@ def dask_client(workers: int | None, scheduler: str | None) -> Iterator[Any]:
                     # Any free port: the scheduler's HTTP server (the dashboard, when
                     # bokeh is installed) must not collide with another cluster's 8787.
                     dashboard_address=":0",
-                    silence_logs=logging.ERROR,
+                    silence_logs=DASK_LOG_LEVEL,
                 )
             )
             client = stack.enter_context(Client(cluster))
+            # Registered with the scheduler, the plugin also reaches a worker that
+            # Dask restarts later in the run.
+            client.register_plugin(QuietDaskLogs(), name="pcl_rg quiet dask logs")
         held.run_pending()
         yield client
