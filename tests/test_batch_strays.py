@@ -8,6 +8,7 @@ whole survey: the tile's buffer surrounds its points (batch._plan.footprint).
 from __future__ import annotations
 
 import math
+import os
 
 import numpy as np
 import pytest
@@ -131,21 +132,47 @@ def test_a_stray_point_leaves_the_survey_lengths_alone(tmp_path, scheduler) -> N
     assert changed[:2] + changed[3:] == [0] * 8
 
 
-def test_denoise_flags_a_record_at_the_origin_with_the_ordinary_noise(tmp_path, scheduler):
+@pytest.mark.parametrize("records", [1, 400])
+def test_denoise_flags_records_at_the_origin_with_the_ordinary_noise(records, tmp_path, scheduler):
     # (0, 0, 0) in a UTM survey lies beyond float32's reach of its local origin: the
-    # merged run leaves it out of its deviation and flags it; the tiles agree.
+    # merged run leaves it out of its deviation and flags it; the tiles agree. 400 such
+    # records are 0.65 % of the survey, which the merged run leaves out, but 1.2 % of the
+    # middle tile's cloud with its buffer, which the core alone refused: a tile failed.
     source = synthetic_survey(tmp_path / "in", tiles=(3, 3), tile_size=40.0, seed=5)
     tile = read_points(source.paths[4])
-    fields = {k: np.concatenate([v, np.zeros_like(v[:1])]) for k, v in tile.fields.items()}
-    write_points(source.paths[4], np.r_[tile.points, [[0.0, 0.0, 0.0]]], fields)
+    fields = {k: np.concatenate([v, np.zeros_like(v[:records])]) for k, v in tile.fields.items()}
+    write_points(source.paths[4], np.r_[tile.points, np.zeros((records, 3))], fields)
     params = pcl_rg.StatisticalOutlierRemovalParams(mean_k=12, std_mul=1.0)
     report = batch.denoise(source.paths, tmp_path / "out", params=params, scheduler=scheduler)
     assert [t.status for t in report.tiles] == ["done"] * 9
     merged = np.concatenate([read_points(p).points for p in source.paths])
     expected = ~pcl_rg.statistical_outlier_removal(merged, params=params)
     got = np.concatenate([read_points(t.output).classification for t in report.tiles]) == 7
-    assert expected.sum() > 1 and np.array_equal(got, expected)
-    assert read_points(report.tiles[4].output).classification[-1] == 7
+    assert expected.sum() > records and np.array_equal(got, expected)
+    assert (read_points(report.tiles[4].output).classification[-records:] == 7).all()
+
+
+def test_denoise_refuses_more_far_records_than_the_merged_run_takes(tmp_path, scheduler):
+    # Over 1 % of the survey's points far away: the merged run refuses the cloud; the
+    # batch fails the tile that holds them, with the count over the survey, and writes
+    # the others (with the threshold of their own points, as when any tile fails).
+    source = synthetic_survey(tmp_path / "in", tiles=(3, 3), tile_size=40.0, seed=5)
+    survey_points = sum(len(read_points(p)) for p in source.paths)
+    records = survey_points // 99 + 1  # just over 1 % of the survey with them
+    tile = read_points(source.paths[4])
+    fields = {k: np.concatenate([v, np.zeros_like(v[:records])]) for k, v in tile.fields.items()}
+    write_points(source.paths[4], np.r_[tile.points, np.zeros((records, 3))], fields)
+    merged = np.concatenate([read_points(p).points for p in source.paths])
+    params = pcl_rg.StatisticalOutlierRemovalParams(mean_k=12, std_mul=1.0)
+    with pytest.raises(ValueError, match=f"{records} of {len(merged)} points lie more than"):
+        pcl_rg.statistical_outlier_removal(merged, params=params)
+    report = batch.denoise(source.paths, tmp_path / "out", params=params, scheduler=scheduler)
+    assert [t.status for t in report.tiles] == ["done"] * 4 + ["failed"] + ["done"] * 4
+    message = f"{records} of the survey's {len(merged)} points lie more than 2^24 x 0.1"
+    assert message in report.tiles[4].error
+    assert not (tmp_path / "out" / os.path.basename(report.tiles[4].output)).exists()
+    others = [t for t in report.tiles if t.status == "done"]
+    assert all(math.isfinite(t.details["threshold"]) for t in others)
 
 
 def test_neighbours_are_the_tiles_whose_boxes_meet_the_grown_box():

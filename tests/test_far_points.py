@@ -11,6 +11,7 @@ cloud without the stray points.
 from __future__ import annotations
 
 import math
+import subprocess
 import sys
 
 import numpy as np
@@ -317,3 +318,57 @@ def test_a_stray_point_barely_changes_the_ground_filters_on_isprs() -> None:
     mean = {key: 100 * float(np.mean(values)) for key, values in totals.items()}  # %
     assert mean["grid stray"] == pytest.approx(mean["grid"], abs=0.1)  # 4.42, 4.43
     assert mean["tin stray"] < mean["tin"] + 0.5  # 3.70, 3.33
+
+
+@pytest.mark.parametrize("rows", [[0], [0, 1, 150], [299, 300, 301], [5, 301]])
+def test_far_points_anywhere_leave_the_others_results_in_their_own_rows(rows: list) -> None:
+    # The kept points' results are made in the first rows of the full-size arrays and
+    # moved to their own rows in place: far points first, in a run, and last.
+    from pcl_rg import _core
+    from pcl_rg._normals import NormalsParams
+
+    kept = np.random.default_rng(5).random((302 - len(rows), 3)) * [50.0, 50.0, 5.0]
+    kept += [5e5, 5.4e6, 0.0]
+    points = np.zeros((302, 3))  # the far points at (0, 0, 0)
+    near = np.setdiff1d(np.arange(302), rows)
+    points[near] = kept
+    beside, alone = pcl_rg.normals(points), pcl_rg.normals(kept)
+    for got, want in zip(beside, alone, strict=True):
+        np.testing.assert_array_equal(got[near], want)
+        assert np.isnan(got[rows]).all()
+    params = NormalsParams(k=6).to_core()
+    lists = np.asarray(_core.neighbour_lists(points, params))
+    np.testing.assert_array_equal(
+        lists[near], near[np.asarray(_core.neighbour_lists(kept, params))]
+    )
+    np.testing.assert_array_equal(lists[rows], np.repeat(np.c_[rows], 6, axis=1))
+
+
+def test_a_far_point_costs_no_second_neighbour_table() -> None:
+    # The kept points' neighbour lists were made in a table of their own, then copied
+    # into a second one for the whole cloud: one stray point doubled region growing's
+    # peak memory (2M points: 311 MB, with it 628 MB), beyond the table's bound.
+    script = (
+        "import resource, sys, numpy as np, pcl_rg\n"
+        "points = np.random.default_rng(0).random((400_000, 3)) * [400.0, 400.0, 5.0]\n"
+        "if sys.argv[1] == 'far':\n"
+        "    points[7] = [0.0, 0.0, 5e6]\n"
+        "before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss\n"
+        "pcl_rg.region_growing(points, k=30)\n"
+        "print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before)\n"
+    )
+    peak_kib = {
+        case: int(
+            subprocess.run(
+                [sys.executable, "-c", script, case],
+                capture_output=True,
+                text=True,
+                check=True,
+                timeout=120,
+            ).stdout
+        )
+        for case in ("clean", "far")
+    }
+    table_kib = 400_000 * 30 * 4 / 1024
+    # Left: a float64 copy of the kept points and their row numbers, 32 bytes a point.
+    assert peak_kib["far"] - peak_kib["clean"] < 0.5 * table_kib, peak_kib

@@ -125,6 +125,29 @@ def test_the_core_neighbour_lists_leave_far_points_out_as_the_reference_does() -
     np.testing.assert_array_equal(np.delete(core, [200, 401], axis=0), alone + (alone >= 200))
 
 
+def test_the_cores_far_rows_and_limit_are_the_references() -> None:
+    # pcl_rg.batch's denoise finds a tile's far points with the core and holds their
+    # count over the survey to max_far_points: the rule of near_rows, without its limit.
+    from pcl_rg import _core
+    from pcl_rg.reference._local import max_far_points, near_rows
+
+    utm = np.random.default_rng(4).random((300, 3)) * [50.0, 50.0, 5.0] + [5e5, 5.4e6, 0.0]
+    for far_rows in ([], [0], [17, 298, 299]):
+        points = utm.copy()
+        points[far_rows] = [0.0, 0.0, 0.0]
+        expected = near_rows(points)
+        kept = _core.rows_within_float32_reach(points)
+        np.testing.assert_array_equal(kept, np.arange(300) if expected is None else expected)
+    points = utm.copy()
+    points[:5] = [0.0, 0.0, 0.0]  # more than near_rows leaves out: it refuses
+    with pytest.raises(ValueError, match="lie more than"):
+        near_rows(points)
+    np.testing.assert_array_equal(_core.rows_within_float32_reach(points), np.arange(5, 300))
+    assert len(_core.rows_within_float32_reach(np.empty((0, 3)))) == 0
+    for n in (0, 1, 99, 100, 199, 200, 250, 10**9):
+        assert _core.max_far_points(n) == max_far_points(n)
+
+
 @pytest.mark.parametrize(("name", "call"), FLOAT32_STEPS, ids=[c[0] for c in FLOAT32_STEPS])
 def test_more_far_points_than_one_percent_are_refused(name, call) -> None:
     # 1 % of the points may be strays; more mean a cloud wider than one float32 frame

@@ -1,4 +1,5 @@
-"""The k-nearest-neighbour steps with and without a far point, and against another build.
+"""The k-nearest-neighbour steps with and without a far point, and against another build:
+time and peak memory.
 
 Usage:
     python benchmarks/speed/far_points.py [--before SITE] [--rounds 3] [--points 1000000]
@@ -11,7 +12,10 @@ one, with --before, is a site folder of an older commit's build, as in
 ground_builds.py; older builds refused the far point). Clouds: `--points`
 uniform points over 100 x 100 x 5 m at UTM coordinates, with the record at the
 origin appended for "stray"; convex segmentation on the mOSD frame learn0 (its
-defaults, voxel grid and all), with a point 5,400 km away for "stray".
+defaults, voxel grid and all), with a point 5,400 km away for "stray". Peak memory:
+the child's peak resident size over the calls (VmHWM, reset just before them through
+/proc/self/clear_refs) less its resident size then (the cloud loaded), in MB, the
+median over the rounds.
 """
 
 from __future__ import annotations
@@ -37,9 +41,16 @@ import pcl_rg
 steps = {
     "statistical_outlier_removal": pcl_rg.statistical_outlier_removal,
     "normals (k = 15)": lambda p: pcl_rg.normals(p, k=15),
+    "region_growing (k = 30)": lambda p: pcl_rg.region_growing(p, k=30),
     "convex_segmentation": pcl_rg.convex_segmentation,
 }
 points = np.load(sys.argv[2])
+def status_kib(key):
+    with open("/proc/self/status") as status:
+        return next(int(line.split()[1]) for line in status if line.startswith(key))
+with open("/proc/self/clear_refs", "w") as clear_refs:
+    clear_refs.write("5")  # the peak resident size starts again from the current one
+before = status_kib("VmRSS:")
 best = []
 for _ in range(3):
     start = time.perf_counter()
@@ -49,7 +60,8 @@ for _ in range(3):
         print(json.dumps(None))
         sys.exit()
     best.append(time.perf_counter() - start)
-print(json.dumps(min(best)))
+peak = (status_kib("VmHWM:") - before) / 1024
+print(json.dumps([min(best), peak]))
 """
 
 
@@ -81,10 +93,14 @@ def main(argv: list[str] | None = None) -> int:
             np.save(clouds[name], points)
         cases = [
             (step, cloud)
-            for step in ("statistical_outlier_removal", "normals (k = 15)")
+            for step in (
+                "statistical_outlier_removal",
+                "normals (k = 15)",
+                "region_growing (k = 30)",
+            )
             for cloud in ("uniform", "uniform + stray")
         ] + [("convex_segmentation", "learn0"), ("convex_segmentation", "learn0 + stray")]
-        times: dict[tuple[str, str, str], list[float]] = {}
+        runs: dict[tuple[str, str, str], list[list[float] | None]] = {}
         for _ in range(args.rounds):
             for step, cloud in cases:
                 for build, site in builds.items():
@@ -93,16 +109,20 @@ def main(argv: list[str] | None = None) -> int:
                         [sys.executable, "-c", CHILD, step, clouds[cloud]],
                         env=env, capture_output=True, text=True, check=True,
                     )  # fmt: skip
-                    times.setdefault((step, cloud, build), []).append(json.loads(done.stdout))
-    print("| step | cloud | " + " | ".join(f"{b} (s)" for b in builds) + " |")
-    print("|---|---|" + "---:|" * len(builds))
+                    runs.setdefault((step, cloud, build), []).append(json.loads(done.stdout))
+    heads = [f"{b} (s)" for b in builds] + [f"{b}, peak (MB)" for b in builds]
+    print("| step | cloud | " + " | ".join(heads) + " |")
+    print("|---|---|" + "---:|" * len(heads))
     for step, cloud in cases:
-        cells = [
-            "refused"
-            if None in times[step, cloud, b]
-            else f"{statistics.median(times[step, cloud, b]):.3f}"
-            for b in builds
-        ]
+        cells = []
+        for column, form in ((0, "{:.3f}"), (1, "{:.0f}")):
+            for b in builds:
+                measured = runs[step, cloud, b]
+                cells.append(
+                    "refused"
+                    if None in measured
+                    else form.format(statistics.median(m[column] for m in measured))
+                )
         print(f"| {step} | {cloud} | " + " | ".join(cells) + " |")
     return 0
 

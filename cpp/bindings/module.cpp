@@ -18,4 +18,5 @@ PYBIND11_MODULE(_core, m) {
     pcl_rg::bindings::bind_tin_ground(m);
     pcl_rg::bindings::bind_delaunay(m);
     pcl_rg::bindings::bind_point_spacing(m);
+    pcl_rg::bindings::bind_points(m);
 }

@@ -117,76 +117,80 @@ PointGeometry point_geometry(const std::vector<Eigen::Vector3d>& rel) {
     return g;
 }
 
-// The lists of the points `near` (kept_lists, numbered among them) numbered in the whole
-// view of n points, whose far points (float32_frame) get rows of themselves alone: no
-// neighbours, so their geometry is undefined (NaN) and no region reaches them.
-std::vector<std::uint32_t> lists_with_far_points(std::size_t n, std::size_t k,
-                                                 const std::vector<std::size_t>& near,
-                                                 const std::vector<std::uint32_t>& kept_lists) {
-    std::vector<std::uint32_t> lists(n * k);
-    for (std::size_t i = 0; i < n; ++i)
-        std::fill_n(lists.begin() + static_cast<std::ptrdiff_t>(i * k), k,
-                    static_cast<std::uint32_t>(i));
-    for (std::size_t s = 0; s < near.size(); ++s)
+// Turns the lists of the points `near` alone (the first near.size() rows of `lists`,
+// numbered among those points) into the lists of the whole view of n points, in place:
+// each far point (float32_frame) gets a row of itself alone, no neighbours, so its
+// geometry is undefined (NaN) and no region reaches it. The callers reserve n * k
+// entries before the kept points' lists are made: a second table, built beside the
+// first, doubled a step's peak memory for one stray point (2M points, k = 30: 521 MB
+// instead of 231 MB) and broke the neighbour table's documented bound.
+void spread_over_far_points(std::vector<std::uint32_t>& lists, std::size_t n, std::size_t k,
+                            const std::vector<std::size_t>& near) {
+    lists.resize(n * k);
+    const auto fill_alone = [&](std::size_t first, std::size_t end) {
+        for (std::size_t r = first; r < end; ++r)
+            std::fill_n(lists.begin() + static_cast<std::ptrdiff_t>(r * k), k,
+                        static_cast<std::uint32_t>(r));
+    };
+    // Kept row s moves to row near[s] >= s. Taken from the last down, every row is read
+    // before anything is written over it; the rows in between are far points.
+    std::size_t end = n;
+    for (std::size_t s = near.size(); s-- > 0;) {
+        const std::size_t to = near[s];
+        fill_alone(to + 1, end);
         for (std::size_t j = 0; j < k; ++j)
-            lists[near[s] * k + j] = static_cast<std::uint32_t>(near[kept_lists[s * k + j]]);
-    return lists;
+            lists[to * k + j] = static_cast<std::uint32_t>(near[lists[s * k + j]]);
+        end = to;
+    }
+    fill_alone(0, end);
 }
 
-// normals() on the points `near` alone, copied, with NaN for the far points.
+// normals() on the points `near` alone, copied, with NaN for the far points. The kept
+// points' results are written into the first rows of the caller's arrays, then moved to
+// their own rows in place, as their neighbour lists are: no second set of arrays.
 void normals_without_far_points(PointsView points, const std::vector<std::size_t>& near,
                                 const NormalsParams& params, const NormalsOutput& out,
                                 std::vector<std::uint32_t>* neighbours) {
     const std::size_t n = points.size, m = near.size();
-    const std::vector<double> kept = gather_points(points, near);
-    std::vector<double> normal(3 * m);
-    NormalsOutput kept_out;
-    kept_out.normal = normal.data();
-    double* const wanted[5] = {out.surface_variation, out.gaussian_curvature, out.mean_curvature,
+    if (neighbours) neighbours->reserve(n * static_cast<std::size_t>(params.k));
+    normals(PointsView{gather_points(points, near).data(), m}, params, out, neighbours);
+    double* const fields[5] = {out.surface_variation, out.gaussian_curvature, out.mean_curvature,
                                out.k1, out.k2};
-    double** const kept_fields[5] = {&kept_out.surface_variation, &kept_out.gaussian_curvature,
-                                     &kept_out.mean_curvature, &kept_out.k1, &kept_out.k2};
-    std::vector<double> values[5];
-    for (int f = 0; f < 5; ++f)
-        if (wanted[f]) {
-            values[f].resize(m);
-            *kept_fields[f] = values[f].data();
-        }
-    std::vector<std::uint32_t> kept_lists;
-    normals(PointsView{kept.data(), m}, params, kept_out, neighbours ? &kept_lists : nullptr);
-    std::fill_n(out.normal, 3 * n, kNaN);
-    for (int f = 0; f < 5; ++f)
-        if (wanted[f]) std::fill_n(wanted[f], n, kNaN);
-    for (std::size_t s = 0; s < m; ++s) {
-        for (int a = 0; a < 3; ++a) out.normal[3 * near[s] + a] = normal[3 * s + a];
-        for (int f = 0; f < 5; ++f)
-            if (wanted[f]) wanted[f][near[s]] = values[f][s];
+    const auto move_row = [&](std::size_t from, std::size_t to, bool far) {
+        for (int a = 0; a < 3; ++a) out.normal[3 * to + a] = far ? kNaN : out.normal[3 * from + a];
+        for (double* field : fields)
+            if (field) field[to] = far ? kNaN : field[from];
+    };
+    std::size_t end = n;  // kept row s moves to row near[s] >= s: from the last down
+    for (std::size_t s = m; s-- > 0;) {
+        for (std::size_t r = near[s] + 1; r < end; ++r) move_row(r, r, true);
+        move_row(s, near[s], false);
+        end = near[s];
     }
+    for (std::size_t r = 0; r < end; ++r) move_row(r, r, true);
     if (neighbours)
-        *neighbours =
-            lists_with_far_points(n, static_cast<std::size_t>(params.k), near, kept_lists);
+        spread_over_far_points(*neighbours, n, static_cast<std::size_t>(params.k), near);
 }
 
-}  // namespace
-
-std::vector<std::uint32_t> neighbour_lists(PointsView points, const NormalsParams& params,
-                                           std::optional<std::size_t> leaf_budget,
-                                           std::optional<std::size_t> heap_from_k) {
-    validate(params);
+// neighbour_lists() into `lists`, whose capacity it keeps when that is enough.
+void fill_neighbour_lists(PointsView points, const NormalsParams& params,
+                          std::optional<std::size_t> leaf_budget,
+                          std::optional<std::size_t> heap_from_k,
+                          std::vector<std::uint32_t>& lists) {
     const std::size_t n = points.size;
-    if (n == 0) return {};
-    check::fewer_than_points("k", params.k, n);
-    check::neighbour_table_fits("k", params.k, n);
+    check::fewer_than_points("k", params.k, n);  // of the kept points too
     const auto k = static_cast<std::size_t>(params.k);
     const Float32Frame frame = float32_frame(points);
     if (frame.has_far_points()) {
-        const std::vector<double> kept = gather_points(points, frame.near);
-        return lists_with_far_points(n, k, frame.near,
-                                     neighbour_lists(PointsView{kept.data(), frame.near.size()},
-                                                     params, leaf_budget, heap_from_k));
+        lists.reserve(n * k);
+        fill_neighbour_lists(
+            PointsView{gather_points(points, frame.near).data(), frame.near.size()}, params,
+            leaf_budget, heap_from_k, lists);
+        spread_over_far_points(lists, n, k, frame.near);
+        return;
     }
     const KnnIndex index(frame.local.data(), n);
-    std::vector<std::uint32_t> lists(n * k);
+    lists.resize(n * k);
     const Interruption interruption;
     interruption.check_now();
 #pragma omp parallel firstprivate(interruption)
@@ -198,6 +202,18 @@ std::vector<std::uint32_t> neighbour_lists(PointsView points, const NormalsParam
                 index.nearest(i, k, lists.data() + i * k, sqdist.data(), leaf_budget, heap_from_k);
     }
     interruption.check();
+}
+
+}  // namespace
+
+std::vector<std::uint32_t> neighbour_lists(PointsView points, const NormalsParams& params,
+                                           std::optional<std::size_t> leaf_budget,
+                                           std::optional<std::size_t> heap_from_k) {
+    validate(params);
+    std::vector<std::uint32_t> lists;
+    if (points.size == 0) return lists;
+    check::neighbour_table_fits("k", params.k, points.size);
+    fill_neighbour_lists(points, params, leaf_budget, heap_from_k, lists);
     return lists;
 }
 

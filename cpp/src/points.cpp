@@ -94,6 +94,25 @@ double lattice_floor(double low, double size) {
     return corner;
 }
 
+namespace {
+
+std::vector<std::size_t> rows_within_reach(PointsView points, const std::array<double, 3>& origin) {
+    std::vector<std::size_t> rows;
+    for (std::size_t i = 0; i < points.size; ++i) {
+        bool within = true;
+        for (int a = 0; a < 3; ++a)
+            within = within && std::fabs(points.coord(i, a) - origin[a]) <= kFloat32Reach;
+        if (within) rows.push_back(i);
+    }
+    return rows;
+}
+
+}  // namespace
+
+std::vector<std::size_t> rows_within_float32_reach(PointsView points) {
+    return rows_within_reach(points, float32_origin(points));
+}
+
 Float32Frame float32_frame(PointsView points) {
     const std::array<double, 3> origin = float32_origin(points);
     Float32Frame frame;
@@ -109,12 +128,7 @@ Float32Frame float32_frame(PointsView points) {
         }
     if (!beyond) return frame;
     frame.local = std::vector<float>();
-    for (std::size_t i = 0; i < points.size; ++i) {
-        bool within = true;
-        for (int a = 0; a < 3; ++a)
-            within = within && std::fabs(points.coord(i, a) - origin[a]) <= kFloat32Reach;
-        if (within) frame.near.push_back(i);
-    }
+    frame.near = rows_within_reach(points, origin);
     const std::size_t far = points.size - frame.near.size();
     if (far > max_far_points(points.size))
         throw std::invalid_argument(

@@ -21,7 +21,7 @@ import warnings
 from collections.abc import Sequence
 from typing import Any
 
-from .. import __version__
+from .. import __version__, _core
 from .._point_spacing import with_spacing_lengths
 from ..io import Extent
 from ..io._las import _outside_stacklevel
@@ -396,6 +396,23 @@ def _outcome(future: Any) -> dict[str, Any]:
         return {"ok": False, "error": f"{type(error).__name__}: {error}"}
 
 
+def _far_points_error(sums: list[dict[str, Any]]) -> str | None:
+    """The merged run's refusal of too many far points, over the survey's tiles, or
+    None: up to _core.max_far_points of the survey's points may be far."""
+    far = sum(s["far"] for s in sums)
+    points = far + sum(s["count"] for s in sums)
+    if far <= _core.max_far_points(points):
+        return None
+    return (
+        f"ValueError: points: {far} of the survey's {points} points lie more than 2^24 x "
+        "0.1 = 1677721.6 (metres for LiDAR) from their tile's local origin on some axis, "
+        "where float32, which outlier removal computes in, resolves no better than 0.125; "
+        "up to 1 % of a survey's points (at least one) are taken for stray points and left "
+        "out, as one run over the merged survey leaves them out: remove the bad records "
+        "first, or check the tiles' coordinates"
+    )
+
+
 def _denoise(
     client: Any,
     job: _tasks.Job,
@@ -424,6 +441,11 @@ def _denoise(
     sums = {i: _outcome(f) for i, f in distances.items()}
     for i, result in sums.items():
         _warn(reports[i], result)
+    too_many_far = _far_points_error([s for s in sums.values() if s["ok"]])
+    if too_many_far:  # the tiles that hold them fail, as the merged run would
+        for i, result in sums.items():
+            if result["ok"] and result["far"]:
+                sums[i] = {"ok": False, "error": too_many_far}
     good = [s for s in sums.values() if s["ok"]]
     threshold = _tasks.sor_threshold(good, job.params.std_mul) if good else float("nan")
     stage: dict[Any, int] = {}

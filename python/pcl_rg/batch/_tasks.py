@@ -366,17 +366,25 @@ def denoise_distances(job: Job, tile: Tile, survey: Box, others: list[Tile]) -> 
             if not len(mine):
                 distance = np.empty(0, np.float32)
                 break
-            if job.params.mean_k >= len(xyz):  # too few points yet: a wider buffer
+            metres = _metres(job, xyz)
+            # Far points (beyond float32's reach of this cloud's origin) are left out, as
+            # the core leaves them out, but here whatever their number: the limit on it
+            # is the merged run's, over the whole survey (_engine._far_points_error).
+            kept = _core.rows_within_float32_reach(metres)
+            if job.params.mean_k >= len(kept):  # too few points yet: a wider buffer
                 if whole:
                     raise ValueError(
-                        f"mean_k must be < the number of points ({len(xyz)}), "
+                        f"mean_k must be < the number of points ({len(kept)}), "
                         f"got {job.params.mean_k}"
                     )
                 margin = max(2.0 * margin, 1.0)  # from a zero buffer too
                 continue
-            _, distance, _, farthest = _core.statistical_outlier_removal(
-                _metres(job, xyz), job.params.to_core()
+            _, kept_distance, _, kept_farthest = _core.statistical_outlier_removal(
+                metres if len(kept) == len(xyz) else metres[kept], job.params.to_core()
             )
+            distance = np.full(len(xyz), np.inf, np.float32)  # a far point's, as the core's
+            farthest = distance.copy()
+            distance[kept], farthest[kept] = kept_distance, kept_farthest
             # Distances in metres; farthest as a bound on x, y offsets in their unit.
             distance, farthest = distance[: len(mine)], farthest[: len(mine)] / job.scale[0]
             # A far point (inf: left out, as in the merged run) waits for no buffer.
@@ -391,6 +399,7 @@ def denoise_distances(job: Job, tile: Tile, survey: Box, others: list[Tile]) -> 
         return {
             "points": len(own),
             "count": len(counted),
+            "far": len(distance) - len(counted),
             "sum": float(d64.sum()),
             "sum_sq": float(squares.sum()),
             "buffer_used": margin,
