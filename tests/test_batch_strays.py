@@ -175,6 +175,48 @@ def test_denoise_refuses_more_far_records_than_the_merged_run_takes(tmp_path, sc
     assert all(math.isfinite(t.details["threshold"]) for t in others)
 
 
+def test_denoise_keeps_a_tile_whose_own_cloud_is_mostly_bad_records(tmp_path, scheduler):
+    # A corner tile of 150 points and 400 records at (0, 0, 0): 0.74 % of the survey,
+    # which the merged run takes for the far points, but 73 % of the tile's own cloud,
+    # whose own origin lies among them. Far points are decided from the survey's origin,
+    # so the batch flags the records and judges the 150 points as the merged run does.
+    source = synthetic_survey(tmp_path / "in", tiles=(3, 3), tile_size=40.0, seed=5)
+    clouds = [read_points(p) for p in source.paths]
+    corner = int(np.argmin([c.points[:, :2].min(axis=0).sum() for c in clouds]))
+    tile = clouds[corner]
+    rows = np.argsort(tile.points[:, :2].sum(axis=1), kind="stable")[:150]  # a dense patch
+    fields = {k: np.concatenate([v[rows], np.zeros_like(v[:400])]) for k, v in tile.fields.items()}
+    write_points(source.paths[corner], np.r_[tile.points[rows], np.zeros((400, 3))], fields)
+    params = pcl_rg.StatisticalOutlierRemovalParams(mean_k=12, std_mul=1.0)
+    report = batch.denoise(
+        source.paths, tmp_path / "out", params=params, buffer=1.0, scheduler=scheduler
+    )
+    assert [t.status for t in report.tiles] == ["done"] * 9
+    merged = np.concatenate([read_points(p).points for p in source.paths])
+    expected = ~pcl_rg.statistical_outlier_removal(merged, params=params)
+    got = np.concatenate([read_points(t.output).classification for t in report.tiles]) == 7
+    np.testing.assert_array_equal(got, expected)
+    flagged = read_points(report.tiles[corner].output).classification == 7
+    assert flagged[150:].all() and not flagged[:150].all()  # the records, not the patch
+
+
+def test_the_survey_origin_is_the_median_tile_origin_weighted_by_points():
+    from pcl_rg.batch._engine import _survey_origin
+
+    def tile(usable, origin):
+        return {"usable": usable, "origin": origin}
+
+    # A tile of bad records (its origin at 0) outweighed by the others, in any order.
+    tiles = [tile(550, (0.0, 0.0, 0.0)), tile(700, (5e5, 5.4e6, 2.0)), tile(600, (5e5, 5.4e6, 1.0))]
+    for order in ([0, 1, 2], [2, 0, 1], [1, 2, 0]):
+        assert _survey_origin([tiles[i] for i in order]) == (5e5, 5.4e6, 1.0)
+    # Most of the points in it, the tile of bad records carries the origin: its
+    # records are then most of the survey, which the far-point limit refuses anyway.
+    assert _survey_origin([tile(5000, (0.0, 0.0, 0.0)), tiles[1]]) == (0.0, 0.0, 0.0)
+    assert _survey_origin([tile(0, (0.0, 0.0, 0.0))]) == (0.0, 0.0, 0.0)
+    assert _survey_origin([]) == (0.0, 0.0, 0.0)
+
+
 def test_neighbours_are_the_tiles_whose_boxes_meet_the_grown_box():
     from pcl_rg.batch._plan import grow, meets, neighbours
 

@@ -346,8 +346,9 @@ def test_far_points_anywhere_leave_the_others_results_in_their_own_rows(rows: li
 
 def test_a_far_point_costs_no_second_neighbour_table() -> None:
     # The kept points' neighbour lists were made in a table of their own, then copied
-    # into a second one for the whole cloud: one stray point doubled region growing's
-    # peak memory (2M points: 311 MB, with it 628 MB), beyond the table's bound.
+    # into a second one for the whole cloud: one stray point nearly doubled region
+    # growing's peak memory (1M points, k = 30: +365 MB against +184 MB without it;
+    # benchmarks/RESULTS.md, "Far points"), beyond the table's bound.
     script = (
         "import resource, sys, numpy as np, pcl_rg\n"
         "points = np.random.default_rng(0).random((400_000, 3)) * [400.0, 400.0, 5.0]\n"

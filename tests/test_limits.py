@@ -126,24 +126,35 @@ def test_the_core_neighbour_lists_leave_far_points_out_as_the_reference_does() -
 
 
 def test_the_cores_far_rows_and_limit_are_the_references() -> None:
-    # pcl_rg.batch's denoise finds a tile's far points with the core and holds their
-    # count over the survey to max_far_points: the rule of near_rows, without its limit.
+    # pcl_rg.batch's denoise finds a tile's far points with the core, from an origin of
+    # its own choosing, and holds their count over the survey to max_far_points: the
+    # rule of near_rows, without its limit.
     from pcl_rg import _core
-    from pcl_rg.reference._local import max_far_points, near_rows
+    from pcl_rg.reference._local import float32_origin, max_far_points, near_rows
 
     utm = np.random.default_rng(4).random((300, 3)) * [50.0, 50.0, 5.0] + [5e5, 5.4e6, 0.0]
     for far_rows in ([], [0], [17, 298, 299]):
         points = utm.copy()
         points[far_rows] = [0.0, 0.0, 0.0]
         expected = near_rows(points)
-        kept = _core.rows_within_float32_reach(points)
+        origin = _core.float32_origin(points)
+        np.testing.assert_array_equal(origin, float32_origin(points))
+        kept = _core.rows_within_float32_reach(points, origin)
         np.testing.assert_array_equal(kept, np.arange(300) if expected is None else expected)
     points = utm.copy()
     points[:5] = [0.0, 0.0, 0.0]  # more than near_rows leaves out: it refuses
     with pytest.raises(ValueError, match="lie more than"):
         near_rows(points)
-    np.testing.assert_array_equal(_core.rows_within_float32_reach(points), np.arange(5, 300))
-    assert len(_core.rows_within_float32_reach(np.empty((0, 3)))) == 0
+    origin = _core.float32_origin(points)
+    kept = _core.rows_within_float32_reach(points, origin)
+    np.testing.assert_array_equal(kept, np.arange(5, 300))
+    # From the origin of the bad records instead, the others are the far ones.
+    kept = _core.rows_within_float32_reach(points, np.zeros(3))
+    np.testing.assert_array_equal(kept, np.arange(5))
+    assert len(_core.rows_within_float32_reach(np.empty((0, 3)), origin)) == 0
+    np.testing.assert_array_equal(_core.float32_origin(np.empty((0, 3))), np.zeros(3))
+    with pytest.raises(ValueError, match=r"origin must have shape \(3,\)"):
+        _core.rows_within_float32_reach(points, np.zeros(2))
     for n in (0, 1, 99, 100, 199, 200, 250, 10**9):
         assert _core.max_far_points(n) == max_far_points(n)
 

@@ -122,8 +122,9 @@ PointGeometry point_geometry(const std::vector<Eigen::Vector3d>& rel) {
 // each far point (float32_frame) gets a row of itself alone, no neighbours, so its
 // geometry is undefined (NaN) and no region reaches it. The callers reserve n * k
 // entries before the kept points' lists are made: a second table, built beside the
-// first, doubled a step's peak memory for one stray point (2M points, k = 30: 521 MB
-// instead of 231 MB) and broke the neighbour table's documented bound.
+// first, nearly doubled a step's peak memory for one stray point (region growing on 1M
+// points, k = 30: +365 MB against +184 MB without it; now +213 MB, RESULTS.md's "Far
+// points" section) and broke the neighbour table's documented bound.
 void spread_over_far_points(std::vector<std::uint32_t>& lists, std::size_t n, std::size_t k,
                             const std::vector<std::size_t>& near) {
     lists.resize(n * k);

@@ -94,9 +94,8 @@ double lattice_floor(double low, double size) {
     return corner;
 }
 
-namespace {
-
-std::vector<std::size_t> rows_within_reach(PointsView points, const std::array<double, 3>& origin) {
+std::vector<std::size_t> rows_within_float32_reach(PointsView points,
+                                                   const std::array<double, 3>& origin) {
     std::vector<std::size_t> rows;
     for (std::size_t i = 0; i < points.size; ++i) {
         bool within = true;
@@ -105,12 +104,6 @@ std::vector<std::size_t> rows_within_reach(PointsView points, const std::array<d
         if (within) rows.push_back(i);
     }
     return rows;
-}
-
-}  // namespace
-
-std::vector<std::size_t> rows_within_float32_reach(PointsView points) {
-    return rows_within_reach(points, float32_origin(points));
 }
 
 Float32Frame float32_frame(PointsView points) {
@@ -128,7 +121,7 @@ Float32Frame float32_frame(PointsView points) {
         }
     if (!beyond) return frame;
     frame.local = std::vector<float>();
-    frame.near = rows_within_reach(points, origin);
+    frame.near = rows_within_float32_reach(points, origin);
     const std::size_t far = points.size - frame.near.size();
     if (far > max_far_points(points.size))
         throw std::invalid_argument(

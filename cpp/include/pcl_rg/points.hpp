@@ -87,11 +87,14 @@ struct Float32Frame {
 /// pcl_rg.reference._local.near_rows.
 Float32Frame float32_frame(PointsView points);
 
-/// The rows of `points` within kFloat32Reach of float32_origin(points) on every axis,
-/// ascending: every row when none is far (Float32Frame). Any number may be far here:
-/// pcl_rg.batch's denoise leaves the far points of each tile's cloud out and applies
-/// max_far_points to the whole survey's count, as one run over the merged survey would.
-std::vector<std::size_t> rows_within_float32_reach(PointsView points);
+/// The rows of `points` within kFloat32Reach of `origin` on every axis, ascending. Any
+/// number may be far here. float32_frame passes float32_origin(points); pcl_rg.batch's
+/// denoise passes one origin for the whole survey, so that a tile whose own cloud is
+/// mostly bad records (whose own origin lies among them) still keeps the points that
+/// one run over the merged survey would keep, and it applies max_far_points to the
+/// survey's count.
+std::vector<std::size_t> rows_within_float32_reach(PointsView points,
+                                                   const std::array<double, 3>& origin);
 
 /// How many far points (Float32Frame) a step leaves out of N: 1 % of N, and at least one.
 inline std::size_t max_far_points(std::size_t n) { return n / 100 > 1 ? n / 100 : 1; }

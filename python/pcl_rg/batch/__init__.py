@@ -337,10 +337,13 @@ def denoise(
     :func:`pcl_rg.statistical_outlier_removal`. The mean neighbour distances are
     computed per tile with a buffer that grows until they are exact, the global
     mean and deviation once over all tiles, then one threshold for every tile.
-    Points beyond float32's reach of their tile's cloud (a record at (0, 0, 0) in a
-    UTM survey) are outliers left out of the mean and deviation, as in the merged
-    run; up to 1 % of the survey's points may be that far, and more fail the tiles
-    that hold them, as the merged run refuses them.
+    Points beyond float32's reach of the survey's local origin (a record at
+    (0, 0, 0) in a UTM survey) are outliers left out of the mean and deviation, as
+    in the merged run; up to 1 % of the survey's points may be that far, and more
+    fail the tiles that hold them, as the merged run refuses them. The origin is the
+    median of the tiles' own, weighted by their points, so a tile made mostly of bad
+    records keeps its real points; the far points are the merged run's unless the
+    survey spans hundreds of kilometres.
 
     Examples
     --------

@@ -12,19 +12,32 @@ from distributed.diagnostics.plugin import WorkerPlugin
 # meanwhile is noise about its own shutdown: a worker whose heartbeat found the
 # scheduler already closed printed a 30-line "Failed to communicate with scheduler
 # during heartbeat" traceback after pcl-rg's one-line "interrupted" (CI, once in many
-# Ctrl-C runs). So the `distributed` loggers, of the main process and of each worker
-# process, are kept below this level.
+# Ctrl-C runs). So the terminal output of the `distributed` loggers, in the main
+# process and in each worker process, keeps only what is at this level or above.
 DASK_LOG_LEVEL = logging.CRITICAL
 
 
-class QuietDaskLogs(WorkerPlugin):
-    """Keeps the `distributed` loggers of each worker process below
-    :data:`DASK_LOG_LEVEL`.
+def below_dask_log_level(record: logging.LogRecord) -> bool:
+    """A logging filter: whether `record` is at :data:`DASK_LOG_LEVEL` or above."""
+    return record.levelno >= DASK_LOG_LEVEL
 
-    The cluster's ``silence_logs`` reaches only the main process and the nanny's own
-    logger in a worker process, not the worker's. Registered with the scheduler, the
-    plugin also reaches a worker that Dask restarts during the run.
+
+class QuietDaskLogs(WorkerPlugin):
+    """Adds :func:`below_dask_log_level` to the terminal handlers of each worker
+    process's `distributed` logger.
+
+    The cluster's ``silence_logs`` raises those handlers' level while the worker runs,
+    but the worker's ``close`` puts the old level back, and the heartbeat's traceback
+    came after that. A filter stays. It is on the terminal handlers only, not on the
+    logger: the worker's own log (``Client.get_worker_logs``, the dashboard) still
+    records everything. Registered with the scheduler, the plugin also reaches a
+    worker that Dask restarts during the run.
     """
 
     def setup(self, worker: Any) -> None:
-        logging.getLogger("distributed").setLevel(DASK_LOG_LEVEL)
+        for handler in logging.getLogger("distributed").handlers:
+            terminal = isinstance(handler, logging.StreamHandler) and not isinstance(
+                handler, logging.FileHandler
+            )
+            if terminal:  # addFilter adds the same filter once
+                handler.addFilter(below_dask_log_level)

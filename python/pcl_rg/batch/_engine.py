@@ -21,6 +21,8 @@ import warnings
 from collections.abc import Sequence
 from typing import Any
 
+import numpy as np
+
 from .. import __version__, _core
 from .._point_spacing import with_spacing_lengths
 from ..io import Extent
@@ -396,16 +398,37 @@ def _outcome(future: Any) -> dict[str, Any]:
         return {"ok": False, "error": f"{type(error).__name__}: {error}"}
 
 
-def _far_points_error(sums: list[dict[str, Any]]) -> str | None:
-    """The merged run's refusal of too many far points, over the survey's tiles, or
-    None: up to _core.max_far_points of the survey's points may be far."""
-    far = sum(s["far"] for s in sums)
-    points = far + sum(s["count"] for s in sums)
+def _survey_origin(stage1: list[dict[str, Any]]) -> tuple[float, float, float]:
+    """One float32 origin for the whole survey's far points: per axis, the median of the
+    tiles' own origins (_core.float32_origin of their usable points), weighted by their
+    usable points.
+
+    A tile's own origin lies among its bad records when they are most of its cloud (a
+    corner tile of 150 points and 400 records at (0, 0, 0)): its real points would be
+    taken for far ones. The median lies among the origins of the tiles that hold most of
+    the points, within the survey's span of the origin one run over the merged survey
+    takes, so both find the same far points unless the survey spans hundreds of km.
+    """
+    weights = np.array([r["usable"] for r in stage1], float)
+    if not weights.sum():
+        return (0.0, 0.0, 0.0)
+    origins = np.array([r["origin"] for r in stage1], float).reshape(-1, 3)
+    median = []
+    for axis in origins.T:
+        order = np.argsort(axis, kind="stable")
+        cumulative = np.cumsum(weights[order])
+        median.append(float(axis[order[np.searchsorted(cumulative, cumulative[-1] / 2)]]))
+    return (median[0], median[1], median[2])
+
+
+def _far_points_error(far: int, points: int) -> str | None:
+    """The merged run's refusal of `far` far points among the survey's `points`, or
+    None: up to _core.max_far_points of them may be far."""
     if far <= _core.max_far_points(points):
         return None
     return (
         f"ValueError: points: {far} of the survey's {points} points lie more than 2^24 x "
-        "0.1 = 1677721.6 (metres for LiDAR) from their tile's local origin on some axis, "
+        "0.1 = 1677721.6 (metres for LiDAR) from the survey's local origin on some axis, "
         "where float32, which outlier removal computes in, resolves no better than 0.125; "
         "up to 1 % of a survey's points (at least one) are taken for stray points and left "
         "out, as one run over the merged survey leaves them out: remove the bad records "
@@ -428,20 +451,24 @@ def _denoise(
     stage1 = {i: _outcome(f) for i, f in cached.items()}
     for i, result in stage1.items():
         _warn(reports[i], result)
-    survey = survey_box([boxes[i] for i in cached if stage1[i]["ok"]]) or NOWHERE
+    read = [i for i in cached if stage1[i]["ok"]]
+    survey = survey_box([boxes[i] for i in read]) or NOWHERE
+    origin = _survey_origin([stage1[i] for i in read])
     distances = {}
     for i in cached:
         if not stage1[i]["ok"]:
             continue
         others = [tiles[j] for j in near[i] if stage1.get(j, {}).get("ok")]
         distances[i] = client.submit(
-            _tasks.denoise_distances, job, tiles[i], survey, others, pure=False
+            _tasks.denoise_distances, job, tiles[i], survey, origin, others, pure=False
         )
     futures += distances.values()
     sums = {i: _outcome(f) for i, f in distances.items()}
     for i, result in sums.items():
         _warn(reports[i], result)
-    too_many_far = _far_points_error([s for s in sums.values() if s["ok"]])
+    # Over the usable points of every tile read: those whose distances failed count too.
+    far = sum(s["far"] for s in sums.values() if s["ok"])
+    too_many_far = _far_points_error(far, sum(stage1[i]["usable"] for i in read))
     if too_many_far:  # the tiles that hold them fail, as the merged run would
         for i, result in sums.items():
             if result["ok"] and result["far"]:

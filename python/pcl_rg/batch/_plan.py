@@ -223,6 +223,24 @@ def covers(a: Box, b: Box) -> bool:
     return a.xmin <= b.xmin and a.ymin <= b.ymin and a.xmax >= b.xmax and a.ymax >= b.ymax
 
 
+def room_inside(points: np.ndarray, box: Box, survey: Box) -> np.ndarray:
+    """Distance from each point to the nearest side of `box` beyond which points may lie.
+
+    A side at or outside the survey's box has nothing beyond it: infinite room.
+    """
+    room = np.full(len(points), np.inf)
+    x, y = points[:, 0], points[:, 1]
+    if box.xmin > survey.xmin:
+        room = np.minimum(room, x - box.xmin)
+    if box.xmax < survey.xmax:
+        room = np.minimum(room, box.xmax - x)
+    if box.ymin > survey.ymin:
+        room = np.minimum(room, y - box.ymin)
+    if box.ymax < survey.ymax:
+        room = np.minimum(room, box.ymax - y)
+    return room
+
+
 def survey_box(boxes: Sequence[Box | None]) -> Box | None:
     """The box of every tile's box."""
     present = [b for b in boxes if b is not None]

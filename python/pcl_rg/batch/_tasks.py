@@ -35,7 +35,7 @@ from .._classification import (
 from ..io import CoordinateUnits, PointFile, read_extent, read_points, write_points
 from ._caught import caught
 from ._headers import check_header_box, crs_records
-from ._plan import FOOTPRINT_GAP, Box, covers, footprint, grow, meets
+from ._plan import FOOTPRINT_GAP, Box, covers, footprint, grow, meets, room_inside
 
 __all__ = [
     "Job",
@@ -171,7 +171,10 @@ def cache_tile(job: Job, tile: Tile) -> dict[str, Any]:
         np.save(os.path.join(folder, "cell_start.npy"), starts)
         with open(os.path.join(folder, "layout.pkl"), "wb") as stream:
             pickle.dump((cloud.format, cloud.header, names, low, size, boxes), stream)
-        return {"points": len(cloud)}
+        if job.operation != "denoise":
+            return {"points": len(cloud)}
+        origin = _core.float32_origin(_metres(job, cloud.points[rows]))
+        return {"points": len(cloud), "usable": len(rows), "origin": tuple(origin)}
 
     return _guarded(work)
 
@@ -326,30 +329,15 @@ def ground_tile(
 # ---------------------------------------------------------------- denoise
 
 
-def _room(points: np.ndarray, box: Box, survey: Box) -> np.ndarray:
-    """Distance from each point to the nearest side of `box` beyond which points may lie.
-
-    A side at or outside the survey's box has nothing beyond it: infinite room.
-    """
-    room = np.full(len(points), np.inf)
-    x, y = points[:, 0], points[:, 1]
-    if box.xmin > survey.xmin:
-        room = np.minimum(room, x - box.xmin)
-    if box.xmax < survey.xmax:
-        room = np.minimum(room, box.xmax - x)
-    if box.ymin > survey.ymin:
-        room = np.minimum(room, y - box.ymin)
-    if box.ymax < survey.ymax:
-        room = np.minimum(room, box.ymax - y)
-    return room
-
-
-def denoise_distances(job: Job, tile: Tile, survey: Box, others: list[Tile]) -> dict[str, Any]:
+def denoise_distances(
+    job: Job, tile: Tile, survey: Box, origin: tuple, others: list[Tile]
+) -> dict[str, Any]:
     """Stage 2 of ``denoise``: each own point's mean neighbour distance, exact.
 
     The k nearest neighbours of a point are exact when the farthest of them is closer
     than the buffer's edge. Where it is not, the buffer doubles (up to the whole
-    survey) until it is: the distances are then those of the merged cloud.
+    survey) until it is: the distances are then those of the merged cloud. Points
+    beyond float32's reach of `origin`, the survey's (_engine._survey_origin), are far.
     """
 
     def work() -> dict[str, Any]:
@@ -367,10 +355,10 @@ def denoise_distances(job: Job, tile: Tile, survey: Box, others: list[Tile]) -> 
                 distance = np.empty(0, np.float32)
                 break
             metres = _metres(job, xyz)
-            # Far points (beyond float32's reach of this cloud's origin) are left out, as
-            # the core leaves them out, but here whatever their number: the limit on it
-            # is the merged run's, over the whole survey (_engine._far_points_error).
-            kept = _core.rows_within_float32_reach(metres)
+            # Far points are left out, as the core leaves them out, but here whatever
+            # their number: the limit on it is the merged run's, over the whole survey
+            # (_engine._far_points_error).
+            kept = _core.rows_within_float32_reach(metres, np.asarray(origin, float))
             if job.params.mean_k >= len(kept):  # too few points yet: a wider buffer
                 if whole:
                     raise ValueError(
@@ -388,7 +376,7 @@ def denoise_distances(job: Job, tile: Tile, survey: Box, others: list[Tile]) -> 
             # Distances in metres; farthest as a bound on x, y offsets in their unit.
             distance, farthest = distance[: len(mine)], farthest[: len(mine)] / job.scale[0]
             # A far point (inf: left out, as in the merged run) waits for no buffer.
-            short = np.isfinite(farthest) & (farthest > _room(mine, reach, survey))
+            short = np.isfinite(farthest) & (farthest > room_inside(mine, reach, survey))
             if not short.any() or whole:
                 break
             margin = max(2.0 * margin, float(farthest[short].max()) * 1.01 + margin)
