@@ -200,21 +200,73 @@ def test_denoise_keeps_a_tile_whose_own_cloud_is_mostly_bad_records(tmp_path, sc
     assert flagged[150:].all() and not flagged[:150].all()  # the records, not the patch
 
 
-def test_the_survey_origin_is_the_median_tile_origin_weighted_by_points():
-    from pcl_rg.batch._engine import _survey_origin
+def test_the_survey_origin_is_the_merged_runs_found_from_the_tiles(tmp_path):
+    # Batch denoise decides far points from the origin of one run over the merged
+    # survey, found from each tile's sorted coordinates: it must be the core's, exactly.
+    from pcl_rg import _core
+    from pcl_rg.batch._origin import merged_float32_origin, save_sorted_axes
 
-    def tile(usable, origin):
-        return {"usable": usable, "origin": origin}
+    rng = np.random.default_rng(7)
+    utm = rng.random((3000, 3)) * [120.0, 120.0, 30.0] + [5e5, 5.4e6, -5.0]
+    clouds = {
+        "plain": utm,
+        "records at 0": np.r_[utm, np.zeros((40, 3))],
+        "mostly records": np.r_[utm[:500], np.zeros((2500, 3))],
+        "a stray above": np.r_[utm, [[5e5, 9e9, 1.0]]],
+        "ties": np.round(utm / 10.0) * 10.0,
+        "signs": rng.normal(size=(999, 3)),
+        "one point": utm[:1],
+    }
+    for name, cloud in clouds.items():
+        parts = np.array_split(cloud[rng.permutation(len(cloud))], 5)
+        folders = []
+        for k, part in enumerate(parts + [cloud[:0]]):  # and an empty tile
+            folders.append(str(tmp_path / f"{name}{k}"))
+            os.mkdir(folders[-1])
+            save_sorted_axes(folders[-1], part)
+        expected = tuple(_core.float32_origin(np.ascontiguousarray(cloud)))
+        assert merged_float32_origin(folders) == expected, name
+    assert merged_float32_origin(folders[-1:]) == (0.0, 0.0, 0.0)
 
-    # A tile of bad records (its origin at 0) outweighed by the others, in any order.
-    tiles = [tile(550, (0.0, 0.0, 0.0)), tile(700, (5e5, 5.4e6, 2.0)), tile(600, (5e5, 5.4e6, 1.0))]
-    for order in ([0, 1, 2], [2, 0, 1], [1, 2, 0]):
-        assert _survey_origin([tiles[i] for i in order]) == (5e5, 5.4e6, 1.0)
-    # Most of the points in it, the tile of bad records carries the origin: its
-    # records are then most of the survey, which the far-point limit refuses anyway.
-    assert _survey_origin([tile(5000, (0.0, 0.0, 0.0)), tiles[1]]) == (0.0, 0.0, 0.0)
-    assert _survey_origin([tile(0, (0.0, 0.0, 0.0))]) == (0.0, 0.0, 0.0)
-    assert _survey_origin([]) == (0.0, 0.0, 0.0)
+
+def test_denoise_far_points_are_the_merged_runs_at_the_reach_edge(tmp_path, scheduler):
+    # A survey whose northing straddles 2^24 x 0.1 = 1677721.6 m, with records at
+    # (0, 0, 0): whether they are far depends on the origin to the metre. The median of
+    # the tiles' own origins (the survey's middle) took them for far points while the
+    # merged run's origin (its southern edge) did not: 462 points differed.
+    source = synthetic_survey(
+        tmp_path / "in", tiles=(3, 3), tile_size=40.0, seed=5, origin=(5e5, 1677701.6, 100.0)
+    )
+    tile = read_points(source.paths[0])
+    fields = {k: np.concatenate([v, np.zeros_like(v[:3])]) for k, v in tile.fields.items()}
+    write_points(source.paths[0], np.r_[tile.points, np.zeros((3, 3))], fields)
+    params = pcl_rg.StatisticalOutlierRemovalParams(mean_k=12, std_mul=1.0)
+    report = batch.denoise(source.paths, tmp_path / "out", params=params, scheduler=scheduler)
+    assert [t.status for t in report.tiles] == ["done"] * 9
+    merged = np.concatenate([read_points(p).points for p in source.paths])
+    expected = ~pcl_rg.statistical_outlier_removal(merged, params=params)
+    got = np.concatenate([read_points(t.output).classification for t in report.tiles]) == 7
+    np.testing.assert_array_equal(got, expected)
+
+
+def test_a_tile_of_bad_records_alone_reads_no_buffer(tmp_path, scheduler):
+    # Every point of it far: its distances are known (infinite) without neighbours.
+    # It widened its buffer until it took in the whole survey, 5,400 km away.
+    source = synthetic_survey(tmp_path / "in", tiles=(2, 2), tile_size=40.0, seed=5)
+    tile = read_points(source.paths[0])
+    fields = {k: np.zeros_like(v[:30]) for k, v in tile.fields.items()}
+    records = str(tmp_path / "in" / "records.las")
+    write_points(records, np.zeros((30, 3)), fields)
+    params = pcl_rg.StatisticalOutlierRemovalParams(mean_k=12, std_mul=1.0)
+    paths = [*source.paths, records]
+    report = batch.denoise(paths, tmp_path / "out", params=params, scheduler=scheduler)
+    assert [t.status for t in report.tiles] == ["done"] * 5
+    assert report.tiles[4].details["buffer_used"] <= report.tiles[0].details["buffer_used"]
+    assert (read_points(report.tiles[4].output).classification == 7).all()
+    merged = np.concatenate([read_points(p).points for p in paths])
+    expected = ~pcl_rg.statistical_outlier_removal(merged, params=params)
+    got = np.concatenate([read_points(t.output).classification for t in report.tiles]) == 7
+    np.testing.assert_array_equal(got, expected)
 
 
 def test_neighbours_are_the_tiles_whose_boxes_meet_the_grown_box():

@@ -32,6 +32,7 @@ void bind_points(py::module_& m) {
         },
         py::arg("points").noconvert(), py::arg("origin").noconvert(),
         "Core: the rows within float32's reach of `origin` on every axis, any number far.");
+    m.attr("ORIGIN_FENCE") = kOriginFence;
     m.def("max_far_points", &max_far_points, py::arg("n"),
           "Core: how many far points a k-nearest-neighbour step leaves out of n.");
 }

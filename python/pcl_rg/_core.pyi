@@ -80,6 +80,9 @@ class DelaunayTin:
 
 def delaunay_triangulate(xy: npt.NDArray[np.float64]) -> npt.NDArray[np.int64]: ...
 def point_spacing(points: npt.NDArray[np.float64]) -> float: ...
+
+ORIGIN_FENCE: float
+
 def float32_origin(points: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]: ...
 def rows_within_float32_reach(
     points: npt.NDArray[np.float64], origin: npt.NDArray[np.float64]

@@ -340,10 +340,10 @@ def denoise(
     Points beyond float32's reach of the survey's local origin (a record at
     (0, 0, 0) in a UTM survey) are outliers left out of the mean and deviation, as
     in the merged run; up to 1 % of the survey's points may be that far, and more
-    fail the tiles that hold them, as the merged run refuses them. The origin is the
-    median of the tiles' own, weighted by their points, so a tile made mostly of bad
-    records keeps its real points; the far points are the merged run's unless the
-    survey spans hundreds of kilometres.
+    fail the tiles that hold them, as the merged run refuses them. The origin is
+    the merged run's, found from each tile's sorted coordinates, so the far points
+    are the merged run's, and a tile made mostly of bad records keeps its real
+    points.
 
     Examples
     --------

@@ -12,8 +12,10 @@ from distributed.diagnostics.plugin import WorkerPlugin
 # meanwhile is noise about its own shutdown: a worker whose heartbeat found the
 # scheduler already closed printed a 30-line "Failed to communicate with scheduler
 # during heartbeat" traceback after pcl-rg's one-line "interrupted" (CI, once in many
-# Ctrl-C runs). So the terminal output of the `distributed` loggers, in the main
-# process and in each worker process, keeps only what is at this level or above.
+# Ctrl-C runs). So the terminal output of the `distributed` loggers keeps only what
+# is at this level or above: in each worker process for good (QuietDaskLogs), and in
+# the main process while the cluster is open (its ``silence_logs``, undone when it
+# closes: a library's caller keeps its own logging).
 DASK_LOG_LEVEL = logging.CRITICAL
 
 

@@ -21,8 +21,6 @@ import warnings
 from collections.abc import Sequence
 from typing import Any
 
-import numpy as np
-
 from .. import __version__, _core
 from .._point_spacing import with_spacing_lengths
 from ..io import Extent
@@ -398,29 +396,6 @@ def _outcome(future: Any) -> dict[str, Any]:
         return {"ok": False, "error": f"{type(error).__name__}: {error}"}
 
 
-def _survey_origin(stage1: list[dict[str, Any]]) -> tuple[float, float, float]:
-    """One float32 origin for the whole survey's far points: per axis, the median of the
-    tiles' own origins (_core.float32_origin of their usable points), weighted by their
-    usable points.
-
-    A tile's own origin lies among its bad records when they are most of its cloud (a
-    corner tile of 150 points and 400 records at (0, 0, 0)): its real points would be
-    taken for far ones. The median lies among the origins of the tiles that hold most of
-    the points, within the survey's span of the origin one run over the merged survey
-    takes, so both find the same far points unless the survey spans hundreds of km.
-    """
-    weights = np.array([r["usable"] for r in stage1], float)
-    if not weights.sum():
-        return (0.0, 0.0, 0.0)
-    origins = np.array([r["origin"] for r in stage1], float).reshape(-1, 3)
-    median = []
-    for axis in origins.T:
-        order = np.argsort(axis, kind="stable")
-        cumulative = np.cumsum(weights[order])
-        median.append(float(axis[order[np.searchsorted(cumulative, cumulative[-1] / 2)]]))
-    return (median[0], median[1], median[2])
-
-
 def _far_points_error(far: int, points: int) -> str | None:
     """The merged run's refusal of `far` far points among the survey's `points`, or
     None: up to _core.max_far_points of them may be far."""
@@ -453,17 +428,22 @@ def _denoise(
         _warn(reports[i], result)
     read = [i for i in cached if stage1[i]["ok"]]
     survey = survey_box([boxes[i] for i in read]) or NOWHERE
-    origin = _survey_origin([stage1[i] for i in read])
+    # The merged run's float32 origin, from which every tile decides its far points.
+    origin_future = client.submit(_tasks.survey_origin, job, [tiles[i] for i in read], pure=False)
+    futures.append(origin_future)
+    found = _outcome(origin_future)
     distances = {}
-    for i in cached:
-        if not stage1[i]["ok"]:
-            continue
+    for i in read if found["ok"] else []:
         others = [tiles[j] for j in near[i] if stage1.get(j, {}).get("ok")]
         distances[i] = client.submit(
-            _tasks.denoise_distances, job, tiles[i], survey, origin, others, pure=False
+            _tasks.denoise_distances, job, tiles[i], survey, found["origin"], others, pure=False
         )
     futures += distances.values()
-    sums = {i: _outcome(f) for i, f in distances.items()}
+    sums = (
+        {i: _outcome(f) for i, f in distances.items()}
+        if found["ok"]
+        else dict.fromkeys(read, found)
+    )
     for i, result in sums.items():
         _warn(reports[i], result)
     # Over the usable points of every tile read: those whose distances failed count too.

@@ -35,6 +35,7 @@ from .._classification import (
 from ..io import CoordinateUnits, PointFile, read_extent, read_points, write_points
 from ._caught import caught
 from ._headers import check_header_box, crs_records
+from ._origin import merged_float32_origin, save_sorted_axes
 from ._plan import FOOTPRINT_GAP, Box, covers, footprint, grow, meets, room_inside
 
 __all__ = [
@@ -171,10 +172,9 @@ def cache_tile(job: Job, tile: Tile) -> dict[str, Any]:
         np.save(os.path.join(folder, "cell_start.npy"), starts)
         with open(os.path.join(folder, "layout.pkl"), "wb") as stream:
             pickle.dump((cloud.format, cloud.header, names, low, size, boxes), stream)
-        if job.operation != "denoise":
-            return {"points": len(cloud)}
-        origin = _core.float32_origin(_metres(job, cloud.points[rows]))
-        return {"points": len(cloud), "usable": len(rows), "origin": tuple(origin)}
+        if job.operation == "denoise":  # for the merged run's origin (survey_origin)
+            save_sorted_axes(folder, _metres(job, cloud.points[rows]))
+        return {"points": len(cloud), "usable": len(rows)}
 
     return _guarded(work)
 
@@ -329,6 +329,13 @@ def ground_tile(
 # ---------------------------------------------------------------- denoise
 
 
+def survey_origin(job: Job, tiles: list[Tile]) -> dict[str, Any]:
+    """Between stages 1 and 2 of ``denoise``: the float32 origin of one run over the
+    merged survey (of `tiles`, stage 1 done), from which its far points are decided."""
+    folders = [_folder(job, tile) for tile in tiles]
+    return _guarded(lambda: {"origin": merged_float32_origin(folders)})
+
+
 def denoise_distances(
     job: Job, tile: Tile, survey: Box, origin: tuple, others: list[Tile]
 ) -> dict[str, Any]:
@@ -337,7 +344,8 @@ def denoise_distances(
     The k nearest neighbours of a point are exact when the farthest of them is closer
     than the buffer's edge. Where it is not, the buffer doubles (up to the whole
     survey) until it is: the distances are then those of the merged cloud. Points
-    beyond float32's reach of `origin`, the survey's (_engine._survey_origin), are far.
+    beyond float32's reach of `origin`, the merged run's (:func:`survey_origin`), are
+    far, as in the merged run.
     """
 
     def work() -> dict[str, Any]:
@@ -359,6 +367,9 @@ def denoise_distances(
             # their number: the limit on it is the merged run's, over the whole survey
             # (_engine._far_points_error).
             kept = _core.rows_within_float32_reach(metres, np.asarray(origin, float))
+            if not len(kept) or kept[0] >= len(mine):  # every own point far: no buffer
+                distance = np.full(len(mine), np.inf, np.float32)
+                break
             if job.params.mean_k >= len(kept):  # too few points yet: a wider buffer
                 if whole:
                     raise ValueError(
