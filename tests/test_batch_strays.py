@@ -37,6 +37,22 @@ def add_stray_point(path, classification: int) -> None:
     las.write(path)
 
 
+def append_records(path, records: int) -> None:
+    """Appends `records` records at (0, 0, 0), with zero fields, to the tile at `path`."""
+    tile = read_points(path)
+    fields = {k: np.concatenate([v, np.zeros_like(v[:records])]) for k, v in tile.fields.items()}
+    write_points(path, np.r_[tile.points, np.zeros((records, 3))], fields)
+
+
+def assert_denoise_is_the_merged_run(paths, report, params) -> np.ndarray:
+    """Batch denoise's class-7 points equal one run's outliers over the merged tiles."""
+    merged = np.concatenate([read_points(p).points for p in paths])
+    expected = ~pcl_rg.statistical_outlier_removal(merged, params=params)
+    got = np.concatenate([read_points(t.output).classification for t in report.tiles]) == 7
+    np.testing.assert_array_equal(got, expected)
+    return expected
+
+
 def extent(xmin: float, ymin: float, xmax: float, ymax: float, points: int) -> Extent:
     return Extent(xmin, ymin, 0.0, xmax, ymax, 1.0, points, True)
 
@@ -139,16 +155,12 @@ def test_denoise_flags_records_at_the_origin_with_the_ordinary_noise(records, tm
     # records are 0.65 % of the survey, which the merged run leaves out, but 1.2 % of the
     # middle tile's cloud with its buffer, which the core alone refused: a tile failed.
     source = synthetic_survey(tmp_path / "in", tiles=(3, 3), tile_size=40.0, seed=5)
-    tile = read_points(source.paths[4])
-    fields = {k: np.concatenate([v, np.zeros_like(v[:records])]) for k, v in tile.fields.items()}
-    write_points(source.paths[4], np.r_[tile.points, np.zeros((records, 3))], fields)
+    append_records(source.paths[4], records)
     params = pcl_rg.StatisticalOutlierRemovalParams(mean_k=12, std_mul=1.0)
     report = batch.denoise(source.paths, tmp_path / "out", params=params, scheduler=scheduler)
     assert [t.status for t in report.tiles] == ["done"] * 9
-    merged = np.concatenate([read_points(p).points for p in source.paths])
-    expected = ~pcl_rg.statistical_outlier_removal(merged, params=params)
-    got = np.concatenate([read_points(t.output).classification for t in report.tiles]) == 7
-    assert expected.sum() > records and np.array_equal(got, expected)
+    expected = assert_denoise_is_the_merged_run(source.paths, report, params)
+    assert expected.sum() > records
     assert (read_points(report.tiles[4].output).classification[-records:] == 7).all()
 
 
@@ -159,9 +171,7 @@ def test_denoise_refuses_more_far_records_than_the_merged_run_takes(tmp_path, sc
     source = synthetic_survey(tmp_path / "in", tiles=(3, 3), tile_size=40.0, seed=5)
     survey_points = sum(len(read_points(p)) for p in source.paths)
     records = survey_points // 99 + 1  # just over 1 % of the survey with them
-    tile = read_points(source.paths[4])
-    fields = {k: np.concatenate([v, np.zeros_like(v[:records])]) for k, v in tile.fields.items()}
-    write_points(source.paths[4], np.r_[tile.points, np.zeros((records, 3))], fields)
+    append_records(source.paths[4], records)
     merged = np.concatenate([read_points(p).points for p in source.paths])
     params = pcl_rg.StatisticalOutlierRemovalParams(mean_k=12, std_mul=1.0)
     with pytest.raises(ValueError, match=f"{records} of {len(merged)} points lie more than"):
@@ -192,10 +202,7 @@ def test_denoise_keeps_a_tile_whose_own_cloud_is_mostly_bad_records(tmp_path, sc
         source.paths, tmp_path / "out", params=params, buffer=1.0, scheduler=scheduler
     )
     assert [t.status for t in report.tiles] == ["done"] * 9
-    merged = np.concatenate([read_points(p).points for p in source.paths])
-    expected = ~pcl_rg.statistical_outlier_removal(merged, params=params)
-    got = np.concatenate([read_points(t.output).classification for t in report.tiles]) == 7
-    np.testing.assert_array_equal(got, expected)
+    assert_denoise_is_the_merged_run(source.paths, report, params)
     flagged = read_points(report.tiles[corner].output).classification == 7
     assert flagged[150:].all() and not flagged[:150].all()  # the records, not the patch
 
@@ -237,16 +244,11 @@ def test_denoise_far_points_are_the_merged_runs_at_the_reach_edge(tmp_path, sche
     source = synthetic_survey(
         tmp_path / "in", tiles=(3, 3), tile_size=40.0, seed=5, origin=(5e5, 1677701.6, 100.0)
     )
-    tile = read_points(source.paths[0])
-    fields = {k: np.concatenate([v, np.zeros_like(v[:3])]) for k, v in tile.fields.items()}
-    write_points(source.paths[0], np.r_[tile.points, np.zeros((3, 3))], fields)
+    append_records(source.paths[0], 3)
     params = pcl_rg.StatisticalOutlierRemovalParams(mean_k=12, std_mul=1.0)
     report = batch.denoise(source.paths, tmp_path / "out", params=params, scheduler=scheduler)
     assert [t.status for t in report.tiles] == ["done"] * 9
-    merged = np.concatenate([read_points(p).points for p in source.paths])
-    expected = ~pcl_rg.statistical_outlier_removal(merged, params=params)
-    got = np.concatenate([read_points(t.output).classification for t in report.tiles]) == 7
-    np.testing.assert_array_equal(got, expected)
+    assert_denoise_is_the_merged_run(source.paths, report, params)
 
 
 def test_a_tile_of_bad_records_alone_reads_no_buffer(tmp_path, scheduler):
@@ -263,10 +265,7 @@ def test_a_tile_of_bad_records_alone_reads_no_buffer(tmp_path, scheduler):
     assert [t.status for t in report.tiles] == ["done"] * 5
     assert report.tiles[4].details["buffer_used"] <= report.tiles[0].details["buffer_used"]
     assert (read_points(report.tiles[4].output).classification == 7).all()
-    merged = np.concatenate([read_points(p).points for p in paths])
-    expected = ~pcl_rg.statistical_outlier_removal(merged, params=params)
-    got = np.concatenate([read_points(t.output).classification for t in report.tiles]) == 7
-    np.testing.assert_array_equal(got, expected)
+    assert_denoise_is_the_merged_run(paths, report, params)
 
 
 def test_neighbours_are_the_tiles_whose_boxes_meet_the_grown_box():
