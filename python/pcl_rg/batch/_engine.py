@@ -28,7 +28,7 @@ from ..io._las import _outside_stacklevel
 from . import _tasks
 from ._cluster import dask_client
 from ._headers import check_one_crs, survey_units
-from ._manifest import Manifest, file_signature
+from ._manifest import Manifest, code_digest, file_signature
 from ._plan import (
     Box,
     box_of,
@@ -304,6 +304,7 @@ def _run_on(
                 "buffer": job.buffer,
                 "metres_per_unit": job.scale,
                 "version": __version__,
+                "build": code_digest(),
                 "position": i,
                 "input": signatures[i],
                 "context": contexts[i],

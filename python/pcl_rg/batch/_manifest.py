@@ -1,22 +1,53 @@
 """The record in the output folder that lets a rerun skip the tiles already done.
 
 A tile is done when its output exists as it was written and everything it was
-computed from is unchanged: the operation, method, parameters, buffer and pcl_rg
-version, the input file and the files that gave it a buffer (size and modification
-time of each). Anything else, and the tile is redone.
+computed from is unchanged: the operation, method, parameters, buffer, pcl_rg
+version and build (the digest of the installed package's code), the input file and the
+files that gave it a buffer (size and modification time of each). Anything else, and the
+tile is redone.
 """
 
 from __future__ import annotations
 
+import functools
+import hashlib
 import json
 import os
 from typing import Any
 
 from ..io._atomic import atomic_write
 
-__all__ = ["MANIFEST", "Manifest", "file_signature"]
+__all__ = ["MANIFEST", "Manifest", "code_digest", "file_signature"]
 
 MANIFEST = ".pcl_rg-batch.json"
+
+#: The installed package: the folder whose code computes the outputs.
+PACKAGE_FOLDER = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+#: What counts as code: Python modules and compiled extensions.
+CODE_SUFFIXES = (".py", ".so", ".pyd")
+
+
+@functools.cache
+def code_digest(folder: str = PACKAGE_FOLDER) -> str:
+    """SHA-256 of the code files below `folder` (relative paths and contents).
+
+    ``__version__`` stays the same between development builds (every commit of a
+    release's cycle, a rebuilt extension), so a resumed run would keep tiles that a
+    changed algorithm would compute differently. This digest changes with any byte of
+    the code; about 4 MB are read once per process. ``__pycache__`` is left out: it
+    follows the sources.
+    """
+    digest = hashlib.sha256()
+    for root, folders, files in os.walk(folder):
+        folders[:] = sorted(name for name in folders if name != "__pycache__")
+        for name in sorted(files):
+            if not name.endswith(CODE_SUFFIXES):
+                continue
+            path = os.path.join(root, name)
+            with open(path, "rb") as stream:
+                content = hashlib.sha256(stream.read()).digest()
+            digest.update(os.path.relpath(path, folder).encode() + b"\0" + content)
+    return digest.hexdigest()
 
 
 def file_signature(path: str) -> list[Any]:
