@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import math
 import os
+import re
+import warnings
 
 import numpy as np
 import pytest
@@ -45,11 +47,22 @@ def append_records(path, records: int) -> None:
 
 
 def assert_denoise_is_the_merged_run(paths, report, params) -> np.ndarray:
-    """Batch denoise's class-7 points equal one run's outliers over the merged tiles."""
+    """Batch denoise's class-7 points equal one run's outliers over the merged tiles, and
+    its tiles' far-point warnings count the merged run's far points."""
     merged = np.concatenate([read_points(p).points for p in paths])
-    expected = ~pcl_rg.statistical_outlier_removal(merged, params=params)
+    with pcl_rg.collect_diagnostics() as diagnostics, warnings.catch_warnings():
+        warnings.simplefilter("ignore", pcl_rg.FarPointsWarning)  # counted below
+        expected = ~pcl_rg.statistical_outlier_removal(merged, params=params)
     got = np.concatenate([read_points(t.output).classification for t in report.tiles]) == 7
     np.testing.assert_array_equal(got, expected)
+    warned = [
+        int(found.group(1).replace(",", ""))
+        for tile in report.tiles
+        for line in tile.warnings
+        if (found := re.search(r"denoise: ([\d,]+) of [\d,]+ points lie more than", line))
+    ]
+    far = diagnostics["statistical_outlier_removal"]["far_points"]
+    assert sum(warned) == sum(t.details["far_points"] for t in report.tiles) == far
     return expected
 
 
@@ -157,7 +170,8 @@ def test_denoise_flags_records_at_the_origin_with_the_ordinary_noise(records, tm
     source = synthetic_survey(tmp_path / "in", tiles=(3, 3), tile_size=40.0, seed=5)
     append_records(source.paths[4], records)
     params = pcl_rg.StatisticalOutlierRemovalParams(mean_k=12, std_mul=1.0)
-    report = batch.denoise(source.paths, tmp_path / "out", params=params, scheduler=scheduler)
+    with pytest.warns(pcl_rg.FarPointsWarning, match=f"denoise: {records:,} of "):
+        report = batch.denoise(source.paths, tmp_path / "out", params=params, scheduler=scheduler)
     assert [t.status for t in report.tiles] == ["done"] * 9
     expected = assert_denoise_is_the_merged_run(source.paths, report, params)
     assert expected.sum() > records
@@ -198,9 +212,10 @@ def test_denoise_keeps_a_tile_whose_own_cloud_is_mostly_bad_records(tmp_path, sc
     fields = {k: np.concatenate([v[rows], np.zeros_like(v[:400])]) for k, v in tile.fields.items()}
     write_points(source.paths[corner], np.r_[tile.points[rows], np.zeros((400, 3))], fields)
     params = pcl_rg.StatisticalOutlierRemovalParams(mean_k=12, std_mul=1.0)
-    report = batch.denoise(
-        source.paths, tmp_path / "out", params=params, buffer=1.0, scheduler=scheduler
-    )
+    with pytest.warns(pcl_rg.FarPointsWarning, match="denoise: 400 of 550 points"):
+        report = batch.denoise(
+            source.paths, tmp_path / "out", params=params, buffer=1.0, scheduler=scheduler
+        )
     assert [t.status for t in report.tiles] == ["done"] * 9
     assert_denoise_is_the_merged_run(source.paths, report, params)
     flagged = read_points(report.tiles[corner].output).classification == 7
@@ -261,7 +276,8 @@ def test_a_tile_of_bad_records_alone_reads_no_buffer(tmp_path, scheduler):
     write_points(records, np.zeros((30, 3)), fields)
     params = pcl_rg.StatisticalOutlierRemovalParams(mean_k=12, std_mul=1.0)
     paths = [*source.paths, records]
-    report = batch.denoise(paths, tmp_path / "out", params=params, scheduler=scheduler)
+    with pytest.warns(pcl_rg.FarPointsWarning, match="records.las: denoise: 30 of 30 points"):
+        report = batch.denoise(paths, tmp_path / "out", params=params, scheduler=scheduler)
     assert [t.status for t in report.tiles] == ["done"] * 5
     assert report.tiles[4].details["buffer_used"] <= report.tiles[0].details["buffer_used"]
     assert (read_points(report.tiles[4].output).classification == 7).all()
@@ -285,3 +301,31 @@ def test_neighbours_are_the_tiles_whose_boxes_meet_the_grown_box():
         ]
         assert neighbours(boxes, margin) == expected
         assert any(expected) and not all(expected)
+
+
+def test_denoise_names_the_far_points_when_the_survey_is_too_small_for_mean_k(tmp_path):
+    # The merged run's message counts the points within float32's reach and the far ones
+    # left out; the batch, which reaches the whole survey, says the same.
+    source = synthetic_survey(tmp_path / "in", tiles=(1, 2), tile_size=40.0, seed=5)
+    for path in source.paths:
+        tile = read_points(path)
+        write_points(path, tile.points[:10], {k: v[:10] for k, v in tile.fields.items()})
+    append_records(source.paths[1], 1)
+    merged = np.concatenate([read_points(p).points for p in source.paths])
+    params = pcl_rg.StatisticalOutlierRemovalParams(mean_k=20)
+    with pytest.raises(ValueError) as error:
+        pcl_rg.statistical_outlier_removal(merged, params=params)
+    assert "(20 within float32's reach, of 21: 1 far, left out), got 20" in str(error.value)
+    report = batch.denoise(source.paths, tmp_path / "out", params=params, workers=1)
+    assert [t.status for t in report.tiles] == ["failed", "failed"]
+    assert {t.error for t in report.tiles} == {f"ValueError: {error.value}"}
+    # Two records are more far points than 22 points may hold: that comes first, as in
+    # the merged run, not the count of mean_k.
+    append_records(source.paths[1], 1)
+    merged = np.concatenate([read_points(p).points for p in source.paths])
+    with pytest.raises(ValueError, match="^points: 2 of 22 points lie more than 2"):
+        pcl_rg.statistical_outlier_removal(merged, params=params)
+    report = batch.denoise(source.paths, tmp_path / "again", params=params, workers=1)
+    assert [t.status for t in report.tiles] == ["failed", "failed"]
+    message = "ValueError: points: 2 of the survey's 22 points lie more than 2^24 x 0.1"
+    assert all(t.error.startswith(message) for t in report.tiles)

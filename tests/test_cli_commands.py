@@ -174,17 +174,28 @@ def test_denoise(capsys, tmp_path, scene_las):
     np.testing.assert_array_equal(read_points(tmp_path / "kept.las").points, source.points[inlier])
 
 
+@pytest.mark.filterwarnings("default::pcl_rg.FarPointsWarning")
 def test_a_record_at_the_origin_of_a_utm_tile_is_noise_and_no_segment(capsys, tmp_path, scene_las):
     # (0, 0, 0) lies 5,000 km from the tile, beyond float32's reach of its local origin:
-    # both commands refused the file. The other points come out as without it.
+    # both commands refused the file. The other points come out as without it, and
+    # the run says that one point was left out.
     source = read_points(scene_las)
     fields = {k: np.concatenate([v, np.zeros_like(v[:1])]) for k, v in source.fields.items()}
     stray = tmp_path / "stray.las"
     write_points(stray, np.r_[source.points, [[0.0, 0.0, 0.0]]], fields, template=source)
-    cases = (("denoise", "classification", 7), ("segment", "segment_id", -1))
-    for command, field, expected in cases:
+    cases = (
+        ("denoise", "classification", 7, "statistical_outlier_removal"),
+        ("segment", "segment_id", -1, "convex_segmentation"),
+    )
+    for command, field, expected, step in cases:
         run_json(capsys, command, scene_las, tmp_path / f"{command}.las")
-        run_json(capsys, command, stray, tmp_path / f"{command}-stray.las")
+        argv = (command, stray, tmp_path / f"{command}-stray.las", "--json", "-q")
+        code, _, err = run(capsys, *argv)
+        assert code == 0, err
+        assert err.startswith(
+            f"pcl-rg: warning: {step}: 1 of {len(source) + 1:,} points lie more than"
+        ), err
+        assert len(err.splitlines()) == 1
         clean = read_points(tmp_path / f"{command}.las").fields[field]
         beside = read_points(tmp_path / f"{command}-stray.las").fields[field]
         np.testing.assert_array_equal(beside[:-1], clean)

@@ -9,6 +9,9 @@ np.asarray would drop.
 
 from __future__ import annotations
 
+import contextlib
+import warnings
+
 import numpy as np
 import pytest
 
@@ -97,8 +100,23 @@ def test_a_point_beyond_float32s_reach_is_left_out(name, call, far) -> None:
     # a UTM tile) is now left out: the others get the run without it, and it gets the
     # result of a point without neighbours.
     points = np.random.default_rng(0).random((300, 3)) * [50.0, 50.0, 5.0]
-    beside = _per_point(call(np.r_[points, [[0.0, far, 0.0]]]))
-    alone = _per_point(call(points))
+    # Ours say so (a real second site far away is left out too); the references do not.
+    ours = not name.startswith("reference.")
+    with (
+        (
+            pytest.warns(pcl_rg.FarPointsWarning, match=f"^{name}: 1 of 301 points lie more than")
+            if ours
+            else contextlib.nullcontext()
+        ),
+        pcl_rg.collect_diagnostics() as diagnostics,
+    ):
+        beside = _per_point(call(np.r_[points, [[0.0, far, 0.0]]]))
+    if ours:
+        assert diagnostics[name]["far_points"] == 1
+    with pcl_rg.collect_diagnostics() as diagnostics:
+        alone = _per_point(call(points))
+    if ours:
+        assert diagnostics[name]["far_points"] == 0
     if name.endswith("point_scale"):  # measured on the others
         np.testing.assert_array_equal(beside, alone)
         return
@@ -159,6 +177,37 @@ def test_the_cores_far_rows_and_limit_are_the_references() -> None:
         assert _core.max_far_points(n) == max_far_points(n)
 
 
+def test_the_far_point_count_is_what_the_core_left_out_in_every_frame() -> None:
+    # Once the far points are out, the kept points get a frame of their own, whose origin
+    # may lie far below the first one, so that a point that was near is far in turn:
+    # here 1 point at x = 5e6, then 1 at 1.9e6 (25 at 0, 74 at 1e6). The warning and
+    # the diagnostics give the core's count over both frames (2), which a count of the
+    # first frame alone missed (1).
+    rng = np.random.default_rng(6)
+    x = np.r_[np.zeros(25), np.full(74, 1e6), [1.9e6, 5e6]] + rng.random(101)
+    points = np.c_[x, rng.random((101, 2)) * [50.0, 5.0]]
+    calls = {
+        "normals": lambda p: np.isnan(pcl_rg.normals(p, k=8).normals).all(axis=1),
+        "region_growing": lambda p: pcl_rg.region_growing(p, k=8, min_cluster_size=2) < 0,
+        "convex_segmentation": lambda p: pcl_rg.convex_segmentation(p, k=8) < 0,
+        "statistical_outlier_removal": lambda p: ~pcl_rg.statistical_outlier_removal(p, mean_k=8),
+        "point_scale": lambda p: pcl_rg.point_scale(p) and None,
+    }
+    for name, call in calls.items():
+        with (
+            pytest.warns(pcl_rg.FarPointsWarning, match=f"^{name}: 2 of 101 points") as caught,
+            pcl_rg.collect_diagnostics() as diagnostics,
+        ):
+            left_out = call(points)
+        assert len(caught) == 1 and caught[0].filename == __file__, name
+        assert diagnostics[name]["far_points"] == 2, name
+        if left_out is not None:
+            assert left_out[-2:].all(), name
+    # The reference leaves out the same two.
+    assert np.isnan(reference.normals(points, k=8).normals[-2:]).all()
+    assert not np.isnan(reference.normals(points, k=8).normals[:-2]).any()
+
+
 @pytest.mark.parametrize(("name", "call"), FLOAT32_STEPS, ids=[c[0] for c in FLOAT32_STEPS])
 def test_more_far_points_than_one_percent_are_refused(name, call) -> None:
     # 1 % of the points may be strays; more mean a cloud wider than one float32 frame
@@ -166,7 +215,9 @@ def test_more_far_points_than_one_percent_are_refused(name, call) -> None:
     points = np.random.default_rng(0).random((300, 3)) * [50.0, 50.0, 5.0]
     far = np.zeros((4, 3)) + [0.0, 2e6, 0.0]
     if (name, call) in LEAVING_OUT_STEPS:
-        call(np.r_[points, far[:3]])  # 3 of 303 are left out
+        with warnings.catch_warnings():  # counted in the test above
+            warnings.simplefilter("ignore", pcl_rg.FarPointsWarning)
+            call(np.r_[points, far[:3]])  # 3 of 303 are left out
     with pytest.raises(ValueError, match=r"more than 2\^24 x 0.1"):
         call(np.r_[points, far])
 
@@ -278,3 +329,30 @@ def test_pcl_searches_over_two_minutes_are_refused(name, call, k) -> None:
         call(points, **{k: len(points) - 1})
     with pytest.raises(ValueError, match=rf"{message}.*, got {largest + 1}$"):
         call(points, **{k: largest + 1})
+
+
+NEIGHBOUR_COUNTS = [
+    ("statistical_outlier_removal", "mean_k", reference.statistical_outlier_removal),
+    ("normals", "k", reference.normals),
+    ("region_growing", "k", reference.region_growing),
+    ("convex_segmentation", "k", reference.convex_segmentation),
+]
+
+
+@pytest.mark.parametrize(
+    ("name", "key", "twin"), NEIGHBOUR_COUNTS, ids=[c[0] for c in NEIGHBOUR_COUNTS]
+)
+def test_a_neighbour_count_that_only_the_far_points_make_too_large_says_so(name, key, twin):
+    # 30 points and a record at (0, 0, 0): k = 30 is below the 31 points passed, but the
+    # far one is left out. The message counted the 30 alone, unlike the caller's array.
+    points = np.random.default_rng(3).random((30, 3)) * [50.0, 50.0, 5.0] + [5e5, 5.4e6, 0.0]
+    points = np.r_[points, np.zeros((1, 3))]
+    for call in (getattr(pcl_rg, name), twin):
+        with pytest.raises(ValueError) as error:
+            call(points, **{key: 30})
+        assert str(error.value) == (
+            f"{key} must be < the number of points (30 within float32's reach, of 31: 1 far, "
+            "left out), got 30"
+        )
+        with pytest.raises(ValueError, match=rf"^{key} must be < the number of points \(31\)"):
+            call(points, **{key: 31})

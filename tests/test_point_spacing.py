@@ -283,7 +283,7 @@ def test_spacing_scale_and_normals_report_what_they_measured() -> None:
     assert diagnostics["point_spacing"] == {"points": len(points), "point_spacing": spacing}
     assert diagnostics["point_scale"]["noise"] == scale.noise
     assert diagnostics["point_scale"]["point_spacing"] == scale.spacing
-    assert diagnostics["normals"] == {"points": 2000, "k": 12}
+    assert diagnostics["normals"] == {"points": 2000, "k": 12, "far_points": 0}
 
 
 def test_diagnostics_iterate_over_the_functions_recorded() -> None:

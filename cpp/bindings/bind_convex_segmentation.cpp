@@ -16,10 +16,11 @@ void bind_convex_segmentation(py::module_& m) {
             const PointsView view = points_view(points);
             PointScale scale;
             without_gil([&] { scale = point_scale(view); });
-            return py::make_tuple(scale.spacing, scale.noise);
+            return py::make_tuple(scale.spacing, scale.noise, scale.far_points);
         },
         py::arg("points").noconvert(),
-        "(spacing, noise) of the points, see point_scale.hpp. Use pcl_rg.point_scale.");
+        "(spacing, noise, far_points) of the points, see point_scale.hpp. Use "
+        "pcl_rg.point_scale.");
 
     py::class_<ConvexSegmentationParams>(m, "ConvexSegmentationParams")
         .def(py::init<>())
@@ -40,11 +41,12 @@ void bind_convex_segmentation(py::module_& m) {
                     return convex_segmentation(view, params, out);
                 });
             return py::make_tuple(labels, timings.normals_seconds, timings.growth_seconds,
-                                  timings.merge_seconds, timings.leaf, timings.viewpoint);
+                                  timings.merge_seconds, timings.leaf, timings.viewpoint,
+                                  timings.far_points);
         },
         py::arg("points").noconvert(), py::arg("params"),
         "Core convex segmentation: (labels, normals_seconds, growth_seconds, merge_seconds, "
-        "leaf, viewpoint). "
+        "leaf, viewpoint, far_points). "
         "Use pcl_rg.convex_segmentation.");
 
     m.def(

@@ -26,11 +26,12 @@ void bind_normals(py::module_& m) {
             out.mean_curvature = mean.mutable_data();
             out.k1 = k1.mutable_data();
             out.k2 = k2.mutable_data();
-            without_gil([&] { normals(view, params, out); });
-            return py::make_tuple(normal, surface_variation, gaussian, mean, k1, k2);
+            std::size_t far_points = 0;
+            without_gil([&] { far_points = normals(view, params, out); });
+            return py::make_tuple(normal, surface_variation, gaussian, mean, k1, k2, far_points);
         },
         py::arg("points").noconvert(), py::arg("params"),
-        "Core normals: (normal, surface_variation, gaussian, mean, k1, k2). Use "
+        "Core normals: (normal, surface_variation, gaussian, mean, k1, k2, far_points). Use "
         "pcl_rg.normals.");
     m.def(
         "neighbour_lists",

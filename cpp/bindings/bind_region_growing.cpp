@@ -31,10 +31,11 @@ void bind_region_growing(py::module_& m) {
                 per_point<std::int32_t>(points, [&](const PointsView& view, std::int32_t* out) {
                     return region_growing(view, params, out);
                 });
-            return py::make_tuple(labels, timings.normals_seconds, timings.growth_seconds);
+            return py::make_tuple(labels, timings.normals_seconds, timings.growth_seconds,
+                                  timings.far_points);
         },
         py::arg("points").noconvert(), py::arg("params"),
-        "Core region growing: (labels, normals_seconds, growth_seconds). Use "
+        "Core region growing: (labels, normals_seconds, growth_seconds, far_points). Use "
         "pcl_rg.region_growing.");
 
     m.def(

@@ -79,10 +79,13 @@ void relation(bool ok, const char* name, const std::string& rule, double value) 
                                     format_value(value));
 }
 
-void fewer_than_points(const char* name, std::int64_t count, std::size_t n) {
-    if (count < 0 || static_cast<std::uint64_t>(count) >= n)
-        throw std::invalid_argument(std::string(name) + " must be < the number of points (" +
-                                    std::to_string(n) + "), got " + std::to_string(count));
+void fewer_than_points(const char* name, std::int64_t count, std::size_t n, std::size_t cloud) {
+    if (count >= 0 && static_cast<std::uint64_t>(count) < n) return;
+    const std::string far = cloud > n ? " within float32's reach, of " + std::to_string(cloud) +
+                                            ": " + std::to_string(cloud - n) + " far, left out"
+                                      : "";
+    throw std::invalid_argument(std::string(name) + " must be < the number of points (" +
+                                std::to_string(n) + far + "), got " + std::to_string(count));
 }
 
 // The neighbour table of region growing and convex segmentation holds k uint32 per

@@ -226,12 +226,15 @@ ConvexSegmentationTimings convex_segmentation(PointsView points,
     // and the grid included (one at 1e39 overflowed the grid's voxel indices).
     Float32Frame frame = float32_frame(points);
     if (frame.has_far_points()) {
+        check::fewer_than_points("k", given.k, n);
+        check::fewer_than_points("k", given.k, frame.near.size(), n);
         const std::vector<double> kept = gather_points(points, frame.near);
         std::vector<std::int32_t> kept_labels(frame.near.size());
-        const ConvexSegmentationTimings timings = convex_segmentation(
+        ConvexSegmentationTimings timings = convex_segmentation(
             PointsView{kept.data(), frame.near.size()}, given, kept_labels.data());
         std::fill_n(labels, n, -1);
         for (std::size_t s = 0; s < frame.near.size(); ++s) labels[frame.near[s]] = kept_labels[s];
+        timings.far_points += static_cast<std::int64_t>(n - frame.near.size());
         return timings;
     }
     const auto start = std::chrono::steady_clock::now();

@@ -149,12 +149,15 @@ void spread_over_far_points(std::vector<std::uint32_t>& lists, std::size_t n, st
 // normals() on the points `near` alone, copied, with NaN for the far points. The kept
 // points' results are written into the first rows of the caller's arrays, then moved to
 // their own rows in place, as their neighbour lists are: no second set of arrays.
-void normals_without_far_points(PointsView points, const std::vector<std::size_t>& near,
-                                const NormalsParams& params, const NormalsOutput& out,
-                                std::vector<std::uint32_t>* neighbours) {
+// Returns how many far points were left out, n - m and those the kept points' own frame
+// leaves out.
+std::size_t normals_without_far_points(PointsView points, const std::vector<std::size_t>& near,
+                                       const NormalsParams& params, const NormalsOutput& out,
+                                       std::vector<std::uint32_t>* neighbours) {
     const std::size_t n = points.size, m = near.size();
     if (neighbours) neighbours->reserve(n * static_cast<std::size_t>(params.k));
-    normals(PointsView{gather_points(points, near).data(), m}, params, out, neighbours);
+    const std::size_t inner =
+        normals(PointsView{gather_points(points, near).data(), m}, params, out, neighbours);
     double* const fields[5] = {out.surface_variation, out.gaussian_curvature, out.mean_curvature,
                                out.k1, out.k2};
     const auto move_row = [&](std::size_t from, std::size_t to, bool far) {
@@ -171,6 +174,7 @@ void normals_without_far_points(PointsView points, const std::vector<std::size_t
     for (std::size_t r = 0; r < end; ++r) move_row(r, r, true);
     if (neighbours)
         spread_over_far_points(*neighbours, n, static_cast<std::size_t>(params.k), near);
+    return n - m + inner;
 }
 
 // neighbour_lists() into `lists`, whose capacity it keeps when that is enough.
@@ -183,6 +187,7 @@ void fill_neighbour_lists(PointsView points, const NormalsParams& params,
     const auto k = static_cast<std::size_t>(params.k);
     const Float32Frame frame = float32_frame(points);
     if (frame.has_far_points()) {
+        check::fewer_than_points("k", params.k, frame.near.size(), n);
         lists.reserve(n * k);
         fill_neighbour_lists(
             PointsView{gather_points(points, frame.near).data(), frame.near.size()}, params,
@@ -218,19 +223,21 @@ std::vector<std::uint32_t> neighbour_lists(PointsView points, const NormalsParam
     return lists;
 }
 
-void normals(PointsView points, const NormalsParams& params, const NormalsOutput& out,
-             std::vector<std::uint32_t>* neighbours) {
+std::size_t normals(PointsView points, const NormalsParams& params, const NormalsOutput& out,
+                    std::vector<std::uint32_t>* neighbours) {
     validate(params);
     const std::size_t n = points.size;
     if (neighbours) neighbours->clear();
-    if (n == 0) return;
+    if (n == 0) return 0;
     check::fewer_than_points("k", params.k, n);
     if (neighbours) check::neighbour_table_fits("k", params.k, n);
     const auto k = static_cast<std::size_t>(params.k);
 
     const Float32Frame frame = float32_frame(points);
-    if (frame.has_far_points())
+    if (frame.has_far_points()) {
+        check::fewer_than_points("k", params.k, frame.near.size(), n);
         return normals_without_far_points(points, frame.near, params, out, neighbours);
+    }
     const KnnIndex index(frame.local.data(), n);
     if (neighbours) neighbours->resize(n * k);
     const Interruption interruption;
@@ -258,6 +265,7 @@ void normals(PointsView points, const NormalsParams& params, const NormalsOutput
         }
     }
     interruption.check();
+    return 0;
 }
 
 }  // namespace pcl_rg

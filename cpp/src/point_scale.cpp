@@ -44,7 +44,9 @@ PointScale point_scale(PointsView points, const Float32Frame& frame) {
     }
     if (frame.has_far_points()) {  // measured on the others alone
         const std::vector<double> kept = gather_points(points, frame.near);
-        return point_scale(PointsView{kept.data(), frame.near.size()});
+        PointScale scale_of_kept = point_scale(PointsView{kept.data(), frame.near.size()});
+        scale_of_kept.far_points += static_cast<std::int64_t>(n - frame.near.size());
+        return scale_of_kept;
     }
     const KnnIndex index(frame.local.data(), n);
     const std::size_t step = std::max<std::size_t>(1, n / kPointScaleSamples);

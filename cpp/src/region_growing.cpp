@@ -174,7 +174,8 @@ RegionGrowingTimings region_growing(PointsView points, const RegionGrowingParams
             break;
     }
     std::vector<std::uint32_t> neighbours;
-    normals(points, NormalsParams{params.k}, out, &neighbours);
+    timings.far_points =
+        static_cast<std::int64_t>(normals(points, NormalsParams{params.k}, out, &neighbours));
 
     std::vector<double> measure(n);
 #pragma omp parallel for schedule(static)

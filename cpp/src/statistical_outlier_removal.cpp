@@ -78,7 +78,10 @@ StatisticalOutlierRemovalResult statistical_outlier_removal(
     const auto mean_k = static_cast<std::size_t>(params.mean_k);
 
     const Float32Frame frame = float32_frame(points);
-    if (frame.has_far_points()) return without_far_points(points, frame.near, params, inlier);
+    if (frame.has_far_points()) {
+        check::fewer_than_points("mean_k", params.mean_k, frame.near.size(), n);
+        return without_far_points(points, frame.near, params, inlier);
+    }
     // Query in Morton order on a Morton-ordered copy: the same float32 coordinates
     // (so the same distances), but memory is touched in order.
     const std::vector<float>& unordered = frame.local;

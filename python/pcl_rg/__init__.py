@@ -40,6 +40,7 @@ _NAMES = {
     "voxel_grid": "_voxel_grid",
     "Diagnostics": "_diagnostics",
     "collect_diagnostics": "_diagnostics",
+    "FarPointsWarning": "_far_points",
 }
 _SUBMODULES = (
     "batch",
@@ -75,6 +76,7 @@ if TYPE_CHECKING:  # what type checkers and IDEs see; nothing runs here
     from . import datasets, demo, evaluation, io, pcl, pipeline, plot, reference
     from ._convex_segmentation import ConvexSegmentationParams, convex_segmentation
     from ._diagnostics import Diagnostics, collect_diagnostics
+    from ._far_points import FarPointsWarning
     from ._grid_ground import GridGroundParams, grid_ground
     from ._normals import NormalsParams, NormalsResult, normals
     from ._point_scale import PointScale, point_scale

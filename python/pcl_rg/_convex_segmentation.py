@@ -10,6 +10,7 @@ import numpy.typing as npt
 from . import _core
 from ._diagnostics import record
 from ._docstrings import fill_docstring
+from ._far_points import warn_far_points
 from ._params import check_fields, param, resolve_arguments, to_core
 from ._validation import as_points
 
@@ -235,7 +236,7 @@ def convex_segmentation(
     """
     p = resolve_arguments(ConvexSegmentationParams, locals())
     xyz = as_points(points)
-    labels, normals_s, growth_s, merge_s, leaf, viewpoint = _core.convex_segmentation(
+    labels, normals_s, growth_s, merge_s, leaf, viewpoint, far = _core.convex_segmentation(
         xyz, p.to_core()
     )
     record(
@@ -247,5 +248,7 @@ def convex_segmentation(
         normals_seconds=normals_s,
         growth_seconds=growth_s,
         merge_seconds=merge_s,
+        far_points=far,
     )
+    warn_far_points("convex_segmentation", far, len(xyz), "they are labelled -1")
     return labels

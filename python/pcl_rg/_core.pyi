@@ -106,6 +106,7 @@ def normals(
     npt.NDArray[np.float64],
     npt.NDArray[np.float64],
     npt.NDArray[np.float64],
+    int,
 ]: ...
 def neighbour_lists(
     points: npt.NDArray[np.float64],
@@ -135,7 +136,7 @@ class RegionGrowingParams:
 
 def region_growing(
     points: npt.NDArray[np.float64], params: RegionGrowingParams
-) -> tuple[npt.NDArray[np.int32], float, float]: ...
+) -> tuple[npt.NDArray[np.int32], float, float, int]: ...
 
 class ConvexSegmentationParams:
     noise_leaves: float
@@ -149,9 +150,9 @@ class ConvexSegmentationParams:
 
 def convex_segmentation(
     points: npt.NDArray[np.float64], params: ConvexSegmentationParams
-) -> tuple[npt.NDArray[np.int32], float, float, float, float, list[float]]: ...
+) -> tuple[npt.NDArray[np.int32], float, float, float, float, list[float], int]: ...
 def default_viewpoint(points: npt.NDArray[np.float64]) -> list[float]: ...
-def point_scale(points: npt.NDArray[np.float64]) -> tuple[float, float]: ...
+def point_scale(points: npt.NDArray[np.float64]) -> tuple[float, float, int]: ...
 def merge_convex(
     points: npt.NDArray[np.float64],
     neighbours: npt.NDArray[np.uint32],

@@ -105,15 +105,22 @@ def collect_diagnostics() -> Iterator[Diagnostics]:
 
 
 def record_segmentation(
-    function: str, points: int, labels: Any, normals_seconds: float, growth_seconds: float
+    function: str,
+    points: int,
+    labels: Any,
+    normals_seconds: float,
+    growth_seconds: float,
+    far_points: int,
 ) -> None:
-    """Record a region-growing call: its cluster count and its two stage times."""
+    """Record a region-growing call: its cluster count, its two stage times and how many
+    far points it left out."""
     record(
         function,
         points=points,
         clusters=int(labels.max(initial=-1)) + 1,
         normals_seconds=normals_seconds,
         growth_seconds=growth_seconds,
+        far_points=far_points,
     )
 
 

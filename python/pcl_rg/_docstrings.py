@@ -46,7 +46,9 @@ float32 resolves no better than 0.125 m, is far: a stray point such as a bad
 GPS fix, or a record at (0, 0, 0) in a UTM tile. Up to 1 % of the points (at
 least one) may be far. They are left out: the other points get the result
 of the cloud without them, and each far point gets that of a point without
-neighbours.""",
+neighbours. A call that leaves any out warns with their count
+(:class:`pcl_rg.FarPointsWarning`), and its diagnostics record it as
+``far_points``.""",
 }
 
 Function = TypeVar("Function", bound=Callable)

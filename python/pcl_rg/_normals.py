@@ -11,6 +11,7 @@ import numpy.typing as npt
 from . import _core
 from ._diagnostics import record
 from ._docstrings import fill_docstring
+from ._far_points import warn_far_points
 from ._params import check_fields, param, resolve_arguments, to_core
 from ._validation import MAX_POINTS_UINT32, as_points
 
@@ -145,6 +146,8 @@ def normals(
     """
     p = resolve_arguments(NormalsParams, locals())
     xyz = as_points(points, max_points=MAX_POINTS_UINT32)
-    result = NormalsResult(*_core.normals(xyz, p.to_core()))
-    record("normals", points=len(xyz), k=p.k)
+    *fields, far = _core.normals(xyz, p.to_core())
+    result = NormalsResult(*fields)
+    record("normals", points=len(xyz), k=p.k, far_points=far)
+    warn_far_points("normals", far, len(xyz), "their normals and curvatures are NaN")
     return result

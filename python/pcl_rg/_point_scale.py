@@ -9,6 +9,7 @@ import numpy.typing as npt
 from . import _core
 from ._diagnostics import record
 from ._docstrings import fill_docstring
+from ._far_points import warn_far_points
 from ._validation import as_points
 
 __all__ = ["PointScale", "point_scale"]
@@ -98,6 +99,7 @@ def point_scale(points: npt.ArrayLike) -> PointScale:
     0.0009
     """
     xyz = as_points(points)
-    spacing, noise = _core.point_scale(xyz)
-    record("point_scale", points=len(xyz), point_spacing=spacing, noise=noise)
+    spacing, noise, far = _core.point_scale(xyz)
+    record("point_scale", points=len(xyz), point_spacing=spacing, noise=noise, far_points=far)
+    warn_far_points("point_scale", far, len(xyz), "the spacing and noise are the other points'")
     return PointScale(spacing, noise)

@@ -10,6 +10,7 @@ import numpy.typing as npt
 from . import _core
 from ._diagnostics import record_segmentation
 from ._docstrings import fill_docstring
+from ._far_points import warn_far_points
 from ._normals import MIN_CURVATURE_K
 from ._params import check_fields, param, resolve_arguments, to_core
 from ._validation import as_points
@@ -216,6 +217,8 @@ def region_growing(
     """
     p = resolve_arguments(RegionGrowingParams, locals())
     xyz = as_points(points)
-    labels, normals_seconds, growth_seconds = _core.region_growing(xyz, p.to_core())
-    record_segmentation("region_growing", len(xyz), labels, normals_seconds, growth_seconds)
+    labels, normals_seconds, growth_seconds, far = _core.region_growing(xyz, p.to_core())
+    record_segmentation("region_growing", len(xyz), labels, normals_seconds, growth_seconds, far)
+    outcome = "each is a region of its own (-1 unless min_cluster_size is 1)"
+    warn_far_points("region_growing", far, len(xyz), outcome)
     return labels

@@ -10,6 +10,7 @@ import numpy.typing as npt
 from . import _core
 from ._diagnostics import record
 from ._docstrings import fill_docstring
+from ._far_points import warn_far_points
 from ._params import check_fields, param, resolve_arguments, to_core
 from ._validation import MAX_POINTS_UINT32, as_points
 
@@ -108,11 +109,16 @@ def statistical_outlier_removal(
     xyz = as_points(points, max_points=MAX_POINTS_UINT32)
     inlier, mean_distance, threshold, _ = _core.statistical_outlier_removal(xyz, p.to_core())
     counted = mean_distance[np.isfinite(mean_distance)]  # far points' d_i is inf
+    far = len(xyz) - len(counted)
     record(
         "statistical_outlier_removal",
         points=len(xyz),
         inliers=int(inlier.sum()),
         threshold=float(threshold),
         mean_distance=float(counted.mean()) if len(counted) else float("nan"),
+        far_points=far,
+    )
+    warn_far_points(
+        "statistical_outlier_removal", far, len(xyz), "outliers, outside the mean and deviation"
     )
     return inlier

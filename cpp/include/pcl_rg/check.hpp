@@ -33,8 +33,9 @@ void integer(const char* name, std::int64_t value, const Bounds& bounds);
 void relation(bool ok, const char* name, const std::string& rule, double value);
 
 /// A neighbour count that the cloud can supply: "<name> must be < the number of points
-/// (<n>), got <count>", the wording of the Python layer.
-void fewer_than_points(const char* name, std::int64_t count, std::size_t n);
+/// (<n>), got <count>", the wording of the Python layer. With `cloud` > n, the n are what
+/// is left of `cloud` points once the far ones are left out, and the message says so.
+void fewer_than_points(const char* name, std::int64_t count, std::size_t n, std::size_t cloud = 0);
 
 /// A per-point count whose total over n points stays within `total`: "<name> must be at
 /// most <floor(total / n)> for <n> points (<why>), got <count>".

@@ -64,6 +64,7 @@ struct ConvexSegmentationTimings {
     double merge_seconds = 0.0;    ///< region graph, convexity test, merge
     /// The viewpoint used (the given one, or default_viewpoint() of the input).
     std::array<double, 3> viewpoint{0.0, 0.0, 0.0};
+    std::int64_t far_points = 0;  ///< far points of the input left out (labelled -1)
 };
 
 /// The merge step alone on given patches. `neighbours` (n x k, row-major), unit

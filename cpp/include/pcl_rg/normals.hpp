@@ -59,9 +59,10 @@ inline constexpr double kQuadricConditionLimit = 1e-10;
 /// the normal is an arbitrary unit vector perpendicular to the line). Far points
 /// (float32_frame, points.hpp) are left out: every output NaN, and a row of themselves.
 /// When `neighbours` is not null it receives the N x k neighbour lists (row-major).
-/// Throws std::invalid_argument when k >= N (non-empty input).
-void normals(PointsView points, const NormalsParams& params, const NormalsOutput& out,
-             std::vector<std::uint32_t>* neighbours = nullptr);
+/// Throws std::invalid_argument when k >= N (non-empty input). Returns how many far
+/// points were left out (those of the kept points' own frame included).
+std::size_t normals(PointsView points, const NormalsParams& params, const NormalsOutput& out,
+                    std::vector<std::uint32_t>* neighbours = nullptr);
 
 /// The N x k neighbour lists normals() uses (row-major; row i: the k nearest points
 /// to point i, itself included, by ascending float32 squared distance in the local

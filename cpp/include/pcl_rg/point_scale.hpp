@@ -24,6 +24,7 @@ inline constexpr double kPointScaleSurfaceRatio = 0.3;
 struct PointScale {
     double spacing = 0.0;  ///< median distance from a point to its nearest other point
     double noise = 0.0;    ///< median RMS distance from their plane of surface neighbourhoods
+    std::int64_t far_points = 0;  ///< far points left out of both
 };
 
 /// At the points i = 0, s, 2s, ... (s = max(1, N / kPointScaleSamples)), over the

@@ -62,6 +62,7 @@ void validate(const RegionGrowingParams& params);
 struct RegionGrowingTimings {
     double normals_seconds = 0.0;  ///< neighbours, normals and curvatures
     double growth_seconds = 0.0;   ///< seed sort, growth, size filter, numbering
+    std::int64_t far_points = 0;   ///< far points left out (normals()), not a timing
 };
 
 /// Steps 3 and 4 on precomputed data: `neighbours` (n x k, row-major, each row the

@@ -21,14 +21,16 @@ import warnings
 from collections.abc import Sequence
 from typing import Any
 
-from .. import __version__, _core
+from .. import __version__
+from .._caller import outside_stacklevel
+from .._far_points import FarPointsWarning, far_points_message
 from .._point_spacing import with_spacing_lengths
 from ..io import Extent
-from ..io._las import _outside_stacklevel
 from . import _tasks
 from ._cluster import dask_client
 from ._headers import check_one_crs, survey_units
 from ._manifest import Manifest, code_digest, file_signature
+from ._origin import far_points_error
 from ._plan import (
     Box,
     box_of,
@@ -56,6 +58,8 @@ class TileReport:
     no_buffer_from: list[str] = dataclasses.field(default_factory=list)
     """Input files that should have given this tile a buffer but could not be read."""
     details: dict[str, Any] = dataclasses.field(default_factory=dict)
+    """The task's own figures (e.g. denoise: ``noise``, ``threshold``, ``buffer_used``, and
+    ``far_points`` of its ``usable`` points, left out and flagged as noise)."""
     warnings: list[str] = dataclasses.field(default_factory=list)
     """The warnings its tasks raised (a damaged header's point count, ...), each as
     ``<input's file name>: <message>`` (or the message alone where it names the input's
@@ -165,7 +169,7 @@ def _warn(report: TileReport, result: dict[str, Any]) -> None:
         line = message if named else f"{os.path.basename(report.input)}: {message}"
         if line not in report.warnings:
             report.warnings.append(line)
-            warnings.warn(line, category, stacklevel=_outside_stacklevel())
+            warnings.warn(line, category, stacklevel=outside_stacklevel())
 
 
 def _plain(value: Any) -> Any:
@@ -353,6 +357,12 @@ def _run_on(
             report = reports[i]
             stage1(i)  # its warnings first
             _warn(report, result)
+            if result["ok"] and result.get("far_points"):  # written: say how many were far
+                outcome = "classified as noise (7), outside the mean and deviation"
+                line = far_points_message(
+                    "denoise", result["far_points"], result["usable"], outcome, "the survey's"
+                )
+                _warn(report, {"warnings": [(FarPointsWarning, line)]})
             report.details = {
                 k: v for k, v in result.items() if k not in ("ok", "error", "warnings")
             }
@@ -397,21 +407,6 @@ def _outcome(future: Any) -> dict[str, Any]:
         return {"ok": False, "error": f"{type(error).__name__}: {error}"}
 
 
-def _far_points_error(far: int, points: int) -> str | None:
-    """The merged run's refusal of `far` far points among the survey's `points`, or
-    None: up to _core.max_far_points of them may be far."""
-    if far <= _core.max_far_points(points):
-        return None
-    return (
-        f"ValueError: points: {far} of the survey's {points} points lie more than 2^24 x "
-        "0.1 = 1677721.6 (metres for LiDAR) from the survey's local origin on some axis, "
-        "where float32, which outlier removal computes in, resolves no better than 0.125; "
-        "up to 1 % of a survey's points (at least one) are taken for stray points and left "
-        "out, as one run over the merged survey leaves them out: remove the bad records "
-        "first, or check the tiles' coordinates"
-    )
-
-
 def _denoise(
     client: Any,
     job: _tasks.Job,
@@ -449,11 +444,11 @@ def _denoise(
         _warn(reports[i], result)
     # Over the usable points of every tile read: those whose distances failed count too.
     far = sum(s["far"] for s in sums.values() if s["ok"])
-    too_many_far = _far_points_error(far, sum(stage1[i]["usable"] for i in read))
+    too_many_far = far_points_error(far, sum(stage1[i]["usable"] for i in read))
     if too_many_far:  # the tiles that hold them fail, as the merged run would
         for i, result in sums.items():
             if result["ok"] and result["far"]:
-                sums[i] = {"ok": False, "error": too_many_far}
+                sums[i] = {"ok": False, "error": f"ValueError: {too_many_far}"}
     good = [s for s in sums.values() if s["ok"]]
     threshold = _tasks.sor_threshold(good, job.params.std_mul) if good else float("nan")
     stage: dict[Any, int] = {}

@@ -69,3 +69,18 @@ def merged_float32_origin(folders: list[str]) -> tuple[float, float, float]:
                 lowest = min(lowest, float(column[first]))
         origin.append(lowest)
     return (origin[0], origin[1], origin[2])
+
+
+def far_points_error(far: int, points: int) -> str | None:
+    """The merged run's refusal of `far` far points among the survey's `points` (a
+    ValueError's message), or None: up to _core.max_far_points of them may be far."""
+    if far <= _core.max_far_points(points):
+        return None
+    return (
+        f"points: {far} of the survey's {points} points lie more than 2^24 x "
+        "0.1 = 1677721.6 (metres for LiDAR) from the survey's local origin on some axis, "
+        "where float32, which outlier removal computes in, resolves no better than 0.125; "
+        "up to 1 % of a survey's points (at least one) are taken for stray points and left "
+        "out, as one run over the merged survey leaves them out: remove the bad records "
+        "first, or check the tiles' coordinates"
+    )

@@ -12,8 +12,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from .._caller import outside_stacklevel
 from ..io import EXTENSIONS, Extent
-from ..io._las import _outside_stacklevel
 
 __all__ = [
     "Box",
@@ -82,7 +82,7 @@ def _is_point_file(path: str) -> bool:
     if not os.path.isfile(path):
         warnings.warn(
             f"skipped {path!r}: not a regular file (a folder, FIFO, device or broken link)",
-            stacklevel=_outside_stacklevel(),
+            stacklevel=outside_stacklevel(),
         )
         return False
     return ext != ".txt" or _text_tile(path)

@@ -35,7 +35,7 @@ from .._classification import (
 from ..io import CoordinateUnits, PointFile, read_extent, read_points, write_points
 from ._caught import caught
 from ._headers import check_header_box, crs_records
-from ._origin import merged_float32_origin, save_sorted_axes
+from ._origin import far_points_error, merged_float32_origin, save_sorted_axes
 from ._plan import FOOTPRINT_GAP, Box, covers, footprint, grow, meets, room_inside
 
 __all__ = [
@@ -365,17 +365,20 @@ def denoise_distances(
             metres = _metres(job, xyz)
             # Far points are left out, as the core leaves them out, but here whatever
             # their number: the limit on it is the merged run's, over the whole survey
-            # (_engine._far_points_error).
+            # (_origin.far_points_error).
             kept = _core.rows_within_float32_reach(metres, np.asarray(origin, float))
             if not len(kept) or kept[0] >= len(mine):  # every own point far: no buffer
                 distance = np.full(len(mine), np.inf, np.float32)
                 break
             if job.params.mean_k >= len(kept):  # too few points yet: a wider buffer
-                if whole:
-                    raise ValueError(
-                        f"mean_k must be < the number of points ({len(kept)}), "
-                        f"got {job.params.mean_k}"
-                    )
+                if whole:  # the merged run's messages, in its order
+                    k, n, far = job.params.mean_k, len(xyz), len(xyz) - len(kept)
+                    too_many_far = far_points_error(far, n)
+                    if k < n and too_many_far:
+                        raise ValueError(too_many_far)
+                    among = f" within float32's reach, of {n}: {far} far, left out"
+                    counted = f"{n}" if k >= n else f"{len(kept)}{among}"
+                    raise ValueError(f"mean_k must be < the number of points ({counted}), got {k}")
                 margin = max(2.0 * margin, 1.0)  # from a zero buffer too
                 continue
             _, kept_distance, _, kept_farthest = _core.statistical_outlier_removal(
@@ -428,6 +431,8 @@ def denoise_write(
         return {
             "points": len(own),
             "noise": int(outlier.sum()),
+            "far_points": int(np.isinf(distance).sum()),  # of the `usable` points
+            "usable": int(valid.sum()),
             "threshold": threshold,
             "buffer_used": measured["buffer_used"],
             "distance_seconds": measured["seconds"],

@@ -10,14 +10,13 @@ from __future__ import annotations
 import contextlib
 import datetime
 import math
-import os
-import sys
 import warnings
 from collections.abc import Iterator
 from typing import BinaryIO
 
 import numpy as np
 
+from .._caller import outside_stacklevel
 from .._held_signals import HeldSignals, held_signals
 from ._atomic import atomic_write
 from ._las_header import check_las_header
@@ -33,18 +32,6 @@ def _laspy():
             "reading and writing LAS/LAZ needs laspy with lazrs: pip install 'pcl_rg[las]'"
         ) from error
     return laspy
-
-
-_PACKAGE = os.path.dirname(os.path.dirname(os.path.abspath(__file__))) + os.sep
-
-
-def _outside_stacklevel() -> int:
-    """warnings.warn's stacklevel, from the caller of this, of the first frame outside
-    pcl_rg: a warning then names the user's line, however deep the call."""
-    frame, level = sys._getframe(1), 1
-    while frame is not None and frame.f_code.co_filename.startswith(_PACKAGE):
-        frame, level = frame.f_back, level + 1
-    return level
 
 
 # Points decoded in the first step of a LAZ read; each later step doubles, up to the
@@ -87,7 +74,7 @@ def _decode_las(path: str) -> tuple[np.ndarray, dict[str, np.ndarray], object]:
                 f"file holds {'at least ' if facts.compressed else 'room for '}"
                 f"{facts.spare_records} more records after them; only the counted points "
                 "are read (is the header's point count damaged?)",
-                stacklevel=_outside_stacklevel(),
+                stacklevel=outside_stacklevel(),
             )
         stream.seek(0)
         parallel = facts.parallel_decompression

@@ -225,5 +225,6 @@ def region_growing(
     p = resolve_arguments(RegionGrowingPclParams, locals())
     xyz = as_points(points)
     labels, normals_seconds, growth_seconds = _pcl.region_growing(xyz, p.to_core())
-    record_segmentation("pcl.region_growing", len(xyz), labels, normals_seconds, growth_seconds)
+    # PCL's clouds hold every point: far points were refused (pcl_cloud.cpp).
+    record_segmentation("pcl.region_growing", len(xyz), labels, normals_seconds, growth_seconds, 0)
     return labels

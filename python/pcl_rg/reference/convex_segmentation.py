@@ -12,7 +12,7 @@ from .._convex_segmentation import ConvexSegmentationParams
 from .._params import resolve_arguments
 from .._region_growing import RegionGrowingParams
 from .._validation import as_points
-from ._local import near_rows
+from ._local import check_fewer_than_kept, near_rows
 from .normals import neighbour_lists, normals
 from .point_scale import point_scale
 from .region_growing import grow_regions
@@ -194,6 +194,9 @@ def convex_segmentation(
         return np.empty(0, dtype=np.int32)
     near = near_rows(xyz)
     if near is not None:  # far points: left out of every step, the viewpoint included
+        if p.k >= len(xyz):
+            raise ValueError(f"k must be < the number of points ({len(xyz)}), got {p.k}")
+        check_fewer_than_kept("k", p.k, len(near), len(xyz))
         labels = np.full(len(xyz), -1, dtype=np.int32)
         labels[near] = convex_segmentation(xyz[near], params=p)
         return labels

@@ -9,7 +9,7 @@ from scipy.spatial import cKDTree
 from .._normals import NormalsParams, NormalsResult
 from .._params import check_number, resolve_arguments
 from .._validation import as_points
-from ._local import local_frame, near_rows
+from ._local import check_fewer_than_kept, local_frame, near_rows
 
 __all__ = ["neighbour_lists", "normals", "QUADRIC_CONDITION_LIMIT"]
 
@@ -53,6 +53,7 @@ def neighbour_lists(
         raise ValueError(f"k must be < the number of points ({n}), got {k}")
     near = near_rows(xyz)
     if near is not None:  # far points: rows of themselves alone, no neighbours
+        check_fewer_than_kept("k", k, len(near), n)
         out = np.repeat(np.arange(n)[:, None], k, axis=1)
         ties = np.zeros(n, dtype=bool)
         kept, kept_ties = neighbour_lists(xyz[near], k, return_boundary_ties=True)

@@ -9,7 +9,7 @@ from scipy.spatial import cKDTree
 from .._params import check_number, resolve_arguments
 from .._statistical_outlier_removal import StatisticalOutlierRemovalParams
 from .._validation import as_points
-from ._local import local_frame, near_rows
+from ._local import check_fewer_than_kept, local_frame, near_rows
 
 __all__ = ["statistical_outlier_removal", "mean_neighbour_distance"]
 
@@ -23,6 +23,7 @@ def mean_neighbour_distance(points: npt.ArrayLike, mean_k: int) -> np.ndarray:
         raise ValueError(f"mean_k must be < the number of points ({len(xyz)}), got {mean_k}")
     near = near_rows(xyz)
     if near is not None:
+        check_fewer_than_kept("mean_k", mean_k, len(near), len(xyz))
         distance = np.full(len(xyz), np.inf)
         distance[near] = mean_neighbour_distance(xyz[near], mean_k)
         return distance
