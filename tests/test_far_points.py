@@ -382,3 +382,30 @@ def test_a_far_point_costs_no_second_neighbour_table() -> None:
     table_kib = 400_000 * 30 * 4 / 1024
     # Left: a float64 copy of the kept points and their row numbers, 32 bytes a point.
     assert peak_kib["far"] - peak_kib["clean"] < 0.5 * table_kib, peak_kib
+
+
+def test_convex_segmentation_counts_the_points_of_far_centroids() -> None:
+    # No point is far in the points' own frame, but the voxel grid's centroids have a
+    # frame of their own: one sparse point a voxel near x = +reach outnumbers the dense
+    # sites, so the centroids' origin moves there and the dense site near x = -reach is
+    # far. Its 800 points were left out (-1) with a count of 0 and no warning.
+    reach = 2**24 * 0.1
+    rng = np.random.default_rng(0)
+
+    def plane(n: int, size: float, at: tuple[float, float, float]) -> np.ndarray:
+        xy = rng.uniform(0.0, size, (n, 2))
+        return np.column_stack([xy, rng.normal(0.0, 0.0007, n)]) + at
+
+    grid = np.arange(0.0, 700.0, 10.0)
+    sparse = np.array([(reach - 701.0 + x, y, 0.0) for x in grid for y in grid])
+    second_site = plane(800, 0.2, (-reach + 10.0, 0.0, 0.0))
+    points = np.vstack([plane(20_000, 1.0, (0.0, 0.0, 0.0)), second_site, sparse])
+    with (
+        pytest.warns(pcl_rg.FarPointsWarning, match="^convex_segmentation: 800 of 25,700"),
+        pcl_rg.collect_diagnostics() as diagnostics,
+    ):
+        labels = pcl_rg.convex_segmentation(points, noise_leaves=120.0)
+    assert diagnostics["convex_segmentation"]["leaf"] > 0  # the grid was used
+    assert diagnostics["convex_segmentation"]["far_points"] == 800
+    assert (labels[20_000:20_800] == -1).all()
+    assert (pcl_rg.convex_segmentation(second_site, noise_leaves=0.0) >= 0).all()  # a surface

@@ -211,7 +211,8 @@ void merge_convex(PointsView points, std::size_t k, const std::uint32_t* neighbo
 namespace {
 
 ConvexSegmentationTimings segment_points(PointsView points, const ConvexSegmentationParams& params,
-                                         std::int32_t* labels);
+                                         std::int32_t* labels,
+                                         std::vector<std::uint8_t>* far_rows = nullptr);
 
 }  // namespace
 
@@ -267,8 +268,17 @@ ConvexSegmentationTimings convex_segmentation(PointsView points,
     const double grid_seconds = seconds_since(start);
     const std::size_t m = grid.counts.size();
     std::vector<std::int32_t> voxel_labels(m);
-    ConvexSegmentationTimings timings =
-        segment_points(PointsView{grid.centroids.data(), m}, params, voxel_labels.data());
+    std::vector<std::uint8_t> far_voxel;
+    ConvexSegmentationTimings timings = segment_points(PointsView{grid.centroids.data(), m}, params,
+                                                       voxel_labels.data(), &far_voxel);
+    // The centroids have a float32 frame of their own, whose origin may lie elsewhere
+    // than the points' (whose frame had no far point here): a far centroid leaves out
+    // every point of its voxel, and those are the points counted.
+    if (timings.far_points > 0) {
+        timings.far_points = 0;
+        for (std::size_t v = 0; v < m; ++v)
+            if (far_voxel[v]) timings.far_points += grid.counts[v];
+    }
     // Every point takes its voxel's label, renumbered by the smallest point index.
     std::vector<std::int32_t> number(m, -1);
     std::int32_t next = 0;
@@ -286,7 +296,8 @@ ConvexSegmentationTimings convex_segmentation(PointsView points,
 namespace {
 
 ConvexSegmentationTimings segment_points(PointsView points, const ConvexSegmentationParams& params,
-                                         std::int32_t* labels) {
+                                         std::int32_t* labels,
+                                         std::vector<std::uint8_t>* far_rows) {
     ConvexSegmentationTimings timings;
     const std::size_t n = points.size;
     const auto start = std::chrono::steady_clock::now();
@@ -296,8 +307,16 @@ ConvexSegmentationTimings segment_points(PointsView points, const ConvexSegmenta
     out.gaussian_curvature = gaussian.data();
     out.mean_curvature = mean.data();
     std::vector<std::uint32_t> neighbours;
-    normals(points, NormalsParams{params.k}, out, &neighbours);
+    const std::size_t far = normals(points, NormalsParams{params.k}, out, &neighbours);
     const auto k = static_cast<std::size_t>(params.k);
+    timings.far_points = static_cast<std::int64_t>(far);
+    // Which rows were far: a far point's neighbour row is itself alone, a kept point's
+    // holds k >= 6 distinct points.
+    if (far_rows) {
+        far_rows->assign(n, 0);
+        for (std::size_t i = 0; i < n && far > 0; ++i)
+            (*far_rows)[i] = neighbours[i * k + 1] == static_cast<std::uint32_t>(i);
+    }
 
     // Curvedness (as region_growing.cpp writes it) times the k-th neighbour distance.
     std::vector<double> measure(n);
