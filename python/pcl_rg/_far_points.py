@@ -12,7 +12,7 @@ import warnings
 
 from ._caller import outside_stacklevel
 
-__all__ = ["FarPointsWarning", "far_points_message", "warn_far_points"]
+__all__ = ["FarPointsWarning", "check_fewer_than_kept", "far_points_message", "warn_far_points"]
 
 
 class FarPointsWarning(UserWarning):
@@ -60,3 +60,13 @@ def warn_far_points(function: str, far: int, points: int, outcome: str) -> None:
     if far:
         message = far_points_message(function, far, points, outcome, "the cloud's")
         warnings.warn(message, FarPointsWarning, stacklevel=outside_stacklevel())
+
+
+def check_fewer_than_kept(name: str, count: int, kept: int, cloud: int) -> None:
+    """A neighbour count that the `kept` of `cloud` points left once the far ones are out
+    can supply, or ValueError worded as the core's (check.cpp, fewer_than_points)."""
+    if count >= kept:
+        raise ValueError(
+            f"{name} must be < the number of points ({kept} within float32's reach, of "
+            f"{cloud}: {cloud - kept} far, left out), got {count}"
+        )

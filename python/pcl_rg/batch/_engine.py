@@ -26,7 +26,7 @@ from .._caller import outside_stacklevel
 from .._far_points import FarPointsWarning, far_points_message
 from .._point_spacing import with_spacing_lengths
 from ..io import Extent
-from . import _tasks
+from . import _denoise_tasks, _tasks
 from ._cluster import dask_client
 from ._headers import check_one_crs, survey_units
 from ._manifest import Manifest, code_digest, file_signature
@@ -425,14 +425,22 @@ def _denoise(
     read = [i for i in cached if stage1[i]["ok"]]
     survey = survey_box([boxes[i] for i in read]) or NOWHERE
     # The merged run's float32 origin, from which every tile decides its far points.
-    origin_future = client.submit(_tasks.survey_origin, job, [tiles[i] for i in read], pure=False)
+    origin_future = client.submit(
+        _denoise_tasks.survey_origin, job, [tiles[i] for i in read], pure=False
+    )
     futures.append(origin_future)
     found = _outcome(origin_future)
     distances = {}
     for i in read if found["ok"] else []:
         others = [tiles[j] for j in near[i] if stage1.get(j, {}).get("ok")]
         distances[i] = client.submit(
-            _tasks.denoise_distances, job, tiles[i], survey, found["origin"], others, pure=False
+            _denoise_tasks.denoise_distances,
+            job,
+            tiles[i],
+            survey,
+            found["origin"],
+            others,
+            pure=False,
         )
     futures += distances.values()
     sums = (
@@ -450,12 +458,12 @@ def _denoise(
             if result["ok"] and result["far"]:
                 sums[i] = {"ok": False, "error": f"ValueError: {too_many_far}"}
     good = [s for s in sums.values() if s["ok"]]
-    threshold = _tasks.sor_threshold(good, job.params.std_mul) if good else float("nan")
+    threshold = _denoise_tasks.sor_threshold(good, job.params.std_mul) if good else float("nan")
     stage: dict[Any, int] = {}
     for i in todo:
         if i in sums and sums[i]["ok"]:
             future = client.submit(
-                _tasks.denoise_write, job, tiles[i], threshold, sums[i], pure=False
+                _denoise_tasks.denoise_write, job, tiles[i], threshold, sums[i], pure=False
             )
         else:
             failure = sums.get(i) or stage1[i]

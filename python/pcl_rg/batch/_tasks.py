@@ -4,7 +4,7 @@ Stage 1 (`cache_tile`) decodes a tile once and stores its arrays as ``.npy`` fil
 the run's scratch folder. Stage 2 reads its own tile back and, memory-mapped, only
 the rows of its neighbours that fall inside its buffer, runs the algorithm on both,
 and writes the tile's own points. Denoising needs a global mean and deviation, so
-its stage 2 returns sums and a stage 3 (`denoise_write`) applies the threshold.
+its tasks are in :mod:`._denoise_tasks`.
 
 Every task returns a dict and raises nothing for a bad file: a failed tile is a
 result, so its neighbours still run (without its buffer).
@@ -23,11 +23,10 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from .. import _core, grid_ground, tin_ground, voxel_grid
+from .. import grid_ground, tin_ground, voxel_grid
 from .._classification import (
     existing_classes,
     ground_classes,
-    noise_classes,
     noise_mask,
     usable_points,
     voxel_attributes,
@@ -35,18 +34,21 @@ from .._classification import (
 from ..io import CoordinateUnits, PointFile, read_extent, read_points, write_points
 from ._caught import caught
 from ._headers import check_header_box, crs_records
-from ._origin import far_points_error, merged_float32_origin, save_sorted_axes
-from ._plan import FOOTPRINT_GAP, Box, covers, footprint, grow, meets, room_inside
+from ._origin import save_sorted_axes
+from ._plan import FOOTPRINT_GAP, Box, covers, footprint, grow, meets
 
 __all__ = [
     "Job",
     "cache_tile",
-    "denoise_distances",
-    "denoise_write",
+    "context_parts",
     "downsample_tile",
     "ground_tile",
+    "guarded",
+    "in_metres",
+    "load_cached",
     "passed_on",
     "tile_extent",
+    "tile_folder",
     "Tile",
 ]
 
@@ -84,7 +86,7 @@ def _peak_mib() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
-def _guarded(work: Callable[[], dict[str, Any]]) -> dict[str, Any]:
+def guarded(work: Callable[[], dict[str, Any]]) -> dict[str, Any]:
     """`work()` with its time and the worker's peak memory; bad input as a failure.
 
     Either way with ``warnings``: the (category, message) of each warning it raised,
@@ -113,13 +115,13 @@ def tile_extent(path: str) -> dict[str, Any]:
         codes, units = crs_records(path) if extent.from_header else ([], CoordinateUnits())
         return {"extent": tuple(extent), "crs": codes, "units": tuple(units)}
 
-    return _guarded(work)
+    return guarded(work)
 
 
 # ---------------------------------------------------------------- stage 1
 
 
-def _folder(job: Job, tile: Tile) -> str:
+def tile_folder(job: Job, tile: Tile) -> str:
     return os.path.join(job.scratch, str(tile.index))
 
 
@@ -148,7 +150,7 @@ def cache_tile(job: Job, tile: Tile) -> dict[str, Any]:
     def work() -> dict[str, Any]:
         cloud = read_points(tile.path)
         check_header_box(tile.path, tile.box, cloud)
-        folder = _folder(job, tile)
+        folder = tile_folder(job, tile)
         # Not makedirs: a task still running after an interrupted run removed its scratch
         # folder (on a cluster's worker) must fail, not make that folder again.
         with contextlib.suppress(FileExistsError):  # a retried task's
@@ -173,20 +175,20 @@ def cache_tile(job: Job, tile: Tile) -> dict[str, Any]:
         with open(os.path.join(folder, "layout.pkl"), "wb") as stream:
             pickle.dump((cloud.format, cloud.header, names, low, size, boxes), stream)
         if job.operation == "denoise":  # for the merged run's origin (survey_origin)
-            save_sorted_axes(folder, _metres(job, cloud.points[rows]))
+            save_sorted_axes(folder, in_metres(job, cloud.points[rows]))
         return {"points": len(cloud), "usable": len(rows)}
 
-    return _guarded(work)
+    return guarded(work)
 
 
 def _layout(job: Job, tile: Tile) -> tuple:
     """Stage 1's layout.pkl: format, header, field names, index origin and cell, footprint."""
-    with open(os.path.join(_folder(job, tile), "layout.pkl"), "rb") as stream:
+    with open(os.path.join(tile_folder(job, tile), "layout.pkl"), "rb") as stream:
         return pickle.load(stream)
 
 
-def _load(job: Job, tile: Tile, mmap: bool = False) -> PointFile:
-    folder = _folder(job, tile)
+def load_cached(job: Job, tile: Tile, mmap: bool = False) -> PointFile:
+    folder = tile_folder(job, tile)
     fmt, header, names, *_ = _layout(job, tile)
     mode = "r" if mmap else None
     points = np.load(os.path.join(folder, "points.npy"), mmap_mode=mode)
@@ -215,7 +217,7 @@ def _region(job: Job, tile: Tile) -> list[Box]:
     return [grow(box, job.buffer) for box in boxes]
 
 
-def _context(
+def context_parts(
     job: Job, neighbours: list[Tile], region: list[Box], fields: bool = False
 ) -> list[tuple[int, np.ndarray, PointFile]]:
     """(tile, rows, rows' points and fields) of each neighbour's context rows in `region`.
@@ -227,7 +229,7 @@ def _context(
     for tile in neighbours:
         if not any(meets(box, tile.box) for box in region):
             continue
-        folder = _folder(job, tile)
+        folder = tile_folder(job, tile)
         _, _, _, low, size, _ = _layout(job, tile)
         starts = np.load(os.path.join(folder, "cell_start.npy"))
         cell_rows = np.load(os.path.join(folder, "cell_rows.npy"), mmap_mode="r")
@@ -251,7 +253,7 @@ def _context(
                 for r in range(first[1], last[1] + 1)
             ]
         candidates = np.unique(np.concatenate(pieces)) if pieces else np.empty(0, np.int64)
-        cloud = _load(job, tile, mmap=True)
+        cloud = load_cached(job, tile, mmap=True)
         xyz = np.asarray(cloud.points[candidates])
         inside = np.zeros(len(candidates), bool)
         for box in region:
@@ -267,7 +269,7 @@ def _context(
     return parts
 
 
-def _metres(job: Job, xyz: np.ndarray) -> np.ndarray:
+def in_metres(job: Job, xyz: np.ndarray) -> np.ndarray:
     """Points in metres for the methods, whose lengths are metres."""
     scale = np.asarray(job.scale)
     return xyz if (scale == 1.0).all() else xyz * scale
@@ -292,7 +294,7 @@ def _with_buffer(
     if not ready[0]["ok"]:
         return ready[0]
     usable = [n for n, result in zip(neighbours, ready[1:], strict=True) if result["ok"]]
-    return _guarded(lambda: work(usable))
+    return guarded(lambda: work(usable))
 
 
 # ---------------------------------------------------------------- ground
@@ -307,11 +309,11 @@ def ground_tile(
     """
 
     def work(neighbours: list[Tile]) -> dict[str, Any]:
-        own = _load(job, tile)
+        own = load_cached(job, tile)
         work_rows = _ground_work(own)
-        parts = _context(job, neighbours, _region(job, tile))
+        parts = context_parts(job, neighbours, _region(job, tile))
         xyz = np.concatenate([own.points[work_rows]] + [p.points for _, _, p in parts])
-        ground = GROUND_METHODS[job.method](_metres(job, xyz), params=job.params)
+        ground = GROUND_METHODS[job.method](in_metres(job, xyz), params=job.params)
         ground = ground[: int(work_rows.sum())]
         classes = ground_classes(own, work_rows, ground, job.keep_classes)
         write_points(
@@ -324,133 +326,6 @@ def ground_tile(
         }
 
     return _with_buffer(neighbours, ready, work)
-
-
-# ---------------------------------------------------------------- denoise
-
-
-def survey_origin(job: Job, tiles: list[Tile]) -> dict[str, Any]:
-    """Between stages 1 and 2 of ``denoise``: the float32 origin of one run over the
-    merged survey (of `tiles`, stage 1 done), from which its far points are decided."""
-    folders = [_folder(job, tile) for tile in tiles]
-    return _guarded(lambda: {"origin": merged_float32_origin(folders)})
-
-
-def denoise_distances(
-    job: Job, tile: Tile, survey: Box, origin: tuple, others: list[Tile]
-) -> dict[str, Any]:
-    """Stage 2 of ``denoise``: each own point's mean neighbour distance, exact.
-
-    The k nearest neighbours of a point are exact when the farthest of them is closer
-    than the buffer's edge. Where it is not, the buffer doubles (up to the whole
-    survey) until it is: the distances are then those of the merged cloud. Points
-    beyond float32's reach of `origin`, the merged run's (:func:`survey_origin`), are
-    far, as in the merged run.
-    """
-
-    def work() -> dict[str, Any]:
-        own = _load(job, tile)
-        valid = usable_points(own)
-        mine = np.ascontiguousarray(own.points[valid])
-        margin = job.buffer
-        while True:
-            reach = grow(tile.box, margin)
-            near = [other for other in others if meets(reach, other.box)]
-            parts = _context(job, near, [reach])
-            xyz = np.concatenate([mine] + [p.points for _, _, p in parts])
-            whole = covers(reach, survey)
-            if not len(mine):
-                distance = np.empty(0, np.float32)
-                break
-            metres = _metres(job, xyz)
-            # Far points are left out, as the core leaves them out, but here whatever
-            # their number: the limit on it is the merged run's, over the whole survey
-            # (_origin.far_points_error).
-            kept = _core.rows_within_float32_reach(metres, np.asarray(origin, float))
-            if not len(kept) or kept[0] >= len(mine):  # every own point far: no buffer
-                distance = np.full(len(mine), np.inf, np.float32)
-                break
-            if job.params.mean_k >= len(kept):  # too few points yet: a wider buffer
-                if whole:  # the merged run's messages, in its order
-                    k, n, far = job.params.mean_k, len(xyz), len(xyz) - len(kept)
-                    too_many_far = far_points_error(far, n)
-                    if k < n and too_many_far:
-                        raise ValueError(too_many_far)
-                    among = f" within float32's reach, of {n}: {far} far, left out"
-                    counted = f"{n}" if k >= n else f"{len(kept)}{among}"
-                    raise ValueError(f"mean_k must be < the number of points ({counted}), got {k}")
-                margin = max(2.0 * margin, 1.0)  # from a zero buffer too
-                continue
-            _, kept_distance, _, kept_farthest = _core.statistical_outlier_removal(
-                metres if len(kept) == len(xyz) else metres[kept], job.params.to_core()
-            )
-            distance = np.full(len(xyz), np.inf, np.float32)  # a far point's, as the core's
-            farthest = distance.copy()
-            distance[kept], farthest[kept] = kept_distance, kept_farthest
-            # Distances in metres; farthest as a bound on x, y offsets in their unit.
-            distance, farthest = distance[: len(mine)], farthest[: len(mine)] / job.scale[0]
-            # A far point (inf: left out, as in the merged run) waits for no buffer.
-            short = np.isfinite(farthest) & (farthest > room_inside(mine, reach, survey))
-            if not short.any() or whole:
-                break
-            margin = max(2.0 * margin, float(farthest[short].max()) * 1.01 + margin)
-        np.save(os.path.join(_folder(job, tile), "distance.npy"), distance)
-        counted = distance[np.isfinite(distance)]  # far points stay out of mu and sigma
-        d64 = counted.astype(np.float64)
-        squares = (counted * counted).astype(np.float64)  # float products, as PCL sums them
-        return {
-            "points": len(own),
-            "count": len(counted),
-            "far": len(distance) - len(counted),
-            "sum": float(d64.sum()),
-            "sum_sq": float(squares.sum()),
-            "buffer_used": margin,
-        }
-
-    return _guarded(work)
-
-
-def denoise_write(
-    job: Job, tile: Tile, threshold: float, measured: dict[str, Any]
-) -> dict[str, Any]:
-    """Stage 3 of ``denoise``: the global threshold applied, class 7 for outliers.
-
-    `measured` is the tile's stage-2 result; its buffer and time are reported too.
-    """
-
-    def work() -> dict[str, Any]:
-        own = _load(job, tile)
-        valid = usable_points(own)
-        distance = np.load(os.path.join(_folder(job, tile), "distance.npy"))
-        outlier = np.zeros(len(own), bool)
-        outlier[valid] = (distance > threshold) | np.isinf(distance)  # far: always
-        classes = noise_classes(own, valid, outlier)
-        write_points(
-            tile.output, own.points, dict(own.fields, classification=classes), template=own
-        )
-        return {
-            "points": len(own),
-            "noise": int(outlier.sum()),
-            "far_points": int(np.isinf(distance).sum()),  # of the `usable` points
-            "usable": int(valid.sum()),
-            "threshold": threshold,
-            "buffer_used": measured["buffer_used"],
-            "distance_seconds": measured["seconds"],
-        }
-
-    return _guarded(work)
-
-
-def sor_threshold(sums: list[dict[str, Any]], std_mul: float) -> float:
-    """mu + std_mul * sigma over every tile's distances, as the core computes it."""
-    count = float(sum(s["count"] for s in sums))
-    if count < 2:  # no deviation to measure: as the core, no point is an outlier
-        return float("nan")
-    total = sum(s["sum"] for s in sums)
-    total_sq = sum(s["sum_sq"] for s in sums)
-    mean = total / count
-    variance = (total_sq - total * total / count) / (count - 1.0)
-    return mean + std_mul * float(np.sqrt(variance)) if variance >= 0 else float("nan")
 
 
 # ---------------------------------------------------------------- downsample
@@ -476,9 +351,9 @@ def downsample_tile(
     """
 
     def work(neighbours: list[Tile]) -> dict[str, Any]:
-        own = _load(job, tile)
+        own = load_cached(job, tile)
         rows = np.flatnonzero(usable_points(own))
-        parts = _context(job, neighbours, _region(job, tile), fields=True)
+        parts = context_parts(job, neighbours, _region(job, tile), fields=True)
         parts.append((tile.index, rows, own.take(rows)))
         parts.sort(key=lambda part: part[0])
         xyz = np.concatenate([p.points for _, _, p in parts])
@@ -487,7 +362,7 @@ def downsample_tile(
             name: np.concatenate([_field(p, name, values) for _, _, p in parts])
             for name, values in own.fields.items()
         }
-        grid = voxel_grid(_metres(job, xyz), params=job.params)
+        grid = voxel_grid(in_metres(job, xyz), params=job.params)
         member = np.flatnonzero(grid.voxel_of_point >= 0)
         voxel = grid.voxel_of_point[member]
         owner = np.full(len(grid.counts), np.iinfo(np.int64).max)

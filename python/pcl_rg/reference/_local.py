@@ -6,7 +6,6 @@ import numpy as np
 
 __all__ = [
     "FLOAT32_REACH",
-    "check_fewer_than_kept",
     "float32_origin",
     "local_frame",
     "max_far_points",
@@ -37,16 +36,6 @@ def float32_origin(xyz: np.ndarray) -> np.ndarray:
     q1, q3 = quartiles[first], quartiles[third]
     fence = q1 - ORIGIN_FENCE * (q3 - q1)
     return np.where(xyz >= fence, xyz, np.inf).min(axis=0)
-
-
-def check_fewer_than_kept(name: str, count: int, kept: int, cloud: int) -> None:
-    """A neighbour count that the `kept` of `cloud` points left once the far ones are out
-    can supply, or ValueError worded as the core's (check.cpp, fewer_than_points)."""
-    if count >= kept:
-        raise ValueError(
-            f"{name} must be < the number of points ({kept} within float32's reach, of "
-            f"{cloud}: {cloud - kept} far, left out), got {count}"
-        )
 
 
 def max_far_points(n: int) -> int:

@@ -9,10 +9,11 @@ import numpy as np
 import numpy.typing as npt
 
 from .._convex_segmentation import ConvexSegmentationParams
+from .._far_points import check_fewer_than_kept
 from .._params import resolve_arguments
 from .._region_growing import RegionGrowingParams
 from .._validation import as_points
-from ._local import check_fewer_than_kept, near_rows
+from ._local import near_rows
 from .normals import neighbour_lists, normals
 from .point_scale import point_scale
 from .region_growing import grow_regions

@@ -6,10 +6,11 @@ import numpy as np
 import numpy.typing as npt
 from scipy.spatial import cKDTree
 
+from .._far_points import check_fewer_than_kept
 from .._params import check_number, resolve_arguments
 from .._statistical_outlier_removal import StatisticalOutlierRemovalParams
 from .._validation import as_points
-from ._local import check_fewer_than_kept, local_frame, near_rows
+from ._local import local_frame, near_rows
 
 __all__ = ["statistical_outlier_removal", "mean_neighbour_distance"]
 
