@@ -25,7 +25,7 @@ from conftest import ISPRS_SAMPLES, run_pcl_rg, shared_data
 
 import pcl_rg
 from pcl_rg import batch
-from pcl_rg.batch import _engine, _manifest
+from pcl_rg.batch import _engine
 from pcl_rg.batch._manifest import MANIFEST
 from pcl_rg.datasets import load_isprs, synthetic_survey
 from pcl_rg.io import read_points, write_points
@@ -216,33 +216,6 @@ def test_rerun_skips_what_is_up_to_date_and_redoes_what_changed(
     monkeypatch.setattr(_engine, "code_digest", lambda: "another build")
     fifth = batch.ground(inputs, out, params=params, scheduler=scheduler)
     assert {t.status for t in fifth.tiles} == {"done"}
-
-
-def test_the_code_digest_follows_every_byte_of_the_code_and_nothing_else(tmp_path):
-    digest = _manifest.code_digest.__wrapped__  # uncached: the tree changes below
-    package = tmp_path / "package"
-    (package / "sub" / "__pycache__").mkdir(parents=True)
-    (package / "a.py").write_bytes(b"x = 1\n")
-    (package / "sub" / "_core.so").write_bytes(bytes(range(256)))
-    (package / "sub" / "__pycache__" / "a.cpython-311.pyc").write_bytes(b"old")
-    (package / "notes.md").write_text("prose")
-    before = digest(str(package))
-    assert digest(str(package)) == before
-    # Neither bytecode nor data changes what the package computes.
-    (package / "sub" / "__pycache__" / "a.cpython-311.pyc").write_bytes(b"new")
-    (package / "notes.md").write_text("other prose")
-    assert digest(str(package)) == before
-    # One byte of an extension, or of a module, or a module's name does.
-    (package / "sub" / "_core.so").write_bytes(bytes(range(255)) + b"\0")
-    changed_extension = digest(str(package))
-    (package / "a.py").write_bytes(b"x = 2\n")
-    changed_module = digest(str(package))
-    (package / "a.py").rename(package / "b.py")
-    renamed = digest(str(package))
-    assert len({before, changed_extension, changed_module, renamed}) == 4
-    # The installed package's, cached, is its own tree's.
-    assert _manifest.code_digest() == digest(_manifest.PACKAGE_FOLDER)
-    assert os.path.isfile(os.path.join(_manifest.PACKAGE_FOLDER, "batch", "_manifest.py"))
 
 
 def corrupt_points(path):

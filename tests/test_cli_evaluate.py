@@ -1,0 +1,70 @@
+"""pcl-rg evaluate end to end, in-process (pcl_rg.cli.main): ISPRS samples, a LAS truth,
+and the clouds it refuses to compare."""
+
+from __future__ import annotations
+
+import pytest
+from cli_helpers import assert_one_error_line, run, run_json
+from conftest import shared_data
+
+import pcl_rg
+from pcl_rg.datasets import load_isprs
+from pcl_rg.evaluation import ground_errors
+from pcl_rg.io import read_points, write_points
+
+
+@pytest.mark.parametrize("sample", ["samp11", "samp51"])
+@pytest.mark.parametrize("ext", ["pcd", "laz"])
+def test_evaluate_isprs(capsys, tmp_path, sample, ext):
+    full = shared_data("isprs", f"{sample}-utm.pcd")
+    ground_only = shared_data("isprs", f"{sample}-utm-ground.pcd")
+    run_json(capsys, "ground", full, tmp_path / f"pred.{ext}")
+    report = run_json(capsys, "evaluate", tmp_path / f"pred.{ext}", "--isprs", full, ground_only)
+    truth = load_isprs(full, ground_only)
+    expected = ground_errors(truth.ground, pcl_rg.grid_ground(truth.points))
+    for key in ("type_i", "type_ii", "total", "kappa"):
+        assert report[key] == pytest.approx(getattr(expected, key)), key
+    (a, b), (c, d) = expected.confusion.tolist()
+    assert report["confusion"] == {
+        "ground_as_ground": a,
+        "ground_as_object": b,
+        "object_as_ground": c,
+        "object_as_object": d,
+    }
+    code, out, _ = run(capsys, "evaluate", tmp_path / f"pred.{ext}", "--isprs", full, ground_only)
+    assert code == 0
+    assert f"{100 * expected.type_i:.2f} %" in out and "kappa" in out
+
+
+def test_evaluate_with_a_las_truth(capsys, tmp_path, scene_las):
+    run_json(capsys, "ground", scene_las, tmp_path / "pred.las", "--cell-size", "1")
+    truth = read_points(scene_las).classification
+    predicted = read_points(tmp_path / "pred.las").classification
+    scored = truth != 7
+    report = run_json(capsys, "evaluate", tmp_path / "pred.las", "--truth", scene_las)
+    expected = ground_errors(truth[scored] == 2, predicted[scored] == 2)
+    assert report["kappa"] == pytest.approx(expected.kappa)
+    assert report["excluded_noise"] == (~scored).sum()
+    report = run_json(
+        capsys, "evaluate", tmp_path / "pred.las", "--truth", scene_las, "--include-noise"
+    )
+    assert report["total"] == pytest.approx(ground_errors(truth == 2, predicted == 2).total)
+
+
+def test_evaluate_refuses_other_points(capsys, tmp_path, scene_las):
+    run_json(capsys, "ground", scene_las, tmp_path / "drop.las", "--drop")
+    code, out, err = run(capsys, "evaluate", tmp_path / "drop.las", "--truth", scene_las)
+    assert code == 2
+    assert_one_error_line(err, "points but the truth has")
+    source = read_points(scene_las)
+    shifted = source.points + [0.0, 0.0, 1.0]
+    write_points(tmp_path / "moved.las", shifted, source.fields, template=source)
+    code, _, err = run(capsys, "evaluate", tmp_path / "moved.las", "--truth", scene_las)
+    assert code == 2
+    assert_one_error_line(err, "hold different points")
+    write_points(tmp_path / "plain.ply", source.points)
+    code, _, err = run(capsys, "evaluate", tmp_path / "plain.ply", "--truth", scene_las)
+    assert_one_error_line(err, "has no classification field")
+    code, _, err = run(capsys, "evaluate", scene_las)
+    assert code == 2
+    assert_one_error_line(err, "--truth FILE or --isprs")
