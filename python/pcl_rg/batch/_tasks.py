@@ -32,6 +32,7 @@ from .._classification import (
     voxel_attributes,
 )
 from ..io import CoordinateUnits, PointFile, read_extent, read_points, write_points
+from ..io._pcd import unorganized
 from ._caught import caught
 from ._headers import check_header_box, crs_records
 from ._origin import save_sorted_axes
@@ -371,7 +372,10 @@ def downsample_tile(
         attributes = voxel_attributes(fields, member, voxel, grid.counts)
         centroids = grid.centroids[mine] / np.asarray(job.scale)  # in the tile's units
         write_points(
-            tile.output, centroids, {n: v[mine] for n, v in attributes.items()}, template=own
+            tile.output,
+            centroids,
+            {n: v[mine] for n, v in attributes.items()},
+            template=unorganized(own),
         )
         return {"points": len(own), "voxels": int(mine.sum())}
 

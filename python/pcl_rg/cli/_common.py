@@ -154,12 +154,20 @@ def check_paths(source: str, target: str, plots: Sequence[str | None] = ()) -> N
     check_input(source, "INPUT")
     if os.path.isdir(target):
         raise CliError(f"OUTPUT {target!r} is a folder, not a file")
+    check_replaceable(target, "OUTPUT")
     folder = os.path.dirname(os.path.abspath(target))
     if not os.path.isdir(folder):
         raise CliError(f"the folder of OUTPUT {target!r} does not exist")
     if _same_file(source, target):
         raise CliError(f"OUTPUT {target!r} is the INPUT file; refusing to overwrite the input")
-    check_plots(source, plots)
+    check_plots(source, plots, target)
+
+
+def check_replaceable(path: str, what: str) -> None:
+    """Refuse a file to write that exists and is not a regular file: the atomic rename
+    would replace a FIFO or a device (/dev/null, for root) by a file."""
+    if os.path.exists(path) and not os.path.isfile(path) and not os.path.isdir(path):
+        raise CliError(f"{what} {path!r} is not a regular file; refusing to replace it")
 
 
 def check_input(path: str, what: str) -> None:
@@ -181,7 +189,9 @@ def _same_file(a: str, b: str) -> bool:
     return os.path.exists(a) and os.path.exists(b) and os.path.samefile(a, b)
 
 
-def check_plots(source: str, plots: Sequence[str | None]) -> None:
+def check_plots(source: str, plots: Sequence[str | None], target: str | None = None) -> None:
+    """Refuse figures that cannot be written or would replace INPUT, OUTPUT (`target`,
+    if any) or each other."""
     for plot in plots:
         if plot is None:
             continue
@@ -191,8 +201,11 @@ def check_plots(source: str, plots: Sequence[str | None]) -> None:
             raise CliError(f"the folder of plot file {plot!r} does not exist")
         if os.path.isdir(plot):
             raise CliError(f"plot file {plot!r} is a folder, not a file")
+        check_replaceable(plot, "plot file")
         if _same_file(source, plot):
             raise CliError(f"plot file {plot!r} is the INPUT file; refusing to overwrite it")
+        if target is not None and _same_file(target, plot):
+            raise CliError(f"plot file {plot!r} is the OUTPUT file; one would replace the other")
     named = [plot for plot in plots if plot is not None]
     for k, plot in enumerate(named):
         for other in named[:k]:  # one would silently replace the other
@@ -342,9 +355,16 @@ def percent(part: int, whole: int) -> str:
 
 
 def segments_summary(labels: np.ndarray) -> dict[str, Any]:
+    """Counts of the segments of `labels` (-1 or any negative: no segment)."""
     assigned = labels >= 0
-    sizes = np.bincount(labels[assigned]) if assigned.any() else np.zeros(0, np.int64)
-    sizes = sizes[sizes > 0]
+    ids = labels[assigned]
+    if ids.dtype.kind in "iu" and (not len(ids) or int(ids.max()) <= len(ids)):
+        sizes = np.bincount(ids.astype(np.intp, copy=False))  # compact ids: fast
+        sizes = sizes[sizes > 0]
+    else:
+        # A file's ids may be as large as 2**32 - 1 (a common "no segment" mark), for
+        # which bincount would allocate one counter per id: counted by value instead.
+        sizes = np.unique(ids, return_counts=True)[1]
     return {
         "segments": int(len(sizes)),
         "assigned": int(assigned.sum()),

@@ -230,12 +230,13 @@ def read_points(path: str | os.PathLike[str], *, format: str | None = None) -> P
     checked where the elements after ``vertex`` have entries of one size, such
     as triangles), so that a vertex count short of the vertex data is refused.
 
-    XYZ text: one point per line, ``x y z`` and optional further columns, split
-    on whitespace; blank lines and lines starting with ``#`` or ``//`` are
-    skipped. A comment line right before the data that names every column
-    (``# x y z intensity``) names the fields; otherwise they are ``column_4``,
-    ``column_5``, ... (``.pts``: ``intensity``, then ``red green blue``, Leica's
-    layout, whose optional first line holding the point count is checked).
+    XYZ text (UTF-8, a byte order mark allowed): one point per line, ``x y z``
+    and optional further columns, split on whitespace; blank lines and lines
+    starting with ``#`` or ``//`` are skipped. A comment line right before the
+    data that names every column (``# x y z intensity``) names the fields;
+    otherwise they are ``column_4``, ``column_5``, ... (``.pts``:
+    ``intensity``, then ``red green blue``, Leica's layout, whose optional
+    first line holding the point count is checked).
     Columns of whole numbers with at least one written as an integer (``7``,
     not ``7.0``) come back as int64 (uint64 when beyond int64 and none is
     negative; float64 beyond both), others as float64: a float64 field that
@@ -392,7 +393,8 @@ def write_points(
         ``fields["classification"]``.
     template : PointFile, optional
         A file read before, whose layout is kept when the output has the same
-        format family (LAS/LAZ, PCD or PLY): for LAS the version, point format,
+        format family (LAS/LAZ, PCD or PLY): for LAS the version (1.0 as 1.2,
+        which holds its point formats and fields; laspy writes no 1.0), point format,
         scale, offset, VLRs (CRS included), extra-bytes definitions and
         header fields (but the generating software and creation date, which
         name pcl_rg and the day of writing); for PCD the encoding, x/y/z type,
@@ -418,8 +420,9 @@ def write_points(
         whose wave packet fields the LAZ compressor (lazrs) corrupts (write
         LAS instead).
     OSError
-        If the file cannot be written (e.g. the disk is full); the target is
-        then left untouched and no temporary file remains.
+        If the file cannot be written (e.g. the disk is full), or `path` is a
+        FIFO, device or socket (FileExistsError); the target is then left
+        untouched and no temporary file remains.
 
     Notes
     -----

@@ -9,6 +9,7 @@ into that temporary file in bounded pieces.
 from __future__ import annotations
 
 import contextlib
+import errno
 import glob
 import os
 import re
@@ -112,9 +113,17 @@ def atomic_write(path: str, write: Callable[[BinaryIO], None]) -> None:
     if os.path.islink(path) and os.path.exists(path):
         path = os.path.realpath(path)
     try:
-        mode: int | None = stat.S_IMODE(os.stat(path).st_mode)
+        status = os.stat(path)
     except OSError:
-        mode = None  # a new file
+        mode: int | None = None  # a new file
+    else:
+        if not stat.S_ISREG(status.st_mode) and not stat.S_ISDIR(status.st_mode):
+            # The rename would replace a FIFO, a device or a socket by a file: for
+            # /dev/null, run as root, the system's. (A folder fails at the rename.)
+            raise FileExistsError(
+                errno.EEXIST, "exists and is not a regular file (a FIFO, device or socket)", path
+            )
+        mode = stat.S_IMODE(status.st_mode)
     folder, base = os.path.split(os.path.abspath(path))
     stem = _temporary_stem(base)
     temp = ""  # set once the file is ours and its stream is stored

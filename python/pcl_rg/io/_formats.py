@@ -3,6 +3,7 @@ bytes."""
 
 from __future__ import annotations
 
+import codecs
 import os
 
 from ._pcd_header import KEYWORDS as _PCD_KEYWORDS
@@ -38,7 +39,8 @@ def format_of(path: str, format: str | None) -> str:
 
 
 def sniff(head: bytes) -> str:
-    """What the first bytes of a file look like: las, ply, pcd, text, empty or binary."""
+    """What the first bytes of a file look like: las, ply, pcd, text, comments (nothing
+    but comment lines: PCD or text), empty or binary."""
     if not head:
         return "empty"
     if head.startswith(b"LASF"):
@@ -46,13 +48,16 @@ def sniff(head: bytes) -> str:
     if head.startswith((b"ply\n", b"ply\r\n")):
         return "ply"
     try:
-        text = head.decode("ascii")
+        # UTF-8, which ASCII is, with a byte order mark or not (text editors on Windows
+        # write one); the head may end inside a character.
+        text = codecs.getincrementaldecoder("utf-8")().decode(head).removeprefix("\ufeff")
     except UnicodeDecodeError:
         # PCD headers are ASCII, binary data follows them; a head cut mid-way can
         # hold binary bytes after the DATA line.
         text = head.split(b"\nDATA", 1)[0].decode("ascii", errors="replace")
         if "\ufffd" in text:
             return "binary"
+    only_comments = True
     for line in text.splitlines():
         line = line.strip()
         if not line:
@@ -61,11 +66,15 @@ def sniff(head: bytes) -> str:
             return "pcd"
         if line.startswith("#"):  # a comment of PCD or XYZ text: look further
             continue
+        only_comments = False
         if line.split()[0] in _PCD_KEYWORDS:
             return "pcd"
         break
     printable = all(c.isprintable() or c in "\r\n\t\f\v" for c in text)
-    return "text" if printable else "binary"
+    if not printable:
+        return "binary"
+    # Comment lines to the end of the head: the header of a PCD file or XYZ text.
+    return "comments" if only_comments and text.strip() else "text"
 
 
 _KIND_NAMES = {
@@ -73,6 +82,7 @@ _KIND_NAMES = {
     "ply": "a PLY file",
     "pcd": "a PCD file",
     "text": "a text file",
+    "comments": "comment lines of a text file",
     "binary": "binary data of an unknown format",
 }
 _EXPECTED_KIND = {"las": "las", "laz": "las", "ply": "ply", "pcd": "pcd", "xyz": "text"}
@@ -83,6 +93,8 @@ def check_magic(path: str, format: str) -> None:
     with open(path, "rb") as stream:
         head = stream.read(4096)
     kind = sniff(head)
+    if kind == "comments" and format in ("pcd", "xyz"):
+        return  # their readers tell which the lines after the comments are
     if kind == "empty":
         raise ValueError(f"{path!r}: file is empty (0 bytes), not a {FORMAT_NAMES[format]} file")
     if kind != _EXPECTED_KIND[format]:

@@ -81,6 +81,7 @@ def _decode_las(path: str) -> tuple[np.ndarray, dict[str, np.ndarray], object]:
         backend = laspy.LazBackend.LazrsParallel if parallel else laspy.LazBackend.Lazrs
         with laspy.open(stream, closefd=False, laz_backend=backend) as reader:
             header = reader.header
+            _check_extra_bytes_scales(path, header)
             chunks = []
             # Uncompressed: the size check made the count trustworthy, one step.
             step = _LAZ_FIRST_STEP if facts.compressed else max(facts.point_count, 1)
@@ -108,6 +109,23 @@ def _decode_las(path: str) -> tuple[np.ndarray, dict[str, np.ndarray], object]:
             continue
         fields[dim.name] = np.array(record[dim.name])
     return points.astype(np.float64), fields, header
+
+
+def _check_extra_bytes_scales(path: str, header) -> None:
+    """ValueError for an extra-bytes dimension whose scale is 0 or whose scale or offset
+    is not finite: its values would all read as one number (0 for a scale of 0), and a
+    write back would divide by that scale."""
+    for dim in header.point_format.extra_dimensions:
+        for kind, values in (("scale", dim.scales), ("offset", dim.offsets)):
+            if values is None:
+                continue
+            values = np.atleast_1d(np.asarray(values, dtype=np.float64))
+            if not np.isfinite(values).all() or (kind == "scale" and (values == 0).any()):
+                shown = values.tolist() if len(values) > 1 else values[0].item()
+                raise ValueError(
+                    f"invalid LAS file {path!r}: extra bytes dimension {dim.name!r} has "
+                    f"{kind} {shown!r}; its values cannot be read back"
+                )
 
 
 def _bad_las(path: str, error: BaseException) -> ValueError:
@@ -194,6 +212,10 @@ def _write_las(
         )
     if template is not None:
         header = copy.deepcopy(template)
+        if (header.version.major, header.version.minor) == (1, 0):
+            # laspy reads LAS 1.0 but writes 1.1 and later only. 1.2 has 1.0's point
+            # formats (0 and 1) and header fields, with what 1.0 kept reserved.
+            header.version = laspy.header.Version(1, 2)
     else:
         with np.errstate(over="ignore", invalid="ignore"):  # checked right after
             header = _new_las_header(laspy, xyz, set(columns))
@@ -270,6 +292,14 @@ def _write_las(
                     f"[{lowest}, {highest}] of LAS point format {header.point_format.id}"
                 )
             values = values.astype(np.int64)
+        if dim.kind == laspy.DimensionKind.FloatingPoint and dim.is_scaled:
+            # laspy rounds the stored value of a scaled dimension to a whole number, as
+            # integers need: a float one (some programs flag theirs with scale 1) would
+            # lose its fractions. Stored as (value - offset) / scale, unrounded.
+            scale = 1.0 if dim.scales is None else np.asarray(dim.scales, np.float64)
+            offset = 0.0 if dim.offsets is None else np.asarray(dim.offsets, np.float64)
+            record.array[key] = (values - offset) / scale
+            continue
         try:
             record[key] = values
         except (OverflowError, ValueError) as error:

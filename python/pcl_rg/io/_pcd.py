@@ -43,7 +43,7 @@ from ._pcd_header import (
 if TYPE_CHECKING:
     from . import PcdLayout
 
-__all__ = ["read", "write", "write_pcd"]
+__all__ = ["read", "unorganized", "write", "write_pcd"]
 
 _LZF_MAX_EXPANSION = 88
 
@@ -429,6 +429,16 @@ def write_pcd(
             write_chunked(stream, payload)
 
     atomic_write(name, write_data)
+
+
+def unorganized(cloud):
+    """`cloud` (a PointFile) as the template of points that are not its rows in order,
+    such as voxel centroids: :func:`write` keeps an organized PCD's WIDTH x HEIGHT
+    whenever the number of points is the same, which would then scramble the image."""
+    if cloud.format != "pcd" or cloud.header is None:
+        return cloud
+    header = cloud.header._replace(width=len(cloud), height=1)
+    return type(cloud)(cloud.points, cloud.fields, cloud.format, header, cloud.path)
 
 
 def write(

@@ -85,6 +85,7 @@ def parse_header(path: str, raw: bytes) -> tuple[str, list[PlyElement], tuple[st
         raise bad_ply(path, "first line is not 'ply'")
     encoding = None
     elements: list[PlyElement] = []
+    element_names: set[str] = set()  # a set: a 1 MiB header holds some 75,000 elements
     comments = []
     for number, line in enumerate(lines[1:], start=2):
         tokens = line.split()
@@ -107,8 +108,9 @@ def parse_header(path: str, raw: bytes) -> tuple[str, list[PlyElement], tuple[st
             count = int(tokens[2])
             if count < 0:
                 raise bad_ply(path, f"line {number}: element count {count} is negative")
-            if any(element.name == tokens[1] for element in elements):
+            if tokens[1] in element_names:
                 raise bad_ply(path, f"line {number}: a second element {tokens[1]!r}")
+            element_names.add(tokens[1])
             elements.append(PlyElement(tokens[1], count, [], False, [], []))
         elif key == "property":
             if not elements:
@@ -117,6 +119,11 @@ def parse_header(path: str, raw: bytes) -> tuple[str, list[PlyElement], tuple[st
             if len(tokens) == 5 and tokens[1] == "list":
                 if tokens[2] not in PLY_TYPES or tokens[3] not in PLY_TYPES:
                     raise bad_ply(path, f"line {number}: unknown list types in {line.strip()!r}")
+                if np.dtype(PLY_TYPES[tokens[2]]).kind not in "iu":
+                    # A count is a number of items: a float one could be inf, NaN or 2.5.
+                    raise bad_ply(
+                        path, f"line {number}: list count type {tokens[2]!r} is not an integer type"
+                    )
                 element.list_types.append((tokens[4], PLY_TYPES[tokens[2]], PLY_TYPES[tokens[3]]))
                 element.layout.append(element.list_types[-1])
                 elements[-1] = element._replace(has_list=True)

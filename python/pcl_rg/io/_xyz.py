@@ -37,9 +37,11 @@ def read(path: str) -> tuple[np.ndarray, dict[str, np.ndarray], None]:
     with open(path, "rb") as stream:
         raw = stream.read()
     try:
-        text = raw.decode("ascii")
+        # UTF-8 (ASCII among it), with a byte order mark or not: comments may name
+        # places or columns in any language.
+        text = raw.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
-        raise _bad_xyz(path, f"non-ASCII byte at offset {exc.start} (binary data?)") from None
+        raise _bad_xyz(path, f"not UTF-8 text at byte {exc.start} (binary data?)") from None
     lines = text.splitlines()
     if max(map(len, lines), default=0) > _MAX_XYZ_LINE:
         number = next(i for i, line in enumerate(lines, start=1) if len(line) > _MAX_XYZ_LINE)

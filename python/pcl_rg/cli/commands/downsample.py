@@ -10,6 +10,7 @@ import numpy as np
 import pcl_rg
 
 from ..._classification import CATEGORY_ATTRIBUTES, MEAN_ATTRIBUTES, voxel_attributes
+from ...io._pcd import unorganized
 from .._common import (
     add_io_arguments,
     add_output_options,
@@ -48,7 +49,7 @@ def execute(args: argparse.Namespace, run: Run) -> None:
     with run.stage("attributes", "voxel attributes", source=args.input):
         fields = voxel_attributes(cloud.fields, rows[kept], grid.voxel_of_point[kept], grid.counts)
     centroids = grid.centroids / scale  # in INPUT's units
-    write(run, args.output, centroids, fields, cloud)
+    write(run, args.output, centroids, fields, unorganized(cloud))
     run.result.update(
         input=os.path.abspath(args.input),
         parameters=params_dict(params),

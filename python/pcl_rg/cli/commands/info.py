@@ -84,9 +84,14 @@ def execute(args: argparse.Namespace, run: Run) -> None:
     if codes is not None:
         info["classes"] = counts(codes)
     if "segment_id" in cloud.fields:
-        info["segmentation"] = segments_summary(
-            np.asarray(cloud.fields["segment_id"]).astype(np.int64)
+        ids = np.asarray(cloud.fields["segment_id"])
+        whole = ids.dtype.kind in "iu" or (
+            ids.dtype.kind == "f" and bool(np.all(np.isfinite(ids) & (ids == np.round(ids))))
         )
+        if ids.ndim == 1 and whole:
+            info["segmentation"] = segments_summary(ids)
+        else:  # described, not refused, as classes are
+            info["segmentation_problem"] = "segment_id is not one whole number per point"
     run.result.update(info)
 
     run.say(f"{'file':<14}{info['input']}")
@@ -138,6 +143,8 @@ def execute(args: argparse.Namespace, run: Run) -> None:
         run.say(f"{'classes':<14}" + ", ".join(f"{k}: {v:,}" for k, v in info["classes"].items()))
     if "classes_problem" in info:
         run.say(f"{'classes':<14}none: {info['classes_problem']}")
+    if "segmentation_problem" in info:
+        run.say(f"{'segments':<14}none: {info['segmentation_problem']}")
     if "segmentation" in info:
         s = info["segmentation"]
         run.say(f"{'segments':<14}{s['segments']:,} ({s['assigned']:,} points assigned)")

@@ -1,0 +1,140 @@
+"""Files that are unusual but legal, or damaged in ways a header does not show: list
+counts stored as floats, LAS extra bytes with a scale of 0, LAS 1.0, PCD and XYZ
+headers of long or non-ASCII comments, and an existing output that is not a file."""
+
+from __future__ import annotations
+
+import io
+import os
+
+import laspy
+import numpy as np
+import pytest
+
+from pcl_rg.io import read_points, write_pcd, write_points
+
+POINTS = np.array([[1.0, 2.0, 3.0], [4.0, 5.0, 6.0], [7.0, 8.0, 9.5]])
+
+
+@pytest.mark.parametrize("count", [np.inf, np.nan, 2.5])
+def test_a_ply_list_count_stored_as_a_float_is_refused(tmp_path, count):
+    # int(inf) raised OverflowError (the command line's "internal error"), NaN a
+    # ValueError that did not name the file.
+    header = (
+        b"ply\nformat binary_little_endian 1.0\nelement vertex 2\nproperty float x\n"
+        b"property float y\nproperty float z\nelement face 1\n"
+        b"property list float int vertex_indices\nend_header\n"
+    )
+    body = np.arange(6, dtype="<f4").tobytes() + np.array([count], "<f4").tobytes()
+    path = tmp_path / "f.ply"
+    path.write_bytes(header + body + bytes(12))
+    with pytest.raises(ValueError, match=r"invalid PLY file .*f\.ply.*list count type 'float'"):
+        read_points(path)
+
+
+def _las_with_extra_bytes(options: int, scale: float) -> bytes:
+    """A LAS file of a float64 extra-bytes dimension 'depth' whose options byte and
+    first scale are set by hand, as another program may write them."""
+    header = laspy.LasHeader(version="1.4", point_format=6)
+    header.add_extra_dims([laspy.ExtraBytesParams("depth", "f8")])
+    las = laspy.LasData(header)
+    las.x, las.y, las.z = POINTS.T
+    las.depth = np.array([0.5, 1.0, 1.5])
+    stream = io.BytesIO()
+    las.write(stream)
+    data = bytearray(stream.getvalue())
+    name = data.find(b"depth\0")
+    data[name - 1] = options  # the byte before the name (LAS 1.4, table 24)
+    scale_at = name + 32 + 4 + 3 * 8 + 3 * 8 + 3 * 8  # name, unused, no data, min, max
+    data[scale_at : scale_at + 8] = np.float64(scale).tobytes()
+    return bytes(data)
+
+
+@pytest.mark.parametrize("scale", [0.0, np.inf, np.nan])
+def test_las_extra_bytes_with_a_scale_that_cannot_be_read_back_are_refused(tmp_path, scale):
+    # With scale 0 every value read as 0.0, and a write in the file's layout divided by
+    # that scale: the values came back as NaN, with a NumPy warning as the only sign.
+    path = tmp_path / "scaled.las"
+    path.write_bytes(_las_with_extra_bytes(0x08, scale))
+    with pytest.raises(ValueError, match=r"extra bytes dimension 'depth' has scale"):
+        read_points(path)
+
+
+@pytest.mark.parametrize("options, scale", [(0x08, 2.0), (0x18, 1.0), (0x08, 0.1)])
+def test_scaled_float_extra_bytes_are_written_back_unrounded(tmp_path, options, scale):
+    # laspy rounds the stored value of a scaled dimension to a whole number: a float64
+    # one flagged with scale 1 came back as 0, 1, 2 instead of 0.5, 1, 1.5.
+    path = tmp_path / "scaled.las"
+    path.write_bytes(_las_with_extra_bytes(options, scale))
+    cloud = read_points(path)
+    assert np.allclose(cloud.fields["depth"], np.array([0.5, 1.0, 1.5]) * scale)
+    write_points(tmp_path / "copy.las", cloud.points, cloud.fields, template=cloud)
+    stored = [laspy.read(p).points.array["depth"] for p in (path, tmp_path / "copy.las")]
+    # (value - offset) / scale of value = stored * scale + offset: exact when the scale
+    # is a power of 2, within rounding otherwise.
+    assert np.allclose(stored[1], stored[0], rtol=1e-15, atol=0)
+
+
+@pytest.mark.parametrize("ext", ["las", "laz"])
+def test_a_las_10_file_is_written_back_as_12(tmp_path, ext):
+    # laspy reads LAS 1.0 but writes no 1.0: every output in its layout failed after
+    # the work ("cannot write ... in the layout of ...: 1.0").
+    header = laspy.LasHeader(version="1.2", point_format=1)
+    las = laspy.LasData(header)
+    las.x, las.y, las.z = POINTS.T
+    las.intensity = np.array([10, 20, 30], np.uint16)
+    stream = io.BytesIO()
+    las.write(stream)
+    data = bytearray(stream.getvalue())
+    data[25] = 0  # version minor
+    (tmp_path / "old.las").write_bytes(bytes(data))
+    cloud = read_points(tmp_path / "old.las")
+    assert str(cloud.header.version) == "1.0"
+    write_points(tmp_path / f"new.{ext}", cloud.points, cloud.fields, template=cloud)
+    again = read_points(tmp_path / f"new.{ext}")
+    assert str(again.header.version) == "1.2"
+    assert again.header.point_format.id == 1
+    assert np.array_equal(again.points, cloud.points)
+    assert again.fields["intensity"].tolist() == [10, 20, 30]
+
+
+def test_a_pcd_header_after_more_than_4_kib_of_comments_is_read(tmp_path):
+    # The format check read 4,096 bytes of comments, no PCD keyword among them, and
+    # took the file for text; read_pcd, which allows a 1 MiB header, read it.
+    write_pcd(tmp_path / "plain.pcd", POINTS, encoding="ascii")
+    comments = b"".join(b"# survey note %d: nothing of interest\n" % i for i in range(200))
+    (tmp_path / "noted.pcd").write_bytes(comments + (tmp_path / "plain.pcd").read_bytes())
+    assert np.array_equal(read_points(tmp_path / "noted.pcd").points, POINTS)
+    # Comments alone are no PLY or LAS file.
+    (tmp_path / "noted.ply").write_bytes(comments)
+    with pytest.raises(ValueError, match="not a PLY file.*comment lines of a text file"):
+        read_points(tmp_path / "noted.ply")
+
+
+@pytest.mark.parametrize("bom", [b"", b"\xef\xbb\xbf"])
+def test_xyz_text_in_utf8_with_or_without_a_byte_order_mark(tmp_path, bom):
+    # A byte order mark (Windows editors) or a non-ASCII comment made the file
+    # "binary data of an unknown format".
+    text = "# Höhe über NN, Messung 3\n# x y z intensity\n1 2 3 7\n4 5 6 8\n"
+    (tmp_path / "utf8.xyz").write_bytes(bom + text.encode("utf-8"))
+    cloud = read_points(tmp_path / "utf8.xyz")
+    assert cloud.points.tolist() == [[1.0, 2.0, 3.0], [4.0, 5.0, 6.0]]
+    assert cloud.fields["intensity"].tolist() == [7, 8]
+
+
+def test_xyz_text_that_is_not_utf8_is_refused(tmp_path):
+    (tmp_path / "latin1.xyz").write_bytes("1 2 3\n# H\xf6he\n4 5 6\n".encode("latin-1"))
+    with pytest.raises(ValueError, match="not a XYZ text file|not UTF-8 text"):
+        read_points(tmp_path / "latin1.xyz")
+
+
+@pytest.mark.parametrize("ext", ["xyz", "las", "pcd"])
+def test_an_existing_fifo_is_not_replaced_by_the_output(tmp_path, ext):
+    # The atomic rename replaced it by a regular file; so would a device node be, for
+    # a root user writing to a link to /dev/null.
+    path = tmp_path / f"pipe.{ext}"
+    os.mkfifo(path)
+    with pytest.raises(FileExistsError, match="not a regular file"):
+        write_points(path, POINTS)
+    assert not path.is_file() and path.exists()
+    assert os.listdir(tmp_path) == [path.name]  # no temporary file left
