@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 from conftest import run_pcl_rg
 from test_batch import corrupt_points
+from test_batch_strays import assert_denoise_is_the_merged_run
 
 import pcl_rg
 from pcl_rg import batch
@@ -198,6 +199,38 @@ def test_a_failed_tile_leaves_the_others_recorded_and_a_rerun_redoes_only_it(tmp
     assert [t.status for t in mended.tiles] == ["done", "done", "done"]
     assert mended.tiles[1].no_buffer_from == [] and mended.tiles[1].details["buffer_points"] > 0
     assert len(json.loads((out / MANIFEST).read_text())) == 3
+
+
+def test_a_tile_whose_denoise_distances_failed_leaves_no_tile_recorded(tmp_path, monkeypatch):
+    # A passing failure of one tile's distances (its worker killed: KilledWorker) left
+    # the others written with a threshold without its distances, and recorded as done:
+    # the rerun skipped them and redid that tile with the survey's threshold, so the
+    # survey held two thresholds. In this process, to make that one task fail.
+    from distributed import LocalCluster
+
+    from pcl_rg.batch import _denoise_tasks, _tasks
+
+    source = synthetic_survey(tmp_path / "in", tiles=(1, 3), tile_size=40.0, seed=4)
+    measure = _denoise_tasks.denoise_distances
+
+    def killed(job, tile, *rest):
+        if tile.index == 1:
+            return _tasks.guarded(lambda: (_ for _ in ()).throw(MemoryError("out of memory")))
+        return measure(job, tile, *rest)
+
+    params = pcl_rg.StatisticalOutlierRemovalParams(mean_k=12, std_mul=0.5)
+    with LocalCluster(
+        n_workers=1, threads_per_worker=1, processes=False, dashboard_address=":0"
+    ) as cluster:
+        monkeypatch.setattr(_denoise_tasks, "denoise_distances", killed)
+        address = cluster.scheduler_address
+        first = batch.denoise(source.paths, tmp_path / "out", params=params, scheduler=address)
+        assert [t.status for t in first.tiles] == ["done", "failed", "done"]
+        assert "out of memory" in first.tiles[1].error
+        monkeypatch.setattr(_denoise_tasks, "denoise_distances", measure)
+        again = batch.denoise(source.paths, tmp_path / "out", params=params, scheduler=address)
+    assert [t.status for t in again.tiles] == ["done"] * 3
+    assert_denoise_is_the_merged_run(source.paths, again, params)
 
 
 # ---------------------------------------------------------------- warnings of the workers

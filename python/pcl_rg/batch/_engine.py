@@ -341,8 +341,14 @@ def _run_on(
 
     bar = _Progress(len(todo), progress, f"{job.operation} ({len(todo)} tiles)")
     try:
+        # A denoise threshold that lacks a tile's distances (it failed) is not the
+        # survey's: the tiles written with it are redone next time, as their own
+        # neighbours' are.
+        measured_all = True
         if job.operation == "denoise":
-            stage = _denoise(client, job, tiles, boxes, near, todo, cached, futures, reports)
+            stage, measured_all = _denoise(
+                client, job, tiles, boxes, near, todo, cached, futures, reports
+            )
         else:
             stage = {}
             task = _tasks.ground_tile if job.operation == "ground" else _tasks.downsample_tile
@@ -372,8 +378,8 @@ def _run_on(
             if result["ok"]:
                 report.status, report.error = "done", ""
                 report.points = result.get("points", report.points)
-                if short:  # a neighbour's decode failed, maybe for a passing reason:
-                    manifest.forget(outputs[i])  # redo it next time, with its buffer
+                if short or not measured_all:  # a neighbour's decode failed, maybe
+                    manifest.forget(outputs[i])  # for a passing reason: redo it next time
                 else:
                     # Files unreadable from the start (no box: anybody's neighbour)
                     # are among `expected`: one that becomes readable redoes the tile.
@@ -417,8 +423,9 @@ def _denoise(
     cached: dict[int, Any],
     futures: list[Any],
     reports: list[TileReport],
-) -> dict[Any, int]:
-    """Distances per tile, one global threshold, then the writes (stages 2 and 3)."""
+) -> tuple[dict[Any, int], bool]:
+    """Distances per tile, one global threshold, then the writes (stages 2 and 3); and
+    whether every tile read had its distances measured (the threshold the survey's)."""
     stage1 = {i: _outcome(f) for i, f in cached.items()}
     for i, result in stage1.items():
         _warn(reports[i], result)
@@ -470,4 +477,4 @@ def _denoise(
             future = client.submit(_tasks.passed_on, failure, pure=False)
         stage[future] = i
     futures += stage.keys()
-    return stage
+    return stage, len(good) == len(read)

@@ -61,7 +61,9 @@ class Manifest:
 
     def __init__(self, folder: str) -> None:
         self.path = os.path.join(folder, MANIFEST)
-        if os.path.lexists(self.path) and not os.path.isfile(self.path):
+        if os.path.islink(self.path) or (
+            os.path.lexists(self.path) and not os.path.isfile(self.path)
+        ):  # a link's target would be replaced by the record: an input, say
             raise ValueError(
                 f"{self.path!r} is not a file: the batch keeps its record of finished tiles "
                 "there; remove or rename what is in its place"
@@ -70,7 +72,7 @@ class Manifest:
             with open(self.path, encoding="utf-8") as stream:
                 entries = json.load(stream)
             self.entries: dict[str, Any] = entries if isinstance(entries, dict) else {}
-        except (OSError, ValueError):
+        except (OSError, ValueError, RecursionError):  # RecursionError: nested too deep
             self.entries = {}  # none yet, or damaged: every tile is redone
 
     def done(self, output: str, inputs: dict[str, Any]) -> bool:

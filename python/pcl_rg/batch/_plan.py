@@ -92,9 +92,10 @@ def expand_inputs(inputs: Sequence[str | os.PathLike[str]]) -> list[str]:
     """Files, folders (their point files, not recursive) and globs, as absolute paths.
 
     The order is the order given, each folder and glob sorted; a file named twice (also
-    through a link) counts once, under its first name. Links are not resolved: an output
-    is named after the input's name as listed. A ``.txt`` file in a folder or glob is a
-    tile only when it holds XYZ text (:func:`_text_tile`); a named file always is.
+    through a link, soft or hard) counts once, under its first name. Links are not
+    resolved: an output is named after the input's name as listed. A ``.txt`` file in
+    a folder or glob is a tile only when it holds XYZ text (:func:`_text_tile`); a
+    named file always is.
     Raises ValueError for a name that is no file, folder or matching glob, or that is
     not a regular file (a FIFO would block the read for ever).
     """
@@ -122,9 +123,10 @@ def expand_inputs(inputs: Sequence[str | os.PathLike[str]]) -> list[str]:
         else:
             raise ValueError(f"input {name!r}: no such file or folder")
         found += [os.path.abspath(m) for m in matches]
-    first: dict[str, str] = {}
-    for path in found:
-        first.setdefault(os.path.realpath(path), path)
+    first: dict[tuple[int, int], str] = {}
+    for path in found:  # one file under two names: links, also hard ones
+        stat = os.stat(path)
+        first.setdefault((stat.st_dev, stat.st_ino), path)
     if not first:
         raise ValueError("no input files")
     return list(first.values())
@@ -136,6 +138,7 @@ def output_paths(paths: Sequence[str], folder: str) -> list[str]:
     outputs = [os.path.join(os.path.abspath(folder), os.path.basename(p)) for p in paths]
     inputs = {(s.st_dev, s.st_ino): p for p in paths for s in [os.stat(p)]}
     seen: dict[str, str] = {}
+    files: dict[object, str] = {}  # what each output resolves to: a link's target
     for path, output in zip(paths, outputs, strict=True):
         if output in seen:
             raise ValueError(
@@ -143,12 +146,20 @@ def output_paths(paths: Sequence[str], folder: str) -> list[str]:
                 f"would both be {output!r}"
             )
         seen[output] = path
+        resolved: object = os.path.realpath(output)
         if os.path.exists(output):
             stat = os.stat(output)
             other = inputs.get((stat.st_dev, stat.st_ino))
             if other is not None:
                 what = "the input itself" if other == path else f"the input {other!r}"
                 raise ValueError(f"output {output!r} is {what}; choose another --out")
+            resolved = (stat.st_dev, stat.st_ino)
+        if resolved in files:  # links in the folder: one tile's points would be lost
+            raise ValueError(
+                f"outputs {files[resolved]!r} and {output!r} are one file (a link in the "
+                "output folder); remove the link"
+            )
+        files[resolved] = output
     return outputs
 
 
