@@ -157,9 +157,22 @@ class GridGroundParams:
         (0.5, 0.5)
         """
         spacing = check_number("spacing", spacing, float, above=0.0)
+        chosen = {**self.SPACING_MULTIPLES, **(multiples or {})}
+        if set(chosen) != set(self.SPACING_MULTIPLES):
+            raise ValueError(f"multiples: unknown names {sorted(set(chosen) - {'cell_size'})}")
+        multiple = check_number("multiples['cell_size']", chosen["cell_size"], float, above=0.0)
         if self.cell_size is not None:
             return self
-        largest = {**self.SPACING_MULTIPLES, **(multiples or {})}["cell_size"] * spacing
+        largest = multiple * spacing
+        for block in self.block_size:
+            # Far beyond the core's 2^40 cells per axis, which it checks against the
+            # extent; here ceil() would meet infinity (a subnormal spacing).
+            if not block / largest < 2.0**62:
+                raise ValueError(
+                    f"spacing {format_value(spacing)}: cells of at most "
+                    f"{format_value(largest)} m would split a {format_value(block)} m block "
+                    "into more than 2^62 cells; set cell_size"
+                )
         cell = tuple(block / max(1.0, math.ceil(block / largest)) for block in self.block_size)
         return dataclasses.replace(self, cell_size=cell)
 

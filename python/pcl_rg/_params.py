@@ -202,6 +202,8 @@ def _per_axis(name: str, value: Any, spec: Spec) -> tuple[float, ...]:
         isinstance(value, (list, tuple)) and any(isinstance(v, flags) for v in value)
     ):
         raise TypeError(f"{name} must be a number or {axes} numbers, got {value!r}")
+    if np.ma.is_masked(value):  # np.asarray drops the mask: a hidden value would be used
+        raise ValueError(f"{name}: masked values are not accepted, got {value!r}")
     if isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_)):
         values: tuple[Any, ...] = (value,) * axes
     else:

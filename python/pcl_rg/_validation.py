@@ -42,7 +42,10 @@ def as_points(
             f"{name}: masked arrays are not accepted (their masked rows would be used); "
             "select the unmasked points first, e.g. points[~points.mask.any(axis=1)].data"
         )
-    array = np.asarray(points)
+    try:
+        array = np.asarray(points)
+    except ValueError:  # a ragged sequence: rows of different lengths
+        raise ValueError(f"{name} must have shape (N, 3): its rows differ in length") from None
     kind = array.dtype.kind
     if kind not in "fiu":
         raise TypeError(f"{name} must be a real float or integer array, got dtype {array.dtype}")
@@ -90,6 +93,8 @@ def as_real(name: str, values: npt.ArrayLike) -> np.ndarray:
     object input is a TypeError. ``np.asarray(values, dtype=float64)`` would drop an
     imaginary part with only a warning, and read True or "1" as 1.0.
     """
+    if np.ma.is_masked(values):  # np.asarray would drop the mask and use the values
+        raise ValueError(f"{name}: masked arrays are not accepted, got {values!r}")
     try:
         array = np.asarray(values)
     except ValueError:  # a ragged sequence

@@ -209,10 +209,12 @@ def _morphological_seeds(
     far from the rest. The C++ core builds the full raster when that fits.
     """
     cell = p.seed_cell
-    r = min(math.floor(p.max_building_size / (2.0 * cell)), 2**40)  # as the core caps it
+    # As the core caps it; the quotient may be inf for a subnormal seed_cell.
+    r = math.floor(min(p.max_building_size / (2.0 * cell), 2.0**40))
     limit = _raster_limit(len(xyz))
-    full = (math.floor(ex / cell) + 1.0) * (math.floor(ey / cell) + 1.0)
-    fits = full <= limit or (ex / cell < 2.0**62 and ey / cell < 2.0**62)
+    # A full raster within the limit has quotients far below 2^62, so these alone tell
+    # whether the columns and rows can be counted (inf for a subnormal cell).
+    fits = float(ex) / cell < 2.0**62 and float(ey) / cell < 2.0**62
     if fits:
         column, ncx = _close_gaps(np.floor(local[:, 0] / cell).astype(np.int64), max(2 * r, 2))
         row, ncy = _close_gaps(np.floor(local[:, 1] / cell).astype(np.int64), max(2 * r, 2))
