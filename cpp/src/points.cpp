@@ -107,7 +107,10 @@ std::vector<std::size_t> rows_within_float32_reach(PointsView points,
 }
 
 Float32Frame float32_frame(PointsView points) {
-    const std::array<double, 3> origin = float32_origin(points);
+    return float32_frame(points, float32_origin(points));
+}
+
+Float32Frame float32_frame(PointsView points, const std::array<double, 3>& origin) {
     Float32Frame frame;
     frame.local.resize(3 * points.size);
     const auto n = static_cast<std::ptrdiff_t>(points.size);

@@ -66,7 +66,8 @@ StatisticalOutlierRemovalResult without_far_points(PointsView points,
 }  // namespace
 
 StatisticalOutlierRemovalResult statistical_outlier_removal(
-    PointsView points, const StatisticalOutlierRemovalParams& params, bool* inlier) {
+    PointsView points, const StatisticalOutlierRemovalParams& params, bool* inlier,
+    const std::array<double, 3>* origin) {
     validate(params);
     StatisticalOutlierRemovalResult result;
     const std::size_t n = points.size;
@@ -77,7 +78,7 @@ StatisticalOutlierRemovalResult statistical_outlier_removal(
     check::fewer_than_points("mean_k", params.mean_k, n);
     const auto mean_k = static_cast<std::size_t>(params.mean_k);
 
-    const Float32Frame frame = float32_frame(points);
+    const Float32Frame frame = origin ? float32_frame(points, *origin) : float32_frame(points);
     if (frame.has_far_points()) {
         check::fewer_than_points("mean_k", params.mean_k, frame.near.size(), n);
         return without_far_points(points, frame.near, params, inlier);

@@ -87,6 +87,11 @@ struct Float32Frame {
 /// pcl_rg.reference._local.near_rows.
 Float32Frame float32_frame(PointsView points);
 
+/// The same at a given `origin` instead of float32_origin(points): pcl_rg.batch's
+/// denoise passes the merged survey's, so that a tile and its buffer get the float32
+/// coordinates, and so the neighbour distances, of one run over the merged survey.
+Float32Frame float32_frame(PointsView points, const std::array<double, 3>& origin);
+
 /// The rows of `points` within kFloat32Reach of `origin` on every axis, ascending. Any
 /// number may be far here. float32_frame passes float32_origin(points); pcl_rg.batch's
 /// denoise passes one origin for the whole survey, so that a tile whose own cloud is

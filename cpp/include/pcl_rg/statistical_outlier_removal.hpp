@@ -1,6 +1,7 @@
 // StatisticalOutlierRemoval with the semantics of PCL 1.13's pcl::StatisticalOutlierRemoval.
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <vector>
 
@@ -31,7 +32,10 @@ struct StatisticalOutlierRemovalResult {
 
 /// Fills `inlier[i]` for every point and returns the per-point statistics.
 /// Throws std::invalid_argument when mean_k >= number of points (non-empty input).
+/// `origin`, when given, is the float32 frame's origin instead of float32_origin(points)
+/// (float32_frame): pcl_rg.batch's denoise passes the merged survey's.
 StatisticalOutlierRemovalResult statistical_outlier_removal(
-    PointsView points, const StatisticalOutlierRemovalParams& params, bool* inlier);
+    PointsView points, const StatisticalOutlierRemovalParams& params, bool* inlier,
+    const std::array<double, 3>* origin = nullptr);
 
 }  // namespace pcl_rg

@@ -76,8 +76,13 @@ def denoise_distances(
                     check_fewer_than_kept("mean_k", k, len(kept), n)
                 margin = max(2.0 * margin, 1.0)  # from a zero buffer too
                 continue
+            # In the merged run's float32 frame: the same coordinates, so the same
+            # distances, as one run over the merged survey (when none of its points is
+            # far; that run frames its kept points anew).
             _, kept_distance, _, kept_farthest = _core.statistical_outlier_removal(
-                metres if len(kept) == len(xyz) else metres[kept], job.params.to_core()
+                metres if len(kept) == len(xyz) else metres[kept],
+                job.params.to_core(),
+                np.asarray(origin, float),
             )
             distance = np.full(len(xyz), np.inf, np.float32)  # a far point's, as the core's
             farthest = distance.copy()
