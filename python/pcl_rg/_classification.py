@@ -178,17 +178,40 @@ def is_category(name: str) -> bool:
 PACKED_COLOURS = ("rgb", "rgba")
 
 
-def voxel_attributes(
-    fields: dict[str, np.ndarray], rows: np.ndarray, voxel: np.ndarray, counts: np.ndarray
-) -> dict[str, np.ndarray]:
-    """Per-voxel attributes: mean of float fields and MEAN_ATTRIBUTES, channel means of
-    PACKED_COLOURS, else (and for codes and ids, is_category) the first point's."""
-    m = len(counts)
+def _first_rows(rows: np.ndarray, voxel: np.ndarray, m: int) -> np.ndarray:
+    """The least of `rows` in each of `m` voxels (row 0 for a voxel without any)."""
     first = np.full(m, np.iinfo(np.int64).max, dtype=np.int64)
     np.minimum.at(first, voxel, rows)
+    return np.where(first == np.iinfo(np.int64).max, 0, first)
+
+
+def voxel_attributes(
+    fields: dict[str, np.ndarray],
+    rows: np.ndarray,
+    voxel: np.ndarray,
+    counts: np.ndarray,
+    carried: dict[str, np.ndarray] | None = None,
+) -> dict[str, np.ndarray]:
+    """Per-voxel attributes: mean of float fields and MEAN_ATTRIBUTES, channel means of
+    PACKED_COLOURS, else (and for codes and ids, is_category) the first point's.
+
+    `carried`, if given, marks per field the rows of `fields` that carry it (a batch's
+    buffer from tiles of another point format holds zeros for what they lack): each
+    voxel's value then comes from its points that carry the field alone.
+    """
+    m = len(counts)
+    everyone = (rows, voxel, counts, _first_rows(rows, voxel, m))
     out = {}
     for name, values in fields.items():
         values = np.asarray(values)
+        rows, voxel, counts, first = everyone
+        if carried is not None and not carried[name][rows].all():
+            keep = carried[name][rows]
+            rows, voxel = rows[keep], voxel[keep]
+            # A voxel none of whose points carries the field gets 0: never one a
+            # caller keeps, since its own points carry every field it writes.
+            counts = np.maximum(np.bincount(voxel, minlength=m), 1)
+            first = _first_rows(rows, voxel, m)
         if is_category(name):
             out[name] = values[first]
         elif name in PACKED_COLOURS and values.ndim == 1 and values.dtype.itemsize == 4:

@@ -333,7 +333,8 @@ def ground_tile(
 
 
 def _field(cloud: PointFile, name: str, like: np.ndarray) -> np.ndarray:
-    """A neighbour's column `name`, zeros of the own tile's dtype where it has none."""
+    """A neighbour's column `name`, zeros of the own tile's dtype where it has none
+    (which voxel_attributes then leaves out)."""
     if name in cloud.fields:
         return np.asarray(cloud.fields[name]).astype(like.dtype, copy=False)
     return np.zeros((len(cloud),) + like.shape[1:], like.dtype)
@@ -363,13 +364,17 @@ def downsample_tile(
             name: np.concatenate([_field(p, name, values) for _, _, p in parts])
             for name, values in own.fields.items()
         }
+        carried = {
+            name: np.concatenate([np.full(len(p), name in p.fields) for _, _, p in parts])
+            for name in own.fields
+        }
         grid = voxel_grid(in_metres(job, xyz), params=job.params)
         member = np.flatnonzero(grid.voxel_of_point >= 0)
         voxel = grid.voxel_of_point[member]
         owner = np.full(len(grid.counts), np.iinfo(np.int64).max)
         np.minimum.at(owner, voxel, tile_of[member])
         mine = owner == tile.index
-        attributes = voxel_attributes(fields, member, voxel, grid.counts)
+        attributes = voxel_attributes(fields, member, voxel, grid.counts, carried)
         centroids = grid.centroids[mine] / np.asarray(job.scale)  # in the tile's units
         write_points(
             tile.output,

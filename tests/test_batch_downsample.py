@@ -1,0 +1,49 @@
+"""Batch downsample over tiles that do not hold the same attributes (another point
+format, another file format): a voxel's attributes come from its points that have
+them (test_batch.py has the surveys of one format)."""
+
+from __future__ import annotations
+
+import laspy
+import numpy as np
+
+import pcl_rg
+from pcl_rg import batch
+from pcl_rg.io import read_points
+
+
+def las_tile(path, points: np.ndarray, point_format: int, **values) -> None:
+    las = laspy.LasData(laspy.LasHeader(version="1.2", point_format=point_format))
+    las.header.scales, las.header.offsets = [0.001] * 3, [0.0] * 3
+    las.x, las.y, las.z = points.T
+    for name, value in values.items():
+        setattr(las, name, np.full(len(points), value))
+    las.write(path)
+
+
+def test_a_neighbour_without_colours_does_not_grey_a_tiles_voxels(tmp_path, scheduler):
+    # Tile a (point format 3) is white; tile b (format 1) has no colours. b's points in
+    # a's seam voxels were averaged in as zeros: red 32133 instead of 65535.
+    rng = np.random.default_rng(3)
+    (tmp_path / "in").mkdir()
+    a = rng.uniform([0.0, 0.0, 0.0], [20.0, 20.0, 1.0], (4000, 3))
+    b = rng.uniform([20.0, 0.0, 0.0], [40.0, 20.0, 1.0], (4000, 3))
+    white = {"red": 65535, "green": 65535, "blue": 65535, "intensity": 100, "gps_time": 1e6}
+    las_tile(tmp_path / "in" / "a.las", a, 3, **white)
+    las_tile(tmp_path / "in" / "b.las", b, 1, intensity=300, gps_time=2e6)
+    params = pcl_rg.VoxelGridParams(leaf_size=3.0)  # voxels across x = 20 m, from both
+    report = batch.downsample(
+        [tmp_path / "in" / "a.las", tmp_path / "in" / "b.las"],
+        tmp_path / "out",
+        params=params,
+        scheduler=scheduler,
+    )
+    assert [t.status for t in report.tiles] == ["done", "done"]
+    out = read_points(tmp_path / "out" / "a.las")
+    assert set(out.fields["red"].tolist()) == {65535}
+    assert set(out.fields["blue"].tolist()) == {65535}
+    # What both tiles have is averaged over both: the seam voxels' intensity lies
+    # between the tiles' own, which their first tile writes.
+    seam = out.points[:, 0] > 18.0
+    assert seam.any() and (out.fields["intensity"][seam] > 100).any()
+    assert (out.fields["intensity"][~seam] == 100).all()
