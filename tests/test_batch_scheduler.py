@@ -100,3 +100,31 @@ def test_a_client_that_connects_after_the_deadline_is_closed(monkeypatch):
             _cluster._connect("tcp://127.0.0.1:1")
     release.set()
     assert closed.wait(30) and len(made) == 1
+
+
+def test_a_scheduler_without_workers_is_a_clear_error(tmp_path, monkeypatch):
+    # The tasks waited for a worker that never came: the run hung, printing nothing. In
+    # a thread with a deadline, so that a regression fails instead of hanging the suite.
+    from distributed import LocalCluster
+
+    from pcl_rg import batch
+    from pcl_rg.batch import _cluster
+
+    source = synthetic_survey(tmp_path / "in", tiles=(1, 1), tile_size=20.0, seed=1)
+    monkeypatch.setattr(_cluster, "WORKER_WAIT_SECONDS", 0.5)
+    outcome: list[BaseException] = []
+
+    def run(address: str) -> None:
+        try:
+            batch.ground(source.paths, tmp_path / "out", scheduler=address)
+        except BaseException as error:  # noqa: BLE001 - handed to the test's thread
+            outcome.append(error)
+
+    with LocalCluster(n_workers=0, processes=False, dashboard_address=":0") as cluster:
+        attempt = threading.Thread(target=run, args=(cluster.scheduler_address,), daemon=True)
+        attempt.start()
+        attempt.join(60)
+        assert not attempt.is_alive(), "the run is still waiting for a worker"
+    assert len(outcome) == 1 and isinstance(outcome[0], ConnectionError)
+    assert "has no worker (waited 0.5 s); start some with `dask worker" in str(outcome[0])
+    assert not os.path.exists(tmp_path / "out" / "tile_0_0.laz")

@@ -98,6 +98,22 @@ def _connect(scheduler: str) -> Any:
     return outcome["client"]
 
 
+#: How long a run waits for the first worker of a scheduler that has none yet (its
+#: workers may be starting); the tasks would otherwise wait for ever, in silence.
+WORKER_WAIT_SECONDS = 60.0
+
+
+def _wait_for_a_worker(client: Any, scheduler: str) -> None:
+    """Return once the scheduler has a worker; ConnectionError after WORKER_WAIT_SECONDS."""
+    try:
+        client.wait_for_workers(1, timeout=WORKER_WAIT_SECONDS)
+    except TimeoutError:
+        raise ConnectionError(
+            f"the Dask scheduler at {scheduler} has no worker (waited "
+            f"{WORKER_WAIT_SECONDS:g} s); start some with `dask worker {scheduler}`"
+        ) from None
+
+
 @contextlib.contextmanager
 def dask_client(workers: int | None, scheduler: str | None) -> Iterator[Any]:
     """A Dask client: of `scheduler`, or of a local cluster of one-thread processes."""
@@ -107,6 +123,7 @@ def dask_client(workers: int | None, scheduler: str | None) -> Iterator[Any]:
 
     if scheduler:
         with _connect(scheduler) as client:
+            _wait_for_a_worker(client, scheduler)
             yield client
         return
     # A LocalCluster registers itself with Dask before its workers have started. An
