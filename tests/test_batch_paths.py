@@ -67,3 +67,25 @@ def test_a_damaged_record_redoes_every_tile(tmp_path, text):
     assert Manifest(str(tmp_path)).entries == {}
     Manifest(str(tmp_path)).clear()
     assert json.loads((tmp_path / MANIFEST).read_text()) == {}
+
+
+def test_a_fifo_in_an_outputs_place_is_refused_and_kept(tmp_path):
+    # The tile failed at its write (no writer replaces a FIFO), and the batch then
+    # removed the FIFO as "its earlier output".
+    paths = tiles(tmp_path / "in")
+    (tmp_path / "out").mkdir()
+    os.mkfifo(tmp_path / "out" / "tile_0.las")
+    with pytest.raises(ValueError, match="is not a regular file"):
+        output_paths(paths, tmp_path / "out")
+    with pytest.raises(ValueError, match="is not a regular file"):
+        batch.ground(paths, tmp_path / "out", workers=1, progress=False)
+    assert (tmp_path / "out" / "tile_0.las").exists()
+
+
+def test_xyz_text_with_a_byte_order_mark_is_a_tile(tmp_path):
+    # read_points reads it; the folder's look at .txt files took the mark for a word.
+    (tmp_path / "in").mkdir()
+    rows = "".join(f"{i} {i % 7} 1.5\n" for i in range(20))
+    (tmp_path / "in" / "a.txt").write_bytes(b"\xef\xbb\xbf" + rows.encode())
+    (tmp_path / "in" / "b.txt").write_bytes(b"\xef\xbb\xbf# x y z\n" + rows.encode())
+    assert [os.path.basename(p) for p in expand_inputs(tmp_path / "in")] == ["a.txt", "b.txt"]

@@ -6,10 +6,12 @@ import contextlib
 import os
 import signal
 import threading
+import warnings
 from collections.abc import Iterator
 from multiprocessing import resource_tracker
 from typing import Any
 
+from .._caller import outside_stacklevel
 from .._held_signals import held_signals
 
 
@@ -98,20 +100,25 @@ def _connect(scheduler: str) -> Any:
     return outcome["client"]
 
 
-#: How long a run waits for the first worker of a scheduler that has none yet (its
-#: workers may be starting); the tasks would otherwise wait for ever, in silence.
+#: How long a run waits for the first worker of a scheduler that has none before it
+#: says so; the tasks would otherwise wait in silence.
 WORKER_WAIT_SECONDS = 60.0
 
 
 def _wait_for_a_worker(client: Any, scheduler: str) -> None:
-    """Return once the scheduler has a worker; ConnectionError after WORKER_WAIT_SECONDS."""
+    """Return once the scheduler has a worker, or with a warning after
+    WORKER_WAIT_SECONDS: the run then goes on and waits, since an adaptive cluster
+    (dask-jobqueue's, with no minimum) starts its workers only when tasks come, and a
+    batch queue may start them late."""
     try:
         client.wait_for_workers(1, timeout=WORKER_WAIT_SECONDS)
     except TimeoutError:
-        raise ConnectionError(
-            f"the Dask scheduler at {scheduler} has no worker (waited "
-            f"{WORKER_WAIT_SECONDS:g} s); start some with `dask worker {scheduler}`"
-        ) from None
+        warnings.warn(
+            f"the Dask scheduler at {scheduler} has had no worker for "
+            f"{WORKER_WAIT_SECONDS:g} s; the run waits for one (start some with "
+            f"`dask worker {scheduler}`)",
+            stacklevel=outside_stacklevel(),
+        )
 
 
 @contextlib.contextmanager

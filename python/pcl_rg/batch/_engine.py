@@ -151,7 +151,7 @@ def _discard(manifest: Manifest, output: str) -> str:
     folder holds no output that does not come from its current input; what to add to
     the tile's error."""
     manifest.forget(output)
-    if not os.path.exists(output):
+    if not os.path.isfile(output):  # none, or what no run of ours wrote (a FIFO): kept
         return ""
     try:
         os.unlink(output)

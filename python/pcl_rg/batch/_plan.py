@@ -54,7 +54,7 @@ def _text_tile(path: str) -> bool:
     except OSError:
         return True  # a tile: its read reports why it cannot be read, for it alone
     named = False
-    for line in head.decode("ascii", "replace").splitlines():
+    for line in head.removeprefix(b"\xef\xbb\xbf").decode("ascii", "replace").splitlines():
         words = line.split()
         if not words:
             continue
@@ -148,6 +148,11 @@ def output_paths(paths: Sequence[str], folder: str) -> list[str]:
         seen[output] = path
         resolved: object = os.path.realpath(output)
         if os.path.exists(output):
+            if not os.path.isfile(output) and not os.path.isdir(output):
+                raise ValueError(
+                    f"output {output!r} is not a regular file (a FIFO, device or socket); "
+                    "refusing to replace it"
+                )
             stat = os.stat(output)
             other = inputs.get((stat.st_dev, stat.st_ino))
             if other is not None:
