@@ -16,10 +16,10 @@ from pcl_rg.io import read_points, write_pcd, write_points
 POINTS = np.array([[1.0, 2.0, 3.0], [4.0, 5.0, 6.0], [7.0, 8.0, 9.5]])
 
 
-@pytest.mark.parametrize("count", [np.inf, np.nan, 2.5])
-def test_a_ply_list_count_stored_as_a_float_is_refused(tmp_path, count):
+@pytest.mark.parametrize("count", [np.inf, np.nan, 2.5, 3.0])
+def test_a_ply_list_count_stored_as_a_float_must_be_whole(tmp_path, count):
     # int(inf) raised OverflowError (the command line's "internal error"), NaN a
-    # ValueError that did not name the file.
+    # ValueError that did not name the file. A float count type is legal: 3.0 reads.
     header = (
         b"ply\nformat binary_little_endian 1.0\nelement vertex 2\nproperty float x\n"
         b"property float y\nproperty float z\nelement face 1\n"
@@ -28,7 +28,10 @@ def test_a_ply_list_count_stored_as_a_float_is_refused(tmp_path, count):
     body = np.arange(6, dtype="<f4").tobytes() + np.array([count], "<f4").tobytes()
     path = tmp_path / "f.ply"
     path.write_bytes(header + body + bytes(12))
-    with pytest.raises(ValueError, match=r"invalid PLY file .*f\.ply.*list count type 'float'"):
+    if count == 3.0:
+        assert read_points(path).points.tolist() == [[0.0, 1.0, 2.0], [3.0, 4.0, 5.0]]
+        return
+    with pytest.raises(ValueError, match=r"invalid PLY file .*f\.ply.*list length .* not a whole"):
         read_points(path)
 
 
@@ -123,9 +126,38 @@ def test_xyz_text_in_utf8_with_or_without_a_byte_order_mark(tmp_path, bom):
 
 
 def test_xyz_text_that_is_not_utf8_is_refused(tmp_path):
-    (tmp_path / "latin1.xyz").write_bytes("1 2 3\n# H\xf6he\n4 5 6\n".encode("latin-1"))
-    with pytest.raises(ValueError, match="not a XYZ text file|not UTF-8 text"):
+    # Past the first 4 KiB, which the format check reads: the reader's own message.
+    rows = "1 2 3\n" * 1000
+    (tmp_path / "latin1.xyz").write_bytes((rows + "# H\xf6he\n4 5 6\n").encode("latin-1"))
+    with pytest.raises(ValueError, match="not UTF-8 text at byte 6003"):
         read_points(tmp_path / "latin1.xyz")
+
+
+def test_a_unicode_line_separator_inside_a_comment_adds_no_point(tmp_path):
+    # str.splitlines broke the comment at U+0085: "9 9 9 9" became a point.
+    rows = "1 2 3\n" * 1000
+    (tmp_path / "sep.xyz").write_bytes((rows + "# c\u0085 9 9 9\n4 5 6\n").encode("utf-8"))
+    assert len(read_points(tmp_path / "sep.xyz")) == 1001
+
+
+def test_non_ascii_column_names_are_not_taken(tmp_path):
+    # "Höhe" became a field that no writer can write back: it failed after the work.
+    (tmp_path / "h.xyz").write_bytes("# x y z Höhe\n1 2 3 4\n5 6 7 8\n".encode())
+    assert list(read_points(tmp_path / "h.xyz").fields) == ["column_4"]
+
+
+@pytest.mark.parametrize("cut", [1, 3, 6, 7])
+@pytest.mark.parametrize("encoding", ["ascii", "binary"])
+def test_pcd_keywords_at_the_end_of_the_first_4_kib(tmp_path, cut, encoding):
+    # A keyword line cut by the format check's 4,096 bytes ("VER") was taken for data;
+    # a UTF-8 comment in a binary file's header for binary data.
+    write_pcd(tmp_path / "plain.pcd", POINTS, encoding=encoding)
+    body = (tmp_path / "plain.pcd").read_bytes()
+    start = body.index(b"VERSION")
+    notes = "# Höhe über NN\n".encode()
+    filler = b"#" + b"x" * (4096 - cut - len(notes) - 2) + b"\n"
+    (tmp_path / "cut.pcd").write_bytes(notes + filler + body[start:])
+    assert np.array_equal(read_points(tmp_path / "cut.pcd").points, POINTS)
 
 
 @pytest.mark.parametrize("ext", ["xyz", "las", "pcd"])

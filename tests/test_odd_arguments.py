@@ -39,6 +39,8 @@ def test_a_subnormal_spacing_sets_no_cells(spacing):
     # block_size / (2 x spacing) was inf, and ceil(inf) an OverflowError.
     with pytest.raises(ValueError, match=r"spacing .* more than 2\^62 cells; set cell_size"):
         pcl_rg.GridGroundParams().at_spacing(spacing)
+    with pytest.raises(ValueError, match=r"more than 2\^62 cells"):  # the product underflows
+        pcl_rg.GridGroundParams().at_spacing(spacing, multiples={"cell_size": 1e-200})
 
 
 @pytest.mark.parametrize("multiple", [0.0, -1.0, float("nan")])

@@ -167,7 +167,7 @@ class GridGroundParams:
         for block in self.block_size:
             # Far beyond the core's 2^40 cells per axis, which it checks against the
             # extent; here ceil() would meet infinity (a subnormal spacing).
-            if not block / largest < 2.0**62:
+            if not (largest > 0.0 and block / largest < 2.0**62):  # the product may underflow
                 raise ValueError(
                     f"spacing {format_value(spacing)}: cells of at most "
                     f"{format_value(largest)} m would split a {format_value(block)} m block "

@@ -33,7 +33,9 @@ struct StatisticalOutlierRemovalResult {
 /// Fills `inlier[i]` for every point and returns the per-point statistics.
 /// Throws std::invalid_argument when mean_k >= number of points (non-empty input).
 /// `origin`, when given, is the float32 frame's origin instead of float32_origin(points)
-/// (float32_frame): pcl_rg.batch's denoise passes the merged survey's.
+/// (float32_frame): pcl_rg.batch's denoise passes the merged survey's, with the points
+/// beyond its reach already left out (any that remain are framed anew, as far points
+/// always are, and the origin then no longer applies to the others).
 StatisticalOutlierRemovalResult statistical_outlier_removal(
     PointsView points, const StatisticalOutlierRemovalParams& params, bool* inlier,
     const std::array<double, 3>* origin = nullptr);

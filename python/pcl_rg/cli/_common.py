@@ -362,8 +362,8 @@ def segments_summary(labels: np.ndarray) -> dict[str, Any]:
         sizes = np.bincount(ids.astype(np.intp, copy=False))  # compact ids: fast
         sizes = sizes[sizes > 0]
     else:
-        # A file's ids may be as large as 2**32 - 1 (a common "no segment" mark), for
-        # which bincount would allocate one counter per id: counted by value instead.
+        # Ids as large as 2**32 - 1 (another program's, any value it likes) would
+        # make bincount allocate one counter per id: counted by value instead.
         sizes = np.unique(ids, return_counts=True)[1]
     return {
         "segments": int(len(sizes)),

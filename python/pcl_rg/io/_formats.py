@@ -54,11 +54,15 @@ def sniff(head: bytes) -> str:
     except UnicodeDecodeError:
         # PCD headers are ASCII, binary data follows them; a head cut mid-way can
         # hold binary bytes after the DATA line.
-        text = head.split(b"\nDATA", 1)[0].decode("ascii", errors="replace")
+        before = head.split(b"\nDATA", 1)[0]
+        text = codecs.getincrementaldecoder("utf-8")(errors="replace").decode(before)
         if "\ufffd" in text:
             return "binary"
+    lines = text.splitlines()
+    if len(lines) > 1 and not text.endswith(("\n", "\r")):
+        lines.pop()  # cut by the head's end: its first word may be a keyword's half
     only_comments = True
-    for line in text.splitlines():
+    for line in lines:
         line = line.strip()
         if not line:
             continue

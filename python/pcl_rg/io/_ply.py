@@ -268,7 +268,16 @@ def _binary_element_size(
         width = np.dtype(count_type).itemsize
         if at + width > len(data):
             raise past_end
-        items = int(np.frombuffer(data, order + count_type, 1, at)[0])
+        value = np.frombuffer(data, order + count_type, 1, at)[0]
+        # A float count type is legal; its value must still be a whole number of items
+        # (int() of inf raised OverflowError, of NaN a ValueError naming no file).
+        if not (np.isfinite(value) and value == np.floor(value)):
+            raise bad_ply(
+                path,
+                f"element {element.name!r}: list length {value} in its first entry is "
+                "not a whole number",
+            )
+        items = int(value)
         if items < 0:
             raise bad_ply(
                 path,

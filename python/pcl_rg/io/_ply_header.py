@@ -119,11 +119,6 @@ def parse_header(path: str, raw: bytes) -> tuple[str, list[PlyElement], tuple[st
             if len(tokens) == 5 and tokens[1] == "list":
                 if tokens[2] not in PLY_TYPES or tokens[3] not in PLY_TYPES:
                     raise bad_ply(path, f"line {number}: unknown list types in {line.strip()!r}")
-                if np.dtype(PLY_TYPES[tokens[2]]).kind not in "iu":
-                    # A count is a number of items: a float one could be inf, NaN or 2.5.
-                    raise bad_ply(
-                        path, f"line {number}: list count type {tokens[2]!r} is not an integer type"
-                    )
                 element.list_types.append((tokens[4], PLY_TYPES[tokens[2]], PLY_TYPES[tokens[3]]))
                 element.layout.append(element.list_types[-1])
                 elements[-1] = element._replace(has_list=True)

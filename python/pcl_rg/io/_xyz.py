@@ -24,6 +24,7 @@ _PTS_NAMES = {
 # Longest accepted line: far above any real row, low enough that one line cannot
 # turn into a parser's long loop over a single record.
 _MAX_XYZ_LINE = 1 << 16
+_LINE_BREAK = re.compile(r"\r\n|\r|\n")
 # A column name the "# x y z ..." header line can hold and the reader splits back out.
 _COLUMN_NAME = re.compile(r"[!-+\--:<-~]+")  # printable ASCII but , (0x2c) and ; (0x3b)
 
@@ -42,7 +43,9 @@ def read(path: str) -> tuple[np.ndarray, dict[str, np.ndarray], None]:
         text = raw.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
         raise _bad_xyz(path, f"not UTF-8 text at byte {exc.start} (binary data?)") from None
-    lines = text.splitlines()
+    # Not str.splitlines, which also breaks at U+0085, U+2028 and U+2029: a comment
+    # holding one would end there and the rest of it be read as a row.
+    lines = _LINE_BREAK.split(text)
     if max(map(len, lines), default=0) > _MAX_XYZ_LINE:
         number = next(i for i, line in enumerate(lines, start=1) if len(line) > _MAX_XYZ_LINE)
         raise _bad_xyz(
@@ -59,6 +62,8 @@ def read(path: str) -> tuple[np.ndarray, dict[str, np.ndarray], None]:
             continue
         if stripped.startswith(("#", "//")):
             header_names = re.split(r"[\s,;]+", stripped.lstrip("#/").strip())
+            if not all(_COLUMN_NAME.fullmatch(name) for name in header_names):
+                header_names = None  # prose, or names no writer could write back
             continue
         first = number
         break
