@@ -3,6 +3,7 @@ and the clouds it refuses to compare."""
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 from cli_helpers import assert_one_error_line, run, run_json
 from conftest import shared_data
@@ -68,3 +69,24 @@ def test_evaluate_refuses_other_points(capsys, tmp_path, scene_las):
     code, _, err = run(capsys, "evaluate", scene_las)
     assert code == 2
     assert_one_error_line(err, "--truth FILE or --isprs")
+
+
+def test_evaluate_leaves_out_rows_no_command_classified(capsys, tmp_path, scene_las):
+    # Withheld rows (and NaN ones) keep the class they came with, the truth's own here:
+    # they were scored, and counted as right.
+    source = read_points(scene_las)
+    withheld = np.zeros(len(source), bool)
+    withheld[::7] = True
+    fields = dict(source.fields, withheld=withheld.astype(np.uint8))
+    write_points(tmp_path / "truth.las", source.points, fields, template=source)
+    run_json(capsys, "ground", tmp_path / "truth.las", tmp_path / "pred.las", "--cell-size", "1")
+    truth = read_points(tmp_path / "truth.las").classification
+    predicted = read_points(tmp_path / "pred.las").classification
+    scored = (truth != 7) & ~withheld
+    report = run_json(capsys, "evaluate", tmp_path / "pred.las", "--truth", tmp_path / "truth.las")
+    assert report["excluded_unprocessed"] == int(((truth != 7) & withheld).sum()) > 0
+    assert report["scored"] == int(scored.sum())
+    expected = ground_errors(truth[scored] == 2, predicted[scored] == 2)
+    assert report["total"] == pytest.approx(expected.total)
+    code, out, _ = run(capsys, "evaluate", tmp_path / "pred.las", "--truth", tmp_path / "truth.las")
+    assert code == 0 and "NaN or withheld points excluded" in out

@@ -8,6 +8,7 @@ import os
 
 import numpy as np
 
+from ..._classification import usable_points
 from ...io import PointFile
 from .._common import (
     GROUND,
@@ -114,6 +115,10 @@ def execute(args: argparse.Namespace, run: Run) -> None:
         truth_scale = _scales(truth)
         source = {"truth": os.path.abspath(args.truth)}
     _check_same_points(prediction, truth_points, max(_scales(prediction), truth_scale))
+    # Rows no command classified (NaN coordinates, LAS withheld) keep the class they
+    # came with, often the truth's own: scored, they would count as right.
+    unprocessed = scored & ~usable_points(prediction)
+    scored &= ~unprocessed
     from ...evaluation import ground_errors
 
     errors = ground_errors(truth_ground[scored], (predicted_codes == GROUND)[scored])
@@ -123,7 +128,8 @@ def execute(args: argparse.Namespace, run: Run) -> None:
         **source,
         points=len(prediction),
         scored=int(scored.sum()),
-        excluded_noise=int((~scored).sum()),
+        excluded_noise=int((~scored).sum()) - int(unprocessed.sum()),
+        excluded_unprocessed=int(unprocessed.sum()),
         type_i=errors.type_i,
         type_ii=errors.type_ii,
         total=errors.total,
@@ -139,9 +145,17 @@ def execute(args: argparse.Namespace, run: Run) -> None:
     def pct(v: float) -> str:
         return "-" if math.isnan(v) else f"{100 * v:.2f} %"
 
+    excluded = [
+        f"{count:,} {what} excluded"
+        for count, what in (
+            (run.result["excluded_noise"], "noise points"),
+            (run.result["excluded_unprocessed"], "NaN or withheld points"),
+        )
+        if count
+    ]
     run.say(
         f"{'points scored':<16}{int(scored.sum()):>12,}"
-        + (f"  ({int((~scored).sum()):,} noise points excluded)" if (~scored).any() else "")
+        + (f"  ({'; '.join(excluded)})" if excluded else "")
     )
     run.say(f"{'Type I':<16}{pct(errors.type_i):>12}  ground classified as object / all ground")
     run.say(f"{'Type II':<16}{pct(errors.type_ii):>12}  object classified as ground / all object")
