@@ -375,3 +375,22 @@ def test_a_profile_line_too_long_for_a_float_is_refused_before_the_work(
     assert code == 2
     assert_one_error_line(err, "argument --profile-line", "length", "finite")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["in.xyz"]
+
+
+@pytest.mark.parametrize("options", [[], ["--json"]])
+def test_a_reader_that_stops_reading_is_no_error_of_the_input(scene_las, options):
+    # `pcl-rg info FILE | true`: the broken pipe was reported as "cannot access" with
+    # exit 2 (bad input), and with --json the error line raised again: two tracebacks.
+    import subprocess
+    import sys
+
+    with subprocess.Popen(
+        [sys.executable, "-m", "pcl_rg", "info", str(scene_las), *options],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    ) as process:
+        process.stdout.close()  # nobody reads: the first write finds the pipe broken
+        err = process.stderr.read().decode()
+        code = process.wait(60)
+    assert code == 1, err
+    assert "Traceback" not in err and "cannot access" not in err, err
