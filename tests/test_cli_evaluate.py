@@ -90,3 +90,16 @@ def test_evaluate_leaves_out_rows_no_command_classified(capsys, tmp_path, scene_
     assert report["total"] == pytest.approx(expected.total)
     code, out, _ = run(capsys, "evaluate", tmp_path / "pred.las", "--truth", tmp_path / "truth.las")
     assert code == 0 and "NaN or withheld points excluded" in out
+
+
+@pytest.mark.parametrize("ids", [[0.0, 0.4, 0.9, 1.0, 1.0, 1.0], [0.0, 0.0, 0.0, np.nan, 1, 1]])
+def test_evaluate_segments_refuses_predicted_ids_that_are_not_whole(capsys, tmp_path, ids):
+    # 0.4 and 0.9 were cast to segment 0, NaN to "unassigned", without a word.
+    points = np.random.default_rng(0).uniform(0.0, 1.0, (6, 3))
+    write_points(tmp_path / "truth.pcd", points, {"label": np.array([1, 1, 1, 2, 2, 2], np.int32)})
+    write_points(tmp_path / "pred.pcd", points, {"segment_id": np.array(ids, np.float32)})
+    code, _, err = run(
+        capsys, "evaluate", tmp_path / "pred.pcd", "--truth", tmp_path / "truth.pcd", "--segments"
+    )
+    assert code == 2
+    assert_one_error_line(err, "PREDICTION's segment_id holds", "not whole numbers")

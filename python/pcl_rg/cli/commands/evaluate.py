@@ -215,6 +215,24 @@ def _truth_ids(args: argparse.Namespace, ids: np.ndarray) -> np.ndarray:
     return ids.astype(np.int64)
 
 
+def _predicted_ids(labels: np.ndarray) -> np.ndarray:
+    """PREDICTION's segment_id as int64 (-1: unassigned), or a CliError: a cast would
+    truncate 0.4 to segment 0 and make NaN an unassigned point without a word."""
+    labels = np.asarray(labels)
+    if labels.dtype.kind == "f":
+        whole = np.isfinite(labels) & (labels == np.round(labels))
+        if not whole.all():
+            raise CliError(
+                f"PREDICTION's segment_id holds {np.count_nonzero(~whole)} values that are "
+                "not whole numbers (NaN among them?); segment ids must be"
+            )
+    elif labels.dtype.kind not in "iub":
+        raise CliError(f"PREDICTION's segment_id is of dtype {labels.dtype}, not segment ids")
+    if labels.dtype.kind == "u" and labels.size and labels.max() > np.iinfo(np.int64).max:
+        raise CliError("PREDICTION's segment_id holds ids above 2**63 - 1")
+    return labels.astype(np.int64)
+
+
 def _evaluate_segments(args: argparse.Namespace, run: Run, prediction: PointFile) -> None:
     if args.truth is None:
         raise CliError("evaluate --segments needs --truth FILE with a truth segment field")
@@ -234,9 +252,7 @@ def _evaluate_segments(args: argparse.Namespace, run: Run, prediction: PointFile
     _check_same_points(prediction, truth.points, max(_scales(prediction), _scales(truth)))
     from ...evaluation import segmentation_scores
 
-    scores = segmentation_scores(
-        _truth_ids(args, np.asarray(segments)), np.asarray(labels).astype(np.int64)
-    )
+    scores = segmentation_scores(_truth_ids(args, np.asarray(segments)), _predicted_ids(labels))
     run.result.update(
         prediction=os.path.abspath(args.prediction),
         truth=os.path.abspath(args.truth),
