@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 import pcl_rg
+import pcl_rg.io
 from pcl_rg import reference
 
 
@@ -62,3 +63,12 @@ def test_both_layers_refuse_absurdly_small_lengths_with_a_value_error():
     for call in (pcl_rg.grid_ground, reference.grid_ground):
         with pytest.raises(ValueError, match="2\\^40 cells|2\\^62 cells"):
             call(speck, block_size=1e300)
+
+
+def test_write_points_refuses_a_ragged_list_and_masked_classes(tmp_path):
+    # NumPy's "inhomogeneous shape" message; a masked class written as its hidden value.
+    with pytest.raises(ValueError, match=r"points must have shape \(N, 3\): its rows differ"):
+        pcl_rg.io.write_points(tmp_path / "a.xyz", [[0.0, 0.0, 0.0], [1.0, 1.0]])
+    codes = np.ma.array([2, 7], mask=[0, 1])
+    with pytest.raises(ValueError, match="classification: masked arrays are not written"):
+        pcl_rg.io.write_points(tmp_path / "b.xyz", np.zeros((2, 3)), classification=codes)

@@ -44,7 +44,10 @@ def check_xyz(points: ArrayLike) -> np.ndarray:
     """`points` as C-contiguous float64 (N, 3); NaN and signalling NaN kept, no warning."""
     if np.ma.is_masked(points):  # np.asarray would drop the mask and write the rows
         raise ValueError("points: masked arrays are not written; select the unmasked rows first")
-    array = np.asarray(points)
+    try:
+        array = np.asarray(points)
+    except ValueError:  # a ragged sequence
+        raise ValueError("points must have shape (N, 3): its rows differ in length") from None
     if array.dtype.kind not in "fiu":
         raise TypeError(f"points must be a real float or integer array, got dtype {array.dtype}")
     if array.ndim != 2 or array.shape[1] != 3:
@@ -78,6 +81,8 @@ def check_columns(
             )
         columns[key] = array
     if classification is not None:
+        if np.ma.is_masked(classification):
+            raise ValueError("classification: masked arrays are not written; fill them first")
         codes = np.asarray(classification)
         if codes.dtype.kind not in "iu":
             raise TypeError(f"classification must be an integer array, got dtype {codes.dtype}")
