@@ -138,3 +138,43 @@ def test_top_view_errors(tmp_path):
     assert not (tmp_path / "x.png").exists()
     with pytest.raises(ValueError, match="labels must be one-dimensional"):
         segment_colours(np.array([[0, 1], [2, 3]]))
+
+
+def legend_of(monkeypatch, draw) -> list[str]:
+    """The legend texts of the figure `draw()` saves."""
+    import pcl_rg.plot
+
+    texts: list[str] = []
+    real = pcl_rg.plot._save
+
+    def keep_legend(fig, path):
+        texts.extend(t.get_text() for t in fig.axes[0].get_legend().get_texts())
+        real(fig, path)
+
+    monkeypatch.setattr(pcl_rg.plot, "_save", keep_legend)
+    draw()
+    return texts
+
+
+def test_legends_count_every_point_not_the_drawn_subsample(tmp_path, monkeypatch):
+    # The counts were those of the drawn subsample: "ground (399,973)" for 999,950
+    # ground points, and a rare class could drop out of the legend.
+    xyz, _ = scene(20_000)
+    classes = np.full(len(xyz), 2)
+    classes[:3] = 7
+    texts = legend_of(
+        monkeypatch, lambda: top_view(xyz, tmp_path / "c.png", classes=classes, max_points=500)
+    )
+    assert texts == ["ground (19,997)", "noise (3)"]
+    segments = np.arange(len(xyz)) % 40 - 1  # -1: unassigned, every 40th point
+    line = {"start": (0.0, 25.0), "end": (50.0, 25.0), "width": 10.0}
+    inside = np.abs(xyz[:, 1] - 25.0) <= 5.0
+    texts = legend_of(
+        monkeypatch,
+        lambda: profile(xyz, tmp_path / "p.png", segments=segments, max_points=300, **line),
+    )
+    assert texts == [
+        f"unassigned ({int((segments[inside] < 0).sum()):,})",
+        f"{len(np.unique(segments[inside & (segments >= 0)]))} segments (one colour each, "
+        "repeating)",
+    ]

@@ -115,7 +115,8 @@ path : str or path-like
     Output PNG file.""",
     "max_points": """\
 max_points : int
-    At most this many points are drawn (an even, seeded subsample).""",
+    At most this many points are drawn (an even, seeded subsample); the
+    legend counts every point all the same.""",
     "labels_type_error": """\
 TypeError
     Non-integer `classes` or `segments`.""",
@@ -180,20 +181,23 @@ def _marker_size(n: int, width_in: float, height_in: float) -> float:
     return float(np.clip(0.7 * np.sqrt(area / max(n, 1)), 0.5, 4.0))
 
 
-def _draw(ax, fig, u, v, z, classes, segments, names, size):
+def _draw(ax, fig, u, v, z, classes, segments, names, size, counted=None):
     """Draw u, v coloured by class (legend), segment (palette) or z (colour bar).
 
     Groups of one colour go through ``Axes.plot`` (markers without lines), which
     is several times faster than ``scatter`` for hundreds of thousands of points.
+    `counted`, the classes or segments of every point the figure shows when only a
+    subsample is drawn, gives the legend's counts (every class in it, drawn or not).
     """
     marker = {"linestyle": "none", "marker": "o", "markersize": size, "markeredgewidth": 0}
     if segments is not None:
+        every = segments if counted is None else counted
         unassigned = segments < 0
         ax.plot(
             u[unassigned],
             v[unassigned],
             color=_UNASSIGNED,
-            label=f"unassigned ({int(unassigned.sum()):,})",
+            label=f"unassigned ({int((every < 0).sum()):,})",
             **marker,
         )
         slot = np.where(unassigned, -1, segments % len(_SEGMENT_PALETTE))
@@ -201,7 +205,7 @@ def _draw(ax, fig, u, v, z, classes, segments, names, size):
             sel = slot == i
             if sel.any():
                 ax.plot(u[sel], v[sel], color=colour, **marker)
-        n_segments = len(np.unique(segments[~unassigned]))
+        n_segments = len(np.unique(every[every >= 0]))
         ax.plot(
             [],
             [],
@@ -212,11 +216,12 @@ def _draw(ax, fig, u, v, z, classes, segments, names, size):
         ax.legend(loc="upper right", fontsize=8, markerscale=max(6 / size, 1))
     elif classes is not None:
         # Draw the most common class first so rarer ones stay visible on top.
-        codes, counts = np.unique(classes, return_counts=True)
-        for code in codes[np.argsort(-counts, kind="stable")]:
+        codes, counts = np.unique(classes if counted is None else counted, return_counts=True)
+        order = np.argsort(-counts, kind="stable")
+        for code, count in zip(codes[order], counts[order]):
             sel = classes == code
             label, colour = names.get(int(code), (f"class {code}", None))
-            ax.plot(u[sel], v[sel], color=colour, label=f"{label} ({int(sel.sum()):,})", **marker)
+            ax.plot(u[sel], v[sel], color=colour, label=f"{label} ({int(count):,})", **marker)
         if codes.size:  # no point, no legend (matplotlib warns of an empty one)
             ax.legend(markerscale=max(6 / size, 1), loc="upper right", fontsize=8)
     else:
@@ -283,6 +288,7 @@ def top_view(
     max_points, classes, segments = _colouring(len(xyz), max_points, classes, segments)
     plt = _pyplot()
     keep = _subsample(len(xyz), max_points)
+    counted = segments if segments is not None else classes  # every point's, for the legend
     if keep is not None:
         xyz = xyz[keep]
         classes = None if classes is None else classes[keep]
@@ -300,6 +306,7 @@ def top_view(
             segments,
             names,
             _marker_size(len(xyz), 7.0, 7.0),
+            counted,
         )
         ax.set_aspect("equal")
         # Plain metres: matplotlib's "+5e6" offset notation hides UTM coordinates.
@@ -399,6 +406,8 @@ def profile(
     inside = (np.abs(across) <= width / 2) & (along >= 0) & (along <= length)
     selected = np.flatnonzero(inside)
     n_inside = len(selected)
+    labels = segments if segments is not None else classes
+    counted = None if labels is None else labels[selected]  # every inside point's, for the legend
     keep = _subsample(n_inside, max_points)
     if keep is not None:
         selected = selected[keep]
@@ -416,6 +425,7 @@ def profile(
             None if segments is None else segments[selected],
             names,
             min(2.0, _marker_size(len(selected), 11.0, 3.0)),
+            counted,
         )
         ax.set_aspect(vertical_exaggeration)
         ax.set_xlim(0, length)
