@@ -178,3 +178,22 @@ def test_legends_count_every_point_not_the_drawn_subsample(tmp_path, monkeypatch
         f"{len(np.unique(segments[inside & (segments >= 0)]))} segments (one colour each, "
         "repeating)",
     ]
+
+
+def test_every_class_in_a_legend_has_a_colour_of_its_own(tmp_path, monkeypatch):
+    # Low vegetation (3) took building's blue from matplotlib's cycle, and class 17 the
+    # cycle's next colour: two legend entries alike.
+    import pcl_rg.plot
+
+    xyz, _ = scene(1200)
+    classes = np.repeat([1, 2, 3, 6, 17, 40, 41], [300, 300, 150, 150, 100, 100, 100])
+    colours: list[str] = []
+    real = pcl_rg.plot._save
+
+    def keep_colours(fig, path):
+        colours.extend(to_rgb(h.get_color()) for h in fig.axes[0].get_legend().legend_handles)
+        real(fig, path)
+
+    monkeypatch.setattr(pcl_rg.plot, "_save", keep_colours)
+    top_view(xyz, tmp_path / "c.png", classes=classes)
+    assert len(colours) == 7 and len(set(colours)) == 7

@@ -20,15 +20,25 @@ from ._validation import as_points, as_real
 
 __all__ = ["CLASS_COLOURS", "profile", "segment_colours", "top_view"]
 
-# ASPRS classes as used in pcl_rg's outputs and synthetic scenes.
+# ASPRS classes as used in pcl_rg's outputs and synthetic scenes, and the common
+# others a file kept with --keep-classes may hold.
 CLASS_COLOURS: dict[int, tuple[str, str]] = {
     0: ("never classified", "#7f7f7f"),
     1: ("unclassified / object", "#d62728"),
     2: ("ground", "#8c6d31"),
+    3: ("low vegetation", "#98df8a"),
+    4: ("medium vegetation", "#5ab65a"),
     5: ("vegetation", "#2ca02c"),
     6: ("building", "#1f77b4"),
     7: ("noise", "#e377c2"),
+    9: ("water", "#17becf"),
+    17: ("bridge deck", "#ff7f0e"),
+    18: ("high noise", "#f7b6d2"),
 }
+
+# Classes without a colour of their own take these in turn: none is a listed class's,
+# so that no two legend entries look alike.
+_OTHER_CLASS_COLOURS = ("#9467bd", "#bcbd22", "#8c564b", "#393b79", "#e7ba52", "#843c39")
 
 # Categorical colours for segments: Tableau 10 and its light variants (tab20),
 # reordered so that consecutive labels (neighbouring regions are often numbered
@@ -218,9 +228,11 @@ def _draw(ax, fig, u, v, z, classes, segments, names, size, counted=None):
         # Draw the most common class first so rarer ones stay visible on top.
         codes, counts = np.unique(classes if counted is None else counted, return_counts=True)
         order = np.argsort(-counts, kind="stable")
+        others = iter(np.resize(_OTHER_CLASS_COLOURS, len(codes)))  # repeats past six
         for code, count in zip(codes[order], counts[order]):
             sel = classes == code
             label, colour = names.get(int(code), (f"class {code}", None))
+            colour = colour if colour is not None else str(next(others))
             ax.plot(u[sel], v[sel], color=colour, label=f"{label} ({int(count):,})", **marker)
         if codes.size:  # no point, no legend (matplotlib warns of an empty one)
             ax.legend(markerscale=max(6 / size, 1), loc="upper right", fontsize=8)
