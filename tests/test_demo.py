@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import pcl_rg.cli as cli
+import pcl_rg.datasets
 from pcl_rg.demo import run_demo
 from pcl_rg.evaluation import ground_errors
 from pcl_rg.io import read_points
@@ -132,3 +133,12 @@ def test_run_demo_checks_its_arguments_before_making_the_folder(
     with pytest.raises(error, match=match):
         run_demo(tmp_path / "out", **{"size": 100.0, **kwargs})
     assert not (tmp_path / "out").exists()
+
+
+def test_the_smallest_scene_runs_for_a_seed_that_cannot_hold_six_buildings(tmp_path):
+    # Seed 14 at 80 m places five buildings apart: the demo failed with advice about
+    # n_buildings, an option it does not have, and left its folder behind empty.
+    with pytest.raises(ValueError, match="n_buildings=6"):
+        pcl_rg.datasets.synthetic_scene(seed=14, size=80.0)
+    report = run_demo(tmp_path / "out", seed=14, size=80.0, plots=False, survey=False)
+    assert report.rows and (tmp_path / "out").is_dir()
