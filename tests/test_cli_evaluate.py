@@ -71,24 +71,27 @@ def test_evaluate_refuses_other_points(capsys, tmp_path, scene_las):
     assert_one_error_line(err, "--truth FILE or --isprs")
 
 
-def test_evaluate_leaves_out_rows_no_command_classified(capsys, tmp_path, scene_las):
+@pytest.mark.parametrize("ext", ["las", "pcd"])
+def test_evaluate_leaves_out_rows_no_command_classified(capsys, tmp_path, scene_las, ext):
     # Withheld rows (and NaN ones) keep the class they came with, the truth's own here:
-    # they were scored, and counted as right.
+    # they were scored, and counted as right. A PCD prediction has no withheld flag:
+    # the truth's tells.
     source = read_points(scene_las)
     withheld = np.zeros(len(source), bool)
     withheld[::7] = True
     fields = dict(source.fields, withheld=withheld.astype(np.uint8))
     write_points(tmp_path / "truth.las", source.points, fields, template=source)
-    run_json(capsys, "ground", tmp_path / "truth.las", tmp_path / "pred.las", "--cell-size", "1")
+    pred = tmp_path / f"pred.{ext}"
+    run_json(capsys, "ground", tmp_path / "truth.las", pred, "--cell-size", "1")
     truth = read_points(tmp_path / "truth.las").classification
-    predicted = read_points(tmp_path / "pred.las").classification
+    predicted = read_points(pred).classification
     scored = (truth != 7) & ~withheld
-    report = run_json(capsys, "evaluate", tmp_path / "pred.las", "--truth", tmp_path / "truth.las")
+    report = run_json(capsys, "evaluate", pred, "--truth", tmp_path / "truth.las")
     assert report["excluded_unprocessed"] == int(((truth != 7) & withheld).sum()) > 0
     assert report["scored"] == int(scored.sum())
     expected = ground_errors(truth[scored] == 2, predicted[scored] == 2)
     assert report["total"] == pytest.approx(expected.total)
-    code, out, _ = run(capsys, "evaluate", tmp_path / "pred.las", "--truth", tmp_path / "truth.las")
+    code, out, _ = run(capsys, "evaluate", pred, "--truth", tmp_path / "truth.las")
     assert code == 0 and "NaN or withheld points excluded" in out
 
 
@@ -103,3 +106,17 @@ def test_evaluate_segments_refuses_predicted_ids_that_are_not_whole(capsys, tmp_
     )
     assert code == 2
     assert_one_error_line(err, "PREDICTION's segment_id holds", "not whole numbers")
+
+
+def test_evaluate_segments_takes_rows_with_nan_coordinates_as_unassigned(capsys, tmp_path):
+    # An organized PCD's invalid points are NaN in every field: no command segments them,
+    # and their NaN ids are no error.
+    points = np.random.default_rng(0).uniform(0.0, 1.0, (6, 3))
+    points[5] = np.nan
+    ids = np.array([0.0, 0.0, 0.0, 1.0, 1.0, np.nan], np.float32)
+    write_points(tmp_path / "truth.pcd", points, {"label": np.array([1, 1, 1, 2, 2, 0], np.int32)})
+    write_points(tmp_path / "pred.pcd", points, {"segment_id": ids})
+    report = run_json(
+        capsys, "evaluate", tmp_path / "pred.pcd", "--truth", tmp_path / "truth.pcd", "--segments"
+    )
+    assert report["mean_iou"] == 1.0

@@ -377,20 +377,28 @@ def test_a_profile_line_too_long_for_a_float_is_refused_before_the_work(
     assert sorted(p.name for p in tmp_path.iterdir()) == ["in.xyz"]
 
 
+@pytest.mark.parametrize("command", ["info", "ground", "info missing.las"])
 @pytest.mark.parametrize("options", [[], ["--json"]])
-def test_a_reader_that_stops_reading_is_no_error_of_the_input(scene_las, options):
+def test_a_reader_that_stops_reading_is_no_error_of_the_run(tmp_path, scene_las, command, options):
     # `pcl-rg info FILE | true`: the broken pipe was reported as "cannot access" with
     # exit 2 (bad input), and with --json the error line raised again: two tracebacks.
+    # The work is done when the run speaks: its exit status is the work's.
     import subprocess
     import sys
 
+    words = command.split()
+    argv = [words[0], words[1] if len(words) > 1 else str(scene_las)]
+    if words[0] == "ground":
+        argv.append(str(tmp_path / "out.las"))
     with subprocess.Popen(
-        [sys.executable, "-m", "pcl_rg", "info", str(scene_las), *options],
+        [sys.executable, "-m", "pcl_rg", *argv, *options],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
+        cwd=tmp_path,
     ) as process:
         process.stdout.close()  # nobody reads: the first write finds the pipe broken
         err = process.stderr.read().decode()
-        code = process.wait(60)
-    assert code == 1, err
+        code = process.wait(120)
     assert "Traceback" not in err and "cannot access" not in err, err
+    assert code == (2 if "missing" in command else 0), err
+    assert (tmp_path / "out.las").exists() == (words[0] == "ground")

@@ -208,8 +208,8 @@ def voxel_attributes(
         if carried is not None and not carried[name][rows].all():
             keep = carried[name][rows]
             rows, voxel = rows[keep], voxel[keep]
-            # A voxel none of whose points carries the field gets 0: never one a
-            # caller keeps, since its own points carry every field it writes.
+            # A voxel none of whose points carries the field gets 0 (a category, row
+            # 0's): never one a caller keeps, since its own points carry every field.
             counts = np.maximum(np.bincount(voxel, minlength=m), 1)
             first = _first_rows(rows, voxel, m)
         if is_category(name):

@@ -36,8 +36,8 @@ CLASS_COLOURS: dict[int, tuple[str, str]] = {
     18: ("high noise", "#f7b6d2"),
 }
 
-# Classes without a colour of their own take these in turn: none is a listed class's,
-# so that no two legend entries look alike.
+# Classes without a colour of their own take one of these by their code, the same in
+# every figure: none is a listed class's (eight and more of them share some).
 _OTHER_CLASS_COLOURS = ("#9467bd", "#bcbd22", "#8c564b", "#393b79", "#e7ba52", "#843c39")
 
 # Categorical colours for segments: Tableau 10 and its light variants (tab20),
@@ -228,11 +228,10 @@ def _draw(ax, fig, u, v, z, classes, segments, names, size, counted=None):
         # Draw the most common class first so rarer ones stay visible on top.
         codes, counts = np.unique(classes if counted is None else counted, return_counts=True)
         order = np.argsort(-counts, kind="stable")
-        others = iter(np.resize(_OTHER_CLASS_COLOURS, len(codes)))  # repeats past six
         for code, count in zip(codes[order], counts[order]):
             sel = classes == code
-            label, colour = names.get(int(code), (f"class {code}", None))
-            colour = colour if colour is not None else str(next(others))
+            other = _OTHER_CLASS_COLOURS[int(code) % len(_OTHER_CLASS_COLOURS)]
+            label, colour = names.get(int(code), (f"class {code}", other))
             ax.plot(u[sel], v[sel], color=colour, label=f"{label} ({int(count):,})", **marker)
         if codes.size:  # no point, no legend (matplotlib warns of an empty one)
             ax.legend(markerscale=max(6 / size, 1), loc="upper right", fontsize=8)

@@ -110,9 +110,11 @@ def _wait_for_a_worker(client: Any, scheduler: str) -> None:
     WORKER_WAIT_SECONDS: the run then goes on and waits, since an adaptive cluster
     (dask-jobqueue's, with no minimum) starts its workers only when tasks come, and a
     batch queue may start them late."""
+    import asyncio
+
     try:
         client.wait_for_workers(1, timeout=WORKER_WAIT_SECONDS)
-    except TimeoutError:
+    except (TimeoutError, asyncio.TimeoutError):  # Dask's is asyncio's: not 3.10's builtin
         warnings.warn(
             f"the Dask scheduler at {scheduler} has had no worker for "
             f"{WORKER_WAIT_SECONDS:g} s; the run waits for one (start some with "

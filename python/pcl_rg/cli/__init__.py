@@ -42,6 +42,7 @@ from ._flags import (
     EXIT_USAGE,
     CliError,
     Parser,
+    print_out,
 )
 from .commands import COMMANDS, configure
 
@@ -182,12 +183,6 @@ def _main(argv: list[str]) -> int:
     except (ValueError, TypeError) as error:
         # Bad input files and parameters; the message names the file or argument.
         return _fail(str(error), EXIT_USAGE, json_mode)
-    except BrokenPipeError:
-        # Whoever read standard output stopped (`| head -1`): nothing more can be said
-        # there, and Python's flush of it at exit must not fail again with a traceback.
-        with contextlib.suppress(OSError, ValueError):
-            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-        return EXIT_FAILURE
     except OSError as error:
         where = f" {error.filename!r}" if error.filename else ""
         return _fail(f"cannot access{where}: {error.strerror or error}", EXIT_USAGE, json_mode)
@@ -207,7 +202,7 @@ def _fail(message: str, code: int, json_mode: bool) -> int:
     line = _one_line(message)  # one line, whatever the message held
     print(f"pcl-rg: error: {line}", file=sys.stderr)
     if json_mode:
-        print(json.dumps({"error": line, "exit_status": code}))
+        print_out(json.dumps({"error": line, "exit_status": code}))
     return code
 
 

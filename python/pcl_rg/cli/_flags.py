@@ -11,9 +11,12 @@ Nothing here reads files or runs algorithms.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import dataclasses
 import inspect
 import math
+import os
+import sys
 import typing
 from collections.abc import Callable, Iterator
 from typing import Any
@@ -40,6 +43,7 @@ __all__ = [
     "params_dict",
     "params_dict_deep",
     "params_from_args",
+    "print_out",
     "show",
 ]
 
@@ -48,6 +52,16 @@ EXIT_FAILURE = 1
 EXIT_USAGE = 2
 EXIT_INTERRUPTED = 130
 EXIT_TERMINATED = 128 + 15  # SIGTERM, as a shell reports a process it ended
+
+
+def print_out(text: str) -> None:
+    """Print to standard output. A reader that went away (``| head -1``) ends nothing:
+    what is left to say is dropped, also by Python's flush at exit, which would fail."""
+    try:
+        print(text)
+    except BrokenPipeError:
+        with contextlib.suppress(OSError, ValueError):
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
 
 
 class CliError(Exception):

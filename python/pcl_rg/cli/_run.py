@@ -15,6 +15,8 @@ from typing import Any
 
 import numpy as np
 
+from ._flags import print_out
+
 __all__ = ["PROGRESS_DELAY", "Run", "jsonable"]
 
 #: A stage shows progress on stderr once it has run this many seconds.
@@ -76,10 +78,10 @@ class Run:
         self.timings["total"] = time.perf_counter() - self.start
         if self.json:
             self.result["timings_s"] = {k: round(v, 6) for k, v in self.timings.items()}
-            print(json.dumps(jsonable(self.result), indent=2, allow_nan=False))
+            print_out(json.dumps(jsonable(self.result), indent=2, allow_nan=False))
         else:
             for line in self.lines:
-                print(line)
+                print_out(line)
 
 
 def _spin(description: str, done: threading.Event, started: float, outcome: list[str]) -> None:

@@ -74,7 +74,8 @@ def sniff(head: bytes) -> str:
         if line.split()[0] in _PCD_KEYWORDS:
             return "pcd"
         break
-    printable = all(c.isprintable() or c in "\r\n\t\f\v" for c in text)
+    # U+0085, U+2028 and U+2029 are text that str.isprintable calls line breaks.
+    printable = all(c.isprintable() or c in "\r\n\t\f\v\x85\u2028\u2029" for c in text)
     if not printable:
         return "binary"
     # Comment lines to the end of the head: the header of a PCD file or XYZ text.

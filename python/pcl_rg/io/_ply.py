@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import itertools
+import math
 import re
 from typing import TYPE_CHECKING, BinaryIO
 
@@ -167,9 +168,12 @@ def _ascii_entry_fits(line: str, element: PlyElement) -> bool:
     for _, count_type, code in element.layout:
         items = 1
         if count_type:
-            if at >= len(tokens) or not DECIMAL_INTEGER.fullmatch(tokens[at]):
+            if at >= len(tokens) or not _ascii_number(tokens[at], count_type):
                 return False
-            items = int(tokens[at])
+            count = float(tokens[at])  # a float count type is legal: "3.0" is 3
+            if not (math.isfinite(count) and count == math.floor(count)):
+                return False
+            items = int(count)
             at += 1
         if items < 0 or at + items > len(tokens):
             return False

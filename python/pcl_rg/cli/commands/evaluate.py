@@ -42,7 +42,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "--truth",
         metavar="FILE",
         help="a file with the true classification (class 2 = ground); points "
-        "of class 7 or 18 (noise) are left out unless --include-noise",
+        "of class 7 or 18 (noise) are left out unless --include-noise, and so are "
+        "points no command classified (NaN coordinates, withheld in either file)",
     )
     truth.add_argument(
         "--isprs",
@@ -116,8 +117,12 @@ def execute(args: argparse.Namespace, run: Run) -> None:
         source = {"truth": os.path.abspath(args.truth)}
     _check_same_points(prediction, truth_points, max(_scales(prediction), truth_scale))
     # Rows no command classified (NaN coordinates, LAS withheld) keep the class they
-    # came with, often the truth's own: scored, they would count as right.
-    unprocessed = scored & ~usable_points(prediction)
+    # came with, often the truth's own: scored, they would count as right. The truth's
+    # withheld flag counts too: a PCD or PLY prediction has none.
+    usable = usable_points(prediction)
+    if args.truth is not None:
+        usable &= usable_points(truth)
+    unprocessed = scored & ~usable
     scored &= ~unprocessed
     from ...evaluation import ground_errors
 
@@ -215,17 +220,21 @@ def _truth_ids(args: argparse.Namespace, ids: np.ndarray) -> np.ndarray:
     return ids.astype(np.int64)
 
 
-def _predicted_ids(labels: np.ndarray) -> np.ndarray:
+def _predicted_ids(labels: np.ndarray, points: np.ndarray) -> np.ndarray:
     """PREDICTION's segment_id as int64 (-1: unassigned), or a CliError: a cast would
-    truncate 0.4 to segment 0 and make NaN an unassigned point without a word."""
+    truncate 0.4 to segment 0 and make NaN an unassigned point without a word. Rows
+    with NaN coordinates (invalid points of organized PCD clouds), which no command
+    segments, are unassigned whatever they hold."""
     labels = np.asarray(labels)
     if labels.dtype.kind == "f":
+        valid = np.isfinite(points).all(axis=1)
         whole = np.isfinite(labels) & (labels == np.round(labels))
-        if not whole.all():
+        if not whole[valid].all():
             raise CliError(
-                f"PREDICTION's segment_id holds {np.count_nonzero(~whole)} values that are "
-                "not whole numbers (NaN among them?); segment ids must be"
+                f"PREDICTION's segment_id holds {np.count_nonzero(~whole[valid])} values "
+                "that are not whole numbers (NaN among them?); segment ids must be whole"
             )
+        labels = np.where(valid, labels, -1.0)
     elif labels.dtype.kind not in "iub":
         raise CliError(f"PREDICTION's segment_id is of dtype {labels.dtype}, not segment ids")
     if labels.dtype.kind == "u" and labels.size and labels.max() > np.iinfo(np.int64).max:
@@ -252,7 +261,9 @@ def _evaluate_segments(args: argparse.Namespace, run: Run, prediction: PointFile
     _check_same_points(prediction, truth.points, max(_scales(prediction), _scales(truth)))
     from ...evaluation import segmentation_scores
 
-    scores = segmentation_scores(_truth_ids(args, np.asarray(segments)), _predicted_ids(labels))
+    scores = segmentation_scores(
+        _truth_ids(args, np.asarray(segments)), _predicted_ids(labels, prediction.points)
+    )
     run.result.update(
         prediction=os.path.abspath(args.prediction),
         truth=os.path.abspath(args.truth),
