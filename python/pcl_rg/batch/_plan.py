@@ -14,6 +14,7 @@ import numpy as np
 
 from .._caller import outside_stacklevel
 from ..io import EXTENSIONS, Extent
+from ..io._atomic import special_file
 
 __all__ = [
     "Box",
@@ -148,7 +149,7 @@ def output_paths(paths: Sequence[str], folder: str) -> list[str]:
         seen[output] = path
         resolved: object = os.path.realpath(output)
         if os.path.exists(output):
-            if not os.path.isfile(output) and not os.path.isdir(output):
+            if special_file(output):
                 raise ValueError(
                     f"output {output!r} is not a regular file (a FIFO, device or socket); "
                     "refusing to replace it"

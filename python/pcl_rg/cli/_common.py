@@ -31,6 +31,7 @@ from .._classification import (
     withheld_mask,
 )
 from ..io import EXTENSIONS, PointFile, read_points, write_points
+from ..io._atomic import special_file
 from ..io._crs import GIVEN_UNITS, metre_factors
 from ._flags import EXIT_FAILURE, CliError, float_type, line_type
 from ._run import Run
@@ -166,7 +167,7 @@ def check_paths(source: str, target: str, plots: Sequence[str | None] = ()) -> N
 def check_replaceable(path: str, what: str) -> None:
     """Refuse a file to write that exists and is not a regular file: the atomic rename
     would replace a FIFO or a device (/dev/null, for root) by a file."""
-    if os.path.exists(path) and not os.path.isfile(path) and not os.path.isdir(path):
+    if special_file(path):
         raise CliError(f"{what} {path!r} is not a regular file; refusing to replace it")
 
 

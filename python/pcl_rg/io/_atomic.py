@@ -26,6 +26,7 @@ __all__ = [
     "ascii_strings",
     "atomic_write",
     "partial_files",
+    "special_file",
     "write_ascii",
     "write_chunked",
 ]
@@ -98,6 +99,14 @@ def partial_files(path: str) -> list[str]:
     ]
 
 
+def special_file(path: str | os.PathLike[str]) -> bool:
+    """Whether `path` is (or links to) a FIFO, a device or a socket: a write's rename
+    would replace it by a file, for /dev/null, run as root, the system's. Callers that
+    can refuse before their work ask this first; atomic_write refuses it in any case.
+    (A folder is no special file: the rename fails on it.)"""
+    return os.path.exists(path) and not os.path.isfile(path) and not os.path.isdir(path)
+
+
 def _naming(error: OSError, path: str) -> OSError:
     """`error` (same type and errno) naming `path`, not the hidden temporary file."""
     return type(error)(error.errno, error.strerror, path)
@@ -117,9 +126,7 @@ def atomic_write(path: str, write: Callable[[BinaryIO], None]) -> None:
     except OSError:
         mode: int | None = None  # a new file
     else:
-        if not stat.S_ISREG(status.st_mode) and not stat.S_ISDIR(status.st_mode):
-            # The rename would replace a FIFO, a device or a socket by a file: for
-            # /dev/null, run as root, the system's. (A folder fails at the rename.)
+        if special_file(path):
             raise FileExistsError(
                 errno.EEXIST, "exists and is not a regular file (a FIFO, device or socket)", path
             )

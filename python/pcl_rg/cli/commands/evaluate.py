@@ -8,7 +8,7 @@ import os
 
 import numpy as np
 
-from ..._classification import usable_points
+from ..._classification import usable_points, valid_points, whole_numbers
 from ...io import PointFile
 from .._common import (
     GROUND,
@@ -197,49 +197,37 @@ def _check_same_points(prediction: PointFile, truth_points: np.ndarray, scale: f
         )
 
 
-def _truth_ids(args: argparse.Namespace, ids: np.ndarray) -> np.ndarray:
-    """The truth field as int64 segment ids, or a CliError naming the field."""
-    field = f"--truth-field {args.truth_field!r} of {args.truth!r}"
+def _segment_ids(what: str, ids: np.ndarray, valid: np.ndarray) -> np.ndarray:
+    """`ids` as int64, or a CliError naming `what`: a cast would truncate 0.4 to 0 and
+    make NaN some number without a word. Rows not `valid` (NaN coordinates: no command
+    segments them) are -1 whatever they hold."""
+    ids = np.asarray(ids)
     if ids.dtype.kind == "f":
-        whole = np.isfinite(ids) & (ids == np.round(ids))
-        if not whole.all():
+        whole = whole_numbers(ids)
+        if not whole[valid].all():
             raise CliError(
-                f"{field} holds {np.count_nonzero(~whole)} values that are not whole numbers "
-                "(NaN among them?); segment ids must be"
+                f"{what} holds {np.count_nonzero(~whole[valid])} values that are not whole "
+                "numbers (NaN among them?); segment ids must be whole"
             )
+        ids = np.where(valid, ids, -1.0)
     elif ids.dtype.kind not in "iub":
-        raise CliError(f"{field} is of dtype {ids.dtype}, not segment ids")
+        raise CliError(f"{what} is of dtype {ids.dtype}, not segment ids")
+    if ids.dtype.kind == "u" and ids.size and ids.max() > np.iinfo(np.int64).max:
+        raise CliError(f"{what} holds ids above 2**63 - 1")
+    return ids.astype(np.int64)
+
+
+def _truth_ids(args: argparse.Namespace, ids: np.ndarray) -> np.ndarray:
+    """The truth field as int64 segment ids (>= 0), or a CliError naming the field."""
+    field = f"--truth-field {args.truth_field!r} of {args.truth!r}"
+    ids = _segment_ids(field, ids, np.ones(len(ids), bool))
     if ids.size and ids.min() < 0:
         raise CliError(
             f"{field} holds negative ids at {np.count_nonzero(ids < 0)} points (another "
             "segmentation's -1 for unassigned?); truth segment ids are >= 0, with 0 for "
             "points that have no truth segment"
         )
-    if ids.dtype.kind == "u" and ids.size and ids.max() > np.iinfo(np.int64).max:
-        raise CliError(f"{field} holds ids above 2**63 - 1")
-    return ids.astype(np.int64)
-
-
-def _predicted_ids(labels: np.ndarray, points: np.ndarray) -> np.ndarray:
-    """PREDICTION's segment_id as int64 (-1: unassigned), or a CliError: a cast would
-    truncate 0.4 to segment 0 and make NaN an unassigned point without a word. Rows
-    with NaN coordinates (invalid points of organized PCD clouds), which no command
-    segments, are unassigned whatever they hold."""
-    labels = np.asarray(labels)
-    if labels.dtype.kind == "f":
-        valid = np.isfinite(points).all(axis=1)
-        whole = np.isfinite(labels) & (labels == np.round(labels))
-        if not whole[valid].all():
-            raise CliError(
-                f"PREDICTION's segment_id holds {np.count_nonzero(~whole[valid])} values "
-                "that are not whole numbers (NaN among them?); segment ids must be whole"
-            )
-        labels = np.where(valid, labels, -1.0)
-    elif labels.dtype.kind not in "iub":
-        raise CliError(f"PREDICTION's segment_id is of dtype {labels.dtype}, not segment ids")
-    if labels.dtype.kind == "u" and labels.size and labels.max() > np.iinfo(np.int64).max:
-        raise CliError("PREDICTION's segment_id holds ids above 2**63 - 1")
-    return labels.astype(np.int64)
+    return ids
 
 
 def _evaluate_segments(args: argparse.Namespace, run: Run, prediction: PointFile) -> None:
@@ -262,7 +250,8 @@ def _evaluate_segments(args: argparse.Namespace, run: Run, prediction: PointFile
     from ...evaluation import segmentation_scores
 
     scores = segmentation_scores(
-        _truth_ids(args, np.asarray(segments)), _predicted_ids(labels, prediction.points)
+        _truth_ids(args, np.asarray(segments)),
+        _segment_ids("PREDICTION's segment_id", labels, valid_points(prediction.points)),
     )
     run.result.update(
         prediction=os.path.abspath(args.prediction),

@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..._classification import whole_numbers
 from .._common import (
     add_output_options,
     check_extension,
@@ -85,9 +86,7 @@ def execute(args: argparse.Namespace, run: Run) -> None:
         info["classes"] = counts(codes)
     if "segment_id" in cloud.fields:
         ids = np.asarray(cloud.fields["segment_id"])
-        whole = ids.dtype.kind in "iu" or (
-            ids.dtype.kind == "f" and bool(np.all(np.isfinite(ids) & (ids == np.round(ids))))
-        )
+        whole = ids.dtype.kind in "iu" or (ids.dtype.kind == "f" and whole_numbers(ids).all())
         if ids.ndim == 1 and whole:
             info["segmentation"] = segments_summary(ids)
         else:  # described, not refused, as classes are
