@@ -120,3 +120,33 @@ def test_evaluate_segments_takes_rows_with_nan_coordinates_as_unassigned(capsys,
         capsys, "evaluate", tmp_path / "pred.pcd", "--truth", tmp_path / "truth.pcd", "--segments"
     )
     assert report["mean_iou"] == 1.0
+
+
+@pytest.mark.parametrize(
+    "flags, fragment",
+    [
+        (["--isprs", "ALL", "GROUND", "--include-noise"], "--include-noise has no effect with"),
+        (["--truth", "T", "--segments", "--include-noise"], "--include-noise has no effect with"),
+        (["--truth", "T", "--truth-field", "label"], "--truth-field names the truth's"),
+    ],
+)
+def test_evaluate_refuses_flags_its_scoring_would_ignore(capsys, tmp_path, flags, fragment):
+    # Each was ignored without a word: an ISPRS sample has no noise class, and segments
+    # have no noise rule; a truth field means nothing to the ground scores.
+    code, _, err = run(capsys, "evaluate", tmp_path / "pred.pcd", *flags)
+    assert code == 2
+    assert_one_error_line(err, fragment)
+
+
+def test_evaluate_segments_writes_undefined_scores_as_a_dash(capsys, tmp_path):
+    # A truth with no segment (every label 0) has no mean IoU: "-" as the ground report
+    # writes an undefined kappa, not "nan".
+    points = np.random.default_rng(0).uniform(0.0, 1.0, (6, 3))
+    write_points(tmp_path / "truth.pcd", points, {"label": np.zeros(6, np.int32)})
+    write_points(tmp_path / "pred.pcd", points, {"segment_id": np.zeros(6, np.int32)})
+    argv = ["evaluate", tmp_path / "pred.pcd", "--truth", tmp_path / "truth.pcd", "--segments"]
+    assert run_json(capsys, *argv)["mean_iou"] is None  # JSON has no NaN
+    code, out, _ = run(capsys, *argv)
+    assert code == 0
+    assert "nan" not in out.lower()
+    assert any(line.startswith("mean IoU") and line.split()[-1] == "-" for line in out.splitlines())

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import os
 import re
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from typing import TextIO
 
 import numpy as np
@@ -151,6 +151,34 @@ def _one_each(
     return [(name, array) for name, _, array in columns]
 
 
+def loadtxt_reason(error: ValueError, where: Callable[[int], str] | None = None) -> str:
+    """np.loadtxt's reason for refusing rows, its row counted from 1 as in our other
+    messages (it counts the row of a value it cannot convert from 0, and a row of too
+    many or too few values from 1). `where(row)` names row `row` (from 1) in the file;
+    by default "data row <row>"."""
+    where = where or (lambda row: f"data row {row}")
+    reason = str(error).split("; use `usecols`")[0]
+    unconvertible = re.fullmatch(
+        r"could not convert string (.*) to \w+ at row (\d+), column (\d+)\.", reason
+    )
+    if unconvertible:
+        token, row, column = unconvertible.groups()
+        return f"{token} is not a number ({where(int(row) + 1)}, value {column})"
+    changed = re.fullmatch(
+        r"the number of columns changed from (\d+) to (\d+) at row (\d+)", reason
+    )
+    if changed:
+        before, after, row = changed.groups()
+        return f"{where(int(row))} holds {after} values where the rows before it hold {before}"
+    short = re.fullmatch(
+        r"the dtype passed requires (\d+) columns but (\d+) were found at row (\d+)", reason
+    )
+    if short:
+        _, found, row = short.groups()
+        return f"{where(int(row))} holds {found} values"
+    return reason
+
+
 def load_ascii_table(rows: Iterable[str] | TextIO, record: np.dtype) -> np.ndarray:
     """Rows of white-space separated numbers (lines, or a text stream) as a table of
     `record` (fields of one value or a sub-array), like np.loadtxt, which it calls;
@@ -172,8 +200,7 @@ def load_ascii_table(rows: Iterable[str] | TextIO, record: np.dtype) -> np.ndarr
         table = np.loadtxt(rows, dtype=wide, ndmin=1, comments=None)
     except ValueError as exc:
         values = sum(int(np.prod(record.fields[name][0].shape)) for name in record.names)
-        reason = str(exc).split("; use `usecols`")[0]
-        raise ValueError(f"{values} values per row expected: {reason}") from None
+        raise ValueError(f"{values} values per row expected: {loadtxt_reason(exc)}") from None
     if wide == record:
         return table
     for name in record.names:

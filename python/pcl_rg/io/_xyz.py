@@ -10,7 +10,7 @@ from typing import BinaryIO
 import numpy as np
 
 from ._atomic import atomic_write, write_ascii
-from ._columns import DECIMAL_INTEGER, split_columns
+from ._columns import DECIMAL_INTEGER, loadtxt_reason, split_columns
 
 __all__ = ["read", "write"]
 
@@ -74,7 +74,15 @@ def read(path: str) -> tuple[np.ndarray, dict[str, np.ndarray], None]:
         if len(tokens) == 1 and re.fullmatch(r"\d+", tokens[0]):
             count_line = int(tokens[0])
             body = body[1:]
-    rows = [line for line in body if line.strip() and not line.lstrip().startswith(("#", "//"))]
+    # Each row's line in the file (from 1), for messages.
+    numbered = [
+        (number, line)
+        for number, line in enumerate(lines, start=1)
+        if number > len(lines) - len(body)
+        and line.strip()
+        and not line.lstrip().startswith(("#", "//"))
+    ]
+    rows = [line for _, line in numbered]
     if not rows:
         if count_line:
             raise _bad_xyz(path, f"first line announces {count_line} points but none follow")
@@ -91,11 +99,11 @@ def read(path: str) -> tuple[np.ndarray, dict[str, np.ndarray], None]:
     try:
         table = np.loadtxt(rows, dtype=np.float64, ndmin=2, comments=None)
     except ValueError as exc:
-        message = str(exc).split("; use `usecols`")[0]
         raise _bad_xyz(
             path,
             f"cannot read the rows as numbers (x y z [more] per line, whitespace-separated, "
-            f"the same count on every line): {message}",
+            f"the same count on every line): "
+            f"{loadtxt_reason(exc, lambda row: f'line {numbered[row - 1][0]}')}",
         ) from None
     if table.shape[1] < 3:
         raise _bad_xyz(path, f"rows hold {table.shape[1]} numbers, x y z need 3")

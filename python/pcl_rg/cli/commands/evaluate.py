@@ -62,11 +62,22 @@ def configure(parser: argparse.ArgumentParser) -> None:
     )
     p.add_argument(
         "--truth-field",
-        default="label",
         help="truth segment field for --segments, 0 = no truth (default: label, as in mOSD)",
     )
     add_common_options(p)
     p.set_defaults(run=execute)
+
+
+def _check_flags(args: argparse.Namespace) -> None:
+    """Refuse flags that the chosen scoring would ignore: a user who asks for noise to be
+    scored, or for a segment field, should not get a figure computed without it."""
+    if args.include_noise and (args.segments or args.isprs is not None):
+        where = "--segments" if args.segments else "--isprs (its samples have no noise class)"
+        raise CliError(f"--include-noise has no effect with {where}; leave it out")
+    if args.truth_field is not None and not args.segments:
+        raise CliError("--truth-field names the truth's segment field: it needs --segments")
+    if args.truth_field is None:
+        args.truth_field = "label"
 
 
 def _scales(cloud: PointFile) -> float:
@@ -77,6 +88,7 @@ def _scales(cloud: PointFile) -> float:
 def execute(args: argparse.Namespace, run: Run) -> None:
     if (args.truth is None) == (args.isprs is None):
         raise CliError("evaluate needs exactly one of --truth FILE or --isprs ALL.pcd GROUND.pcd")
+    _check_flags(args)
     check_extension(args.prediction, "PREDICTION")
     check_input(args.prediction, "PREDICTION")
     # Every file before any is read: a FIFO would block its read for ever.
@@ -165,7 +177,7 @@ def execute(args: argparse.Namespace, run: Run) -> None:
     run.say(f"{'Type I':<16}{pct(errors.type_i):>12}  ground classified as object / all ground")
     run.say(f"{'Type II':<16}{pct(errors.type_ii):>12}  object classified as ground / all object")
     run.say(f"{'total':<16}{pct(errors.total):>12}  misclassified / all points")
-    kappa = "-" if math.isnan(errors.kappa) else f"{errors.kappa:.4f}"
+    kappa = _fixed(errors.kappa)
     run.say(f"{'kappa':<16}{kappa:>12}  Cohen's kappa")
     run.say(
         f"confusion (rows truth ground/object, columns predicted ground/object): "
@@ -266,7 +278,12 @@ def _evaluate_segments(args: argparse.Namespace, run: Run, prediction: PointFile
     )
     run.say(f"{'truth segments':<20}{len(scores.segment_ids):>10,}")
     run.say(f"{'clusters':<20}{scores.n_clusters:>10,}")
-    run.say(f"{'mean IoU':<20}{scores.mean_iou:>10.4f}")
+    run.say(f"{'mean IoU':<20}{_fixed(scores.mean_iou):>10}")
     run.say(f"{'over-segmented':<20}{scores.over_segmented:>10,}")
     run.say(f"{'under-segmented':<20}{scores.under_segmented:>10,}")
-    run.say(f"{'adjusted Rand':<20}{scores.adjusted_rand_index:>10.4f}")
+    run.say(f"{'adjusted Rand':<20}{_fixed(scores.adjusted_rand_index):>10}")
+
+
+def _fixed(value: float) -> str:
+    """Four decimals, or "-" for an undefined score, as the ground report writes it."""
+    return "-" if math.isnan(value) else f"{value:.4f}"
