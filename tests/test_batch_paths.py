@@ -82,6 +82,18 @@ def test_a_fifo_in_an_outputs_place_is_refused_and_kept(tmp_path):
     assert (tmp_path / "out" / "tile_0.las").exists()
 
 
+def test_a_folder_in_an_outputs_place_is_refused_before_any_work(tmp_path):
+    # The tile was read and classified, then failed at its write with "stale: Is a
+    # directory", the folder taken for its earlier output.
+    paths = tiles(tmp_path / "in")
+    (tmp_path / "out" / "tile_0.las").mkdir(parents=True)
+    with pytest.raises(ValueError, match="is a folder, not a file"):
+        output_paths(paths, tmp_path / "out")
+    with pytest.raises(ValueError, match="is a folder, not a file"):
+        batch.ground(paths, tmp_path / "out", workers=1, progress=False)
+    assert (tmp_path / "out" / "tile_0.las").is_dir()
+
+
 def test_xyz_text_with_a_byte_order_mark_is_a_tile(tmp_path):
     # read_points reads it; the folder's look at .txt files took the mark for a word.
     (tmp_path / "in").mkdir()

@@ -154,6 +154,10 @@ def output_paths(paths: Sequence[str], folder: str) -> list[str]:
                     f"output {output!r} is not a regular file (a FIFO, device or socket); "
                     "refusing to replace it"
                 )
+            if os.path.isdir(output):
+                raise ValueError(
+                    f"output {output!r} is a folder, not a file; move it or choose another --out"
+                )
             stat = os.stat(output)
             other = inputs.get((stat.st_dev, stat.st_ino))
             if other is not None:
