@@ -197,3 +197,40 @@ def test_every_class_in_a_legend_has_a_colour_of_its_own(tmp_path, monkeypatch):
     monkeypatch.setattr(pcl_rg.plot, "_save", keep_colours)
     top_view(xyz, tmp_path / "c.png", classes=classes)
     assert len(colours) == 7 and len(set(colours)) == 7
+
+
+def axis_labels(monkeypatch, draw) -> list[str]:
+    """The axis labels (and a colour bar's) of the figure `draw` writes, and its title."""
+    import pcl_rg.plot
+
+    labels: list[str] = []
+    real = pcl_rg.plot._save
+
+    def keep_labels(fig, path):
+        for ax in fig.axes:
+            labels.extend([ax.get_xlabel(), ax.get_ylabel(), ax.get_title()])
+        real(fig, path)
+
+    monkeypatch.setattr(pcl_rg.plot, "_save", keep_labels)
+    draw()
+    return labels
+
+
+def test_axes_name_the_points_units(tmp_path, monkeypatch):
+    # Figures of feet data said "x (m)" and "corridor 10 m".
+    xyz, _ = scene(500)
+    assert axis_labels(monkeypatch, lambda: top_view(xyz, tmp_path / "t.png"))[:2] == [
+        "x (m)",
+        "y (m)",
+    ]
+    labels = axis_labels(monkeypatch, lambda: top_view(xyz, tmp_path / "t.png", units="US ft"))
+    assert labels[:2] == ["x (US ft)", "y (US ft)"] and "z (US ft)" in labels  # colour bar
+    labels = axis_labels(
+        monkeypatch,
+        lambda: profile(xyz, tmp_path / "p.png", (0, 25), (50, 25), width=10, units=("ft", "m")),
+    )
+    assert labels[:2] == ["distance along the line from A (ft)", "z (m)"]
+    assert "corridor 10 ft" in labels[2]
+    for bad in ("", ("ft",), ("ft", "m", "m"), 3, ("ft", None)):
+        with pytest.raises(ValueError, match="units must be"):
+            top_view(xyz, tmp_path / "t.png", units=bad)

@@ -7,6 +7,7 @@ import json
 
 import numpy as np
 import pytest
+from cli_helpers import run
 from conftest import examples, run_pcl_rg
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -281,3 +282,24 @@ def test_a_record_laspy_cannot_parse_is_unreadable(tmp_path):
     write_las(tmp_path / "latin.las", np.zeros((3, 3)), [raw])
     stated = read_points(tmp_path / "latin.las").units
     assert stated.problem == "its WKT cannot be read"
+
+
+@pytest.mark.parametrize("command", [["info"], ["ground", "OUT"], ["segment", "OUT"]])
+def test_figures_of_feet_data_say_feet(command, scene_files, tmp_path, monkeypatch, capsys):
+    # Their axes said "m" while the points drawn are the file's, in feet.
+    import pcl_rg.plot
+
+    labels: list[str] = []
+    real = pcl_rg.plot._save
+
+    def keep_labels(fig, path):
+        labels.extend(label for ax in fig.axes for label in (ax.get_xlabel(), ax.get_ylabel()))
+        real(fig, path)
+
+    monkeypatch.setattr(pcl_rg.plot, "_save", keep_labels)
+    argv = [command[0], scene_files / "feet.las"] + [tmp_path / "o.las"] * (len(command) - 1)
+    code, _, err = run(capsys, *argv, "--plot", tmp_path / "t.png", "--profile", tmp_path / "p.png")
+    assert code == 0, err
+    assert labels[:2] == ["x (US ft)", "y (US ft)"]
+    assert "distance along the line from A (US ft)" in labels and "z (US ft)" in labels
+    assert not any(label.endswith("(m)") for label in labels)

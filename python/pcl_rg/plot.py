@@ -120,9 +120,13 @@ def segment_colours(labels: npt.ArrayLike) -> np.ndarray:
 _PLOT_ENTRIES = {
     "points_and_png": """\
 points : array_like, shape (N, 3)
-    Coordinates in metres.
+    Coordinates, in `units`.
 path : str or path-like
     Output PNG file.""",
+    "units": """\
+units : str or (str, str), default "m"
+    The unit of the coordinates, as the axis labels name it ("m", "ft",
+    "US ft"): one for x, y and z, or a pair (x and y, z) when z has its own.""",
     "max_points": """\
 max_points : int
     At most this many points are drawn (an even, seeded subsample); the
@@ -191,7 +195,17 @@ def _marker_size(n: int, width_in: float, height_in: float) -> float:
     return float(np.clip(0.7 * np.sqrt(area / max(n, 1)), 0.5, 4.0))
 
 
-def _draw(ax, fig, u, v, z, classes, segments, names, size, counted=None):
+def _unit_names(units: str | Sequence[str]) -> tuple[str, str]:
+    """The unit names of x and y and of z, from `units` as top_view and profile take it."""
+    pair = (units, units) if isinstance(units, str) else units
+    if not isinstance(pair, (tuple, list)) or len(pair) != 2 or not all(isinstance(name, str) and name.strip() for name in pair):
+        raise ValueError(
+            f"units must be a unit's name or a pair (x and y, z) of them, got {units!r}"
+        )
+    return pair[0].strip(), pair[1].strip()
+
+
+def _draw(ax, fig, u, v, z, classes, segments, names, size, counted=None, z_unit="m"):
     """Draw u, v coloured by class (legend), segment (palette) or z (colour bar).
 
     Groups of one colour go through ``Axes.plot`` (markers without lines), which
@@ -237,7 +251,7 @@ def _draw(ax, fig, u, v, z, classes, segments, names, size, counted=None):
             ax.legend(markerscale=max(6 / size, 1), loc="upper right", fontsize=8)
     else:
         sc = ax.scatter(u, v, c=z, s=size * size, cmap="viridis", linewidths=0)
-        fig.colorbar(sc, ax=ax, label="z (m)", shrink=0.8)
+        fig.colorbar(sc, ax=ax, label=f"z ({z_unit})", shrink=0.8)
 
 
 @_fill_plot_docstring
@@ -259,6 +273,7 @@ def top_view(
     class_names: Mapping[int, tuple[str, str]] | None = None,
     title: str = "",
     max_points: int = 400_000,
+    units: str | Sequence[str] = "m",
 ) -> None:
     """Write a top view (x, y) of the points to a PNG file.
 
@@ -277,11 +292,12 @@ def top_view(
     title : str
         Figure title.
     %(max_points)s
+    %(units)s
 
     Raises
     ------
     ValueError
-        Wrong shapes, non-finite points or ``max_points < 1``.
+        Wrong shapes, non-finite points, ``max_points < 1`` or empty `units`.
     %(labels_type_error)s
 
     Examples
@@ -297,6 +313,7 @@ def top_view(
     """
     xyz = as_points(points)
     max_points, classes, segments = _colouring(len(xyz), max_points, classes, segments)
+    xy_unit, z_unit = _unit_names(units)
     plt = _pyplot()
     keep = _subsample(len(xyz), max_points)
     counted = segments if segments is not None else classes  # every point's, for the legend
@@ -318,12 +335,13 @@ def top_view(
             names,
             _marker_size(len(xyz), 7.0, 7.0),
             counted,
+            z_unit,
         )
         ax.set_aspect("equal")
-        # Plain metres: matplotlib's "+5e6" offset notation hides UTM coordinates.
+        # Plain numbers: matplotlib's "+5e6" offset notation hides UTM coordinates.
         ax.ticklabel_format(useOffset=False, style="plain")
-        ax.set_xlabel("x (m)")
-        ax.set_ylabel("y (m)")
+        ax.set_xlabel(f"x ({xy_unit})")
+        ax.set_ylabel(f"y ({xy_unit})")
         if title:
             ax.set_title(title)
         _save(fig, path)
@@ -345,10 +363,11 @@ def profile(
     vertical_exaggeration: float = 1.0,
     title: str = "",
     max_points: int = 200_000,
+    units: str | Sequence[str] = "m",
 ) -> int:
     """Write a vertical profile along a line to a PNG file.
 
-    The points within a corridor of `width` metres centred on the segment
+    The points within a corridor of `width` centred on the segment
     from `start` to `end` (in XY) are drawn as distance along the line
     (horizontal axis) against z.
 
@@ -356,10 +375,10 @@ def profile(
     ----------
     %(points_and_png)s
     start, end : sequence of 2 float
-        x, y of the line's ends A and B, in the points' coordinates (metres).
+        x, y of the line's ends A and B, in the points' coordinates.
     width : float, default 2.0
-        Corridor width in metres (> 0): points at most ``width / 2`` from the
-        line, and between its ends, are drawn.
+        Corridor width in the unit of x and y (> 0): points at most
+        ``width / 2`` from the line, and between its ends, are drawn.
     classes, segments, class_names : optional
         Colouring as in :func:`top_view`.
     vertical_exaggeration : float, default 1.0
@@ -367,6 +386,7 @@ def profile(
     title : str
         Figure title; the default names A, B and the width.
     %(max_points)s
+    %(units)s
 
     Returns
     -------
@@ -376,7 +396,8 @@ def profile(
     Raises
     ------
     ValueError
-        Wrong shapes, non-finite values, ``start == end``, ``width <= 0``.
+        Wrong shapes, non-finite values, ``start == end``, ``width <= 0``,
+        empty `units`.
     %(labels_type_error)s
 
     Examples
@@ -410,6 +431,7 @@ def profile(
         "vertical_exaggeration", vertical_exaggeration, float, above=0.0
     )
     max_points, classes, segments = _colouring(len(xyz), max_points, classes, segments)
+    xy_unit, z_unit = _unit_names(units)
     direction = (b - a) / length
     rel = xyz[:, :2] - a
     along = rel @ direction
@@ -437,15 +459,16 @@ def profile(
             names,
             min(2.0, _marker_size(len(selected), 11.0, 3.0)),
             counted,
+            z_unit,
         )
         ax.set_aspect(vertical_exaggeration)
         ax.set_xlim(0, length)
-        ax.set_xlabel("distance along the line from A (m)")
-        ax.set_ylabel("z (m)")
+        ax.set_xlabel(f"distance along the line from A ({xy_unit})")
+        ax.set_ylabel(f"z ({z_unit})")
         ax.set_title(
             title
             or f"profile A ({a[0]:.2f}, {a[1]:.2f}) to B ({b[0]:.2f}, {b[1]:.2f}), "
-            f"corridor {width:g} m, {n_inside:,} points"
+            f"corridor {width:g} {xy_unit}, {n_inside:,} points"
         )
         _save(fig, path)
     finally:

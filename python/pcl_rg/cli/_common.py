@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import copy
+import math
 import os
 from collections.abc import Iterator, Sequence
 from typing import Any, NamedTuple
@@ -65,6 +66,7 @@ __all__ = [
     "say_units",
     "say_written",
     "segments_summary",
+    "stated_metres_per_unit",
     "valid_points",
     "write",
     "write_output",
@@ -317,6 +319,28 @@ def read_input(
     return Input(cloud, valid, cloud.points * scale, scale, finite)
 
 
+# Short names of the length units a file may state (io._crs.GIVEN_UNITS and EPSG's).
+_UNIT_NAMES = {1.0: "m", 0.3048: "ft", 1200.0 / 3937.0: "US ft", 1000.0: "km"}
+
+
+def stated_metres_per_unit(cloud: PointFile) -> tuple[float, float, float] | None:
+    """Metres per unit of x, y and z as `cloud`'s file states them (metres when it states
+    none); None when they are not lengths (longitude and latitude) or cannot be read."""
+    try:
+        return metre_factors(cloud.units)[0]
+    except ValueError:
+        return None
+
+
+def _unit_name(metres_per_unit: float) -> str:
+    """A figure axis's unit: its short name, or its size in metres. Files write a
+    unit's size with fewer digits than a float64 holds (0.304800609601219)."""
+    for size, name in _UNIT_NAMES.items():
+        if math.isclose(metres_per_unit, size, rel_tol=1e-9):
+            return name
+    return f"units of {metres_per_unit:g} m"
+
+
 def say_units(run: Run, factors: Sequence[float], where: str) -> None:
     """Tell the user when the input's points are scaled to metres for the work, or when
     their units were only assumed (`where` as metre_factors words it)."""
@@ -396,6 +420,7 @@ def finish_segments(
     cloud: PointFile,
     segment: np.ndarray,
     what: str,
+    metres_per_unit: Sequence[float],
     classes: np.ndarray | None = None,
 ) -> None:
     fields = dict(cloud.fields, segment_id=segment)
@@ -417,7 +442,12 @@ def finish_segments(
         ", segment_id -1 = none" + (", segmented points only" if args.drop else ""),
     )
     plots(
-        run, args, cloud.points, segments=segment, title=f"{what}: {os.path.basename(args.input)}"
+        run,
+        args,
+        cloud.points,
+        segments=segment,
+        title=f"{what}: {os.path.basename(args.input)}",
+        metres_per_unit=metres_per_unit,
     )
 
 
@@ -432,11 +462,20 @@ def plots(
     title: str,
     classes: np.ndarray | None = None,
     segments: np.ndarray | None = None,
+    metres_per_unit: Sequence[float] | None,
 ) -> None:
+    """The figures --plot and --profile ask for, of `points` in the file's units, which
+    `metres_per_unit` (x, y, z; None: not known) names on the axes."""
     top, side = getattr(args, "plot", None), getattr(args, "profile", None)
     if top is None and side is None:
         return
     from .. import plot
+
+    units = (
+        ("units", "units")
+        if metres_per_unit is None
+        else (_unit_name(metres_per_unit[0]), _unit_name(metres_per_unit[2]))
+    )
 
     keep = valid_points(points)
     xyz = points[keep]
@@ -446,7 +485,7 @@ def plots(
     with run.stage("plot", "drawing figures"):
         if top is not None:
             with _figure_errors(top):
-                plot.top_view(xyz, top, classes=cls, segments=seg, title=title)
+                plot.top_view(xyz, top, classes=cls, segments=seg, title=title, units=units)
             files.append(os.path.abspath(top))
         if side is not None:
             if args.profile_line is not None:
@@ -467,6 +506,7 @@ def plots(
                         width=args.profile_width,
                         classes=cls,
                         segments=seg,
+                        units=units,
                     )
             except ValueError as error:  # after OUTPUT is written: a failure, not usage
                 raise CliError(f"--profile: {error}", EXIT_FAILURE) from None

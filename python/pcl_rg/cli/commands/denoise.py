@@ -46,7 +46,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 def execute(args: argparse.Namespace, run: Run) -> None:
     params = params_from_args(args, args.flags, "sor", pcl_rg.StatisticalOutlierRemovalParams)
-    cloud, valid, points, _, finite = read_input(args, run, ("mean_k", params.mean_k))
+    cloud, valid, points, scale, finite = read_input(args, run, ("mean_k", params.mean_k))
     n_valid = int(valid.sum())
     with run.stage(
         "denoise", f"statistical outlier removal on {n_valid:,} points", source=args.input
@@ -76,4 +76,5 @@ def execute(args: argparse.Namespace, run: Run) -> None:
         cloud.points,
         classes=classes,
         title=f"statistical outlier removal: {os.path.basename(args.input)}",
+        metres_per_unit=scale,
     )

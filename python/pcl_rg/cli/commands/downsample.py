@@ -69,4 +69,5 @@ def execute(args: argparse.Namespace, run: Run) -> None:
         centroids,
         classes=fields.get("classification"),
         title=f"voxel centroids: {os.path.basename(args.input)}",
+        metres_per_unit=scale,
     )

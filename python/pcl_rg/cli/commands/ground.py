@@ -70,7 +70,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 def execute(args: argparse.Namespace, run: Run) -> None:
     method, params = method_params(args)
-    cloud, valid, points, _, finite = read_input(args, run)
+    cloud, valid, points, scale, finite = read_input(args, run)
     noise = noise_mask(existing_classes(cloud), len(cloud))
     work = valid & ~noise
     with run.stage(
@@ -116,4 +116,5 @@ def execute(args: argparse.Namespace, run: Run) -> None:
         cloud.points,
         classes=classes,
         title=f"ground filter ({method.name}): {os.path.basename(args.input)}",
+        metres_per_unit=scale,
     )

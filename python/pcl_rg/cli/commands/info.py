@@ -21,6 +21,7 @@ from .._common import (
     plots,
     read,
     segments_summary,
+    stated_metres_per_unit,
     valid_points,
 )
 from .._flags import CliError
@@ -155,6 +156,7 @@ def execute(args: argparse.Namespace, run: Run) -> None:
         classes=None if codes is None else np.where(np.isfinite(codes), codes, 0).astype(np.int64),
         segments=None,
         title=os.path.basename(args.input),
+        metres_per_unit=stated_metres_per_unit(cloud),
     )
 
 

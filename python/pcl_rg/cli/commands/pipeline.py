@@ -52,7 +52,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
 def execute(args: argparse.Namespace, run: Run) -> None:
     options = params_from_args(args, args.flags, "pipeline", args.pipeline_params)
     sor = None if options.sor is None else ("sor_mean_k", options.sor.mean_k)
-    cloud, valid, points, _, _ = read_input(args, run, sor)
+    cloud, valid, points, scale, _ = read_input(args, run, sor)
     stages = "SOR, voxel grid, normals, region growing"
     with run.stage("pipeline", f"{stages} on {int(valid.sum()):,} points", source=args.input):
         result = args.pipeline(points[valid], **params_dict(options), auto_voxel=args.auto_voxel)
@@ -69,5 +69,5 @@ def execute(args: argparse.Namespace, run: Run) -> None:
         for s in report.stages
     ]
     run.say(report.table())
-    finish_segments(run, args, cloud, segment, "pipeline", classes)
+    finish_segments(run, args, cloud, segment, "pipeline", scale, classes)
     run.result.update(parameters=jsonable(params_dict_deep(options)))

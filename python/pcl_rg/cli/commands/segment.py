@@ -77,14 +77,14 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 def execute(args: argparse.Namespace, run: Run) -> None:
     method, params = method_params(args)
-    cloud, valid, points, _, _ = read_input(args, run, ("k", params.k))
+    cloud, valid, points, scale, _ = read_input(args, run, ("k", params.k))
     n_valid = int(valid.sum())
     description = f"segmentation ({method.name}) on {n_valid:,} points"
     with run.stage("segment", description, source=args.input):
         labels = method.function(points[valid], params=params)
     segment = np.full(len(cloud), -1, dtype=np.int32)
     segment[valid] = labels
-    finish_segments(run, args, cloud, segment, f"segment ({method.name})")
+    finish_segments(run, args, cloud, segment, f"segment ({method.name})", scale)
     run.result.update(method=method.name, parameters=params_dict(params))
     if "preset" in args:
         run.result["preset"] = args.preset
