@@ -198,7 +198,11 @@ def _marker_size(n: int, width_in: float, height_in: float) -> float:
 def _unit_names(units: str | Sequence[str]) -> tuple[str, str]:
     """The unit names of x and y and of z, from `units` as top_view and profile take it."""
     pair = (units, units) if isinstance(units, str) else units
-    if not isinstance(pair, (tuple, list)) or len(pair) != 2 or not all(isinstance(name, str) and name.strip() for name in pair):
+    if (
+        not isinstance(pair, (tuple, list))
+        or len(pair) != 2
+        or not all(isinstance(name, str) and name.strip() for name in pair)
+    ):
         raise ValueError(
             f"units must be a unit's name or a pair (x and y, z) of them, got {units!r}"
         )

@@ -14,11 +14,11 @@ from .._common import (
     add_output_options,
     noise_classes,
     percent,
-    plots,
     read_input,
     say_written,
     write_output,
 )
+from .._figures import plots
 from .._flags import add_param_flags, params_dict, params_from_args
 from .._run import Run
 

@@ -14,10 +14,10 @@ from ...io._pcd import unorganized
 from .._common import (
     add_io_arguments,
     add_output_options,
-    plots,
     read_input,
     write,
 )
+from .._figures import plots
 from .._flags import add_param_flags, params_dict, params_from_args, show
 from .._run import Run
 

@@ -16,11 +16,11 @@ from .._common import (
     existing_classes,
     noise_mask,
     percent,
-    plots,
     read_input,
     say_written,
     write_output,
 )
+from .._figures import plots
 from .._flags import Method, add_method_flags, method_params, method_summaries, params_dict
 from .._run import Run
 

@@ -18,12 +18,11 @@ from .._common import (
     check_plots,
     counts,
     existing_classes,
-    plots,
     read,
     segments_summary,
-    stated_metres_per_unit,
     valid_points,
 )
+from .._figures import plots, stated_metres_per_unit
 from .._flags import CliError
 from .._run import Run
 
