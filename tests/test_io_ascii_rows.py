@@ -21,8 +21,12 @@ PLY_HEADER = (
     "name, content, fragment",
     [
         # XYZ names the line of the file: comments and blank lines count.
-        ("bad.xyz", "1 2 3\n4 5 6\n7 x 9\n", "'x' is not a number (line 3, value 2)"),
-        ("bad.xyz", "# c\n1 2 3\n\n4 5 6\n7 x 9\n", "'x' is not a number (line 5, value 2)"),
+        ("bad.xyz", "1 2 3\n4 5 6\n7 x 9\n", "'x' cannot be read as float64 (line 3, value 2)"),
+        (
+            "bad.xyz",
+            "# c\n1 2 3\n\n4 5 6\n7 x 9\n",
+            "'x' cannot be read as float64 (line 5, value 2)",
+        ),
         ("bad.xyz", "# c\n1 2 3\n4 5 6 7\n", "line 3 holds 4 values where the rows before"),
         ("bad.pcd", PCD_HEADER + "1 2 3\n4 5 6\n7 x 9\n", "(data row 3, value 2)"),
         ("bad.pcd", PCD_HEADER + "1 2 3\n4 5 6\n7 8\n", "data row 3 holds 2 values"),

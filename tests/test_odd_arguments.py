@@ -72,3 +72,16 @@ def test_write_points_refuses_a_ragged_list_and_masked_classes(tmp_path):
     codes = np.ma.array([2, 7], mask=[0, 1])
     with pytest.raises(ValueError, match="classification: masked arrays are not written"):
         pcl_rg.io.write_points(tmp_path / "b.xyz", np.zeros((2, 3)), classification=codes)
+
+
+@pytest.mark.parametrize("ext", ["las", "pcd", "ply", "xyz"])
+def test_a_ragged_field_or_classification_names_its_column(tmp_path, ext):
+    # NumPy's "inhomogeneous shape" message named no column.
+    ragged = [[1], [2, 3], [4]]
+    with pytest.raises(ValueError, match=r"fields\['intensity'\] must have shape .* differ"):
+        pcl_rg.io.write_points(tmp_path / f"a.{ext}", np.zeros((3, 3)), {"intensity": ragged})
+    with pytest.raises(ValueError, match=r"classification must have shape \(3,\): its rows"):
+        pcl_rg.io.write_points(tmp_path / f"a.{ext}", np.zeros((3, 3)), classification=ragged)
+    if ext == "pcd":
+        with pytest.raises(ValueError, match=r"fields\['i'\] must have shape .* differ"):
+            pcl_rg.io.write_pcd(tmp_path / "b.pcd", np.zeros((3, 3)), fields={"i": ragged})

@@ -16,6 +16,7 @@ __all__ = [
     "check_columns",
     "check_path",
     "check_xyz",
+    "column_array",
     "exact_float32",
     "field_name",
     "load_ascii_table",
@@ -56,6 +57,15 @@ def check_xyz(points: ArrayLike) -> np.ndarray:
         return np.ascontiguousarray(array, dtype=np.float64)
 
 
+def column_array(name: str, values: ArrayLike, shape: str) -> np.ndarray:
+    """`values` as an array, or ValueError naming the column when its rows differ in
+    length (NumPy's message names no column)."""
+    try:
+        return np.asarray(values)
+    except ValueError:
+        raise ValueError(f"{name} must have shape {shape}: its rows differ in length") from None
+
+
 def check_columns(
     fields: Mapping[str, ArrayLike] | None, classification: ArrayLike | None, n: int
 ) -> dict[str, np.ndarray]:
@@ -70,7 +80,7 @@ def check_columns(
             raise ValueError(f"fields[{key!r}]: x, y and z are given in points, not fields")
         if np.ma.is_masked(values):
             raise ValueError(f"fields[{key!r}]: masked arrays are not written; fill them first")
-        array = np.asarray(values)
+        array = column_array(f"fields[{key!r}]", values, f"({n},) or ({n}, count)")
         if array.dtype.kind not in "biuf":
             raise TypeError(
                 f"fields[{key!r}] must be a bool, integer or float array, got dtype {array.dtype}"
@@ -83,7 +93,7 @@ def check_columns(
     if classification is not None:
         if np.ma.is_masked(classification):
             raise ValueError("classification: masked arrays are not written; fill them first")
-        codes = np.asarray(classification)
+        codes = column_array("classification", classification, f"({n},)")
         if codes.dtype.kind not in "iu":
             raise TypeError(f"classification must be an integer array, got dtype {codes.dtype}")
         if codes.shape != (n,):
@@ -159,11 +169,11 @@ def loadtxt_reason(error: ValueError, where: Callable[[int], str] | None = None)
     where = where or (lambda row: f"data row {row}")
     reason = str(error).split("; use `usecols`")[0]
     unconvertible = re.fullmatch(
-        r"could not convert string (.*) to \w+ at row (\d+), column (\d+)\.", reason
+        r"could not convert string (.*) to (\w+) at row (\d+), column (\d+)\.", reason
     )
     if unconvertible:
-        token, row, column = unconvertible.groups()
-        return f"{token} is not a number ({where(int(row) + 1)}, value {column})"
+        token, dtype, row, column = unconvertible.groups()
+        return f"{token} cannot be read as {dtype} ({where(int(row) + 1)}, value {column})"
     changed = re.fullmatch(
         r"the number of columns changed from (\d+) to (\d+) at row (\d+)", reason
     )

@@ -25,6 +25,7 @@ from ._columns import (
     PRINTABLE_TOKEN,
     check_path,
     check_xyz,
+    column_array,
     exact_float32,
     load_ascii_table,
     named_columns,
@@ -250,7 +251,7 @@ def _check_fields(fields: Mapping[str, ArrayLike] | None, n: int) -> list[tuple[
                 f"fields[{name!r}]: a field name must be printable ASCII without spaces, "
                 "and not '_'"
             )
-        array = np.asarray(values)
+        array = column_array(f"fields[{name!r}]", values, f"({n},) or ({n}, count)")
         kind, size = array.dtype.kind, array.dtype.itemsize
         if kind not in "fiu" or (kind == "f" and size not in (4, 8)) or size not in (1, 2, 4, 8):
             raise TypeError(
