@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from cli_helpers import assert_one_error_line, run, run_json
 
-from pcl_rg.io import read_points, write_pcd
+from pcl_rg.io import read_points, write_pcd, write_points
 
 
 @pytest.mark.parametrize("how", ["link to OUTPUT", "hard link of OUTPUT"])
@@ -74,3 +74,20 @@ def test_info_describes_segment_ids_that_are_not_whole_numbers(capsys, tmp_path)
     info = run_json(capsys, "info", tmp_path / "ids.xyz")
     assert "segmentation" not in info
     assert info["segmentation_problem"] == "segment_id is not one whole number per point"
+
+
+@pytest.mark.parametrize("command", [["ground"], ["denoise"], ["segment"]])
+def test_a_field_las_would_take_for_a_coordinate_is_refused_before_the_work(
+    capsys, tmp_path, command
+):
+    # A PLY with property X beside x: the LAS write failed after the work (exit 1).
+    rng = np.random.default_rng(0)
+    points = np.c_[rng.uniform(0.0, 40.0, (3000, 2)), rng.normal(0.0, 0.05, 3000)]
+    write_points(tmp_path / "in.ply", points, {"X": points[:, 0]})
+    code, _, err = run(capsys, *command, tmp_path / "in.ply", tmp_path / "out.las")
+    assert code == 2
+    assert_one_error_line(err, "field 'X' would be taken for a coordinate")
+    assert not (tmp_path / "out.las").exists()
+    report = run_json(capsys, *command, tmp_path / "in.ply", tmp_path / "out.ply")
+    assert list(read_points(tmp_path / "out.ply").fields)[0] == "X"
+    assert report["points_in"] == 3000

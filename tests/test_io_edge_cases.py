@@ -324,12 +324,27 @@ def test_ply_element_lines(tmp_path, elements, message):
 
 
 @pytest.mark.parametrize("ext", ["pcd", "ply", "xyz", "las"])
-@pytest.mark.parametrize("name", [" x", "Z\t", "y "])
+@pytest.mark.parametrize("name", [" x", "z", "y "])
 def test_fields_written_as_x_y_or_z_are_refused(tmp_path, ext, name):
     # " x" is written as x in the text formats: a second x property, unreadable.
     with pytest.raises(ValueError, match="x, y and z are given in points, not fields"):
         write_points(tmp_path / f"p.{ext}", POINTS, {name: np.array([1.0, 2.0])})
     assert not any(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("name", ["X", "Z\t"])
+def test_a_field_named_x_in_another_case_is_a_field_but_in_las(tmp_path, name):
+    # A PLY with property X beside x was read, and its write back refused after the work.
+    # The text formats read X beside x as a field; LAS's X is its stored coordinate.
+    values = np.array([1.5, 2.5])
+    for ext in ("pcd", "ply", "xyz"):
+        write_points(tmp_path / f"p.{ext}", POINTS, {name: values})
+        back = read_points(tmp_path / f"p.{ext}")
+        np.testing.assert_array_equal(back.points, POINTS)
+        np.testing.assert_array_equal(back.fields[name.strip()], values)
+    with pytest.raises(ValueError, match="LAS names its coordinates X, Y and Z in any case"):
+        write_points(tmp_path / "p.las", POINTS, {name: values})
+    assert not (tmp_path / "p.las").exists()
 
 
 def test_long_names_are_cut_between_characters(tmp_path, monkeypatch):

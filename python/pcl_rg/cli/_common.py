@@ -33,6 +33,7 @@ from .._classification import (
 from ..io import EXTENSIONS, PointFile, read_points, write_points
 from ..io._atomic import special_file
 from ..io._crs import GIVEN_UNITS, metre_factors
+from ..io._las import las_coordinate_name
 from ._figures import plots
 from ._flags import EXIT_FAILURE, CliError, float_type, line_type
 from ._run import Run
@@ -286,6 +287,12 @@ def read_input(
         raise CliError(
             f"{args.input}: {int((~finite).sum()):,} point(s) with NaN or Inf coordinates, "
             f"which {args.output!r} (LAS) cannot store; write PCD, PLY or XYZ, or pass --drop"
+        )
+    clashing = [key for key in cloud.fields if las_coordinate_name(key)]
+    if clashing and to_las:  # said now, not after the work
+        raise CliError(
+            f"{args.input}: field {clashing[0]!r} would be taken for a coordinate in "
+            f"{args.output!r} (LAS names X, Y and Z in any case); write PCD or PLY"
         )
     withheld = finite & withheld_mask(cloud)
     valid = finite & ~withheld

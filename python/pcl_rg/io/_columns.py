@@ -76,7 +76,7 @@ def check_columns(
     for key, values in (fields or {}).items():
         if not isinstance(key, str) or not key:
             raise TypeError(f"fields keys must be non-empty str, got {key!r}")
-        if field_name(key).lower() in ("x", "y", "z"):  # " x" would be written as x
+        if field_name(key) in ("x", "y", "z"):  # " x" would be written as x
             raise ValueError(f"fields[{key!r}]: x, y and z are given in points, not fields")
         if np.ma.is_masked(values):
             raise ValueError(f"fields[{key!r}]: masked arrays are not written; fill them first")

@@ -21,7 +21,7 @@ from .._held_signals import HeldSignals, held_signals
 from ._atomic import atomic_write
 from ._las_header import check_las_header
 
-__all__ = ["read", "write"]
+__all__ = ["las_coordinate_name", "read", "write"]
 
 
 def _laspy():
@@ -177,6 +177,12 @@ def _check_scales_and_offsets(xyz: np.ndarray, header, new: bool) -> None:
         )
 
 
+def las_coordinate_name(key: str) -> bool:
+    """Whether field `key` would be taken for a coordinate in a LAS file: laspy's
+    dimensions X, Y and Z are the stored integers, x, y and z the scaled ones."""
+    return key.strip().lower() in ("x", "y", "z")
+
+
 def write(
     path: str,
     xyz: np.ndarray,
@@ -230,6 +236,11 @@ def _write_las(
     standard = {d.name: d for d in header.point_format.dimensions}
     new_dims = []
     for key, array in columns.items():
+        if las_coordinate_name(key):
+            raise ValueError(
+                f"fields[{key!r}]: LAS names its coordinates X, Y and Z in any case, so no "
+                "field can have that name; rename it, or write PLY or PCD"
+            )
         if key in standard:
             continue
         array = np.asarray(array)
