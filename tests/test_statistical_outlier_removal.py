@@ -93,6 +93,20 @@ def test_zero_spread_keeps_every_point_like_pcl():
     np.testing.assert_array_equal(inlier, pcl_mask(points, 1, 0.0))
 
 
+@pytest.mark.parametrize("spacing", [0.1, 0.3, 0.7])
+@pytest.mark.parametrize("pairs", [3, 50])
+def test_zero_spread_keeps_every_point_in_the_reference_too(spacing, pairs):
+    # The mean of the equal d_i rounded below them (0.09999999999999999 for six 0.1s):
+    # with std_mul = 0 the reference made every point an outlier.
+    x = 10.0 * np.arange(pairs)
+    points = np.r_[np.c_[x, 0 * x, 0 * x], np.c_[x, 0 * x + spacing, 0 * x]]
+    for std_mul in (0.0, 1.0):
+        expected = pcl_rg.statistical_outlier_removal(points, mean_k=1, std_mul=std_mul)
+        assert expected.all()
+        got = reference.statistical_outlier_removal(points, mean_k=1, std_mul=std_mul)
+        np.testing.assert_array_equal(got, expected)
+
+
 def test_more_inliers_as_std_mul_grows():
     points = clustered_cloud(4000, 8)
     previous = np.zeros(len(points), bool)

@@ -60,5 +60,8 @@ def statistical_outlier_removal(
         return np.empty(0, dtype=bool)
     d = mean_neighbour_distance(xyz, p.mean_k)
     finite = d[np.isfinite(d)]  # far points: outliers, outside mu and sigma
-    threshold = finite.mean() + p.std_mul * finite.std(ddof=1)
+    # The mean of equal values can round below them (six 0.1s: 0.09999999999999999),
+    # which with std_mul = 0 made every point an outlier; a mean lies within the values.
+    mu = min(max(finite.mean(), finite.min()), finite.max()) if finite.size else np.nan
+    threshold = mu + p.std_mul * finite.std(ddof=1)
     return d <= threshold
