@@ -96,6 +96,24 @@ def test_point_order_does_not_matter() -> None:
         np.testing.assert_array_equal(pcl_rg.tin_ground(points[perm], params=params), ground[perm])
 
 
+def test_a_corner_between_two_seeds_takes_the_lower_whatever_the_order() -> None:
+    # The virtual corner (-5, -5) is as near to seed (-5, 0) as to seed (0, -5) once the
+    # opening drops seed (-4, -4); the tie went to the smaller index, so its height, and
+    # point 5's class, followed the order of the rows (core-vs-reference hunt).
+    points = np.array(
+        [[5, 0, 0.6483], [4, 4, 0.6096], [0, 5, 0.9201], [-4, 4, 0.8362], [-5, 0, 0.0304],
+         [-4, -4, 0.9907], [0, -5, 0.4363], [4, -4, 0.2955], [0, 0, 0.011], [3, 4, 0.21],
+         [4, 3, 0.103], [-3, 4, 0.312], [5, 0, 0.002]]
+    )  # fmt: skip
+    orders = [np.arange(len(points))[::-1]]
+    orders += [np.random.default_rng(seed).permutation(len(points)) for seed in range(10)]
+    for function in (pcl_rg.tin_ground, reference.tin_ground):
+        expected = function(points)
+        for order in orders:
+            np.testing.assert_array_equal(function(points[order])[np.argsort(order)], expected)
+        np.testing.assert_array_equal(expected, pcl_rg.tin_ground(points))
+
+
 def test_translation_by_whole_seed_cells_gives_the_same_mask() -> None:
     # Coordinates on a 2^-10 m grid, so that adding the offset is exact in float64. The
     # offset is a whole number of seed cells (20 m for lidar360, 2 m for isprs) and of

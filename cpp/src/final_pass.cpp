@@ -20,7 +20,7 @@
 //      index) is a vertex. Of vertices on one snapped XY, the lowest (ties: index) stays.
 //   3. Delaunay TIN of the vertices inside the frame's box, whose four corners are
 //      virtual vertices at the height of their nearest vertex (exact squared grid
-//      distance, ties: smallest index).
+//      distance, ties: the lowest).
 //   4. Each point p is located in the triangle holding p + (eps, eps^2) (unique whatever
 //      the walk); with the triangle's vertices counter-clockwise from the
 //      lexicographically smallest (x, y), v0, v1, v2 in metres, n = (v1 - v0) x (v2 - v0):
@@ -229,7 +229,8 @@ void final_pass(PointsView points, const FinalPassParams& params, const SnappedP
     std::array<GridBox, 4> corner_star{};
     const std::array<std::size_t, 4> nearest = ground_tin::nearest_to_corners(
         frame, vertices.size(), [&](std::size_t k) { return vertices[k].x; },
-        [&](std::size_t k) { return vertices[k].y; }, [&](std::size_t k) { return vertices[k].i; });
+        [&](std::size_t k) { return vertices[k].y; }, [&](std::size_t k) { return vertices[k].z; },
+        [&](std::size_t k) { return vertices[k].i; });
     Delaunay tin(frame.width, frame.height);
     std::vector<double> vz;
     for (const std::size_t k : nearest) vz.push_back(vertices[k].z);

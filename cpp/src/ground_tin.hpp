@@ -51,22 +51,26 @@ inline Plane plane_of(const Delaunay& tin, const std::vector<double>& vz, double
     return f;
 }
 
-// Of `count` candidates (grid XY gx(k), gy(k), point index index(k)), the one nearest
-// to each corner of `frame`'s box, (0, 0), (width, 0), (width, height), (0, height):
-// exact squared grid distance, ties by the smallest index. Returns the k of each.
-template <class GridX, class GridY, class Index>
+// Of `count` candidates (grid XY gx(k), gy(k), height z(k), point index index(k)), the
+// one nearest to each corner of `frame`'s box, (0, 0), (width, 0), (width, height),
+// (0, height): exact squared grid distance, ties by the lowest height, then by the
+// smallest index. Returns the k of each. The corner takes the height, which so does
+// not depend on the order of the points: only candidates of one height tie on.
+template <class GridX, class GridY, class Height, class Index>
 std::array<std::size_t, 4> nearest_to_corners(const GridFrame& frame, std::size_t count, GridX gx,
-                                              GridY gy, Index index) {
+                                              GridY gy, Height z, Index index) {
     const std::int64_t corner_x[4] = {0, frame.width, frame.width, 0};
     const std::int64_t corner_y[4] = {0, 0, frame.height, frame.height};
     const auto d2 = [&](int c, std::size_t k) {
         const std::int64_t dx = gx(k) - corner_x[c], dy = gy(k) - corner_y[c];
         return dx * dx + dy * dy;
     };
-    // k before j for corner c: nearer, then smaller index (a total order).
+    // k before j for corner c: nearer, then lower, then smaller index (a total order).
     const auto before = [&](int c, std::size_t k, std::size_t j) {
         const std::int64_t dk = d2(c, k), dj = d2(c, j);
-        return dk < dj || (dk == dj && index(k) < index(j));
+        if (dk != dj) return dk < dj;
+        const double zk = z(k), zj = z(j);
+        return zk < zj || (zk == zj && index(k) < index(j));
     };
     // Each fixed block's nearest, in parallel, then the nearest of those: the minimum
     // under a total order, whatever the threads.

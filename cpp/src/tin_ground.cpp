@@ -14,8 +14,9 @@
 //      cells anchored at multiples of max_building_size in world coordinates
 //      (lattice_floor, points.hpp), so that tiles of a survey share one lattice. The
 //      four corners of the extent, one grid step outside it, are virtual vertices at
-//      the height of their nearest seed (exact squared grid distance, ties: smallest
-//      index), so every point lies inside the TIN. Seeds are ground; of seeds sharing
+//      the height of their nearest seed (exact squared grid distance, ties: the lowest,
+//      so the height does not depend on the order of the points), so every point lies
+//      inside the TIN. Seeds are ground; of seeds sharing
 //      an XY, the smallest index is inserted.
 //   3. Each iteration tests every unclassified point against the TIN as it was when
 //      the iteration began, in the triangle holding p + (eps, eps^2) (delaunay.hpp):
@@ -243,12 +244,14 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
     }
 
     // Virtual corners one grid step outside the extent, at the height of the nearest
-    // seed (exact squared grid distance, ties: smallest index).
+    // seed (exact squared grid distance, ties: the lowest).
     std::array<double, 4> corner_z{};
     {
         const std::array<std::size_t, 4> nearest = ground_tin::nearest_to_corners(
             frame, seeds.size(), [&](std::size_t k) { return seed_x[k]; },
-            [&](std::size_t k) { return seed_y[k]; }, [&](std::size_t k) { return seeds[k]; });
+            [&](std::size_t k) { return seed_y[k]; },
+            [&](std::size_t k) { return points.coord(seeds[k], 2); },
+            [&](std::size_t k) { return seeds[k]; });
         for (int c = 0; c < 4; ++c) corner_z[c] = points.coord(seeds[nearest[c]], 2) - origin[2];
     }
     stats.prepare_seconds = seconds_since(clock);

@@ -160,14 +160,15 @@ def with_corners(
     """Vertices (grid x, grid y, z) of a TIN over the box: its four corners, then `inserted`.
 
     Each corner takes the height of the point of `nearest` closest to it (exact squared
-    grid distance, ties: smallest index), so every point of the box lies inside the TIN.
+    grid distance, ties: the lowest, so the height does not depend on the points' order),
+    so every point of the box lies inside the TIN.
     """
     corner_x = np.array([0, width, width, 0], dtype=np.int64)
     corner_y = np.array([0, 0, height, height], dtype=np.int64)
     corner_z = np.empty(4)
     for c in range(4):
         d2 = (gx[nearest] - corner_x[c]) ** 2 + (gy[nearest] - corner_y[c]) ** 2
-        corner_z[c] = z[nearest[np.lexsort((nearest, d2))[0]]]
+        corner_z[c] = z[nearest[np.lexsort((nearest, z[nearest], d2))[0]]]
     return (
         np.r_[corner_x, gx[inserted]],
         np.r_[corner_y, gy[inserted]],
@@ -461,7 +462,7 @@ def tin_ground(
     first = np.r_[True, (gx[by_xy][1:] != gx[by_xy][:-1]) | (gy[by_xy][1:] != gy[by_xy][:-1])]
     vertex_seeds = by_xy[first]
 
-    # Virtual corners at the height of the nearest seed (exact distance, ties: index).
+    # Virtual corners at the height of the nearest seed (exact distance, ties: lowest).
     vx, vy, vz = with_corners(gx, gy, pz, seed, vertex_seeds, width, height)
 
     # 3. Densify until an iteration adds no ground point.
