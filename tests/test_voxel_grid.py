@@ -26,9 +26,9 @@ from pcl_rg.io import read_pcd
 def assert_same_grid(result, expected, coordinate_scale: float) -> None:
     """Counts and assignments exactly; centroids to float64 rounding of the sums.
 
-    Core and reference sum each voxel in a different order (the core sums offsets
-    from the voxel's first point, the reference plain coordinates with bincount),
-    so centroids may differ by a few ulps of the coordinate magnitude.
+    Core and reference both sum offsets from each voxel's first point, in a different
+    order (the reference with bincount), so centroids may differ by a few ulps of the
+    coordinate magnitude.
     """
     np.testing.assert_array_equal(result.counts, expected.counts)
     np.testing.assert_array_equal(result.voxel_of_point, expected.voxel_of_point)
@@ -255,6 +255,15 @@ def test_leaf_size_as_numpy_values():
 def test_absurd_leaf_for_coordinates():
     with pytest.raises(ValueError, match="leaf_size is too small"):
         pcl_rg.voxel_grid([[0.0, 0.0, 0.0], [1e300, 0, 0]], 1e-300)
+
+
+def test_coordinates_near_the_float64_limit_have_a_finite_centroid():
+    # The reference summed plain coordinates: 1e308 + 1.5e308 overflowed to inf.
+    points = np.array([[1e308, 0.0, -1e308], [1.5e308, 1.0, -1.5e308]])
+    for function in (pcl_rg.voxel_grid, reference.voxel_grid):
+        grid = function(points, 1.7e308)
+        np.testing.assert_array_equal(grid.counts, [2])
+        np.testing.assert_allclose(grid.centroids, [[1.25e308, 0.5, -1.25e308]], rtol=1e-15)
 
 
 def test_core_rejects_unconverted_arrays():

@@ -45,10 +45,15 @@ def voxel_grid(
             )
     cell = np.floor(scaled).astype(np.int64)
     # PCL's order: z index first, then y, then x (lexicographic on reversed columns).
-    _, voxel, counts = np.unique(cell[:, ::-1], axis=0, return_inverse=True, return_counts=True)
+    _, first, voxel, counts = np.unique(
+        cell[:, ::-1], axis=0, return_index=True, return_inverse=True, return_counts=True
+    )
     voxel = voxel.ravel()
-    sums = np.stack([np.bincount(voxel, weights=xyz[:, a]) for a in range(3)], axis=1)
-    centroids = sums / counts[:, None]
+    # Offsets from each voxel's first point are summed, as the core sums them: a plain
+    # sum of coordinates near the float64 limit overflows (1e308 + 1.5e308 = inf).
+    offset = xyz - xyz[first[voxel]]
+    sums = np.stack([np.bincount(voxel, weights=offset[:, a]) for a in range(3)], axis=1)
+    centroids = xyz[first] + sums / counts[:, None]
     keep = counts >= p.min_points_per_voxel
     row = np.full(len(counts), -1, dtype=np.intp)
     row[keep] = np.arange(int(keep.sum()))
