@@ -271,8 +271,9 @@ def grid_ground(
         Cell edge length (bx, by) in metres, at most `block_size`. A point
         links to points of its own and the 8 neighbouring cells. Default: unset,
         per axis ``block_size / k`` with k the smallest whole number that makes
-        it at most 2 point spacings (:func:`pcl_rg.point_spacing`): 2 m on the
-        urban ISPRS samples' 1 m spacing, 0.5 m at 0.25 m. A cell far below
+        it at most 2 point spacings (:func:`pcl_rg.point_spacing`): 2 m at
+        spacings of 1 to 1.07 m (three urban ISPRS samples), 1.875 m just below 1 m
+        (samp31, 0.99 m), 0.5 m at 0.25 m. A cell far below
         the spacing is allowed, as the definition allows it, but its cells
         seldom have a neighbour holding a point, so ground grows little from
         the seeds (without the final pass, about one point per block).

@@ -1,6 +1,6 @@
 """Surveys of many tiles on Dask: buffered tiles, seamless results, resumable runs.
 
-Each input file (LAS/LAZ, PCD or PLY) gives one output of the same name in the
+Each input file (LAS/LAZ, PCD, PLY or XYZ text) gives one output of the same name in the
 output folder, written as the single-file command (``pcl-rg ground``, ``denoise``,
 ``downsample``) writes it: same format, every dimension kept. What differs is the
 context: each tile is processed together with a buffer of the points of its
@@ -233,7 +233,7 @@ def ground(
     Parameters
     ----------
     inputs : path, or sequence of paths, folders and globs
-        LAS/LAZ, PCD or PLY files; a folder stands for its point files.
+        LAS/LAZ, PCD, PLY or XYZ text files; a folder stands for its point files.
     out : path
         Output folder (created); each input gives ``out/<its file name>``.
     method : {"grid", "tin"}

@@ -100,8 +100,8 @@ def add_units_option(parser: argparse.ArgumentParser | argparse._ArgumentGroup) 
         choices=sorted(GIVEN_UNITS),
         help="units of the input's x, y and z, for files that do not state them or state "
         "them wrongly (default: what a LAS/LAZ file's coordinate system says, else m); "
-        "every length option is in metres, and the points are scaled to metres for "
-        "the work",
+        "every method's length option is in metres, and the points are scaled to "
+        "metres for the work; the figures' options and axes are in the file's units",
     )
 
 
@@ -111,8 +111,8 @@ def add_plot_options(parser: argparse.ArgumentParser) -> None:
     group.add_argument(
         "--profile",
         metavar="FILE.png",
-        help="write a vertical profile: points within --profile-width of --profile-line, "
-        "distance along the line against z",
+        help="write a vertical profile: the points in a corridor --profile-width wide "
+        "centred on --profile-line, distance along the line against z",
     )
     group.add_argument(
         "--profile-line",
@@ -123,10 +123,10 @@ def add_plot_options(parser: argparse.ArgumentParser) -> None:
     )
     group.add_argument(
         "--profile-width",
-        metavar="M",
+        metavar="WIDTH",
         type=float_type,
         default=2.0,
-        help="corridor width around the profile line, in the file's units (default: 2)",
+        help="corridor width, centred on the profile line, in the file's units (default: 2)",
     )
 
 
@@ -268,7 +268,7 @@ def read_input(
     args: argparse.Namespace, run: Run, neighbours: tuple[str, int] | None = None
 ) -> Input:
     """INPUT after the checks of INPUT, OUTPUT and figures; its finite rows; and its
-    points in metres, since every length option is in metres.
+    points in metres, since every method's length option is in metres.
 
     Points whose LAS withheld flag is set are left out like NaN rows, keeping their
     class. `neighbours`, a (flag name, count) pair, is checked against the rows left:

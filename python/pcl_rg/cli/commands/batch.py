@@ -35,7 +35,7 @@ def _common_arguments(parser: argparse.ArgumentParser) -> None:
         "inputs",
         metavar="INPUT",
         nargs="+",
-        help="LAS/LAZ, PCD or PLY files, folders (their point files) or quoted globs",
+        help="LAS/LAZ, PCD, PLY or XYZ text files, folders (their point files) or quoted globs",
     )
     parser.add_argument(
         "--out", required=True, metavar="DIR", help="output folder: DIR/<input file name>"
