@@ -13,6 +13,7 @@ from pcl_rg.datasets import (
     GROUND,
     NOISE,
     VEGETATION,
+    PlacementError,
     SyntheticScene,
     synthetic_scene,
     terrain_height,
@@ -370,8 +371,12 @@ def test_offset_does_not_change_geometry() -> None:
     ],
 )
 def test_value_errors(kwargs: dict, match: str) -> None:
-    with pytest.raises(ValueError, match=match):
+    with pytest.raises(ValueError, match=match) as caught:
         synthetic_scene(**kwargs)
+    # Objects that do not fit have an error of their own, which a caller can catch to
+    # ask for fewer (the demo did it by matching the message); nothing else raises it.
+    placement = "fit in a" in match or match == "n_trees=1"
+    assert isinstance(caught.value, PlacementError) == placement
 
 
 @pytest.mark.parametrize(

@@ -15,6 +15,7 @@ from pcl_rg.datasets import (
     GROUND,
     NOISE,
     VEGETATION,
+    PlacementError,
     SyntheticSurvey,
     _survey,
     synthetic_survey,
@@ -226,7 +227,7 @@ def test_survey_formats_store_the_same_points(tmp_path) -> None:
         # 2 buildings, at least 8 m wide, in a 10 m wide strip with 2 m margins.
         (
             {"tiles": (1, 50), "tile_size": 10.0, "buildings_per_km2": 500.0},
-            ValueError,
+            PlacementError,
             "2 non-overlapping buildings .* do not fit in the 500 x 10 m survey",
         ),
         ({"origin": (1e306, 0.0, 0.0)}, ValueError, "origin .* is too far from 0"),
@@ -237,7 +238,7 @@ def test_survey_formats_store_the_same_points(tmp_path) -> None:
         ),
         ({"density": 1e12}, ValueError, "more than this machine's"),
         # Crowns at least 4 m across in a 3 m square.
-        ({"tile_size": 3.0, "trees_per_km2": 1e6}, ValueError, "could not place 9 trees"),
+        ({"tile_size": 3.0, "trees_per_km2": 1e6}, PlacementError, "could not place 9 trees"),
     ],
 )
 def test_survey_argument_errors(kwargs: dict, error: type, match: str, tmp_path) -> None:

@@ -124,9 +124,8 @@ def _demo_scene(seed: int, size: float) -> datasets.SyntheticScene:
             return datasets.synthetic_scene(
                 seed=seed, size=size, offset=UTM_OFFSET, n_buildings=buildings
             )
-        except ValueError as error:
-            if not str(error).startswith(f"n_buildings={buildings}"):
-                raise
+        except datasets.PlacementError:
+            continue
     return datasets.synthetic_scene(seed=seed, size=size, offset=UTM_OFFSET, n_buildings=0)
 
 

@@ -29,7 +29,7 @@ from ._instances import building_ids
 from ._isprs import IsprsSample, load_isprs
 from ._isprs_like import BRIDGE_DECK, LOW_VEGETATION, IsprsLikeScene, isprs_like_scene
 from ._mosd import MosdScene, load_mosd
-from ._objects import BUILDING, GROUND, NOISE, VEGETATION
+from ._objects import BUILDING, GROUND, NOISE, VEGETATION, PlacementError
 from ._steep_terrain import isprs_like_terrain
 from ._survey import SyntheticSurvey, synthetic_survey
 from ._synthetic import SyntheticScene, synthetic_scene
@@ -45,6 +45,7 @@ __all__ = [
     "IsprsLikeScene",
     "IsprsSample",
     "MosdScene",
+    "PlacementError",
     "SyntheticScene",
     "SyntheticSurvey",
     "building_ids",

@@ -18,7 +18,14 @@ from .._params import check_number
 from .._validation import as_real
 from ._terrain import Terrain, ramp_coordinate, terrain_z
 
-__all__ = ["BUILDING", "GROUND", "NOISE", "VEGETATION", "Block"]
+__all__ = ["BUILDING", "GROUND", "NOISE", "VEGETATION", "Block", "PlacementError"]
+
+
+class PlacementError(ValueError):
+    """The objects asked for do not fit in the area: the buildings apart from each
+    other and from the sloped band, or the trees clear of the buildings. A larger
+    area or fewer objects fits; a caller may retry with fewer (the demo does)."""
+
 
 # ASPRS LAS 1.4 classification codes (Table 17 of the specification).
 GROUND: int = 2

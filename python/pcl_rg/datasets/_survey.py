@@ -131,14 +131,14 @@ def _layout(
     )
     buildings = objects.place_buildings(rng, n_buildings, area, terrain, _survey_sides)
     if len(buildings) < n_buildings:
-        raise ValueError(
+        raise objects.PlacementError(
             f"{n_buildings} non-overlapping buildings (buildings_per_km2={buildings_per_km2:g}, "
             f"up to {_LARGE_SIDE[1]:g} m long) do not fit in the {area[0]:g} x {area[1]:g} m "
             "survey beside its sloped band; use more or larger tiles or fewer buildings_per_km2"
         )
     trees = objects.place_trees(rng, n_trees, area, buildings)
     if len(trees) < n_trees:
-        raise ValueError(
+        raise objects.PlacementError(
             f"could not place {n_trees} trees (trees_per_km2={trees_per_km2:g}) clear of the "
             f"buildings in the {area[0]:g} x {area[1]:g} m survey; use more or larger tiles "
             "or fewer trees_per_km2/buildings_per_km2"
@@ -307,7 +307,8 @@ def synthetic_survey(
     ValueError
         If a number is out of its range, ``tiles`` is not a pair, ``origin``
         is not 3 finite numbers or farther than 1e11 m from 0, ``format`` is
-        unknown, the buildings or trees do not fit in the survey, it would
+        unknown, the buildings or trees do not fit in the survey
+        (:class:`PlacementError`, a ValueError), it would
         hold more than 100,000 buildings, or a tile with the survey's objects
         would need more memory than the machine has.
     TypeError

@@ -102,8 +102,8 @@ def synthetic_scene(
         ``n_buildings`` exceeds 100,000, ``noise_fraction`` is not in
         [0, 0.5), ``offset`` is not 3 finite numbers or farther than 1e11 m
         from 0 (where float64 cannot resolve 0.1 mm), the buildings or trees
-        do not fit in the area, or the scene would need more memory than the
-        machine has.
+        do not fit in the area (:class:`PlacementError`, a ValueError), or
+        the scene would need more memory than the machine has.
     TypeError
         If a count or the seed is not an integer, or ``size``, ``density`` or
         ``noise_fraction`` is not a real number.
@@ -174,7 +174,7 @@ def synthetic_scene(
     usable = (size - 2.0 * objects.BUILDING_MARGIN + objects.BUILDING_GAP) ** 2
     smallest = (objects.SMALL_SIDE[0] + objects.BUILDING_GAP) ** 2
     if n_buildings and (n_buildings - 1) * smallest > usable:
-        raise ValueError(
+        raise objects.PlacementError(
             f"n_buildings={n_buildings:,} buildings of at least {objects.SMALL_SIDE[0]:g} m "
             f"a side do not fit in a {size:g} m square; use a larger size or fewer n_buildings"
         )
@@ -191,14 +191,14 @@ def synthetic_scene(
     rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(1,)))
     buildings = objects.place_buildings(rng, n_buildings, (size, size), terrain)
     if len(buildings) < n_buildings:
-        raise ValueError(
+        raise objects.PlacementError(
             f"n_buildings={n_buildings} non-overlapping buildings (the first "
             f"{objects.LARGE_SIDES[0][0]:g}-{objects.LARGE_SIDES[0][1]:g} m long) do not fit "
             f"in a {size:g} m square beside its sloped band; use a larger size or fewer n_buildings"
         )
     trees = objects.place_trees(rng, n_trees, (size, size), buildings)
     if len(trees) < n_trees:
-        raise ValueError(
+        raise objects.PlacementError(
             f"could not place n_trees={n_trees} trees clear of the buildings in a {size:g} m "
             "square; use a larger size or fewer n_buildings/n_trees"
         )
