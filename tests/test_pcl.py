@@ -347,6 +347,9 @@ _DENSE = np.c_[np.random.default_rng(2).uniform(0.0, 1.0, (200_000, 2)), np.zero
         # with no way to interrupt PCL), or a dense cloud with PCL's own defaults (89 s).
         (_SPREAD, {"max_window_size": 2**31 - 1}, "collect about .* at most 1e10"),
         (_DENSE, {}, "collect about .* at most 1e10"),
+        # A dense cluster beside one far point: counted from the extent, its points were
+        # spread thin and it passed, then ran 209 s (found by a hunt).
+        (np.r_[_DENSE[:40_000] * 0.01, [[1000.0, 1000.0, 0.0]]], {}, "at most 1e10"),
     ],
 )
 def test_pmf_refuses_what_pcl_cannot_run(points, kwargs, match) -> None:
@@ -361,6 +364,14 @@ def test_voxel_grid_and_lccp_refuse_what_float32_and_pcl_cannot_hold() -> None:
     pts = np.array([[0, 0, 0], [1000.0, 1000.0, 10.0], [0, 0, 5.0], [3, 4, 0.1]])
     with pytest.raises(ValueError, match="more than 2.31 - 1 voxels"):
         pcl_rg.pcl.voxel_grid(pts, 3e-7)
+    # PCL counts trunc(extent / leaf) + 1 voxels per axis but numbers them from
+    # floor(min / leaf) to floor(max / leaf): 2 x 2 x (2^30 + 1) numbers passed its count
+    # of 2^30 + 1, wrapped in 32 bits, and two points got each other's centroid.
+    leaf = 2.0**-10
+    thin = np.array([[0.9 * leaf, 0.9 * leaf, 0], [1.1 * leaf, 1.1 * leaf, 5 * leaf]])
+    with pytest.raises(ValueError, match="more than 2.31 - 1 voxels"):
+        pcl_rg.pcl.voxel_grid(np.r_[thin, [[1.1 * leaf, 1.1 * leaf, 2.0**20]]], leaf)
+    np.testing.assert_array_equal(pcl_rg.pcl.voxel_grid(thin, leaf).counts, [1, 1])
     with pytest.raises(ValueError, match="cannot hold the inverse of 1e-40"):
         pcl_rg.pcl.voxel_grid([[0, 0, 0], [1, 1, 1]], 1e-40)  # one voxel for every point
     with pytest.raises(ValueError, match="min_points_per_voxel: pcl::VoxelGrid counts in 32"):

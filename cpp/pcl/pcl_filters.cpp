@@ -48,7 +48,10 @@ PclVoxelGridResult pcl_voxel_grid(PointsView points, const VoxelGridParams& para
                 "leaf_size: pcl::VoxelGrid computes in float32, which "
                 "cannot hold the inverse of " +
                 check::format_value(params.leaf_size[a]));
-    // PCL's overflow refusal (warn, return the input) becomes an error here. Counted in
+    // PCL's overflow refusal (warn, return the input) becomes an error here, and so does
+    // the overflow it misses: it counts trunc(extent / leaf) + 1 voxels per axis, but
+    // numbers them from floor(min / leaf) to floor(max / leaf), which can be one more
+    // per axis, in a 32-bit product that then wraps and merges voxels. Both counted in
     // double: PCL's own int64 product wraps for tiny leaves, and then passes.
     if (params.min_points_per_voxel > std::numeric_limits<unsigned int>::max())
         throw std::invalid_argument(
@@ -56,9 +59,13 @@ PclVoxelGridResult pcl_voxel_grid(PointsView points, const VoxelGridParams& para
             std::to_string(params.min_points_per_voxel));
     Eigen::Vector4f min_p, max_p;
     pcl::getMinMax3D(*cloud, min_p, max_p);
-    double voxels = 1.0;
-    for (int a = 0; a < 3; ++a)
+    double voxels = 1.0, numbered = 1.0;  // PCL's count, and the range of its numbers
+    for (int a = 0; a < 3; ++a) {
         voxels *= std::floor(static_cast<double>((max_p[a] - min_p[a]) * inverse[a])) + 1.0;
+        numbered *= static_cast<double>(std::floor(max_p[a] * inverse[a])) -
+                    static_cast<double>(std::floor(min_p[a] * inverse[a])) + 1.0;
+    }
+    voxels = std::max(voxels, numbered);
     if (voxels > std::numeric_limits<std::int32_t>::max())
         throw std::invalid_argument(
             "leaf_size: pcl::VoxelGrid refuses more than 2^31 - 1 voxels in the bounding box, "

@@ -14,6 +14,8 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <unordered_map>
+#include <vector>
 
 #include "pcl_cloud.hpp"
 #include "pcl_rg/check.hpp"
@@ -50,8 +52,45 @@ constexpr double kMaxApproximateWork = 1e11;      // cells x window area, summed
 // sample with PCL's tutorial parameters needs about 1e8.
 constexpr double kMaxPointwiseWork = 1e10;
 
-void check_against_extent(const ProgressiveMorphologicalFilterParams& params, double ex, double ey,
-                          std::size_t n) {
+// At most how many points the point-wise filter's octree collects for one pass over
+// windows of `window` metres: each point's box, one window wide and centred on it,
+// lies within the 3 x 3 cells of side window / 2 around the point's own, so each
+// point counts those cells' points (at most 2.25 times its box's for evenly spread
+// points). Unlike a count from the extent, a dense cluster beside a far point is
+// counted as dense.
+double collected_at_most(const pcl::PointCloud<pcl::PointXYZ>& cloud, float window, double ex,
+                         double ey) {
+    const double side = 0.5 * static_cast<double>(window);
+    const auto n = static_cast<double>(cloud.size());
+    if (side >= std::max(ex, ey)) return n * n;  // every box holds every point
+    // Cells numbered from 1 (a neighbour of cell 0 is cell -1): below 2^26 per axis,
+    // as the cell size is checked against the extent first.
+    const auto key = [](std::int64_t cx, std::int64_t cy) { return (cx + 1) << 32 | (cy + 1); };
+    std::unordered_map<std::int64_t, std::int64_t> count;
+    count.reserve(cloud.size());
+    std::vector<std::int64_t> cells;  // the occupied ones, in the order first met
+    for (const pcl::PointXYZ& p : cloud) {
+        const auto cx = static_cast<std::int64_t>(std::floor(p.x / side));
+        const auto cy = static_cast<std::int64_t>(std::floor(p.y / side));
+        if (count[key(cx, cy)]++ == 0) cells.push_back(cx << 32 | cy);
+    }
+    double total = 0.0;
+    for (const std::int64_t cell : cells) {
+        const std::int64_t cx = cell >> 32, cy = cell & 0xffffffff;
+        double around = 0.0;
+        for (std::int64_t dx = -1; dx <= 1; ++dx)
+            for (std::int64_t dy = -1; dy <= 1; ++dy) {
+                const auto found = count.find(key(cx + dx, cy + dy));
+                if (found != count.end()) around += static_cast<double>(found->second);
+            }
+        total += static_cast<double>(count[key(cx, cy)]) * around;
+    }
+    return total;
+}
+
+void check_against_extent(const ProgressiveMorphologicalFilterParams& params,
+                          const pcl::PointCloud<pcl::PointXYZ>& cloud, double ex, double ey) {
+    const std::size_t n = cloud.size();
     const auto cell = static_cast<float>(params.cell_size);
     const auto base = static_cast<float>(params.base);
     if (!(cell >= std::numeric_limits<float>::min()) || !std::isfinite(cell))
@@ -74,6 +113,7 @@ void check_against_extent(const ProgressiveMorphologicalFilterParams& params, do
     // The series, as PCL computes it: metres (point-wise) or cells (approximate).
     float window = 0.0f, previous = -1.0f;
     double work = 0.0;
+    std::vector<float> windows;  // the point-wise series
     for (int k = 0; window < params.max_window_size; ++k) {
         if (k == kMaxWindows)
             throw std::invalid_argument(
@@ -102,11 +142,13 @@ void check_against_extent(const ProgressiveMorphologicalFilterParams& params, do
                     "cell_size and base: a window of the series is beyond float32 at step " +
                     std::to_string(k));
             // Points spread evenly: a box holds the share of them its window covers of
-            // each axis (all of them once the window spans the extent).
+            // each axis (all of them once the window spans the extent). Counted from
+            // the points below, once this cheap count passes.
             const double share_x = ex > 0.0 ? std::min(1.0, window / ex) : 1.0;
             const double share_y = ey > 0.0 ? std::min(1.0, window / ey) : 1.0;
             const auto points = static_cast<double>(n);
             work += 2.0 * points * points * share_x * share_y;
+            windows.push_back(window);
         }
         if (!(window > previous))
             throw std::invalid_argument(
@@ -115,6 +157,13 @@ void check_against_extent(const ProgressiveMorphologicalFilterParams& params, do
                 (params.exponential ? ", exponential: it must exceed 1" : "") +
                 "), so PCL would never reach max_window_size");
         previous = window;
+    }
+    if (!params.approximate && work <= kMaxPointwiseWork) {
+        work = 0.0;
+        for (const float w : windows) {
+            work += 2.0 * collected_at_most(cloud, w, ex, ey);
+            if (work > kMaxPointwiseWork) break;
+        }
     }
     if (!params.approximate && work > kMaxPointwiseWork)
         throw std::invalid_argument(
@@ -156,7 +205,7 @@ void pcl_progressive_morphological_filter(PointsView points,
     const auto origin = local_origin(points);
     const auto cloud = to_pcl_cloud(points, origin);  // first: it names a stray point
     const auto upper = upper_corner(points, origin);
-    check_against_extent(params, upper[0] - origin[0], upper[1] - origin[1], points.size);
+    check_against_extent(params, *cloud, upper[0] - origin[0], upper[1] - origin[1]);
     poll_interrupt();  // PCL's filters themselves cannot be interrupted
 
     pcl::Indices indices;
