@@ -234,3 +234,16 @@ def test_axes_name_the_points_units(tmp_path, monkeypatch):
     for bad in ("", ("ft",), ("ft", "m", "m"), 3, ("ft", None)):
         with pytest.raises(ValueError, match="units must be"):
             top_view(xyz, tmp_path / "t.png", units=bad)
+
+
+def test_masked_labels_are_refused_and_an_empty_list_is_no_labels(tmp_path):
+    # The masked rows were drawn with their hidden labels; [] was "dtype float64".
+    xyz, classes = scene(10)
+    masked = np.ma.array(classes, mask=np.arange(10) < 3)
+    with pytest.raises(ValueError, match="classes: masked arrays are not accepted"):
+        top_view(xyz, tmp_path / "t.png", classes=masked)
+    with pytest.raises(ValueError, match="labels: masked arrays are not accepted"):
+        segment_colours(masked)
+    assert segment_colours([]).shape == (0, 4)
+    top_view(np.empty((0, 3)), tmp_path / "e.png", segments=[])
+    assert (tmp_path / "e.png").stat().st_size > 0

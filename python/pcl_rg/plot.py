@@ -103,7 +103,7 @@ def segment_colours(labels: npt.ArrayLike) -> np.ndarray:
     """
     from matplotlib.colors import to_rgba_array
 
-    values = np.asarray(labels)
+    values = _integer_labels("labels", labels)
     if values.dtype.kind not in "iu":
         raise TypeError(f"labels must be an integer array, got dtype {values.dtype}")
     if values.ndim != 1:
@@ -162,10 +162,19 @@ def _class_names(given: Mapping[int, tuple[str, str]] | None) -> dict[int, tuple
     return {**CLASS_COLOURS, **{int(code): entry for code, entry in given.items()}}
 
 
+def _integer_labels(name: str, values: npt.ArrayLike) -> np.ndarray:
+    """`values` as an array; an empty list as int64 (NumPy makes it float64). A masked
+    array is refused: its hidden labels would be drawn."""
+    if np.ma.is_masked(values):
+        raise ValueError(f"{name}: masked arrays are not accepted; fill or select them first")
+    array = np.asarray(values)
+    return array.astype(np.int64) if array.size == 0 and array.dtype.kind == "f" else array
+
+
 def _labels(name: str, values: npt.ArrayLike | None, n: int) -> np.ndarray | None:
     if values is None:
         return None
-    array = np.asarray(values)
+    array = _integer_labels(name, values)
     if array.dtype.kind not in "iu":
         raise TypeError(f"{name} must be an integer array, got dtype {array.dtype}")
     if array.ndim != 1:  # flattened, an (N/2, 2) array would pass as N labels
