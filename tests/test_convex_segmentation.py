@@ -307,3 +307,30 @@ def test_a_grid_that_leaves_too_few_centroids_is_not_used() -> None:
         labels = pcl_rg.convex_segmentation(points)
         np.testing.assert_array_equal(labels, reference.convex_segmentation(points))
         np.testing.assert_array_equal(labels, pcl_rg.convex_segmentation(points, noise_leaves=0))
+
+
+def test_a_record_at_the_origin_does_not_move_the_default_viewpoint():
+    # A tile within float32's reach of (0, 0, 0) (RD, or a UTM northing below 1.68e6)
+    # with one bad record there: the box held the origin, the origin became the
+    # viewpoint, every normal lay sideways and two walls merged into the ground.
+    rng = np.random.default_rng(0)
+    g = rng.uniform(0.0, 60.0, (6000, 2))
+    g = g[(np.abs(g - 30.0) > 8.0).any(axis=1)]
+    ground = np.c_[g, rng.normal(0.0, 0.02, len(g))]
+    r = rng.uniform(-8.0, 8.0, (1200, 2))
+    roof = np.c_[r + 30.0, 11.0 - 0.4 * np.abs(r[:, 0]) + rng.normal(0.0, 0.02, 1200)]
+    t, z = rng.uniform(-8.0, 8.0, (4, 150)), rng.uniform(0.0, 7.8, (4, 150))
+    walls = [
+        np.c_[t[0] + 30.0, np.full(150, 22.0), z[0]],
+        np.c_[t[1] + 30.0, np.full(150, 38.0), z[1]],
+        np.c_[np.full(150, 22.0), t[2] + 30.0, z[2]],
+        np.c_[np.full(150, 38.0), t[3] + 30.0, z[3]],
+    ]
+    tile = np.vstack([ground, roof, *walls]) + (150_000.0, 450_000.0, 0.0)
+    bad = np.r_[tile, [[0.0, 0.0, 0.0]]]
+    for viewpoint in (_core.default_viewpoint, default_viewpoint):
+        assert tuple(viewpoint(bad)) == tuple(viewpoint(tile))
+        assert viewpoint(tile)[2] > 50.0  # above the tile, not the origin
+    clean = pcl_rg.convex_segmentation(tile)
+    assert clean.max() + 1 == 6  # ground, roof and four walls
+    np.testing.assert_array_equal(pcl_rg.convex_segmentation(bad)[:-1], clean)

@@ -397,3 +397,20 @@ def test_fuzz_types_only_value_or_type_errors(points: np.ndarray, k: object) -> 
         pcl_rg.normals(points, k=k)  # type: ignore[arg-type]
     except (ValueError, TypeError):
         pass
+
+
+@pytest.mark.parametrize("seed", [108, 132])
+def test_fewer_than_six_distinct_neighbours_give_no_curvature(seed):
+    # Each point three times: every k = 15 neighbourhood holds 5 distinct positions, an
+    # exactly rank-deficient quadric whose pivots could stay above the limit; the core
+    # then gave K = -17.7 on a plane, the reference -2.45 (segmentation hunt).
+    rng = np.random.default_rng(seed)
+    plane = np.c_[rng.uniform(0.0, 2.0, (200, 2)), rng.normal(0.0, 1e-3, 200)]
+    tripled = np.repeat(plane, 3, axis=0)
+    for function in (pcl_rg.normals, reference.normals):
+        result = function(tripled, k=15)
+        assert np.isnan(result.gaussian_curvature).all()
+        assert np.isnan(result.mean_curvature).all()
+        assert np.isfinite(result.normals).all()  # the plane is still defined
+        # Twice each: 8 distinct positions, curvatures again.
+        assert np.isfinite(function(np.repeat(plane, 2, axis=0), k=15).mean_curvature).all()

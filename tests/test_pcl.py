@@ -69,6 +69,20 @@ def test_voxel_grid_translation_to_utm() -> None:
     np.testing.assert_allclose(far.centroids - UTM, near.centroids, rtol=0, atol=1e-9)
 
 
+def test_voxel_grid_keeps_millimetres_beside_a_stray_point_far_below() -> None:
+    # A record at z = -1e5 (a bad fix) set the float32 frame's origin: the other points
+    # lost their millimetres, centroids moved by up to 1.3 cm and voxels split.
+    rng = np.random.default_rng(32)
+    tile = rng.uniform(0.0, 100.0, (20_000, 3)) * (1.0, 1.0, 0.3) + UTM
+    stray = np.r_[tile, [[UTM[0] + 50.0, UTM[1] + 50.0, -1e5]]]
+    ours = pcl_rg.voxel_grid(stray, leaf_size=2.0)
+    theirs = pcl_rg.pcl.voxel_grid(stray, leaf_size=2.0)
+    np.testing.assert_array_equal(theirs.counts, ours.counts)
+    np.testing.assert_array_equal(theirs.voxel_of_point, ours.voxel_of_point)
+    kept = np.arange(len(ours.counts)) != ours.voxel_of_point[-1]  # not the stray's voxel
+    np.testing.assert_allclose(theirs.centroids[kept], ours.centroids[kept], rtol=0, atol=1e-4)
+
+
 def test_voxel_grid_errors_and_empty() -> None:
     pts = np.zeros((3, 3))
     with pytest.raises(ValueError, match="leaf_size must be > 0, got 0"):

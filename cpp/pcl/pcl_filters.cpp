@@ -26,10 +26,11 @@ PclVoxelGridResult pcl_voxel_grid(PointsView points, const VoxelGridParams& para
     PclVoxelGridResult result;
     const std::size_t n = points.size;
     if (n == 0) return result;
-    // The local origin snapped down to the voxel lattice: PCL anchors its grid at the
-    // origin of the frame it sees, so the voxels stay those of the caller's frame, as
-    // in pcl_rg::voxel_grid.
-    auto origin = local_origin(points);
+    // The float32 frame's origin (the minimum corner, unless a stray point lies far
+    // below the rest: then the rest keep their millimetres) snapped down to the voxel
+    // lattice: PCL anchors its grid at the origin of the frame it sees, so the voxels
+    // stay those of the caller's frame, as in pcl_rg::voxel_grid.
+    auto origin = float32_origin(points);
     for (int a = 0; a < 3; ++a)
         origin[a] = std::floor(origin[a] / params.leaf_size[a]) * params.leaf_size[a];
     // PCL's classes cannot be interrupted: polls between their stages only.

@@ -44,13 +44,15 @@ void validate(const ConvexSegmentationParams& params) {
 
 std::array<double, 3> default_viewpoint(PointsView points) {
     if (points.size == 0) return {0.0, 0.0, 0.0};
-    std::array<double, 3> low, high;
-    for (int d = 0; d < 3; ++d) low[d] = high[d] = points.coord(0, d);
-    for (std::size_t i = 1; i < points.size; ++i)
-        for (int d = 0; d < 3; ++d) {
-            low[d] = std::min(low[d], points.coord(i, d));
-            high[d] = std::max(high[d], points.coord(i, d));
-        }
+    // x and y without stray points: one record at (0, 0, 0) in a projected tile within
+    // float32's reach made the origin the viewpoint, and every normal lay sideways. z
+    // whole: an airborne tile's roofs and trees lie beyond the fence of its ground.
+    auto [low, high] = fenced_box(points);
+    low[2] = high[2] = points.coord(0, 2);
+    for (std::size_t i = 1; i < points.size; ++i) {
+        low[2] = std::min(low[2], points.coord(i, 2));
+        high[2] = std::max(high[2], points.coord(i, 2));
+    }
     double diagonal_squared = 0.0, origin_squared = 0.0;
     for (int d = 0; d < 3; ++d) {
         diagonal_squared += (high[d] - low[d]) * (high[d] - low[d]);

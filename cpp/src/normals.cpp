@@ -13,6 +13,7 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -44,6 +45,25 @@ void orient_up(Eigen::Vector3d& n) {
     if (flip) n = -n;
 }
 
+// Whether `rel` holds at least kMinCurvatureK distinct positions: the quadric's six
+// unknowns need them. Fewer make its design exactly rank deficient, which the pivot
+// test does not always see: with pivots just above its limit, the last one, zero in
+// exact arithmetic, came out as rounding noise of order 0.1 and the curvatures as
+// arbitrary finite numbers (points copied three times, k = 15). Stops at the sixth.
+bool enough_distinct_positions(const std::vector<Eigen::Vector3d>& rel) {
+    std::array<const Eigen::Vector3d*, kMinCurvatureK> seen{};
+    int distinct = 0;
+    for (const auto& r : rel) {
+        bool fresh = true;
+        for (int j = 0; j < distinct && fresh; ++j) fresh = !(*seen[j] == r);
+        if (fresh) {
+            seen[distinct++] = &r;
+            if (distinct == kMinCurvatureK) return true;
+        }
+    }
+    return false;
+}
+
 // rel: the k neighbours relative to the query point (float64). Loops rather than
 // Eigen expressions on dynamic matrices: no allocation per point.
 PointGeometry point_geometry(const std::vector<Eigen::Vector3d>& rel) {
@@ -72,7 +92,7 @@ PointGeometry point_geometry(const std::vector<Eigen::Vector3d>& rel) {
 
     // Step 2: quadric in the tangent frame (x: largest-variance axis, y = n x x, z = n),
     // centred at the point itself. Six unknowns need six neighbours.
-    if (k < kMinCurvatureK) return g;
+    if (k < kMinCurvatureK || !enough_distinct_positions(rel)) return g;
     const Eigen::Vector3d x_axis = eigen.eigenvectors().col(2).normalized();
     const Eigen::Vector3d y_axis = n.cross(x_axis);
     // Scale the tangent coordinates to unit RMS radius so the design is well

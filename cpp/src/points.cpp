@@ -55,9 +55,11 @@ std::array<double, 3> local_origin(PointsView points) {
     return corner(points, false, {inf, inf, inf});
 }
 
-std::array<double, 3> float32_origin(PointsView points) {
-    std::array<double, 3> origin{0.0, 0.0, 0.0};
-    if (points.size == 0) return origin;
+std::array<double, 3> float32_origin(PointsView points) { return fenced_box(points).first; }
+
+std::pair<std::array<double, 3>, std::array<double, 3>> fenced_box(PointsView points) {
+    std::array<double, 3> origin{0.0, 0.0, 0.0}, top{0.0, 0.0, 0.0};
+    if (points.size == 0) return {origin, top};
     const auto first = static_cast<std::ptrdiff_t>((points.size - 1) / 4);
     const auto third = static_cast<std::ptrdiff_t>(3 * (points.size - 1) / 4);
     // One copy for the three axes, in turn, outside any parallel region: a bad_alloc
@@ -71,14 +73,17 @@ std::array<double, 3> float32_origin(PointsView points) {
         std::nth_element(axis.begin(), axis.begin() + first, axis.begin() + third);
         const double q1 = axis[first];
         const double fence = q1 - kOriginFence * (q3 - q1);
-        double lowest = q1;  // the least coordinate >= fence: q1 is one
+        const double upper_fence = q3 + kOriginFence * (q3 - q1);
+        double lowest = q1, highest = q3;  // within the fences: q1 and q3 are
         for (std::size_t i = 0; i < points.size; ++i) {
             const double value = points.coord(i, a);
             if (value >= fence && value < lowest) lowest = value;
+            if (value <= upper_fence && value > highest) highest = value;
         }
         origin[a] = lowest;
+        top[a] = highest;
     }
-    return origin;
+    return {origin, top};
 }
 
 std::array<double, 3> upper_corner(PointsView points, const std::array<double, 3>& origin) {

@@ -321,6 +321,12 @@ std::vector<std::uint32_t> morphological_seeds(PointsView points,
                                                double ey, const TinGroundParams& params) {
     const double cell = *params.seed_cell;
     const double limit = 4.0 * static_cast<double>(points.size) + 4194304.0;
+    // A corridor across the axes (a road or power line surveyed at 45 degrees) fills
+    // every row and column of its box, which no closing of gaps shortens: its raster is
+    // taken up to this many cells (about 1 GiB with the opening's buffers) before it is
+    // refused. Not the first limit: a few far points leave most of a box empty, and the
+    // closed raster of those is far smaller.
+    const double corridor_limit = std::max(limit, 0x1p25);
     // Half-width of the opening's windows, in cells; beyond 2^40 (wider than any raster
     // that fits) the result is the same, and the cast stays defined.
     const auto r = static_cast<std::int64_t>(
@@ -334,14 +340,18 @@ std::vector<std::uint32_t> morphological_seeds(PointsView points,
     } else {
         // The opening reads 2r cells away (an erosion, then a dilation), the outlier test 2;
         // columns and rows beyond 2^62 would not fit the cells' numbers.
-        if (ex / cell < 0x1p62 && ey / cell < 0x1p62)
-            raster = closed_raster(points, origin, cell, std::max<std::int64_t>(2 * r, 2), limit);
+        const std::int64_t reach = std::max<std::int64_t>(2 * r, 2);
+        if (ex / cell < 0x1p62 && ey / cell < 0x1p62) {
+            raster = closed_raster(points, origin, cell, reach, limit);
+            if (raster.lowest.empty() && corridor_limit > limit)
+                raster = closed_raster(points, origin, cell, reach, corridor_limit);
+        }
         if (raster.lowest.empty())
             throw std::invalid_argument(
                 "seed_cell is too small for the XY extent of the points (" +
                 check::format_value(ex) + " x " + check::format_value(ey) +
-                " m: more than 4 cells per point, even with the empty rows and columns of "
-                "cells between them cut short), got " +
+                " m: more than 4 cells per point and 2^25 cells, even with the empty rows "
+                "and columns of cells between them cut short), got " +
                 check::format_value(cell) + "; set a larger seed_cell");
     }
     const std::int64_t ncx = raster.ncx, ncy = raster.ncy;

@@ -140,8 +140,10 @@ def convex_segmentation(
         points lie within 100 diagonals of their bounding box from it (a
         Kinect or terrestrial frame, whose sensor is its origin); otherwise,
         as for a tile in UTM coordinates, an airborne sensor one diagonal
-        above the top of the bounding box over its centre. Give it for data
-        in other frames (an airborne tile in local coordinates near the
+        above the top of the bounding box over its centre. The box's x and y
+        leave out stray points (beyond 4 interquartile ranges of the
+        quartiles), such as a record at (0, 0, 0) in a projected tile. Give it for
+        data in other frames (an airborne tile in local coordinates near the
         origin, a mobile scan).
     %(params)s
 

@@ -109,8 +109,9 @@ def normals(
        surface at the foot of the point (Besl & Jain 1986).
 
     Degenerate neighbourhoods never raise: when all k neighbours coincide,
-    every output of that point is NaN; when k < 6, or the quadric's design is
-    rank deficient (e.g. collinear neighbours: a squared Cholesky pivot of the
+    every output of that point is NaN; when k < 6, or the neighbours hold
+    fewer than 6 distinct positions, or the quadric's design is rank deficient
+    (e.g. collinear neighbours: a squared Cholesky pivot of the
     6 x 6 normal matrix / k, tangent coordinates scaled to unit RMS radius, is
     not above ``pcl_rg._core.QUADRIC_CONDITION_LIMIT`` = 1e-10), K, H, k1 and
     k2 are NaN while the normal and surface variation are kept (for collinear

@@ -5,6 +5,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 namespace pcl_rg {
@@ -31,6 +32,13 @@ std::array<double, 3> local_origin(PointsView points);
 /// millimetres, and its normals and segments silently went wrong. Order-independent.
 /// NumPy twin: pcl_rg.reference._local.float32_origin.
 std::array<double, 3> float32_origin(PointsView points);
+
+/// The bounding box of the points within the fences q1 - kOriginFence * (q3 - q1) and
+/// q3 + kOriginFence * (q3 - q1) per axis (float32_origin's quartiles): the box of a
+/// cloud without its stray points, such as a record at (0, 0, 0) in a projected tile.
+/// Its lower corner is float32_origin. Zeros for an empty view. NumPy twin:
+/// pcl_rg.reference._local.fenced_box.
+std::pair<std::array<double, 3>, std::array<double, 3>> fenced_box(PointsView points);
 
 /// The fence of float32_origin, in interquartile ranges below the first quartile: far
 /// enough that no ordinary cloud (a tile, a scan) has a point beyond it, so that their

@@ -6,6 +6,7 @@ import numpy as np
 
 __all__ = [
     "FLOAT32_REACH",
+    "fenced_box",
     "float32_origin",
     "local_frame",
     "max_far_points",
@@ -29,13 +30,23 @@ def float32_origin(xyz: np.ndarray) -> np.ndarray:
     being the elements at (N - 1) // 4 and 3 (N - 1) // 4 in sorted order. The minimum
     corner, unless a stray point lies far below the rest: then it would carry the frame
     away from them."""
+    return fenced_box(xyz)[0]
+
+
+def fenced_box(xyz: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The bounding box of the points within q1 - ORIGIN_FENCE * (q3 - q1) and
+    q3 + ORIGIN_FENCE * (q3 - q1) per axis (the core's fenced_box, points.hpp): the box
+    without stray points; its lower corner is :func:`float32_origin`."""
     if len(xyz) == 0:
-        return np.zeros(3)
+        return np.zeros(3), np.zeros(3)
     first, third = (len(xyz) - 1) // 4, 3 * (len(xyz) - 1) // 4
     quartiles = np.partition(xyz, [first, third], axis=0)
     q1, q3 = quartiles[first], quartiles[third]
-    fence = q1 - ORIGIN_FENCE * (q3 - q1)
-    return np.where(xyz >= fence, xyz, np.inf).min(axis=0)
+    low_fence = q1 - ORIGIN_FENCE * (q3 - q1)
+    high_fence = q3 + ORIGIN_FENCE * (q3 - q1)
+    low = np.where(xyz >= low_fence, xyz, np.inf).min(axis=0)
+    high = np.where(xyz <= high_fence, xyz, -np.inf).max(axis=0)
+    return low, high
 
 
 def max_far_points(n: int) -> int:

@@ -13,7 +13,7 @@ from .._far_points import check_fewer_than_kept
 from .._params import resolve_arguments
 from .._region_growing import RegionGrowingParams
 from .._validation import as_points
-from ._local import near_rows
+from ._local import fenced_box, near_rows
 from .normals import neighbour_lists, normals
 from .point_scale import point_scale
 from .region_growing import grow_regions
@@ -27,11 +27,14 @@ SENSOR_FRAME_REACH = 100.0
 
 def default_viewpoint(points: np.ndarray) -> tuple[float, float, float]:
     """The viewpoint used when none is given: the origin when it lies within
-    `SENSOR_FRAME_REACH` diagonals of the points' bounding box (a sensor's own frame),
-    else one diagonal above the top of the box over its centre (an airborne sensor)."""
+    `SENSOR_FRAME_REACH` diagonals of the points' bounding box, its x and y without
+    stray points (:func:`~pcl_rg.reference._local.fenced_box`; a sensor's own frame),
+    else one diagonal above the top of that box over its centre (an airborne sensor).
+    z is whole: an airborne tile's roofs and trees lie beyond the fence of its ground."""
     if len(points) == 0:
         return (0.0, 0.0, 0.0)
-    low, high = points.min(axis=0), points.max(axis=0)
+    low, high = fenced_box(points)
+    low[2], high[2] = points[:, 2].min(), points[:, 2].max()
     # As the core computes them: squares of a far stray point overflow to inf there too
     # (without a word), and the step that follows refuses the cloud.
     with np.errstate(over="ignore"):

@@ -94,6 +94,15 @@ def _orient_up(normal: np.ndarray) -> np.ndarray:
     return np.where(flip[:, None], -normal, normal)
 
 
+def _distinct_positions(rel: np.ndarray) -> np.ndarray:
+    """How many distinct positions each neighbourhood (n, k, 3) holds: the quadric's six
+    unknowns need six, fewer make its design exactly rank deficient (the core's
+    enough_distinct_positions)."""
+    order = np.lexsort((rel[..., 2], rel[..., 1], rel[..., 0]), axis=-1)
+    ordered = np.take_along_axis(rel, order[..., None], axis=1)
+    return 1 + (ordered[:, 1:] != ordered[:, :-1]).any(axis=-1).sum(axis=1)
+
+
 def _cholesky_pivots(matrix: np.ndarray) -> np.ndarray:
     """Diagonal of the Cholesky factor L of each matrix (NaN once a pivot is not > 0).
 
@@ -164,7 +173,7 @@ def normals(
     v = np.einsum("nki,ni->nk", rel, y_axis)
     w = np.einsum("nki,ni->nk", rel, normal)
     s = np.sqrt(((u**2).sum(axis=1) + (v**2).sum(axis=1)) / k)
-    ok = defined & (s > 0)
+    ok = defined & (s > 0) & (_distinct_positions(rel) >= 6)
     with np.errstate(invalid="ignore", divide="ignore"):
         us, vs, ws = u / s[:, None], v / s[:, None], w / s[:, None]
         design = np.stack([us * us, us * vs, vs * vs, us, vs, np.ones_like(us)], axis=-1)

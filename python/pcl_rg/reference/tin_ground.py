@@ -194,8 +194,9 @@ def _close_gaps(index: np.ndarray, reach: int) -> tuple[np.ndarray, int]:
 
 
 def _raster_limit(points: int) -> float:
-    """The most cells the seed raster may have, as in the core: 4 per point + 2^22."""
-    return 4.0 * points + 4194304.0
+    """The most cells the seed raster may have, as in the core: 4 per point + 2^22, or
+    2^25 (a corridor across the axes, whose rows and columns are all occupied)."""
+    return max(4.0 * points + 4194304.0, 2.0**25)
 
 
 def _morphological_seeds(
@@ -223,8 +224,8 @@ def _morphological_seeds(
     if not fits:
         raise ValueError(
             f"seed_cell is too small for the XY extent of the points ({ex:g} x {ey:g} m: more "
-            "than 4 cells per point, even with the empty rows and columns of cells between "
-            f"them cut short), got {cell:g}; set a larger seed_cell"
+            "than 4 cells per point and 2^25 cells, even with the empty rows and columns of "
+            f"cells between them cut short), got {cell:g}; set a larger seed_cell"
         )
     lowest, cells = _lowest_in_cells(xyz, column * ncy + row)
     height = np.full(ncx * ncy, np.inf)
