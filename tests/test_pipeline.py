@@ -161,3 +161,16 @@ def test_the_callers_diagnostics_see_every_stage() -> None:
     assert outer["region_growing"]["clusters"] >= 1 and result.labels.max() >= 0
     assert list(outer)[0] == "statistical_outlier_removal"
     assert outer["voxel_grid"]["points"] == 50
+
+
+def test_a_leaf_that_leaves_too_few_centroids_for_k():
+    # A small noisy plane: the chosen leaf left 7 centroids for k = 10, and seed004
+    # failed with "k must be < the number of points (7)", which named no voxel grid.
+    rng = np.random.default_rng(0)
+    plane = np.c_[rng.uniform(0.0, 1.0, (20, 2)), rng.normal(0.0, 0.05, 20)]
+    region = RegionGrowingParams(k=10)
+    result = seed004(plane, sor=None, region=region)
+    assert len(result.points) == 20  # the points themselves, no grid
+    assert [stage.name for stage in result.report.stages] == ["normals", "region growing"]
+    with pytest.raises(ValueError, match=r"the voxel grid \(leaf_size .* leaves \d+ centroids"):
+        seed004(plane, sor=None, voxel=VoxelGridParams(leaf_size=0.5), region=region)

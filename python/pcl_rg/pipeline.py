@@ -186,14 +186,17 @@ def seed004(
         fill the paper's Table 1 (original against simplified).
     auto_voxel : bool, default True
         With ``voxel=None``, choose the leaf size from the data (True) or skip
-        the voxel grid (False).
+        the voxel grid (False). A chosen leaf that would leave no more than
+        ``region.k`` centroids is not used: the points are segmented as they
+        are.
 
     Returns
     -------
     Seed004Result
         ``labels`` int32 (N,) per input point (-1: SOR outlier, a point of a
         voxel under ``min_points_per_voxel``, or a region outside the cluster
-        sizes), numbered 0, 1, ... by each cluster's
+        sizes, which count the points segmented: the voxel centroids when
+        there is a grid), numbered 0, 1, ... by each cluster's
         smallest input index; the SOR ``inlier`` mask; ``segment_of_point``
         (the preprocessed point holding each input point); the segmented
         ``points`` and their ``point_labels``; and the ``report``.
@@ -281,9 +284,21 @@ def seed004(
         start = time.perf_counter()
         grid = voxel_grid(kept, params=voxel)
         seconds = time.perf_counter() - start
-        segmented, row_of_kept = grid.centroids, grid.voxel_of_point
-        stages.append(StageReport("voxel grid" + auto, len(kept), len(segmented), seconds))
-    else:
+        if auto and len(grid.centroids) <= region.k < len(kept):
+            # The chosen leaf would leave region growing too few points for its k
+            # neighbours (a small noisy cloud): segment the points themselves, as
+            # convex_segmentation does.
+            voxel, auto = None, ""
+        elif len(grid.centroids) <= region.k < len(kept):
+            raise ValueError(
+                f"the voxel grid (leaf_size {voxel.leaf_size}) leaves {len(grid.centroids)} "
+                f"centroids, not more than the region growing's k = {region.k}; use a "
+                "smaller leaf_size or k"
+            )
+        else:
+            segmented, row_of_kept = grid.centroids, grid.voxel_of_point
+            stages.append(StageReport("voxel grid" + auto, len(kept), len(segmented), seconds))
+    if voxel is None:
         segmented, row_of_kept = kept, np.arange(len(kept), dtype=np.intp)
 
     # 3 normals and curvature, then region growing
