@@ -6,6 +6,7 @@ import matplotlib.image
 import numpy as np
 import pytest
 from matplotlib.colors import to_rgb
+from plot_helpers import read_saved_figures
 
 from pcl_rg.plot import CLASS_COLOURS, profile, segment_colours, top_view
 
@@ -142,18 +143,11 @@ def test_top_view_errors(tmp_path):
 
 def legend_of(monkeypatch, draw) -> list[str]:
     """The legend texts of the figure `draw()` saves."""
-    import pcl_rg.plot
-
-    texts: list[str] = []
-    real = pcl_rg.plot._save
-
-    def keep_legend(fig, path):
-        texts.extend(t.get_text() for t in fig.axes[0].get_legend().get_texts())
-        real(fig, path)
-
-    monkeypatch.setattr(pcl_rg.plot, "_save", keep_legend)
+    seen = read_saved_figures(
+        monkeypatch, lambda fig: [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
+    )
     draw()
-    return texts
+    return [text for texts in seen for text in texts]
 
 
 def test_legends_count_every_point_not_the_drawn_subsample(tmp_path, monkeypatch):
@@ -183,37 +177,27 @@ def test_legends_count_every_point_not_the_drawn_subsample(tmp_path, monkeypatch
 def test_every_class_in_a_legend_has_a_colour_of_its_own(tmp_path, monkeypatch):
     # Low vegetation (3) took building's blue from matplotlib's cycle, and class 17 the
     # cycle's next colour: two legend entries alike.
-    import pcl_rg.plot
-
     xyz, _ = scene(1200)
     classes = np.repeat([1, 2, 3, 6, 17, 40, 41], [300, 300, 150, 150, 100, 100, 100])
-    colours: list[str] = []
-    real = pcl_rg.plot._save
-
-    def keep_colours(fig, path):
-        colours.extend(to_rgb(h.get_color()) for h in fig.axes[0].get_legend().legend_handles)
-        real(fig, path)
-
-    monkeypatch.setattr(pcl_rg.plot, "_save", keep_colours)
+    seen = read_saved_figures(
+        monkeypatch,
+        lambda fig: [to_rgb(h.get_color()) for h in fig.axes[0].get_legend().legend_handles],
+    )
     top_view(xyz, tmp_path / "c.png", classes=classes)
+    (colours,) = seen
     assert len(colours) == 7 and len(set(colours)) == 7
 
 
 def axis_labels(monkeypatch, draw) -> list[str]:
     """The axis labels (and a colour bar's) of the figure `draw` writes, and its title."""
-    import pcl_rg.plot
-
-    labels: list[str] = []
-    real = pcl_rg.plot._save
-
-    def keep_labels(fig, path):
-        for ax in fig.axes:
-            labels.extend([ax.get_xlabel(), ax.get_ylabel(), ax.get_title()])
-        real(fig, path)
-
-    monkeypatch.setattr(pcl_rg.plot, "_save", keep_labels)
+    seen = read_saved_figures(
+        monkeypatch,
+        lambda fig: [
+            text for ax in fig.axes for text in (ax.get_xlabel(), ax.get_ylabel(), ax.get_title())
+        ],
+    )
     draw()
-    return labels
+    return [text for texts in seen for text in texts]
 
 
 def test_axes_name_the_points_units(tmp_path, monkeypatch):

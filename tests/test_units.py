@@ -11,6 +11,7 @@ from cli_helpers import run
 from conftest import examples, run_pcl_rg
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from plot_helpers import read_saved_figures
 from units_files import (
     ESRI_FEET_METRES,
     NEW_YORK_FTUS_WKT1,
@@ -287,19 +288,13 @@ def test_a_record_laspy_cannot_parse_is_unreadable(tmp_path):
 @pytest.mark.parametrize("command", [["info"], ["ground", "OUT"], ["segment", "OUT"]])
 def test_figures_of_feet_data_say_feet(command, scene_files, tmp_path, monkeypatch, capsys):
     # Their axes said "m" while the points drawn are the file's, in feet.
-    import pcl_rg.plot
-
-    labels: list[str] = []
-    real = pcl_rg.plot._save
-
-    def keep_labels(fig, path):
-        labels.extend(label for ax in fig.axes for label in (ax.get_xlabel(), ax.get_ylabel()))
-        real(fig, path)
-
-    monkeypatch.setattr(pcl_rg.plot, "_save", keep_labels)
+    seen = read_saved_figures(
+        monkeypatch, lambda fig: [t for ax in fig.axes for t in (ax.get_xlabel(), ax.get_ylabel())]
+    )
     argv = [command[0], scene_files / "feet.las"] + [tmp_path / "o.las"] * (len(command) - 1)
     code, _, err = run(capsys, *argv, "--plot", tmp_path / "t.png", "--profile", tmp_path / "p.png")
     assert code == 0, err
+    labels = [label for texts in seen for label in texts]
     assert labels[:2] == ["x (US ft)", "y (US ft)"]
     assert "distance along the line from A (US ft)" in labels and "z (US ft)" in labels
     assert not any(label.endswith("(m)") for label in labels)
