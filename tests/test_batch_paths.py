@@ -69,29 +69,26 @@ def test_a_damaged_record_redoes_every_tile(tmp_path, text):
     assert json.loads((tmp_path / MANIFEST).read_text()) == {}
 
 
-def test_a_fifo_in_an_outputs_place_is_refused_and_kept(tmp_path):
-    # The tile failed at its write (no writer replaces a FIFO), and the batch then
-    # removed the FIFO as "its earlier output".
+@pytest.mark.parametrize(
+    ("make", "refusal"),
+    [
+        # The tile failed at its write (no writer replaces a FIFO), and the batch then
+        # removed the FIFO as "its earlier output".
+        (os.mkfifo, "is not a regular file"),
+        # The tile was read and classified, then failed at its write with "stale: Is a
+        # directory", the folder taken for its earlier output.
+        (os.mkdir, "is a folder, not a file"),
+    ],
+)
+def test_a_fifo_or_folder_in_an_outputs_place_is_refused_and_kept(tmp_path, make, refusal):
     paths = tiles(tmp_path / "in")
     (tmp_path / "out").mkdir()
-    os.mkfifo(tmp_path / "out" / "tile_0.las")
-    with pytest.raises(ValueError, match="is not a regular file"):
+    make(tmp_path / "out" / "tile_0.las")
+    with pytest.raises(ValueError, match=refusal):
         output_paths(paths, tmp_path / "out")
-    with pytest.raises(ValueError, match="is not a regular file"):
+    with pytest.raises(ValueError, match=refusal):
         batch.ground(paths, tmp_path / "out", workers=1, progress=False)
     assert (tmp_path / "out" / "tile_0.las").exists()
-
-
-def test_a_folder_in_an_outputs_place_is_refused_before_any_work(tmp_path):
-    # The tile was read and classified, then failed at its write with "stale: Is a
-    # directory", the folder taken for its earlier output.
-    paths = tiles(tmp_path / "in")
-    (tmp_path / "out" / "tile_0.las").mkdir(parents=True)
-    with pytest.raises(ValueError, match="is a folder, not a file"):
-        output_paths(paths, tmp_path / "out")
-    with pytest.raises(ValueError, match="is a folder, not a file"):
-        batch.ground(paths, tmp_path / "out", workers=1, progress=False)
-    assert (tmp_path / "out" / "tile_0.las").is_dir()
 
 
 def test_xyz_text_with_a_byte_order_mark_is_a_tile(tmp_path):
