@@ -327,10 +327,13 @@ def test_a_record_at_the_origin_does_not_move_the_default_viewpoint():
         np.c_[np.full(150, 38.0), t[3] + 30.0, z[3]],
     ]
     tile = np.vstack([ground, roof, *walls]) + (150_000.0, 450_000.0, 0.0)
-    bad = np.r_[tile, [[0.0, 0.0, 0.0]]]
-    for viewpoint in (_core.default_viewpoint, default_viewpoint):
-        assert tuple(viewpoint(bad)) == tuple(viewpoint(tile))
-        assert viewpoint(tile)[2] > 50.0  # above the tile, not the origin
     clean = pcl_rg.convex_segmentation(tile)
     assert clean.max() + 1 == 6  # ground, roof and four walls
-    np.testing.assert_array_equal(pcl_rg.convex_segmentation(bad)[:-1], clean)
+    # The origin; a no-data height, away or in the tile; a bad fix 5 km up.
+    for stray in ([0.0, 0.0, 0.0], [0.0, 0.0, -9999.0], [150_030.0, 450_030.0, -9999.0],
+                  [150_030.0, 450_030.0, 5000.0]):  # fmt: skip
+        bad = np.r_[tile, [stray]]
+        for viewpoint in (_core.default_viewpoint, default_viewpoint):
+            assert tuple(viewpoint(bad)) == tuple(viewpoint(tile))
+            assert viewpoint(tile)[2] > 50.0  # above the tile, not the origin
+        np.testing.assert_array_equal(pcl_rg.convex_segmentation(bad)[:-1], clean)

@@ -69,8 +69,8 @@ PclVoxelGridResult pcl_voxel_grid(PointsView points, const VoxelGridParams& para
     voxels = std::max(voxels, numbered);
     if (voxels > std::numeric_limits<std::int32_t>::max())
         throw std::invalid_argument(
-            "leaf_size: pcl::VoxelGrid refuses more than 2^31 - 1 voxels in the bounding box, "
-            "got " +
+            "leaf_size: pcl::VoxelGrid numbers the voxels of the bounding box in 32 bits, at "
+            "most 2^31 - 1 of them (beyond, it refuses them or its numbers wrap), got " +
             check::format_value(voxels) + " (pcl_rg.voxel_grid has no such limit)");
 
     pcl::VoxelGrid<pcl::PointXYZ> filter;

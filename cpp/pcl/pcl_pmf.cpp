@@ -14,7 +14,6 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
-#include <unordered_map>
 #include <vector>
 
 #include "pcl_cloud.hpp"
@@ -53,37 +52,43 @@ constexpr double kMaxApproximateWork = 1e11;      // cells x window area, summed
 constexpr double kMaxPointwiseWork = 1e10;
 
 // At most how many points the point-wise filter's octree collects for one pass over
-// windows of `window` metres: each point's box, one window wide and centred on it,
-// lies within the 3 x 3 cells of side window / 2 around the point's own, so each
-// point counts those cells' points (at most 2.25 times its box's for evenly spread
-// points). Unlike a count from the extent, a dense cluster beside a far point is
-// counted as dense.
+// windows of `window` metres: each point's box, one window wide and centred on it, lies
+// within the 5 x 5 cells of side window / 4 around the point's own, so each point counts
+// those cells' points: at most 1.56 times what its box holds for evenly spread points
+// (25 / 16), and a dense cluster beside a far point is counted as dense, which a count
+// from the extent is not.
 double collected_at_most(const pcl::PointCloud<pcl::PointXYZ>& cloud, float window, double ex,
                          double ey) {
-    const double side = 0.5 * static_cast<double>(window);
+    const double side = 0.25 * static_cast<double>(window);
     const auto n = static_cast<double>(cloud.size());
-    if (side >= std::max(ex, ey)) return n * n;  // every box holds every point
-    // Cells numbered from 1 (a neighbour of cell 0 is cell -1): below 2^26 per axis,
-    // as the cell size is checked against the extent first.
-    const auto key = [](std::int64_t cx, std::int64_t cy) { return (cx + 1) << 32 | (cy + 1); };
-    std::unordered_map<std::int64_t, std::int64_t> count;
-    count.reserve(cloud.size());
-    std::vector<std::int64_t> cells;  // the occupied ones, in the order first met
-    for (const pcl::PointXYZ& p : cloud) {
-        const auto cx = static_cast<std::int64_t>(std::floor(p.x / side));
-        const auto cy = static_cast<std::int64_t>(std::floor(p.y / side));
-        if (count[key(cx, cy)]++ == 0) cells.push_back(cx << 32 | cy);
+    if (0.5 * static_cast<double>(window) >= std::max(ex, ey)) return n * n;  // all in each
+    // Cells numbered from 2 (cell 0 has neighbours at -2): below 2^27 per axis, as the
+    // cell size is checked against the extent first.
+    const auto key = [](std::int64_t cx, std::int64_t cy) { return (cx + 2) << 32 | (cy + 2); };
+    std::vector<std::int64_t> keys(cloud.size());
+    for (std::size_t i = 0; i < cloud.size(); ++i)
+        keys[i] = key(static_cast<std::int64_t>(std::floor(cloud[i].x / side)),
+                      static_cast<std::int64_t>(std::floor(cloud[i].y / side)));
+    std::sort(keys.begin(), keys.end());
+    std::vector<std::int64_t> cells, counts;  // the occupied cells, sorted, and their points
+    for (std::size_t i = 0; i < keys.size();) {
+        std::size_t j = i + 1;
+        while (j < keys.size() && keys[j] == keys[i]) ++j;
+        cells.push_back(keys[i]);
+        counts.push_back(static_cast<std::int64_t>(j - i));
+        i = j;
     }
     double total = 0.0;
-    for (const std::int64_t cell : cells) {
-        const std::int64_t cx = cell >> 32, cy = cell & 0xffffffff;
+    for (std::size_t c = 0; c < cells.size(); ++c) {
         double around = 0.0;
-        for (std::int64_t dx = -1; dx <= 1; ++dx)
-            for (std::int64_t dy = -1; dy <= 1; ++dy) {
-                const auto found = count.find(key(cx + dx, cy + dy));
-                if (found != count.end()) around += static_cast<double>(found->second);
+        for (std::int64_t dx = -2; dx <= 2; ++dx)
+            for (std::int64_t dy = -2; dy <= 2; ++dy) {
+                const std::int64_t other = cells[c] + (dx << 32) + dy;
+                const auto found = std::lower_bound(cells.begin(), cells.end(), other);
+                if (found != cells.end() && *found == other)
+                    around += static_cast<double>(counts[found - cells.begin()]);
             }
-        total += static_cast<double>(count[key(cx, cy)]) * around;
+        total += static_cast<double>(counts[c]) * around;
     }
     return total;
 }
@@ -167,10 +172,11 @@ void check_against_extent(const ProgressiveMorphologicalFilterParams& params,
     }
     if (!params.approximate && work > kMaxPointwiseWork)
         throw std::invalid_argument(
-            "max_window_size and cell_size: the point-wise filter would collect about " +
+            "max_window_size and cell_size: the point-wise filter would collect up to about " +
             check::format_value(work) +
             " points from its octree (every point, in a box one window wide, twice per "
-            "window; at most 1e10, a minute or two); use approximate=True, fewer points, a "
+            "window, counted by cells a quarter window wide; at most 1e10, a minute or two); "
+            "use approximate=True, fewer points, a "
             "smaller max_window_size or a larger cell_size");
     if (params.approximate && work > kMaxApproximateWork)
         throw std::invalid_argument(

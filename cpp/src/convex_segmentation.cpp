@@ -46,12 +46,25 @@ std::array<double, 3> default_viewpoint(PointsView points) {
     if (points.size == 0) return {0.0, 0.0, 0.0};
     // x and y without stray points: one record at (0, 0, 0) in a projected tile within
     // float32's reach made the origin the viewpoint, and every normal lay sideways. z
-    // whole: an airborne tile's roofs and trees lie beyond the fence of its ground.
+    // within the box's width (or 4 interquartile ranges, if more) of its quartiles: an
+    // airborne tile's roofs and trees lie beyond the fence of its ground, which makes
+    // most of its points, but a no-data height (-9999) or a bad fix 5 km up does not.
     auto [low, high] = fenced_box(points);
-    low[2] = high[2] = points.coord(0, 2);
-    for (std::size_t i = 1; i < points.size; ++i) {
-        low[2] = std::min(low[2], points.coord(i, 2));
-        high[2] = std::max(high[2], points.coord(i, 2));
+    std::vector<double> z(points.size);
+    for (std::size_t i = 0; i < points.size; ++i) z[i] = points.coord(i, 2);
+    const auto first = static_cast<std::ptrdiff_t>((points.size - 1) / 4);
+    const auto third = static_cast<std::ptrdiff_t>(3 * (points.size - 1) / 4);
+    std::nth_element(z.begin(), z.begin() + third, z.end());
+    const double q3 = z[third];
+    std::nth_element(z.begin(), z.begin() + first, z.begin() + third);
+    const double q1 = z[first];
+    const double reach =
+        std::max(std::hypot(high[0] - low[0], high[1] - low[1]), kOriginFence * (q3 - q1));
+    low[2] = q1, high[2] = q3;  // within the fence: q1 and q3 are
+    for (std::size_t i = 0; i < points.size; ++i) {
+        const double value = points.coord(i, 2);
+        if (value >= q1 - reach && value < low[2]) low[2] = value;
+        if (value <= q3 + reach && value > high[2]) high[2] = value;
     }
     double diagonal_squared = 0.0, origin_squared = 0.0;
     for (int d = 0; d < 3; ++d) {

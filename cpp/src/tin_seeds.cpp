@@ -247,6 +247,10 @@ void drop_low_outliers(std::vector<double>& height, std::int64_t ncx, std::int64
     }
 }
 
+// The share of a corridor's raster cells that hold a point, at least (closed_raster):
+// a 50 m wide strip at 45 degrees and 1 m cells holds 1 % at 10 km long.
+constexpr double kCorridorOccupancy = 0.01;
+
 // The seed cells as a raster of ncx x ncy cells, row-major by column then row, with the
 // lowest point (ties: smallest index) of each, -1 where empty.
 struct SeedRaster {
@@ -273,9 +277,10 @@ std::vector<std::int64_t> close_gaps(const std::vector<std::int64_t>& occupied,
 // only the cells within `reach` columns and rows of it, and close_gaps keeps each
 // occupied cell's offset to every occupied cell within that reach, and keeps the others
 // beyond it, so every occupied cell sees the same neighbourhood as in the full raster:
-// the seeds are the same. Empty = too large: ncx * ncy > limit.
+// the seeds are the same. Empty = too large: ncx * ncy > limit, unless it is a
+// corridor's raster (corridor_seed_cells) of at most corridor_limit cells.
 SeedRaster closed_raster(PointsView points, const std::array<double, 3>& origin, double cell,
-                         std::int64_t reach, double limit) {
+                         std::int64_t reach, double limit, double corridor_limit) {
     const std::size_t n = points.size;
     std::vector<std::int64_t> column(n), row(n);
     for (std::size_t i = 0; i < n; ++i) {
@@ -296,12 +301,25 @@ SeedRaster closed_raster(PointsView points, const std::array<double, 3>& origin,
     SeedRaster raster;
     raster.ncx = column_place.back() + 1;
     raster.ncy = row_place.back() + 1;
-    if (!(static_cast<double>(raster.ncx) * static_cast<double>(raster.ncy) <= limit))
-        return SeedRaster{};
     const auto place = [](const std::vector<std::int64_t>& values,
                           const std::vector<std::int64_t>& places, std::int64_t value) {
         return places[std::lower_bound(values.begin(), values.end(), value) - values.begin()];
     };
+    const double cells = static_cast<double>(raster.ncx) * static_cast<double>(raster.ncy);
+    if (!(cells <= limit)) {
+        if (!(cells <= corridor_limit)) return SeedRaster{};
+        // A corridor: at least kCorridorOccupancy of its cells hold a point. A cloud too
+        // sparse for its cells, or many copies at a few positions, holds far fewer, and
+        // is refused with the advice that follows.
+        std::vector<std::int64_t> occupied(n);
+        for (std::size_t i = 0; i < n; ++i)
+            occupied[i] = place(columns, column_place, column[i]) * raster.ncy +
+                          place(rows, row_place, row[i]);
+        std::sort(occupied.begin(), occupied.end());
+        const auto distinct_cells =
+            static_cast<double>(std::unique(occupied.begin(), occupied.end()) - occupied.begin());
+        if (!(distinct_cells >= kCorridorOccupancy * cells)) return SeedRaster{};
+    }
     raster.lowest.assign(static_cast<std::size_t>(raster.ncx * raster.ncy), -1);
     for (std::size_t i = 0; i < n; ++i) {
         if (i % 65536 == 0) interruption.check_now();
@@ -323,10 +341,11 @@ std::vector<std::uint32_t> morphological_seeds(PointsView points,
     const double limit = 4.0 * static_cast<double>(points.size) + 4194304.0;
     // A corridor across the axes (a road or power line surveyed at 45 degrees) fills
     // every row and column of its box, which no closing of gaps shortens: its raster is
-    // taken up to this many cells (about 1 GiB with the opening's buffers) before it is
-    // refused. Not the first limit: a few far points leave most of a box empty, and the
-    // closed raster of those is far smaller.
-    const double corridor_limit = std::max(limit, 0x1p25);
+    // taken up to 2^25 cells, divided by opening_rank, whose erosion keeps that many
+    // heights per cell (1.6 GB at rank 1, measured on an 8 km strip at 45 degrees), if
+    // enough of its cells hold a point (closed_raster).
+    const double corridor_limit =
+        std::max(limit, 0x1p25 / static_cast<double>(params.opening_rank));
     // Half-width of the opening's windows, in cells; beyond 2^40 (wider than any raster
     // that fits) the result is the same, and the cast stays defined.
     const auto r = static_cast<std::int64_t>(
@@ -341,17 +360,15 @@ std::vector<std::uint32_t> morphological_seeds(PointsView points,
         // The opening reads 2r cells away (an erosion, then a dilation), the outlier test 2;
         // columns and rows beyond 2^62 would not fit the cells' numbers.
         const std::int64_t reach = std::max<std::int64_t>(2 * r, 2);
-        if (ex / cell < 0x1p62 && ey / cell < 0x1p62) {
-            raster = closed_raster(points, origin, cell, reach, limit);
-            if (raster.lowest.empty() && corridor_limit > limit)
-                raster = closed_raster(points, origin, cell, reach, corridor_limit);
-        }
+        if (ex / cell < 0x1p62 && ey / cell < 0x1p62)
+            raster = closed_raster(points, origin, cell, reach, limit, corridor_limit);
         if (raster.lowest.empty())
             throw std::invalid_argument(
                 "seed_cell is too small for the XY extent of the points (" +
                 check::format_value(ex) + " x " + check::format_value(ey) +
-                " m: more than 4 cells per point and 2^25 cells, even with the empty rows "
-                "and columns of cells between them cut short), got " +
+                " m: more than 4 cells per point, even with the empty rows and columns of "
+                "cells between them cut short, and not a corridor of at most 2^25 / "
+                "opening_rank cells, 1 % of them holding a point), got " +
                 check::format_value(cell) + "; set a larger seed_cell");
     }
     const std::int64_t ncx = raster.ncx, ncy = raster.ncy;

@@ -48,10 +48,11 @@ struct ConvexSegmentationParams {
 inline constexpr double kSensorFrameReach = 100.0;
 
 /// The viewpoint used when none is given: the origin when it lies within
-/// kSensorFrameReach diagonals of the points' bounding box, its x and y without stray
-/// points (fenced_box, points.hpp); otherwise an airborne sensor, one diagonal above the
-/// top of that box over its centre ((x_min + x_max) / 2, (y_min + y_max) / 2, z_max +
-/// diagonal). Empty input: the origin.
+/// kSensorFrameReach diagonals of the points' bounding box without stray points (x and
+/// y: fenced_box, points.hpp; z: within the box's XY diagonal, or 4 interquartile
+/// ranges if more, of the z quartiles); otherwise an airborne sensor, one diagonal
+/// above the top of that box over its centre ((x_min + x_max) / 2, (y_min + y_max) / 2,
+/// z_max + diagonal). Empty input: the origin.
 std::array<double, 3> default_viewpoint(PointsView points);
 
 /// Throws std::invalid_argument naming the parameter when a value is out of range.

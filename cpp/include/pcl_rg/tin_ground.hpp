@@ -31,7 +31,8 @@ inline constexpr double kTinStopEdgePerSpacing = 4.0 / kTinFullLengthSpacing;
 inline constexpr double kTinNearVertexPerSpacing = kTinNearVertexCap / kTinFullLengthSpacing;
 inline constexpr double kTinSeedCellPerSpacing = kTinSeedCellCap / kTinFullLengthSpacing;
 /// The largest opening_rank: the rank erosion keeps that many heights per seed cell
-/// (8 bytes each; the seed raster has at most 4 cells per point + 2^22).
+/// (8 bytes each; the seed raster has at most 4 cells per point + 2^22, or a corridor's
+/// 2^25 / opening_rank).
 inline constexpr std::int64_t kTinMaxOpeningRank = 8;
 inline constexpr double kTinFinalCellPerSpacing = kTinFinalCellCap / kTinFullLengthSpacing;
 

@@ -18,7 +18,8 @@ namespace pcl_rg {
 /// `params` must have seed_cell set (tin_ground passes with_spacing(...)). The
 /// morphological seeds' raster leaves out long empty runs of cells when the full one
 /// would exceed 4 cells per point (a few points far from the rest), which changes no
-/// seed; it throws std::invalid_argument when even that raster is too large.
+/// seed; it throws std::invalid_argument when even that raster is too large, unless it
+/// is a corridor's (at most 2^25 / opening_rank cells, 1 % of them holding a point).
 std::vector<std::uint32_t> tin_seeds(PointsView points, const TinGroundParams& params,
                                      const std::array<double, 3>& origin,
                                      const std::array<double, 3>& upper);

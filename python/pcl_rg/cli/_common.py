@@ -292,7 +292,7 @@ def read_input(
     if clashing and to_las:  # said now, not after the work
         raise CliError(
             f"{args.input}: field {clashing[0]!r} would be taken for a coordinate in "
-            f"{args.output!r} (LAS names X, Y and Z in any case); write PCD or PLY"
+            f"{args.output!r} (LAS names X, Y and Z in any case); write PLY, PCD or XYZ"
         )
     withheld = finite & withheld_mask(cloud)
     valid = finite & ~withheld

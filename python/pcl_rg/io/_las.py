@@ -239,7 +239,7 @@ def _write_las(
         if las_coordinate_name(key):
             raise ValueError(
                 f"fields[{key!r}]: LAS names its coordinates X, Y and Z in any case, so no "
-                "field can have that name; rename it, or write PLY or PCD"
+                "field can have that name; rename it, or write PLY, PCD or XYZ"
             )
         if key in standard:
             continue

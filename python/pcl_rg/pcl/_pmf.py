@@ -114,7 +114,9 @@ def progressive_morphological_filter(
         2^24 cells on an axis, or (approximate) grids of more than 2^28 cells
         or more than 1e11 cell comparisons, or (point-wise) more than 1e10
         points collected from the octree: every point gathers the points of a
-        box one window wide, twice per window, which PCL cannot interrupt.
+        box one window wide, twice per window, which PCL cannot interrupt
+        (counted from the points in cells a quarter window wide, which can
+        exceed PCL's count by up to a half for evenly spread points).
         PCL would loop, abort, exhaust memory or run for minutes there.
     %(type_error)s
 

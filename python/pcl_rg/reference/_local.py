@@ -6,6 +6,7 @@ import numpy as np
 
 __all__ = [
     "FLOAT32_REACH",
+    "ORIGIN_FENCE",
     "fenced_box",
     "float32_origin",
     "local_frame",

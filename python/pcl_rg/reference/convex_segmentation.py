@@ -13,7 +13,7 @@ from .._far_points import check_fewer_than_kept
 from .._params import resolve_arguments
 from .._region_growing import RegionGrowingParams
 from .._validation import as_points
-from ._local import fenced_box, near_rows
+from ._local import ORIGIN_FENCE, fenced_box, near_rows
 from .normals import neighbour_lists, normals
 from .point_scale import point_scale
 from .region_growing import grow_regions
@@ -27,14 +27,22 @@ SENSOR_FRAME_REACH = 100.0
 
 def default_viewpoint(points: np.ndarray) -> tuple[float, float, float]:
     """The viewpoint used when none is given: the origin when it lies within
-    `SENSOR_FRAME_REACH` diagonals of the points' bounding box, its x and y without
-    stray points (:func:`~pcl_rg.reference._local.fenced_box`; a sensor's own frame),
-    else one diagonal above the top of that box over its centre (an airborne sensor).
-    z is whole: an airborne tile's roofs and trees lie beyond the fence of its ground."""
+    `SENSOR_FRAME_REACH` diagonals of the points' bounding box without stray points (a
+    sensor's own frame), else one diagonal above the top of that box over its centre
+    (an airborne sensor). x and y: :func:`~pcl_rg.reference._local.fenced_box`; z:
+    within the box's XY diagonal (or 4 interquartile ranges, if more) of the z
+    quartiles, which keeps an airborne tile's roofs and trees, beyond the fence of its
+    ground, and leaves out a no-data height or a bad fix kilometres up."""
     if len(points) == 0:
         return (0.0, 0.0, 0.0)
     low, high = fenced_box(points)
-    low[2], high[2] = points[:, 2].min(), points[:, 2].max()
+    z = points[:, 2]
+    first, third = (len(z) - 1) // 4, 3 * (len(z) - 1) // 4
+    quartiles = np.partition(z, [first, third])
+    q1, q3 = quartiles[first], quartiles[third]
+    reach = max(math.hypot(high[0] - low[0], high[1] - low[1]), ORIGIN_FENCE * (q3 - q1))
+    low[2] = z[z >= q1 - reach].min()
+    high[2] = z[z <= q3 + reach].max()
     # As the core computes them: squares of a far stray point overflow to inf there too
     # (without a word), and the step that follows refuses the cloud.
     with np.errstate(over="ignore"):

@@ -194,9 +194,14 @@ def _close_gaps(index: np.ndarray, reach: int) -> tuple[np.ndarray, int]:
 
 
 def _raster_limit(points: int) -> float:
-    """The most cells the seed raster may have, as in the core: 4 per point + 2^22, or
-    2^25 (a corridor across the axes, whose rows and columns are all occupied)."""
-    return max(4.0 * points + 4194304.0, 2.0**25)
+    """The most cells the seed raster may have, as in the core: 4 per point + 2^22."""
+    return 4.0 * points + 4194304.0
+
+
+#: A corridor across the axes fills every row and column of its box: its seed raster
+#: may hold up to 2^25 / opening_rank cells when at least this share of them hold a
+#: point (the core's kCorridorOccupancy, tin_seeds.cpp).
+CORRIDOR_OCCUPANCY = 0.01
 
 
 def _morphological_seeds(
@@ -220,12 +225,17 @@ def _morphological_seeds(
     if fits:
         column, ncx = _close_gaps(np.floor(local[:, 0] / cell).astype(np.int64), max(2 * r, 2))
         row, ncy = _close_gaps(np.floor(local[:, 1] / cell).astype(np.int64), max(2 * r, 2))
-        fits = float(ncx) * float(ncy) <= limit
+        cells = float(ncx) * float(ncy)
+        corridor = max(limit, 2.0**25 / p.opening_rank)
+        fits = cells <= limit or (
+            cells <= corridor and np.unique(column * ncy + row).size >= CORRIDOR_OCCUPANCY * cells
+        )
     if not fits:
         raise ValueError(
             f"seed_cell is too small for the XY extent of the points ({ex:g} x {ey:g} m: more "
-            "than 4 cells per point and 2^25 cells, even with the empty rows and columns of "
-            f"cells between them cut short), got {cell:g}; set a larger seed_cell"
+            "than 4 cells per point, even with the empty rows and columns of cells between "
+            "them cut short, and not a corridor of at most 2^25 / opening_rank cells, 1 % of "
+            f"them holding a point), got {cell:g}; set a larger seed_cell"
         )
     lowest, cells = _lowest_in_cells(xyz, column * ncy + row)
     height = np.full(ncx * ncy, np.inf)
