@@ -278,7 +278,8 @@ std::vector<std::int64_t> close_gaps(const std::vector<std::int64_t>& occupied,
 // occupied cell's offset to every occupied cell within that reach, and keeps the others
 // beyond it, so every occupied cell sees the same neighbourhood as in the full raster:
 // the seeds are the same. Empty = too large: ncx * ncy > limit, unless it is a
-// corridor's raster (corridor_seed_cells) of at most corridor_limit cells.
+// corridor's raster (kCorridorOccupancy of its cells hold a point) of at most
+// corridor_limit cells.
 SeedRaster closed_raster(PointsView points, const std::array<double, 3>& origin, double cell,
                          std::int64_t reach, double limit, double corridor_limit) {
     const std::size_t n = points.size;
