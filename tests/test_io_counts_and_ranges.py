@@ -250,3 +250,26 @@ def test_ply_template_float32_refuses_coordinates_beyond_float32(tmp_path, encod
         huge = np.array([[-1.7976931348623157e308, 1e308, 5e-324]])
         write_points(tmp_path / f"h.{ext}", huge)
         np.testing.assert_array_equal(read_points(tmp_path / f"h.{ext}").points, huge)
+
+
+@pytest.mark.parametrize("ext", ["las", "laz"])
+def test_las14_point_counts_that_disagree_are_refused(tmp_path, ext):
+    # LAS 1.4 with the 64-bit count 0 and the legacy count 3000: the LAZ read 0 points
+    # and pcl-rg wrote an empty output with exit 0 (LAS/LAZ hunt).
+    import struct
+
+    import laspy
+
+    las = laspy.create(point_format=1, file_version="1.4")
+    las.x, las.y, las.z = np.arange(3000) % 60, np.arange(3000) // 60, np.zeros(3000)
+    las.write(tmp_path / f"ok.{ext}")
+    assert len(read_points(tmp_path / f"ok.{ext}")) == 3000
+    raw = bytearray((tmp_path / f"ok.{ext}").read_bytes())
+    assert struct.unpack_from("<I", raw, 107)[0] in (0, 3000)
+    struct.pack_into("<I", raw, 107, 3000)  # the legacy count, as LAStools writes it
+    (tmp_path / f"legacy.{ext}").write_bytes(raw)
+    assert len(read_points(tmp_path / f"legacy.{ext}")) == 3000
+    struct.pack_into("<Q", raw, 247, 0)  # the LAS 1.4 count
+    (tmp_path / f"bad.{ext}").write_bytes(raw)
+    with pytest.raises(ValueError, match="point counts disagree: 0 .LAS 1.4. against 3000"):
+        read_points(tmp_path / f"bad.{ext}")

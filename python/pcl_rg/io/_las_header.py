@@ -138,6 +138,15 @@ def check_las_header(path: str, stream: BinaryIO) -> LasFacts:
     evlr_start = evlr_count = 0
     if minor >= 4:
         evlr_start, evlr_count, point_count = struct.unpack_from("<QIQ", head, 235)
+        # LAS 1.4 keeps the legacy count equal to the count, or 0 (more than 2^32 - 1
+        # points, or formats 6-10). Another value is a damaged header: the count read
+        # would be a guess, and 0 of them gave an empty output without a word.
+        if legacy_count not in (0, point_count):
+            raise _bad(
+                path,
+                f"header's point counts disagree: {point_count} (LAS 1.4) against "
+                f"{legacy_count} (legacy); a damaged header?",
+            )
 
     vlr_room = data_offset - header_size
     if vlr_count * _VLR_HEADER > vlr_room:
