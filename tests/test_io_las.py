@@ -328,3 +328,26 @@ def test_an_extra_bytes_name_over_32_bytes_is_refused_naming_the_field(tmp_path)
     ):
         write_points(tmp_path / "long.las", np.zeros((3, 3)), {too_long: np.arange(3)})
     assert sorted(p.name for p in tmp_path.iterdir()) == ["ok.las"]
+
+
+@pytest.mark.parametrize("ext", ["las", "laz"])
+def test_a_copc_template_writes_plain_las(tmp_path, ext):
+    # COPC read, but every write in its layout failed after the work ("Writing COPC is
+    # not supported"), even to .las (LAS/LAZ hunt). The index would not describe the
+    # points written: it is left out.
+    import struct
+
+    from laspy.vlrs.vlr import VLR
+
+    rng = np.random.default_rng(0)
+    las = laspy.create(point_format=6, file_version="1.4")
+    las.x, las.y, las.z = rng.uniform(0, 50, 300), rng.uniform(0, 50, 300), rng.uniform(0, 1, 300)
+    info = struct.pack("<5d2Q2d11Q", 25, 25, 25, 26, 1, 0, 32, 0, 0, *[0] * 11)
+    las.header.vlrs.insert(0, VLR("copc", 1, "copc info", info))
+    las.evlrs = VLRList([VLR("copc", 1000, "EPT hierarchy", bytes(32))])
+    las.write(tmp_path / "tile.copc.laz")
+    cloud = read_points(tmp_path / "tile.copc.laz")
+    write_points(tmp_path / f"out.{ext}", cloud.points, cloud.fields, template=cloud)
+    out = laspy.read(tmp_path / f"out.{ext}")
+    assert not [v for v in [*out.header.vlrs, *(out.header.evlrs or [])] if v.user_id == "copc"]
+    np.testing.assert_allclose(read_points(tmp_path / f"out.{ext}").points, cloud.points)

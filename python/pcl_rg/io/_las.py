@@ -222,6 +222,13 @@ def _write_las(
             # laspy reads LAS 1.0 but writes 1.1 and later only. 1.2 has 1.0's point
             # formats (0 and 1) and header fields, with what 1.0 kept reserved.
             header.version = laspy.header.Version(1, 2)
+        # A COPC file is LAZ with an octree index of its points in a "copc" VLR and
+        # EVLR. laspy writes no COPC, and the index would not describe these points:
+        # the output is plain LAS/LAZ (it failed after the work, even as .las).
+        lists = laspy.vlrs.vlrlist.VLRList
+        header.vlrs = lists(v for v in header.vlrs if v.user_id != "copc")
+        if header.evlrs is not None:
+            header.evlrs = lists(v for v in header.evlrs if v.user_id != "copc")
     else:
         with np.errstate(over="ignore", invalid="ignore"):  # checked right after
             header = _new_las_header(laspy, xyz, set(columns))
