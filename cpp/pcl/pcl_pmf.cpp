@@ -83,7 +83,7 @@ double collected_at_most(const pcl::PointCloud<pcl::PointXYZ>& cloud, float wind
         double around = 0.0;
         for (std::int64_t dx = -2; dx <= 2; ++dx)
             for (std::int64_t dy = -2; dy <= 2; ++dy) {
-                const std::int64_t other = cells[c] + (dx << 32) + dy;
+                const std::int64_t other = cells[c] + dx * (std::int64_t{1} << 32) + dy;
                 const auto found = std::lower_bound(cells.begin(), cells.end(), other);
                 if (found != cells.end() && *found == other)
                     around += static_cast<double>(counts[found - cells.begin()]);
