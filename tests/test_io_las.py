@@ -351,3 +351,30 @@ def test_a_copc_template_writes_plain_las(tmp_path, ext):
     out = laspy.read(tmp_path / f"out.{ext}")
     assert not [v for v in [*out.header.vlrs, *(out.header.evlrs or [])] if v.user_id == "copc"]
     np.testing.assert_allclose(read_points(tmp_path / f"out.{ext}").points, cloud.points)
+
+
+def test_extra_bytes_of_several_values_with_their_own_scales_round_trip(tmp_path):
+    # laspy's range check took the largest value of all columns against each column's
+    # limit: amp = (0, 1000) at scales (1, 10) was refused after the work (LAS/LAZ hunt).
+    header = laspy.LasHeader(point_format=6, version="1.4")
+    header.add_extra_dims(
+        [
+            laspy.ExtraBytesParams("amp", "2u1", scales=np.array([1.0, 10.0]), offsets=np.zeros(2)),
+            laspy.ExtraBytesParams(
+                "pos", "3i2", scales=np.ones(3), offsets=np.array([1.0, 2.0, 3.0])
+            ),
+        ]
+    )
+    las = laspy.LasData(header)
+    las.x, las.y, las.z = np.arange(100.0) % 10, np.arange(100.0) // 10, np.zeros(100)
+    las.points.array["amp"] = np.tile([[0, 100]], (100, 1)).astype(np.uint8)
+    las.points.array["pos"] = np.tile([[30000, -30000, 5]], (100, 1)).astype(np.int16)
+    las.write(tmp_path / "in.las")
+    cloud = read_points(tmp_path / "in.las")
+    write_points(tmp_path / "out.las", cloud.points, cloud.fields, template=cloud)
+    out = laspy.read(tmp_path / "out.las")
+    for name in ("amp", "pos"):
+        np.testing.assert_array_equal(out.points.array[name], las.points.array[name])
+    too_big = dict(cloud.fields, amp=cloud.fields["amp"] * [1, 3])  # 3000 / 10 > 255
+    with pytest.raises(ValueError, match=r"fields\['amp'\] cannot be stored in LAS"):
+        write_points(tmp_path / "big.las", cloud.points, too_big, template=cloud)

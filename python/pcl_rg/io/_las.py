@@ -318,6 +318,23 @@ def _write_las(
             offset = 0.0 if dim.offsets is None else np.asarray(dim.offsets, np.float64)
             record.array[key] = (values - offset) / scale
             continue
+        if dim.is_scaled and values.ndim == 2:
+            # laspy's range check of a scaled dimension of several values compares the
+            # largest of them with each value's own limit: values of different scales
+            # (or offsets) were refused. Stored per value, as laspy stores one.
+            scale = 1.0 if dim.scales is None else np.asarray(dim.scales, np.float64)
+            offset = 0.0 if dim.offsets is None else np.asarray(dim.offsets, np.float64)
+            with np.errstate(over="ignore", invalid="ignore"):
+                stored = np.round((values - offset) / scale)
+            limits = np.iinfo(record.array.dtype.fields[key][0].base)
+            if n and not (np.isfinite(stored).all() and limits.min <= stored.min()
+                          and stored.max() <= limits.max):  # fmt: skip
+                raise ValueError(
+                    f"fields[{key!r}] cannot be stored in LAS: its values do not fit "
+                    f"{limits.dtype} after its scales {scale} and offsets {offset}"
+                )
+            record.array[key] = stored
+            continue
         try:
             record[key] = values
         except (OverflowError, ValueError) as error:
