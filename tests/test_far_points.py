@@ -203,7 +203,7 @@ def full_raster_seeds(
     points: np.ndarray, params: pcl_rg.TinGroundParams, monkeypatch: pytest.MonkeyPatch
 ) -> np.ndarray:
     """The reference's seeds with no empty run cut and no size limit: the oracle."""
-    module = sys.modules["pcl_rg.reference.tin_ground"]
+    module = sys.modules["pcl_rg.reference._tin_seeds"]
     closing = module._close_gaps
     with monkeypatch.context() as patch:
         patch.setattr(module, "_close_gaps", lambda index, reach: closing(index, 2**62))

@@ -6,7 +6,7 @@
 // Photogrammetry and Remote Sensing 117, 2016. Definition: docs/algorithms.md section 4.
 //
 // The steps, and the choices that make the result exact and order-independent (the
-// NumPy reference in pcl_rg/reference/tin_ground.py implements the same):
+// NumPy reference in pcl_rg/reference/tin_ground.py and _tin_seeds.py does the same):
 //   1. XY is snapped to the integer grid of a GridFrame over the extent (delaunay.hpp;
 //      quantum <= extent / 2^29, micrometres for kilometre tiles), in which the TIN's
 //      predicates are exact. Heights stay float64 relative to the minimum corner.
