@@ -40,7 +40,8 @@ def check_triangulation(tin: _core.DelaunayTin) -> None:
     tri = tin.triangles.tolist()
     nbr = tin.neighbors.tolist()
     width, height = v[2]
-    assert len(tri) == 2 * len(v) - 6  # Euler, with the 4 box corners on the hull
+    hull = sum(x in (0, width) or y in (0, height) for x, y in v)
+    assert len(tri) == 2 * len(v) - hull - 2  # Euler: the box corners and border vertices
     twice_area = 0
     for t, (a, b, c) in enumerate(tri):
         area = orient(v[a], v[b], v[c])
@@ -215,6 +216,37 @@ def test_points_on_edges_and_box_sides() -> None:
     mids = np.array([(3.0, 2.0), (2.0, 3.0), (3.0, 3.0), (5.0, 5.0), (0.0, 0.0), (10.0, 5.0)])
     tin.insert(mids)
     check_triangulation(tin)
+
+
+def test_border_vertices_split_the_box_sides_whatever_the_order() -> None:
+    # Virtual vertices on the box's sides (tin_ground's border_vertices): each splits
+    # the triangle on its stretch of the side. Before or after the points, the
+    # triangulation is the same valid Delaunay one, and qhull's (with the reference's
+    # flips) on the same vertices; a corner or a repeat gives the existing vertex.
+    points = np.random.default_rng(8).uniform(0.0, 10.0, (80, 2))
+    probe = _core.DelaunayTin(0.0, 0.0, 10.0, 10.0)
+    width, height = probe.vertices[2]
+    border = np.array(
+        [(width // 3, 0), (width // 2, height), (0, height // 4), (width, 1), (width, height - 1)]
+        + [(width // 3, 0), (0, 0), (width, height)],
+        dtype=np.int32,
+    )
+    first, _ = build(np.empty((0, 2)))
+    ids = first.insert_on_border(border)
+    assert ids[5] == ids[0] and ids[6] == 0 and ids[7] == 2  # repeat and corners
+    first.insert(points)
+    last, _ = build(points)
+    last.insert_on_border(border[::-1].copy())
+    for tin in (first, last):
+        check_triangulation(tin)
+        assert len(tin.vertices) == 4 + 5 + len(points)
+    assert triangles_by_position(first).tolist() == triangles_by_position(last).tolist()
+    vertices = first.vertices.astype(np.int64)
+    tri, _, _ = reference_triangulate(vertices[:, 0], vertices[:, 1], 1.0)
+    corners = vertices[tri]
+    assert as_sets(corners) == as_sets(vertices[first.triangles])
+    with pytest.raises(ValueError, match="on the box"):
+        first.insert_on_border(np.array([[1, 1]], dtype=np.int32))
 
 
 def test_location_breaks_ties_by_the_perturbation() -> None:

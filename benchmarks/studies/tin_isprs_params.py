@@ -139,6 +139,7 @@ IMPROVEMENTS = {
     "near_vertex_distance": 0.0,
     "seed_cell": 0.0,
     "outlier_depth": 0.0,
+    "border_vertices": False,
     "final_cell": 0.0,
 }
 
@@ -197,6 +198,7 @@ def search(samples, rule: str = RULE, selection: str = SELECTION) -> tuple[Scale
         iteration_angle=30.0,
         reduce_angle_edge=0.01,
         outlier_depth=4.0,
+        border_vertices=True,
         **fixed,
     )
     start = _start({"stop_edge": 0.01, "near_vertex_distance": 1.0, "seed_cell": 2.0}, scaled, base)
@@ -281,7 +283,7 @@ def report(samples, command: str, compare: bool = False) -> str:
     ]
     ablation.append(
         [
-            "all four",
+            f"all {len(IMPROVEMENTS)}",
             f"{100 * mean_total(samples, dataclasses.replace(tuned, **IMPROVEMENTS)):.2f}",
         ]
     )

@@ -60,6 +60,20 @@ void bind_delaunay(py::module_& m) {
             "a duplicate). batch: through Delaunay::insert_batch, the same triangulation with "
             "other ids, where the ids of points found on a vertex stay unused (dead_vertices), "
             "as do their triangle rows (live).")
+        .def(
+            "insert_on_border",
+            [](DelaunayTin& self, const py::array_t<std::int32_t, py::array::c_style>& grid) {
+                if (grid.ndim() != 2 || grid.shape(1) != 2)
+                    throw std::invalid_argument("grid must have shape (M, 2)");
+                const auto m = static_cast<std::size_t>(grid.shape(0));
+                py::array_t<std::int32_t> vertex(static_cast<py::ssize_t>(m));
+                self.insert_on_border(grid.data(), m, vertex.mutable_data());
+                return vertex;
+            },
+            py::arg("grid").noconvert(),
+            "Insert grid points (M, 2) int32 on the box's border (x in {0, width} or y in {0, "
+            "height}) in order; the vertex id of each (a corner's or an earlier one's when "
+            "it is one).")
         .def_property_readonly("dead_vertices",
                                [](const DelaunayTin& self) { return self.tin.dead_vertex_count(); })
         .def_property_readonly("live",

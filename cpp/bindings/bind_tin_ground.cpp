@@ -22,6 +22,7 @@ void bind_tin_ground(py::module_& m) {
         .def_readwrite("seed_tolerance", &TinGroundParams::seed_tolerance)
         .def_readwrite("outlier_depth", &TinGroundParams::outlier_depth)
         .def_readwrite("opening_rank", &TinGroundParams::opening_rank)
+        .def_readwrite("border_vertices", &TinGroundParams::border_vertices)
         .def_readwrite("final_cell", &TinGroundParams::final_cell)
         .def_readwrite("final_above", &TinGroundParams::final_above)
         .def_readwrite("final_below", &TinGroundParams::final_below)

@@ -375,6 +375,51 @@ std::int32_t Delaunay::insert_point(std::int32_t x, std::int32_t y, std::int32_t
     return p;
 }
 
+std::int32_t Delaunay::insert_on_border(std::int32_t x, std::int32_t y, bool* inserted) {
+    if (broken_) throw std::logic_error("Delaunay: unusable after an interrupted batch");
+    const std::int32_t width = xy_[2].x, height = xy_[2].y;
+    const bool on_side = (x == 0 || x == width) ? (y >= 0 && y <= height)
+                                                : ((y == 0 || y == height) && x > 0 && x < width);
+    if (!on_side) throw std::invalid_argument("Delaunay: a border point must lie on the box");
+    // The triangle whose border edge (no neighbour across it) holds p.
+    for (std::size_t slot = 0; slot < triangles_; ++slot) {
+        const auto t = static_cast<std::int32_t>(slot);
+        if (!live(t)) continue;
+        const Triangle tr = tri_[t];
+        for (int k = 0; k < 3; ++k) {
+            if (tr.n[k] >= 0) continue;
+            const std::int32_t w0 = tr.v[k], w1 = tr.v[(k + 1) % 3], w2 = tr.v[(k + 2) % 3];
+            const Vertex a = xy_[w1], b = xy_[w2];
+            if (orient2d(a.x, a.y, b.x, b.y, x, y) != 0) continue;
+            if ((x == a.x && y == a.y) || (x == b.x && y == b.y)) {
+                *inserted = false;
+                return x == a.x && y == a.y ? w1 : w2;
+            }
+            const bool between = a.x == b.x ? (std::min(a.y, b.y) < y && y < std::max(a.y, b.y))
+                                            : (std::min(a.x, b.x) < x && x < std::max(a.x, b.x));
+            if (!between) continue;
+            if (xy_.size() >= static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max()))
+                throw std::length_error("Delaunay: too many vertices for 32-bit ids");
+            const auto p = static_cast<std::int32_t>(xy_.size());
+            xy_.push_back({x, y});
+            vt_.push_back(t);
+            *inserted = true;
+            // (w0, w1, p) and (w0, p, w2), p first in each; their sides on the border
+            // have no neighbour.
+            const std::int32_t n1 = tr.n[(k + 1) % 3], n2 = tr.n[(k + 2) % 3];
+            const std::int32_t t1 = t, t2 = new_slot();
+            write(t1, p, w0, w1, n2, -1, t2);
+            write(t2, p, w2, w0, n1, t1, -1);
+            relink(n1, t, t2);
+            stack_.clear();
+            stack_.push_back(t1), stack_.push_back(t2);
+            legalize(p);
+            return p;
+        }
+    }
+    throw std::logic_error("Delaunay: no border edge holds the point");
+}
+
 void Delaunay::legalize(std::int32_t p) {
     // Every triangle on the stack has p as vertex 0; check the edge opposite p.
     const Vertex pv = xy_[p];
@@ -429,6 +474,14 @@ void DelaunayTin::insert(const std::int32_t* grid, std::size_t m, std::int32_t* 
     for (std::size_t i = 0; i < m; ++i) {
         bool inserted = false;
         vertex[i] = tin.insert(grid[2 * i], grid[2 * i + 1], last, &inserted);
+        last = tin.vertex_triangle(vertex[i]);
+    }
+}
+
+void DelaunayTin::insert_on_border(const std::int32_t* grid, std::size_t m, std::int32_t* vertex) {
+    for (std::size_t i = 0; i < m; ++i) {
+        bool inserted = false;
+        vertex[i] = tin.insert_on_border(grid[2 * i], grid[2 * i + 1], &inserted);
         last = tin.vertex_triangle(vertex[i]);
     }
 }

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <limits>
 #include <vector>
@@ -91,6 +92,103 @@ std::array<std::size_t, 4> nearest_to_corners(const GridFrame& frame, std::size_
         for (int c = 0; c < 4; ++c)
             if (b == 0 || before(c, block_nearest[b][c], nearest[c]))
                 nearest[c] = block_nearest[b][c];
+    return nearest;
+}
+
+// A point of the TIN's integer grid.
+struct GridPoint {
+    std::int32_t x, y;
+};
+
+// The most parts border_points cuts a side into (a corridor 2,600 km long at 40 m).
+inline constexpr std::int64_t kMaxBorderParts = 65536;
+
+// The virtual vertices on the sides of `frame`'s box besides its corners. The sides along
+// x are cut into parts = min(max(floor(extent_x / spacing), 1), kMaxBorderParts) equal
+// parts, at grid x = floor(j * width / parts), j = 1 .. parts - 1, and so the sides along
+// y (extents and spacing in metres, spacing > 0): vertices at least `spacing` and less
+// than twice it apart, none on a side shorter than twice it (a tile about square gets
+// none). In the order: y = 0 by x, y = height by x, x = 0 by y, x = width by y.
+inline std::vector<GridPoint> border_points(const GridFrame& frame, double extent_x,
+                                            double extent_y, double spacing) {
+    std::vector<GridPoint> out;
+    const auto parts_of = [&](double extent) {
+        const double parts = std::floor(extent / spacing);
+        if (!(parts >= 1.0)) return std::int64_t{1};
+        return parts >= static_cast<double>(kMaxBorderParts) ? kMaxBorderParts
+                                                             : static_cast<std::int64_t>(parts);
+    };
+    const std::int64_t along_x = parts_of(extent_x), along_y = parts_of(extent_y);
+    for (const std::int32_t y : {std::int32_t{0}, frame.height})
+        for (std::int64_t j = 1; j < along_x; ++j)
+            out.push_back({static_cast<std::int32_t>(j * frame.width / along_x), y});
+    for (const std::int32_t x : {std::int32_t{0}, frame.width})
+        for (std::int64_t j = 1; j < along_y; ++j)
+            out.push_back({x, static_cast<std::int32_t>(j * frame.height / along_y)});
+    return out;
+}
+
+// Of `count` candidates (as for nearest_to_corners), the k of the one nearest to each of
+// `targets`, points of the box's sides (border_points), by the order of
+// nearest_to_corners. Candidates sorted along the side are scanned outwards from the
+// target until the distance along it alone exceeds the nearest so far: a corridor's
+// side vertices each look at the candidates across the corridor near them, not at all.
+template <class GridX, class GridY, class Height, class Index>
+std::vector<std::size_t> nearest_to_border(const GridFrame& frame,
+                                           const std::vector<GridPoint>& targets, std::size_t count,
+                                           GridX gx, GridY gy, Height z, Index index) {
+    std::vector<std::size_t> nearest(targets.size(), 0);
+    if (targets.empty() || count == 0) return nearest;
+    // Candidates by grid x (for the sides y = 0 and y = height) and by grid y, each key
+    // the coordinate above the candidate's k.
+    std::vector<std::uint64_t> by_axis[2];
+    for (int axis = 0; axis < 2; ++axis) {
+        const bool used = std::any_of(targets.begin(), targets.end(), [&](const GridPoint& p) {
+            return axis == 0 ? (p.y == 0 || p.y == frame.height) && p.x != 0 && p.x != frame.width
+                             : (p.x == 0 || p.x == frame.width);
+        });
+        if (!used) continue;
+        by_axis[axis].resize(count);
+        for (std::size_t k = 0; k < count; ++k) {
+            const std::int64_t u = axis == 0 ? gx(k) : gy(k);
+            by_axis[axis][k] = static_cast<std::uint64_t>(u) << 32 | static_cast<std::uint64_t>(k);
+        }
+        std::sort(by_axis[axis].begin(), by_axis[axis].end());
+    }
+    const auto total = static_cast<std::ptrdiff_t>(targets.size());
+#pragma omp parallel for schedule(dynamic, 16) if (total > 64)
+    for (std::ptrdiff_t t = 0; t < total; ++t) {
+        const GridPoint p = targets[t];
+        const int axis = (p.x == 0 || p.x == frame.width) ? 1 : 0;
+        const std::vector<std::uint64_t>& keys = by_axis[axis];
+        const std::int64_t along = axis == 0 ? p.x : p.y;
+        const auto d2 = [&](std::size_t k) {
+            const std::int64_t dx = gx(k) - p.x, dy = gy(k) - p.y;
+            return dx * dx + dy * dy;
+        };
+        // k before j: nearer, then lower, then smaller index (nearest_to_corners's order).
+        const auto before = [&](std::size_t k, std::size_t j) {
+            const std::int64_t dk = d2(k), dj = d2(j);
+            if (dk != dj) return dk < dj;
+            const double zk = z(k), zj = z(j);
+            return zk < zj || (zk == zj && index(k) < index(j));
+        };
+        std::size_t best = count;  // none yet
+        const auto consider = [&](std::uint64_t key) {
+            const auto k = static_cast<std::size_t>(key & 0xffffffffu);
+            const std::int64_t du = static_cast<std::int64_t>(key >> 32) - along;
+            if (best < count && du * du > d2(best)) return false;  // and so every further one
+            if (best == count || before(k, best)) best = k;
+            return true;
+        };
+        const auto first =
+            std::lower_bound(keys.begin(), keys.end(), static_cast<std::uint64_t>(along) << 32);
+        for (auto it = first; it != keys.end() && consider(*it); ++it) {
+        }
+        for (auto it = first; it != keys.begin() && consider(*(it - 1)); --it) {
+        }
+        nearest[t] = best;
+    }
     return nearest;
 }
 

@@ -16,8 +16,10 @@
 //      four corners of the extent, one grid step outside it, are virtual vertices at
 //      the height of their nearest seed (exact squared grid distance, ties: the lowest,
 //      so the height does not depend on the order of the points), so every point lies
-//      inside the TIN. Seeds are ground; of seeds sharing
-//      an XY, the smallest index is inserted.
+//      inside the TIN; with border_vertices, so are points along the box's long sides
+//      (ground_tin.hpp: border_points, nearest_to_border), inserted on the box's border
+//      before the seeds. Seeds are ground; of seeds sharing an XY, the smallest index is
+//      inserted.
 //   3. Each iteration tests every unclassified point against the TIN as it was when
 //      the iteration began, in the triangle holding p + (eps, eps^2) (delaunay.hpp):
 //        d = distance from p to the triangle's plane,
@@ -51,6 +53,9 @@
 //   * opening_rank: the opening's erosion takes the opening_rank-th lowest cell of each
 //     window (rank-order morphology), so a few low cells cannot drag the opened surface
 //     down, and drop the seeds, across a whole window.
+//   * border_vertices: virtual vertices along the box's long sides too, so that along a
+//     corridor the border triangles do not reach to corners kilometres away, across the
+//     strip by the uphill side that the seeds' clipped opening leaves without seeds.
 //   * final_cell: a final pass (final_pass.cpp, shared with grid_ground) classifies every
 //     point again by its height above a TIN of the lowest ground point of each cell.
 //
@@ -254,14 +259,34 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
             [&](std::size_t k) { return seeds[k]; });
         for (int c = 0; c < 4; ++c) corner_z[c] = points.coord(seeds[nearest[c]], 2) - origin[2];
     }
+    // Virtual vertices along the long sides of the box as well, at the height of their
+    // nearest seed in the same way.
+    std::vector<ground_tin::GridPoint> border;
+    std::vector<double> border_z;
+    if (params.border_vertices) {
+        border = ground_tin::border_points(frame, ex, ey,
+                                           std::max(params.max_building_size, std::min(ex, ey)));
+        const std::vector<std::size_t> nearest = ground_tin::nearest_to_border(
+            frame, border, seeds.size(), [&](std::size_t k) { return seed_x[k]; },
+            [&](std::size_t k) { return seed_y[k]; },
+            [&](std::size_t k) { return points.coord(seeds[k], 2); },
+            [&](std::size_t k) { return seeds[k]; });
+        for (const std::size_t k : nearest)
+            border_z.push_back(points.coord(seeds[k], 2) - origin[2]);
+    }
     stats.prepare_seconds = seconds_since(clock);
     clock = std::chrono::steady_clock::now();
 
     // --- 3. initial TIN: virtual corners, then the seeds ------------------------------
     Delaunay tin(frame.width, frame.height);
-    tin.reserve(n + 4);  // every point may become a vertex: the arrays never move
+    tin.reserve(n + 4 + border.size());  // every point may become a vertex: the arrays never move
     std::vector<double> vz(corner_z.begin(), corner_z.end());
-    vz.reserve(n + 4);
+    vz.reserve(n + 4 + border.size());
+    for (std::size_t b = 0; b < border.size(); ++b) {
+        bool inserted = false;
+        tin.insert_on_border(border[b].x, border[b].y, &inserted);
+        if (inserted) vz.push_back(border_z[b]);
+    }
     // Inserts the points at sorted positions `batch` (in sorted order) into the TIN and
     // gives each new vertex its point's height: of points of one grid XY, which share a
     // vertex, the first in that order, which keeps them in index order (a stable sort by

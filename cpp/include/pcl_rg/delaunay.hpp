@@ -141,7 +141,8 @@ std::vector<std::uint32_t> morton_order_2d(const std::int32_t* gx, const std::in
 /// built by incremental insertion (Lawson flips) with exact predicates.
 ///
 /// Vertices 0..3 are the box corners (0,0), (width,0), (width,height), (0,height);
-/// they make the convex hull, so every point of the box lies in some triangle.
+/// they make the convex hull (with any vertices insert_on_border adds on its sides), so
+/// every point of the box lies in some triangle.
 /// Triangles are counter-clockwise vertex triples; neighbour i lies across the edge
 /// opposite vertex i (-1 on the box). Triangle slots are never freed: an insertion
 /// rewrites the slots it destroys and appends the rest, so a slot id stays a valid
@@ -164,6 +165,13 @@ class Delaunay {
     /// its vertex id. A point equal to an existing vertex is not inserted: that
     /// vertex's id is returned and *inserted is set to false.
     std::int32_t insert(std::int32_t x, std::int32_t y, std::int32_t start, bool* inserted);
+
+    /// Inserts p, a point of the box's border other than a corner (x in {0, width} or y in
+    /// {0, height}), splitting the triangle on that stretch of the border in two, and
+    /// restores the Delaunay property; returns its vertex id (an existing vertex's, with
+    /// *inserted false, when p is one). Finds the triangle by a scan of all of them: for
+    /// the few virtual vertices of a border, before the points go in.
+    std::int32_t insert_on_border(std::int32_t x, std::int32_t y, bool* inserted);
 
     /// Inserts the m grid points (x[k], y[k]), each strictly inside the box, and writes
     /// each one's vertex id to vertex[k]: the triangulation insert() builds from them in
@@ -309,6 +317,9 @@ struct DelaunayTin {
     /// Inserts the m grid points of `grid` in order; `vertex` (m) receives the vertex id
     /// of each (an existing one for a duplicate).
     void insert(const std::int32_t* grid, std::size_t m, std::int32_t* vertex);
+    /// Inserts the m grid points of `grid`, each on the box's border, in order, through
+    /// Delaunay::insert_on_border; `vertex` (m) receives the vertex id of each.
+    void insert_on_border(const std::int32_t* grid, std::size_t m, std::int32_t* vertex);
     /// As insert, through Delaunay::insert_batch (the same triangulation, other ids).
     void insert_batch(const std::int32_t* grid, std::size_t m, std::int32_t* vertex);
     /// `triangle` (m) receives the triangle holding each grid point, perturbed by

@@ -91,6 +91,12 @@ struct TinGroundParams {
     /// cannot lower the opened surface, and take the seeds, across a whole window; used
     /// only when seed_cell > 0.
     std::int64_t opening_rank = 1;
+    /// Improvement (false: off): virtual vertices along the box's sides besides its four
+    /// corners, each side cut into floor(its extent / s) equal parts, s =
+    /// max(max_building_size, the shorter XY extent) (ground_tin.hpp: border_points), each
+    /// at the height of its nearest seed, so that along a corridor the TIN's border
+    /// triangles do not reach to corners kilometres away.
+    bool border_vertices = true;
     /// Final pass (0: off): cell (m, >= 0) of a TIN of the lowest ground point per cell;
     /// every point is then ground when -final_below <= z - z_TIN <= final_above +
     /// final_slope * |grad z_TIN| (final_pass.hpp; TerraScan, Zhao et al. 2016), so ground
@@ -113,7 +119,7 @@ struct TinGroundStats {
     std::int64_t seeds = 0;               ///< lowest points of the seed cells
     std::int64_t iterations = 0;          ///< the definition's, the last adding nothing or
                                           ///< leaving no point unclassified
-    std::int64_t tin_vertices = 0;        ///< final TIN vertices, the 4 virtual corners included
+    std::int64_t tin_vertices = 0;        ///< final TIN vertices, the virtual ones included
     std::int64_t tests = 0;               ///< point-in-triangle tests evaluated (after skipping)
     double prepare_seconds = 0.0;         ///< extent, spacing, snapping, spatial sort, seeds
     double triangulation_seconds = 0.0;   ///< Delaunay insertions

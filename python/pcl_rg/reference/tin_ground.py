@@ -147,6 +147,33 @@ def locate(
     raise RuntimeError("point location did not terminate")  # pragma: no cover
 
 
+#: The most parts a side of the box is cut into (``kMaxBorderParts``, ground_tin.hpp).
+MAX_BORDER_PARTS = 65536
+
+
+def border_points(
+    width: int, height: int, extent_x: float, extent_y: float, spacing: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Grid (x, y) of the virtual vertices on the box's sides besides its corners.
+
+    The sides along x are cut into ``min(max(floor(extent_x / spacing), 1),
+    MAX_BORDER_PARTS)`` equal parts, at grid x ``floor(j * width / parts)``, and so the
+    sides along y; in
+    the order y = 0, y = height (by x), x = 0, x = width (by y), as ``border_points``
+    in ground_tin.hpp. Positions on a corner or repeated are kept: the caller drops
+    them, as the core's insertion does.
+    """
+
+    def cuts(extent: float, side: int) -> list[int]:
+        parts = min(max(math.floor(extent / spacing), 1), MAX_BORDER_PARTS)
+        return [j * side // parts for j in range(1, parts)]
+
+    along_x, along_y = cuts(extent_x, width), cuts(extent_y, height)
+    xs = along_x + along_x + [0] * len(along_y) + [width] * len(along_y)
+    ys = [0] * len(along_x) + [height] * len(along_x) + along_y + along_y
+    return np.array(xs, dtype=np.int64), np.array(ys, dtype=np.int64)
+
+
 def with_corners(
     gx: np.ndarray,
     gy: np.ndarray,
@@ -155,24 +182,28 @@ def with_corners(
     inserted: np.ndarray,
     width: int,
     height: int,
+    border: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Vertices (grid x, grid y, z) of a TIN over the box: its four corners, then `inserted`.
+    """Vertices (grid x, grid y, z) of a TIN over the box: its four corners, the `border`
+    points (grid x, grid y) not on a corner nor repeated, then `inserted`.
 
-    Each corner takes the height of the point of `nearest` closest to it (exact squared
-    grid distance, ties: the lowest, so the height does not depend on the points' order),
-    so every point of the box lies inside the TIN.
+    Each virtual vertex takes the height of the point of `nearest` closest to it (exact
+    squared grid distance, ties: the lowest, then the smallest index, so the height does
+    not depend on the points' order), so every point of the box lies inside the TIN.
     """
-    corner_x = np.array([0, width, width, 0], dtype=np.int64)
-    corner_y = np.array([0, 0, height, height], dtype=np.int64)
-    corner_z = np.empty(4)
-    for c in range(4):
-        d2 = (gx[nearest] - corner_x[c]) ** 2 + (gy[nearest] - corner_y[c]) ** 2
-        corner_z[c] = z[nearest[np.lexsort((nearest, z[nearest], d2))[0]]]
-    return (
-        np.r_[corner_x, gx[inserted]],
-        np.r_[corner_y, gy[inserted]],
-        np.r_[corner_z, z[inserted]],
-    )
+    virtual_x = [0, width, width, 0]
+    virtual_y = [0, 0, height, height]
+    for x, y in zip(*(border if border is not None else ((), ())), strict=True):
+        if (int(x), int(y)) not in zip(virtual_x, virtual_y, strict=True):
+            virtual_x.append(int(x))
+            virtual_y.append(int(y))
+    vx = np.array(virtual_x, dtype=np.int64)
+    vy = np.array(virtual_y, dtype=np.int64)
+    vz = np.empty(len(vx))
+    for c in range(len(vx)):
+        d2 = (gx[nearest] - vx[c]) ** 2 + (gy[nearest] - vy[c]) ** 2
+        vz[c] = z[nearest[np.lexsort((nearest, z[nearest], d2))[0]]]
+    return np.r_[vx, gx[inserted]], np.r_[vy, gy[inserted]], np.r_[vz, z[inserted]]
 
 
 def _evaluate(tri, vx, vy, vz, q, px, py, pz, p: TinGroundParams):  # type: ignore[no-untyped-def]
@@ -241,6 +272,7 @@ def tin_ground(
     seed_tolerance: float | None = None,
     outlier_depth: float | None = None,
     opening_rank: int | None = None,
+    border_vertices: bool | None = None,
     final_cell: float | None = None,
     final_above: float | None = None,
     final_below: float | None = None,
@@ -326,8 +358,12 @@ def tin_ground(
     first = np.r_[True, (gx[by_xy][1:] != gx[by_xy][:-1]) | (gy[by_xy][1:] != gy[by_xy][:-1])]
     vertex_seeds = by_xy[first]
 
-    # Virtual corners at the height of the nearest seed (exact distance, ties: lowest).
-    vx, vy, vz = with_corners(gx, gy, pz, seed, vertex_seeds, width, height)
+    # Virtual corners, and with border_vertices points along the sides, at the height of
+    # the nearest seed (exact distance, ties: lowest).
+    border = None
+    if p.border_vertices:
+        border = border_points(width, height, ex, ey, max(p.max_building_size, min(ex, ey)))
+    vx, vy, vz = with_corners(gx, gy, pz, seed, vertex_seeds, width, height, border)
 
     # 3. Densify until an iteration adds no ground point.
     while True:
