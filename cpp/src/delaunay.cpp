@@ -375,49 +375,77 @@ std::int32_t Delaunay::insert_point(std::int32_t x, std::int32_t y, std::int32_t
     return p;
 }
 
-std::int32_t Delaunay::insert_on_border(std::int32_t x, std::int32_t y, bool* inserted) {
+std::int32_t Delaunay::insert_on_border(std::int32_t x, std::int32_t y, std::int32_t start,
+                                        bool* inserted) {
     if (broken_) throw std::logic_error("Delaunay: unusable after an interrupted batch");
     const std::int32_t width = xy_[2].x, height = xy_[2].y;
     const bool on_side = (x == 0 || x == width) ? (y >= 0 && y <= height)
                                                 : ((y == 0 || y == height) && x > 0 && x < width);
     if (!on_side) throw std::invalid_argument("Delaunay: a border point must lie on the box");
-    // The triangle whose border edge (no neighbour across it) holds p.
-    for (std::size_t slot = 0; slot < triangles_; ++slot) {
-        const auto t = static_cast<std::int32_t>(slot);
-        if (!live(t)) continue;
-        const Triangle tr = tri_[t];
+    // Of triangle t's border edges (no neighbour across), the index k of the vertex
+    // opposite the one holding p strictly inside, or -1; sets *vertex when p is an end.
+    const auto border_edge = [&](std::int32_t t, std::int32_t* vertex) {
+        const Triangle& tr = tri_[t];
         for (int k = 0; k < 3; ++k) {
             if (tr.n[k] >= 0) continue;
-            const std::int32_t w0 = tr.v[k], w1 = tr.v[(k + 1) % 3], w2 = tr.v[(k + 2) % 3];
+            const std::int32_t w1 = tr.v[(k + 1) % 3], w2 = tr.v[(k + 2) % 3];
             const Vertex a = xy_[w1], b = xy_[w2];
             if (orient2d(a.x, a.y, b.x, b.y, x, y) != 0) continue;
-            if ((x == a.x && y == a.y) || (x == b.x && y == b.y)) {
-                *inserted = false;
-                return x == a.x && y == a.y ? w1 : w2;
-            }
+            if (x == a.x && y == a.y) *vertex = w1;
+            if (x == b.x && y == b.y) *vertex = w2;
+            if (*vertex >= 0) return -1;
             const bool between = a.x == b.x ? (std::min(a.y, b.y) < y && y < std::max(a.y, b.y))
                                             : (std::min(a.x, b.x) < x && x < std::max(a.x, b.x));
-            if (!between) continue;
-            if (xy_.size() >= static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max()))
-                throw std::length_error("Delaunay: too many vertices for 32-bit ids");
-            const auto p = static_cast<std::int32_t>(xy_.size());
-            xy_.push_back({x, y});
-            vt_.push_back(t);
-            *inserted = true;
-            // (w0, w1, p) and (w0, p, w2), p first in each; their sides on the border
-            // have no neighbour.
-            const std::int32_t n1 = tr.n[(k + 1) % 3], n2 = tr.n[(k + 2) % 3];
-            const std::int32_t t1 = t, t2 = new_slot();
-            write(t1, p, w0, w1, n2, -1, t2);
-            write(t2, p, w2, w0, n1, t1, -1);
-            relink(n1, t, t2);
-            stack_.clear();
-            stack_.push_back(t1), stack_.push_back(t2);
-            legalize(p);
-            return p;
+            if (between) return k;
+        }
+        return -1;
+    };
+    // The triangle: first among the few nearest `start` through neighbour links (the
+    // next point along a side lies next to the last one's), else among all of them.
+    constexpr std::size_t kNearby = 64;
+    std::int32_t found = -1, k = -1, vertex = -1;
+    if (start >= 0 && start < static_cast<std::int32_t>(triangles_) && live(start)) {
+        std::vector<std::int32_t> seen{start};
+        for (std::size_t i = 0; i < seen.size() && seen.size() < kNearby && found < 0; ++i) {
+            k = border_edge(seen[i], &vertex);
+            if (vertex >= 0) break;
+            if (k >= 0) found = seen[i];
+            for (const std::int32_t u : tri_[seen[i]].n)
+                if (u >= 0 && std::find(seen.begin(), seen.end(), u) == seen.end())
+                    seen.push_back(u);
         }
     }
-    throw std::logic_error("Delaunay: no border edge holds the point");
+    for (std::size_t slot = 0; slot < triangles_ && found < 0 && vertex < 0; ++slot) {
+        const auto t = static_cast<std::int32_t>(slot);
+        if (!live(t)) continue;
+        k = border_edge(t, &vertex);
+        if (k >= 0) found = t;
+    }
+    if (vertex >= 0) {
+        *inserted = false;
+        return vertex;
+    }
+    if (found < 0) throw std::logic_error("Delaunay: no border edge holds the point");
+    if (xy_.size() >= static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max()))
+        throw std::length_error("Delaunay: too many vertices for 32-bit ids");
+    const std::int32_t t = found;
+    const Triangle tr = tri_[t];
+    const std::int32_t w0 = tr.v[k], w1 = tr.v[(k + 1) % 3], w2 = tr.v[(k + 2) % 3];
+    const auto p = static_cast<std::int32_t>(xy_.size());
+    xy_.push_back({x, y});
+    vt_.push_back(t);
+    *inserted = true;
+    // (w0, w1, p) and (w0, p, w2), p first in each; their sides on the border have no
+    // neighbour.
+    const std::int32_t n1 = tr.n[(k + 1) % 3], n2 = tr.n[(k + 2) % 3];
+    const std::int32_t t1 = t, t2 = new_slot();
+    write(t1, p, w0, w1, n2, -1, t2);
+    write(t2, p, w2, w0, n1, t1, -1);
+    relink(n1, t, t2);
+    stack_.clear();
+    stack_.push_back(t1), stack_.push_back(t2);
+    legalize(p);
+    return p;
 }
 
 void Delaunay::legalize(std::int32_t p) {
@@ -481,7 +509,7 @@ void DelaunayTin::insert(const std::int32_t* grid, std::size_t m, std::int32_t* 
 void DelaunayTin::insert_on_border(const std::int32_t* grid, std::size_t m, std::int32_t* vertex) {
     for (std::size_t i = 0; i < m; ++i) {
         bool inserted = false;
-        vertex[i] = tin.insert_on_border(grid[2 * i], grid[2 * i + 1], &inserted);
+        vertex[i] = tin.insert_on_border(grid[2 * i], grid[2 * i + 1], last, &inserted);
         last = tin.vertex_triangle(vertex[i]);
     }
 }

@@ -108,7 +108,10 @@ inline constexpr std::int64_t kMaxBorderParts = 65536;
 // parts, at grid x = floor(j * width / parts), j = 1 .. parts - 1, and so the sides along
 // y (extents and spacing in metres, spacing > 0): vertices at least `spacing` and less
 // than twice it apart, none on a side shorter than twice it (a tile about square gets
-// none). In the order: y = 0 by x, y = height by x, x = 0 by y, x = width by y.
+// none, and only the long sides of a box get any). In the order of their cuts j, those of
+// the two opposite sides in turn, (x_j, 0), (x_j, height), ..., then (0, y_j), (width, y_j),
+// ...: each insertion then changes a few triangles next to the last one's (side by side,
+// the flips of each vertex of the second side would sweep a fan over all of the first's).
 inline std::vector<GridPoint> border_points(const GridFrame& frame, double extent_x,
                                             double extent_y, double spacing) {
     std::vector<GridPoint> out;
@@ -119,11 +122,11 @@ inline std::vector<GridPoint> border_points(const GridFrame& frame, double exten
                                                              : static_cast<std::int64_t>(parts);
     };
     const std::int64_t along_x = parts_of(extent_x), along_y = parts_of(extent_y);
-    for (const std::int32_t y : {std::int32_t{0}, frame.height})
-        for (std::int64_t j = 1; j < along_x; ++j)
+    for (std::int64_t j = 1; j < along_x; ++j)
+        for (const std::int32_t y : {std::int32_t{0}, frame.height})
             out.push_back({static_cast<std::int32_t>(j * frame.width / along_x), y});
-    for (const std::int32_t x : {std::int32_t{0}, frame.width})
-        for (std::int64_t j = 1; j < along_y; ++j)
+    for (std::int64_t j = 1; j < along_y; ++j)
+        for (const std::int32_t x : {std::int32_t{0}, frame.width})
             out.push_back({x, static_cast<std::int32_t>(j * frame.height / along_y)});
     return out;
 }

@@ -282,10 +282,12 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
     tin.reserve(n + 4 + border.size());  // every point may become a vertex: the arrays never move
     std::vector<double> vz(corner_z.begin(), corner_z.end());
     vz.reserve(n + 4 + border.size());
-    for (std::size_t b = 0; b < border.size(); ++b) {
+    for (std::size_t b = 0, last = 0; b < border.size(); ++b) {  // in order along each side
         bool inserted = false;
-        tin.insert_on_border(border[b].x, border[b].y, &inserted);
+        const std::int32_t v =
+            tin.insert_on_border(border[b].x, border[b].y, tin.vertex_triangle(last), &inserted);
         if (inserted) vz.push_back(border_z[b]);
+        last = static_cast<std::size_t>(v);
     }
     // Inserts the points at sorted positions `batch` (in sorted order) into the TIN and
     // gives each new vertex its point's height: of points of one grid XY, which share a

@@ -166,12 +166,14 @@ class Delaunay {
     /// vertex's id is returned and *inserted is set to false.
     std::int32_t insert(std::int32_t x, std::int32_t y, std::int32_t start, bool* inserted);
 
-    /// Inserts p, a point of the box's border other than a corner (x in {0, width} or y in
-    /// {0, height}), splitting the triangle on that stretch of the border in two, and
-    /// restores the Delaunay property; returns its vertex id (an existing vertex's, with
-    /// *inserted false, when p is one). Finds the triangle by a scan of all of them: for
-    /// the few virtual vertices of a border, before the points go in.
-    std::int32_t insert_on_border(std::int32_t x, std::int32_t y, bool* inserted);
+    /// Inserts p, a point of the box's border (x in {0, width} or y in {0, height}),
+    /// splitting the triangle on that stretch of the border in two, and restores the
+    /// Delaunay property; returns its vertex id (an existing vertex's, with *inserted
+    /// false, when p is one). The triangle is looked for among the few linked to `start`
+    /// (the last one's vertex_triangle, for points in order along a side), else among all:
+    /// for the virtual vertices of a border, before the points go in.
+    std::int32_t insert_on_border(std::int32_t x, std::int32_t y, std::int32_t start,
+                                  bool* inserted);
 
     /// Inserts the m grid points (x[k], y[k]), each strictly inside the box, and writes
     /// each one's vertex id to vertex[k]: the triangulation insert() builds from them in

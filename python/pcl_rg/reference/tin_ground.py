@@ -159,9 +159,10 @@ def border_points(
     The sides along x are cut into ``min(max(floor(extent_x / spacing), 1),
     MAX_BORDER_PARTS)`` equal parts, at grid x ``floor(j * width / parts)``, and so the
     sides along y; in
-    the order y = 0, y = height (by x), x = 0, x = width (by y), as ``border_points``
-    in ground_tin.hpp. Positions on a corner or repeated are kept: the caller drops
-    them, as the core's insertion does.
+    the order of ``border_points`` in ground_tin.hpp, by cut with the two opposite
+    sides in turn: (x_1, 0), (x_1, height), (x_2, 0), ..., then (0, y_1), (width, y_1),
+    .... Positions on a corner or repeated are kept: the caller drops them, as the
+    core's insertion does.
     """
 
     def cuts(extent: float, side: int) -> list[int]:
@@ -169,8 +170,8 @@ def border_points(
         return [j * side // parts for j in range(1, parts)]
 
     along_x, along_y = cuts(extent_x, width), cuts(extent_y, height)
-    xs = along_x + along_x + [0] * len(along_y) + [width] * len(along_y)
-    ys = [0] * len(along_x) + [height] * len(along_x) + along_y + along_y
+    xs = [x for x in along_x for _ in (0, height)] + [x for _ in along_y for x in (0, width)]
+    ys = [y for _ in along_x for y in (0, height)] + [y for y in along_y for _ in (0, width)]
     return np.array(xs, dtype=np.int64), np.array(ys, dtype=np.int64)
 
 
