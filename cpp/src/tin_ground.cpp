@@ -207,6 +207,17 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
                 " m here; points far from the rest coarsen it): a TIN needs 3 points not "
                 "on one line");
     }
+    // With border_vertices, the virtual vertices along the box's long sides (their
+    // heights come with the seeds): the TIN's ids must hold them too.
+    std::vector<ground_tin::GridPoint> border;
+    if (params.border_vertices)
+        border = ground_tin::border_points(frame, ex, ey,
+                                           std::max(params.max_building_size, std::min(ex, ey)));
+    if (n + border.size() > static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max()) - 8)
+        throw std::invalid_argument("points: at most 2^31 - 9 points less the " +
+                                    std::to_string(border.size()) +
+                                    " border vertices of this box are supported, got " +
+                                    std::to_string(n) + " (or set border_vertices to false)");
     interruption.check_now();
 
     // --- 2. seeds: lowest point per max_building_size cell --------------------------
@@ -261,11 +272,8 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
     }
     // Virtual vertices along the long sides of the box as well, at the height of their
     // nearest seed in the same way.
-    std::vector<ground_tin::GridPoint> border;
     std::vector<double> border_z;
     if (params.border_vertices) {
-        border = ground_tin::border_points(frame, ex, ey,
-                                           std::max(params.max_building_size, std::min(ex, ey)));
         const std::vector<std::size_t> nearest = ground_tin::nearest_to_border(
             frame, border, seeds.size(), [&](std::size_t k) { return seed_x[k]; },
             [&](std::size_t k) { return seed_y[k]; },
