@@ -207,14 +207,13 @@ class TinGroundParams:
         chosen); the scores are in ``benchmarks/RESULTS.md``. Against
         :meth:`lidar360` it switches the angle reduction off (no ISPRS triangle
         has a longest edge under 1 cm), keeps its 2 m stop edge (the final pass
-        completes the ground below it), and switches the four improvements on. On the seven ISPRS
-        samples it scores 3.33 % fitted and 4.26 % left one sample out
+        completes the ground below it), and switches five improvements on. On the seven ISPRS
+        samples it scores 3.32 % fitted and 4.21 % left one sample out
         (``benchmarks/studies/ground_isprs_cv.py``). Searches whose lengths
-        follow the point spacing did no clearly better there (every length in
-        spacings 5.63 %; stop edge and near-vertex distance only 4.20 %, less
-        than the 0.08 points that breaking co-circular ties another way moved
-        that figure by, better on two of the seven held-out samples only, and
-        3.39 % fitted), so the lengths
+        follow the point spacing did no better there (every length in
+        spacings 5.65 %; stop edge and near-vertex distance only 5.14 %, whose
+        4.20 % of an earlier run came from one held-out sample, samp41, and did
+        not survive the border vertices), so the lengths
         are those fitted on ISPRS wherever the data are as sparse (spacing of
         at least 0.95 m) and shrink in proportion to the spacing on denser data,
         the stop edge only below 0.475 m
@@ -345,9 +344,10 @@ def tin_ground(
         cannot lower the opened surface, and drop the seeds, across a whole
         window: an erosion by a rank-order filter (Soille, "Morphological Image
         Analysis", 2nd ed., 2003). Off in the preset: on ISPRS it scores
-        3.40 % and its search, left one sample out, 4.10 % against the plain
-        search's 4.26 %, a gain that mm-level noise on the coordinates turns into
-        a loss (``benchmarks/RESULTS.md``, "selection procedures"). On clouds
+        3.39 %, and its search, left one sample out, 4.10 % against the plain
+        search's 4.26 % (both before the border vertices), a gain that
+        mm-level noise on the coordinates turns into a loss
+        (``benchmarks/RESULTS.md``, "selection procedures"). On clouds
         with multipath points less deep than ``outlier_depth`` below sloping
         terrain, 2 keeps the seeds the plain opening loses around each (17-38 %
         of them on three small synthetic scenes), and the densification runs
@@ -466,7 +466,7 @@ def tin_ground(
     raster leaves out the long empty runs of cells between them, which changes
     no seed. They join the TIN as seeds, though, and its triangles along the
     border of the data then reach them: on the seven ISPRS samples one point
-    700 km away raises the mean total error from 3.33 to 3.70 %. Drop such
+    700 km away raises the mean total error from 3.32 to 3.70 %. Drop such
     points first (:func:`statistical_outlier_removal`, ``pcl-rg denoise``).
 
     The result does not depend on the order of the points except through ties
