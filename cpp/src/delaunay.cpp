@@ -214,7 +214,8 @@ Delaunay::Delaunay(std::int32_t width, std::int32_t height) {
 }
 
 void Delaunay::reserve(std::size_t vertices) {
-    // A triangulation of V vertices whose hull is the 4 box corners has 2V - 6 triangles.
+    // A triangulation of V vertices with h on the box's border has 2V - h - 2 triangles,
+    // at most 2V - 6.
     xy_.reserve(vertices);
     vt_.reserve(vertices);
     tri_.reserve(2 * vertices);

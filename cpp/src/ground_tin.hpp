@@ -1,7 +1,8 @@
 // Pieces shared by the TINs of the ground filters, the densification's
 // (tin_ground.cpp, tin_acceptance.hpp) and the final pass's (final_pass.cpp): the plane
-// of a triangle, the heights of the four virtual box corners, and the last two triangles
-// a thread located. Inline, in a header private to cpp/src, as they run in the hot loops.
+// of a triangle, the virtual vertices of the box (corners and border points) with their
+// heights, and the last two triangles a thread located. Inline, in a header private to cpp/src, as
+// they run in the hot loops.
 #pragma once
 
 #include <algorithm>
@@ -107,11 +108,13 @@ inline constexpr std::int64_t kMaxBorderParts = 65536;
 // x are cut into parts = min(max(floor(extent_x / spacing), 1), kMaxBorderParts) equal
 // parts, at grid x = floor(j * width / parts), j = 1 .. parts - 1, and so the sides along
 // y (extents and spacing in metres, spacing > 0): vertices at least `spacing` and less
-// than twice it apart, none on a side shorter than twice it (a tile about square gets
-// none, and only the long sides of a box get any). In the order of their cuts j, those of
-// the two opposite sides in turn, (x_j, 0), (x_j, height), ..., then (0, y_j), (width, y_j),
-// ...: each insertion then changes a few triangles next to the last one's (side by side,
-// the flips of each vertex of the second side would sweep a fan over all of the first's).
+// than twice it apart (further where the cap binds; on a grid too coarse for the cuts,
+// some fall on one position, which the insertion keeps once), none on a side shorter
+// than twice it (a tile about square gets none, and only the long sides of a box get
+// any). In the order of their cuts j, those of the two opposite sides in turn, (x_j, 0),
+// (x_j, height), ..., then (0, y_j), (width, y_j), ...: each insertion then changes a few
+// triangles next to the last one's (side by side, the flips of each vertex of the second
+// side would sweep a fan over all of the first's).
 inline std::vector<GridPoint> border_points(const GridFrame& frame, double extent_x,
                                             double extent_y, double spacing) {
     std::vector<GridPoint> out;

@@ -285,12 +285,12 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
     stats.prepare_seconds = seconds_since(clock);
     clock = std::chrono::steady_clock::now();
 
-    // --- 3. initial TIN: virtual corners, then the seeds ------------------------------
+    // --- 3. initial TIN: virtual corners, border vertices, then the seeds --------------
     Delaunay tin(frame.width, frame.height);
     tin.reserve(n + 4 + border.size());  // every point may become a vertex: the arrays never move
     std::vector<double> vz(corner_z.begin(), corner_z.end());
     vz.reserve(n + 4 + border.size());
-    for (std::size_t b = 0, last = 0; b < border.size(); ++b) {  // in order along each side
+    for (std::size_t b = 0, last = 0; b < border.size(); ++b) {  // each next to the last
         bool inserted = false;
         const std::int32_t v =
             tin.insert_on_border(border[b].x, border[b].y, tin.vertex_triangle(last), &inserted);

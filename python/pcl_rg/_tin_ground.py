@@ -151,7 +151,7 @@ class TinGroundParams:
     border_vertices: bool = param(
         True,
         help="improvement (False: off): virtual vertices along the XY box's long sides as well "
-        "as at its corners, s = max(max_building_size, the shorter XY extent) to 2 s apart, "
+        "as at its corners, about s = max(max_building_size, the shorter XY extent) to 2 s apart, "
         "each at its nearest seed's height, so that a corridor's border triangles do not "
         "reach corners kilometres away",
     )
@@ -358,12 +358,13 @@ def tin_ground(
         into ``floor(side / s)`` equal parts (at least 1, at most 65,536), ``s =
         max(max_building_size, the shorter XY extent)``, so a tile less than twice
         as long as it is wide gets none and a corridor a vertex every ``s`` to
-        ``2 s`` along its long sides, each at the height of its nearest seed, as
-        the corners are. Without them, the
+        ``2 s`` along its long sides (further apart where the cap binds), each at
+        the height of its nearest seed, as the corners are. Without them, the
         border triangles of a long corridor reach to corners kilometres away,
         and where the seed window is clipped at the uphill side on a slope, the
-        densification cannot recover that strip's ground (5.5 % of the ground
-        of a 3 km x 50 m corridor on rolling terrain was lost).
+        densification cannot recover that strip's ground: on a 2 km x 30 m
+        corridor rising 0.25 across, 31 % of the ground of the uphill 10 m was
+        lost, 1.1 % with them (``benchmarks/studies/tin_corridor.py``).
     final_cell : float, optional
         Metres (default: unset, min(3 m, 3.16 x the point spacing); 0: off). An
         improvement after TerraScan's practice of classifying the points close

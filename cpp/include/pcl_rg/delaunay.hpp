@@ -170,7 +170,7 @@ class Delaunay {
     /// splitting the triangle on that stretch of the border in two, and restores the
     /// Delaunay property; returns its vertex id (an existing vertex's, with *inserted
     /// false, when p is one). The triangle is looked for among the few linked to `start`
-    /// (the last one's vertex_triangle, for points in order along a side), else among all:
+    /// (the last one's vertex_triangle, for points each next to the last), else among all:
     /// for the virtual vertices of a border, before the points go in.
     std::int32_t insert_on_border(std::int32_t x, std::int32_t y, std::int32_t start,
                                   bool* inserted);

@@ -192,14 +192,11 @@ def with_corners(
     squared grid distance, ties: the lowest, then the smallest index, so the height does
     not depend on the points' order), so every point of the box lies inside the TIN.
     """
-    virtual_x = [0, width, width, 0]
-    virtual_y = [0, 0, height, height]
-    for x, y in zip(*(border if border is not None else ((), ())), strict=True):
-        if (int(x), int(y)) not in zip(virtual_x, virtual_y, strict=True):
-            virtual_x.append(int(x))
-            virtual_y.append(int(y))
-    vx = np.array(virtual_x, dtype=np.int64)
-    vy = np.array(virtual_y, dtype=np.int64)
+    # In order, each position once (a dict keeps the first of equal keys).
+    positions = dict.fromkeys([(0, 0), (width, 0), (width, height), (0, height)])
+    if border is not None:
+        positions.update(dict.fromkeys(zip(border[0].tolist(), border[1].tolist(), strict=True)))
+    vx, vy = (np.array(axis, dtype=np.int64).reshape(-1) for axis in zip(*positions, strict=True))
     vz = np.empty(len(vx))
     for c in range(len(vx)):
         d2 = (gx[nearest] - vx[c]) ** 2 + (gy[nearest] - vy[c]) ** 2
