@@ -203,22 +203,20 @@ class TinGroundParams:
         """The defaults: one set chosen on the seven ISPRS samples (mean total error).
 
         Chosen by ``benchmarks/studies/tin_isprs_params.py`` (two stages: the
-        densification's fields, then the final pass's on the densification
-        chosen); the scores are in ``benchmarks/RESULTS.md``. Against
-        :meth:`lidar360` it switches the angle reduction off (no ISPRS triangle
-        has a longest edge under 1 cm), keeps its 2 m stop edge (the final pass
-        completes the ground below it), and switches five improvements on. On the seven ISPRS
-        samples it scores 3.32 % fitted and 4.21 % left one sample out
+        densification's fields, then the final pass's); the scores are in
+        ``benchmarks/RESULTS.md``. Against :meth:`lidar360` it switches the angle
+        reduction off (no ISPRS triangle has a longest edge under 1 cm), keeps
+        the 2 m stop edge (the search now picks 0.01 m, which after the final
+        pass scores no better, 3.3211 against 3.3207 %, in twice the time) and
+        switches five improvements on. On the seven ISPRS samples it scores
+        3.32 % fitted and 4.21 % left one sample out
         (``benchmarks/studies/ground_isprs_cv.py``). Searches whose lengths
-        follow the point spacing did no better there (every length in
-        spacings 5.65 %; stop edge and near-vertex distance only 5.14 %, whose
-        4.20 % of an earlier run came from one held-out sample, samp41, and did
-        not survive the border vertices), so the lengths
-        are those fitted on ISPRS wherever the data are as sparse (spacing of
-        at least 0.95 m) and shrink in proportion to the spacing on denser data,
-        the stop edge only below 0.475 m
-        (:attr:`SPACING_CAPS`, :attr:`SPACING_MULTIPLES`; the four are unset
-        here). `overrides` replace single fields.
+        follow the point spacing did no better there (all of them 5.65 %; stop
+        edge and near-vertex distance 5.14 %), so the lengths are those fitted
+        on ISPRS where the data are as sparse (spacing of at least 0.95 m) and
+        shrink in proportion to the spacing on denser data, the stop edge only
+        below 0.475 m (:attr:`SPACING_CAPS`, :attr:`SPACING_MULTIPLES`; the four
+        are unset here). `overrides` replace single fields.
 
         Examples
         --------
@@ -353,18 +351,16 @@ def tin_ground(
         of them on three small synthetic scenes), and the densification runs
         faster.
     border_vertices : bool, optional
-        Default True (LiDAR360: False, the four corners only). Virtual vertices
-        along the sides of the XY box as well as at its corners: each side is cut
-        into ``floor(side / s)`` equal parts (at least 1, at most 65,536), ``s =
-        max(max_building_size, the shorter XY extent)``, so a tile less than twice
-        as long as it is wide gets none and a corridor a vertex every ``s`` to
-        ``2 s`` along its long sides (further apart where the cap binds), each at
-        the height of its nearest seed, as the corners are. Without them, the
-        border triangles of a long corridor reach to corners kilometres away,
-        and where the seed window is clipped at the uphill side on a slope, the
-        densification cannot recover that strip's ground: on a 2 km x 30 m
-        corridor rising 0.25 across, 31 % of the ground of the uphill 10 m was
-        lost, 1.1 % with them (``benchmarks/studies/tin_corridor.py``).
+        Default True (LiDAR360: False, the corners only). Virtual vertices along
+        the sides of the XY box too, each at the height of its nearest seed as
+        the corners are: a side is cut into ``floor(side / s)`` equal parts (1 to
+        65,536), ``s = max(max_building_size, the shorter XY extent)``, so a tile
+        less than twice as long as wide gets none, a corridor one every ``s`` to
+        ``2 s`` along its long sides. Without them a corridor's border triangles
+        reach to corners kilometres away, and on a slope the densification does
+        not recover the uphill strip where the seed window is clipped: on a 2 km
+        x 30 m corridor rising 0.25 across, it lost 31 % of the uphill 10 m's
+        ground, 1.1 % with them (``benchmarks/studies/tin_corridor.py``).
     final_cell : float, optional
         Metres (default: unset, min(3 m, 3.16 x the point spacing); 0: off). An
         improvement after TerraScan's practice of classifying the points close
@@ -431,10 +427,8 @@ def tin_ground(
        :func:`grid_ground`) classifies every point again by its height above
        the TIN of the lowest ground point of each ``final_cell`` cell.
 
-    The defaults are the :meth:`TinGroundParams.isprs` preset, the one set chosen on the
-    seven ISPRS samples, with five improvements (``near_vertex_distance``,
-    ``seed_cell``, ``outlier_depth``, ``border_vertices``, ``final_cell``) on and
-    ``opening_rank`` off;
+    The defaults are the :meth:`TinGroundParams.isprs` preset, the one set chosen
+    on the seven ISPRS samples, with five improvements on (``opening_rank`` off);
     its scores are in ``benchmarks/RESULTS.md``. The lengths ``stop_edge``,
     ``near_vertex_distance``, ``seed_cell`` and ``final_cell`` are unset there: each
     call takes the ISPRS preset's lengths (2, 1, 2, 3 m) where the mean spacing of
@@ -443,9 +437,8 @@ def tin_ground(
     (the stop edge only below 0.475 m: :class:`TinGroundParams`), so the preset
     keeps its ISPRS results and works at 20 points per m^2 too.
     ``collect_diagnostics()`` reports the spacing (``point_spacing``, NaN when every
-    length was given) and the four lengths used. :meth:`TinGroundParams.lidar360` is
-    LiDAR360's own set: with an 8 degree angle, reduced below 5 m edges, few objects
-    but much ground is missed on 1-3 m spaced data.
+    length was given) and the four lengths used. :meth:`TinGroundParams.lidar360`,
+    LiDAR360's own set, misses much ground on 1-3 m spaced data (8 degrees).
 
     The seed cells are anchored at multiples of their size in world
     coordinates so that tiles of a survey share one lattice: cells of
