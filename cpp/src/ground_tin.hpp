@@ -1,8 +1,8 @@
 // Pieces shared by the TINs of the ground filters, the densification's
 // (tin_ground.cpp, tin_acceptance.hpp) and the final pass's (final_pass.cpp): the plane
 // of a triangle, the virtual vertices of the box (corners and border points) with their
-// heights, and the last two triangles a thread located. Inline, in a header private to cpp/src, as
-// they run in the hot loops.
+// heights, and the last two triangles a thread located. Inline, in a header private to
+// cpp/src, as they run in the hot loops.
 #pragma once
 
 #include <algorithm>
