@@ -226,22 +226,7 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
         seeds = tin_seeds(points, params, origin, upper);
     } catch (const std::invalid_argument& error) {
         if (given.seed_cell) throw;
-        // An unset seed_cell follows the measured spacing, which counts every point: many
-        // at one XY position (copies, poles, a scanner's footprint) make it tiny. Or, on
-        // a cloud far sparser than airborne LiDAR, its cap binds.
-        const double spacing = stats.point_spacing;
-        const std::string unset =
-            " (seed_cell was left unset: the least of " + check::format_value(kTinSeedCellCap) +
-            " m and " + check::format_value(kTinSeedCellPerSpacing) +
-            " x the measured point spacing, " + check::format_value(spacing) + " m, ";
-        if (kTinSeedCellPerSpacing * spacing > kTinSeedCellCap)
-            throw std::invalid_argument(std::string(error.what()) + unset +
-                                        "so the cap, made for airborne densities; at this "
-                                        "spacing set seed_cell to about " +
-                                        check::format_value(kTinSeedCellPerSpacing * spacing) +
-                                        " m)");
-        throw std::invalid_argument(std::string(error.what()) + unset +
-                                    "which many points at one XY position make small)");
+        throw unset_seed_cell_error(error, stats.point_spacing);
     }
     interruption.check_now();
     stats.seeds = static_cast<std::int64_t>(seeds.size());
@@ -259,28 +244,23 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
         seed_y[k] = snapped.grid_y(points, seeds[k]);
     }
 
-    // Virtual corners one grid step outside the extent, at the height of the nearest
-    // seed (exact squared grid distance, ties: the lowest).
-    std::array<double, 4> corner_z{};
-    {
-        const std::array<std::size_t, 4> nearest = ground_tin::nearest_to_corners(
-            frame, seeds.size(), [&](std::size_t k) { return seed_x[k]; },
-            [&](std::size_t k) { return seed_y[k]; },
-            [&](std::size_t k) { return points.coord(seeds[k], 2); },
-            [&](std::size_t k) { return seeds[k]; });
-        for (int c = 0; c < 4; ++c) corner_z[c] = points.coord(seeds[nearest[c]], 2) - origin[2];
-    }
-    // Virtual vertices along the long sides of the box as well, at the height of their
-    // nearest seed in the same way.
+    // The virtual vertices' heights, each its nearest seed's (exact squared grid distance,
+    // ties: the lowest, then the smallest index): the corners', one grid step outside the
+    // extent, then, with border_vertices, those along the box's long sides.
+    std::vector<double> vz(4);
+    vz.reserve(n + 4 + border.size());
     std::vector<double> border_z;
-    if (params.border_vertices) {
-        const std::vector<std::size_t> nearest = ground_tin::nearest_to_border(
-            frame, border, seeds.size(), [&](std::size_t k) { return seed_x[k]; },
-            [&](std::size_t k) { return seed_y[k]; },
-            [&](std::size_t k) { return points.coord(seeds[k], 2); },
-            [&](std::size_t k) { return seeds[k]; });
-        for (const std::size_t k : nearest)
-            border_z.push_back(points.coord(seeds[k], 2) - origin[2]);
+    {
+        const auto gx = [&](std::size_t k) { return seed_x[k]; };
+        const auto gy = [&](std::size_t k) { return seed_y[k]; };
+        const auto z = [&](std::size_t k) { return points.coord(seeds[k], 2); };
+        const auto index = [&](std::size_t k) { return seeds[k]; };
+        const std::array<std::size_t, 4> corners =
+            ground_tin::nearest_to_corners(frame, seeds.size(), gx, gy, z, index);
+        for (int c = 0; c < 4; ++c) vz[c] = z(corners[c]) - origin[2];
+        for (const std::size_t k :
+             ground_tin::nearest_to_border(frame, border, seeds.size(), gx, gy, z, index))
+            border_z.push_back(z(k) - origin[2]);
     }
     stats.prepare_seconds = seconds_since(clock);
     clock = std::chrono::steady_clock::now();
@@ -288,8 +268,6 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
     // --- 3. initial TIN: virtual corners, border vertices, then the seeds --------------
     Delaunay tin(frame.width, frame.height);
     tin.reserve(n + 4 + border.size());  // every point may become a vertex: the arrays never move
-    std::vector<double> vz(corner_z.begin(), corner_z.end());
-    vz.reserve(n + 4 + border.size());
     for (std::size_t b = 0, last = 0; b < border.size(); ++b) {  // each next to the last
         bool inserted = false;
         const std::int32_t v =

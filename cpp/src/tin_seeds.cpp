@@ -429,4 +429,21 @@ std::vector<std::uint32_t> tin_seeds(PointsView points, const TinGroundParams& p
                                            static_cast<std::int64_t>(std::floor(sey / cell)) + 1});
 }
 
+std::invalid_argument unset_seed_cell_error(const std::invalid_argument& error, double spacing) {
+    // An unset seed_cell follows the measured spacing, which counts every point: many at
+    // one XY position (copies, poles, a scanner's footprint) make it tiny. Or, on a cloud
+    // far sparser than airborne LiDAR, its cap binds.
+    const std::string unset =
+        " (seed_cell was left unset: the least of " + check::format_value(kTinSeedCellCap) +
+        " m and " + check::format_value(kTinSeedCellPerSpacing) +
+        " x the measured point spacing, " + check::format_value(spacing) + " m, ";
+    if (kTinSeedCellPerSpacing * spacing > kTinSeedCellCap)
+        return std::invalid_argument(std::string(error.what()) + unset +
+                                     "so the cap, made for airborne densities; at this "
+                                     "spacing set seed_cell to about " +
+                                     check::format_value(kTinSeedCellPerSpacing * spacing) + " m)");
+    return std::invalid_argument(std::string(error.what()) + unset +
+                                 "which many points at one XY position make small)");
+}
+
 }  // namespace pcl_rg

@@ -5,6 +5,7 @@
 
 #include <array>
 #include <cstdint>
+#include <stdexcept>
 #include <vector>
 
 #include "pcl_rg/points.hpp"
@@ -23,5 +24,9 @@ namespace pcl_rg {
 std::vector<std::uint32_t> tin_seeds(PointsView points, const TinGroundParams& params,
                                      const std::array<double, 3>& origin,
                                      const std::array<double, 3>& upper);
+
+/// `error`, a refusal of tin_seeds with seed_cell left unset, told with the rule that set
+/// seed_cell from `spacing` (m, the measured point spacing) and what to do about it.
+std::invalid_argument unset_seed_cell_error(const std::invalid_argument& error, double spacing);
 
 }  // namespace pcl_rg
