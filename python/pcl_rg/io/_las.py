@@ -310,20 +310,19 @@ def _write_las(
                     f"[{lowest}, {highest}] of LAS point format {header.point_format.id}"
                 )
             values = values.astype(np.int64)
+        if dim.is_scaled:
+            scale = 1.0 if dim.scales is None else np.asarray(dim.scales, np.float64)
+            offset = 0.0 if dim.offsets is None else np.asarray(dim.offsets, np.float64)
         if dim.kind == laspy.DimensionKind.FloatingPoint and dim.is_scaled:
             # laspy rounds the stored value of a scaled dimension to a whole number, as
             # integers need: a float one (some programs flag theirs with scale 1) would
             # lose its fractions. Stored as (value - offset) / scale, unrounded.
-            scale = 1.0 if dim.scales is None else np.asarray(dim.scales, np.float64)
-            offset = 0.0 if dim.offsets is None else np.asarray(dim.offsets, np.float64)
             record.array[key] = (values - offset) / scale
             continue
         if dim.is_scaled and values.ndim == 2:
             # laspy's range check of a scaled dimension of several values compares the
             # largest of them with each value's own limit: values of different scales
             # (or offsets) were refused. Stored per value, as laspy stores one.
-            scale = 1.0 if dim.scales is None else np.asarray(dim.scales, np.float64)
-            offset = 0.0 if dim.offsets is None else np.asarray(dim.offsets, np.float64)
             with np.errstate(over="ignore", invalid="ignore"):
                 stored = np.round((values - offset) / scale)
             limits = np.iinfo(record.array.dtype.fields[key][0].base)
