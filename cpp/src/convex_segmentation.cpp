@@ -18,6 +18,7 @@
 #include <numeric>
 #include <stdexcept>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "pcl_rg/check.hpp"
@@ -49,23 +50,10 @@ std::array<double, 3> default_viewpoint(PointsView points) {
     // within the box's width (or 4 interquartile ranges, if more) of its quartiles: an
     // airborne tile's roofs and trees lie beyond the fence of its ground, which makes
     // most of its points, but a no-data height (-9999) or a bad fix 5 km up does not.
-    auto [low, high] = fenced_box(points);
-    std::vector<double> z(points.size);
-    for (std::size_t i = 0; i < points.size; ++i) z[i] = points.coord(i, 2);
-    const auto first = static_cast<std::ptrdiff_t>((points.size - 1) / 4);
-    const auto third = static_cast<std::ptrdiff_t>(3 * (points.size - 1) / 4);
-    std::nth_element(z.begin(), z.begin() + third, z.end());
-    const double q3 = z[third];
-    std::nth_element(z.begin(), z.begin() + first, z.begin() + third);
-    const double q1 = z[first];
-    const double reach =
-        std::max(std::hypot(high[0] - low[0], high[1] - low[1]), kOriginFence * (q3 - q1));
-    low[2] = q1, high[2] = q3;  // within the fence: q1 and q3 are
-    for (std::size_t i = 0; i < points.size; ++i) {
-        const double value = points.coord(i, 2);
-        if (value >= q1 - reach && value < low[2]) low[2] = value;
-        if (value <= q3 + reach && value > high[2]) high[2] = value;
-    }
+    std::array<double, 3> low{}, high{};
+    for (int a = 0; a < 2; ++a) std::tie(low[a], high[a]) = fenced_range(points, a, 0.0);
+    std::tie(low[2], high[2]) =
+        fenced_range(points, 2, std::hypot(high[0] - low[0], high[1] - low[1]));
     double diagonal_squared = 0.0, origin_squared = 0.0;
     for (int d = 0; d < 3; ++d) {
         diagonal_squared += (high[d] - low[d]) * (high[d] - low[d]);

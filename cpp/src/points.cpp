@@ -6,6 +6,7 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <tuple>
 #include <vector>
 
 namespace pcl_rg {
@@ -60,30 +61,30 @@ std::array<double, 3> float32_origin(PointsView points) { return fenced_box(poin
 std::pair<std::array<double, 3>, std::array<double, 3>> fenced_box(PointsView points) {
     std::array<double, 3> origin{0.0, 0.0, 0.0}, top{0.0, 0.0, 0.0};
     if (points.size == 0) return {origin, top};
+    for (int a = 0; a < 3; ++a) std::tie(origin[a], top[a]) = fenced_range(points, a, 0.0);
+    return {origin, top};
+}
+
+std::pair<double, double> fenced_range(PointsView points, int axis, double min_reach) {
     const auto first = static_cast<std::ptrdiff_t>((points.size - 1) / 4);
     const auto third = static_cast<std::ptrdiff_t>(3 * (points.size - 1) / 4);
-    // One copy for the three axes, in turn, outside any parallel region: a bad_alloc
-    // then reaches the caller as MemoryError instead of terminating inside OpenMP, and
-    // the selections take a fraction of the k-nearest-neighbour step that follows.
-    std::vector<double> axis(points.size);
-    for (int a = 0; a < 3; ++a) {
-        for (std::size_t i = 0; i < points.size; ++i) axis[i] = points.coord(i, a);
-        std::nth_element(axis.begin(), axis.begin() + third, axis.end());
-        const double q3 = axis[third];
-        std::nth_element(axis.begin(), axis.begin() + first, axis.begin() + third);
-        const double q1 = axis[first];
-        const double fence = q1 - kOriginFence * (q3 - q1);
-        const double upper_fence = q3 + kOriginFence * (q3 - q1);
-        double lowest = q1, highest = q3;  // within the fences: q1 and q3 are
-        for (std::size_t i = 0; i < points.size; ++i) {
-            const double value = points.coord(i, a);
-            if (value >= fence && value < lowest) lowest = value;
-            if (value <= upper_fence && value > highest) highest = value;
-        }
-        origin[a] = lowest;
-        top[a] = highest;
+    // A copy, outside any parallel region: a bad_alloc then reaches the caller as
+    // MemoryError instead of terminating inside OpenMP.
+    std::vector<double> values(points.size);
+    for (std::size_t i = 0; i < points.size; ++i) values[i] = points.coord(i, axis);
+    std::nth_element(values.begin(), values.begin() + third, values.end());
+    const double q3 = values[third];
+    std::nth_element(values.begin(), values.begin() + first, values.begin() + third);
+    const double q1 = values[first];
+    const double reach = std::max(min_reach, kOriginFence * (q3 - q1));
+    const double fence = q1 - reach, upper_fence = q3 + reach;
+    double lowest = q1, highest = q3;  // within the fences: q1 and q3 are
+    for (std::size_t i = 0; i < points.size; ++i) {
+        const double value = points.coord(i, axis);
+        if (value >= fence && value < lowest) lowest = value;
+        if (value <= upper_fence && value > highest) highest = value;
     }
-    return {origin, top};
+    return {lowest, highest};
 }
 
 std::array<double, 3> upper_corner(PointsView points, const std::array<double, 3>& origin) {

@@ -40,6 +40,12 @@ std::array<double, 3> float32_origin(PointsView points);
 /// pcl_rg.reference._local.fenced_box.
 std::pair<std::array<double, 3>, std::array<double, 3>> fenced_box(PointsView points);
 
+/// The range of coordinate `axis` of the points (N > 0) within max(min_reach,
+/// kOriginFence * (q3 - q1)) of its quartiles q1 and q3 (float32_origin's): fenced_box's
+/// per axis with min_reach 0, and with a wider reach where a cloud's spread is not
+/// stray (the default viewpoint's z). NumPy twin: pcl_rg.reference._local.fenced_range.
+std::pair<double, double> fenced_range(PointsView points, int axis, double min_reach);
+
 /// The fence of float32_origin, in interquartile ranges below the first quartile: far
 /// enough that no ordinary cloud (a tile, a scan) has a point beyond it, so that their
 /// frame stays the minimum corner.

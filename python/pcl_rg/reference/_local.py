@@ -40,14 +40,18 @@ def fenced_box(xyz: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     without stray points; its lower corner is :func:`float32_origin`."""
     if len(xyz) == 0:
         return np.zeros(3), np.zeros(3)
-    first, third = (len(xyz) - 1) // 4, 3 * (len(xyz) - 1) // 4
-    quartiles = np.partition(xyz, [first, third], axis=0)
+    low, high = zip(*(fenced_range(xyz[:, a]) for a in range(3)), strict=True)
+    return np.array(low), np.array(high)
+
+
+def fenced_range(values: np.ndarray, min_reach: float = 0.0) -> tuple[float, float]:
+    """The range of `values` (N > 0) within max(min_reach, ORIGIN_FENCE * (q3 - q1)) of
+    their quartiles q1 and q3 (the core's fenced_range, points.hpp)."""
+    first, third = (len(values) - 1) // 4, 3 * (len(values) - 1) // 4
+    quartiles = np.partition(values, [first, third])
     q1, q3 = quartiles[first], quartiles[third]
-    low_fence = q1 - ORIGIN_FENCE * (q3 - q1)
-    high_fence = q3 + ORIGIN_FENCE * (q3 - q1)
-    low = np.where(xyz >= low_fence, xyz, np.inf).min(axis=0)
-    high = np.where(xyz <= high_fence, xyz, -np.inf).max(axis=0)
-    return low, high
+    reach = max(min_reach, ORIGIN_FENCE * (q3 - q1))
+    return float(values[values >= q1 - reach].min()), float(values[values <= q3 + reach].max())
 
 
 def max_far_points(n: int) -> int:

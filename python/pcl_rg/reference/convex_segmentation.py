@@ -13,7 +13,7 @@ from .._far_points import check_fewer_than_kept
 from .._params import resolve_arguments
 from .._region_growing import RegionGrowingParams
 from .._validation import as_points
-from ._local import ORIGIN_FENCE, fenced_box, near_rows
+from ._local import fenced_range, near_rows
 from .normals import neighbour_lists, normals
 from .point_scale import point_scale
 from .region_growing import grow_regions
@@ -29,20 +29,15 @@ def default_viewpoint(points: np.ndarray) -> tuple[float, float, float]:
     """The viewpoint used when none is given: the origin when it lies within
     `SENSOR_FRAME_REACH` diagonals of the points' bounding box without stray points (a
     sensor's own frame), else one diagonal above the top of that box over its centre
-    (an airborne sensor). x and y: :func:`~pcl_rg.reference._local.fenced_box`; z:
+    (an airborne sensor). x and y: :func:`~pcl_rg.reference._local.fenced_range`; z:
     within the box's XY diagonal (or 4 interquartile ranges, if more) of the z
     quartiles, which keeps an airborne tile's roofs and trees, beyond the fence of its
     ground, and leaves out a no-data height or a bad fix kilometres up."""
     if len(points) == 0:
         return (0.0, 0.0, 0.0)
-    low, high = fenced_box(points)
-    z = points[:, 2]
-    first, third = (len(z) - 1) // 4, 3 * (len(z) - 1) // 4
-    quartiles = np.partition(z, [first, third])
-    q1, q3 = quartiles[first], quartiles[third]
-    reach = max(math.hypot(high[0] - low[0], high[1] - low[1]), ORIGIN_FENCE * (q3 - q1))
-    low[2] = z[z >= q1 - reach].min()
-    high[2] = z[z <= q3 + reach].max()
+    (x0, x1), (y0, y1) = fenced_range(points[:, 0]), fenced_range(points[:, 1])
+    z0, z1 = fenced_range(points[:, 2], math.hypot(x1 - x0, y1 - y0))
+    low, high = np.array([x0, y0, z0]), np.array([x1, y1, z1])
     # As the core computes them: squares of a far stray point overflow to inf there too
     # (without a word), and the step that follows refuses the cloud.
     with np.errstate(over="ignore"):
