@@ -20,7 +20,9 @@
 //      index) is a vertex. Of vertices on one snapped XY, the lowest (ties: index) stays.
 //   3. Delaunay TIN of the vertices inside the frame's box, whose four corners are
 //      virtual vertices at the height of their nearest vertex (exact squared grid
-//      distance, ties: the lowest).
+//      distance, ties: the lowest), and whose sides hold one virtual vertex for each
+//      vertex of a cell on that side, its height continuing the slope inwards
+//      (final_pass_border.cpp).
 //   4. Each point p is located in the triangle holding p + (eps, eps^2) (unique whatever
 //      the walk); with the triangle's vertices counter-clockwise from the
 //      lexicographically smallest (x, y), v0, v1, v2 in metres, n = (v1 - v0) x (v2 - v0):
@@ -48,6 +50,7 @@
 #include <utility>
 #include <vector>
 
+#include "final_pass_border.hpp"
 #include "ground_tin.hpp"
 #include "pcl_rg/cell_lowest.hpp"
 #include "pcl_rg/check.hpp"
@@ -65,6 +68,10 @@ void validate(const FinalPassParams& params) {
 }
 
 namespace {
+
+using final_pass_border::border_vertices;
+using final_pass_border::by_place;
+using final_pass_border::Vertex;
 
 // A closed box on the grid: the bounding box of a vertex's triangles (its star).
 using GridBox = std::array<std::int32_t, 4>;  // x0, y0, x1, y1
@@ -148,11 +155,6 @@ void final_pass(PointsView points, const FinalPassParams& params, const SnappedP
         params.cell,
         static_cast<std::int64_t>(std::floor((upper[0] - cell_x0) / params.cell)) + 1,
         static_cast<std::int64_t>(std::floor((upper[1] - cell_y0) / params.cell)) + 1};
-    struct Vertex {
-        std::int32_t x, y;  // grid
-        double z;
-        std::uint32_t i;
-    };
     // The vertices with their snapped XY and height. Many (tin_ground's dense cells): by
     // a scan of the snapped points, sequential reads, for tin_ground already in curve
     // order; few (grid_ground's): read from the input, one scattered read each, cheaper
@@ -218,15 +220,37 @@ void final_pass(PointsView points, const FinalPassParams& params, const SnappedP
         }
     }
     interruption.check_now();
-    // The last round's vertices again: the same TIN, so the same result.
+    // The virtual vertices on the sides (in insertion order), and by place for `rounds`.
+    std::vector<BorderVertex> border;
+    {
+        std::vector<std::array<std::int64_t, 2>> vertex_cells(vertices.size());
+        for (std::size_t k = 0; k < vertices.size(); ++k)
+            vertex_cells[k] = {
+                floor_to_int((points.coord(vertices[k].i, 0) - cells.x0) / cells.size),
+                floor_to_int((points.coord(vertices[k].i, 1) - cells.y0) / cells.size)};
+        border = border_vertices(vertices, vertex_cells, points, ground, cells, snapped);
+    }
+    std::vector<std::size_t> border_by_place(border.size());
+    for (std::size_t b = 0; b < border.size(); ++b) border_by_place[b] = b;
+    std::sort(border_by_place.begin(), border_by_place.end(),
+              [&](std::size_t a, std::size_t b) { return by_place(border[a], border[b]); });
+    // The last round's vertices and border vertices again (the border's heights depend on
+    // other ground points too): the same TIN, so the same result.
     if (rounds && rounds->ran && vertices.size() == rounds->vertices.size() &&
         std::equal(vertices.begin(), vertices.end(), rounds->vertices.begin(),
-                   [](const Vertex& v, std::uint32_t i) { return v.i == i; }))
+                   [](const Vertex& v, std::uint32_t i) { return v.i == i; }) &&
+        border.size() == rounds->border.size() &&
+        std::equal(border_by_place.begin(), border_by_place.end(), rounds->border.begin(),
+                   [&](std::size_t b, const BorderVertex& last) {
+                       return border[b].x == last.x && border[b].y == last.y &&
+                              border[b].z == last.z;
+                   }))
         return;
 
-    // --- 3. the TIN: virtual corners, then the vertices in that order ----------------
+    // --- 3. the TIN: virtual corners, border vertices, then the vertices in that order --
     std::vector<GridBox> vertex_star;  // for `rounds`: the star of vertices[k]
     std::array<GridBox, 4> corner_star{};
+    std::vector<GridBox> border_star;  // for `rounds`: the star of border[b], border by place
     const std::array<std::size_t, 4> nearest = ground_tin::nearest_to_corners(
         frame, vertices.size(), [&](std::size_t k) { return vertices[k].x; },
         [&](std::size_t k) { return vertices[k].y; }, [&](std::size_t k) { return vertices[k].z; },
@@ -234,7 +258,16 @@ void final_pass(PointsView points, const FinalPassParams& params, const SnappedP
     Delaunay tin(frame.width, frame.height);
     std::vector<double> vz;
     for (const std::size_t k : nearest) vz.push_back(vertices[k].z);
-    tin.reserve(vertices.size() + 4);
+    tin.reserve(vertices.size() + 4 + border.size());
+    std::vector<std::int32_t> border_id(border.size());
+    for (std::size_t b = 0, last = 0; b < border.size(); ++b) {  // each next to the last
+        bool inserted = false;  // always: distinct places on the sides, none a corner
+        border_id[b] =
+            tin.insert_on_border(border[b].x, border[b].y, tin.vertex_triangle(last), &inserted);
+        if (inserted) vz.push_back(border[b].z);
+        last = static_cast<std::size_t>(border_id[b]);
+    }
+    const auto first_vertex = static_cast<std::int32_t>(tin.vertex_count());  // past the virtual
     {
         const std::size_t m = vertices.size();
         std::vector<std::int32_t> vx(m), vy(m), id(m);
@@ -247,6 +280,15 @@ void final_pass(PointsView points, const FinalPassParams& params, const SnappedP
             vertex_star.resize(m);
             for (std::size_t k = 0; k < m; ++k) vertex_star[k] = star[id[k]];
             for (int c = 0; c < 4; ++c) corner_star[c] = star[c];
+            // The border vertices by place, for the next round to compare with its own.
+            std::vector<BorderVertex> sorted_border;
+            std::vector<GridBox> sorted_star;
+            for (const std::size_t b : border_by_place) {
+                sorted_border.push_back(border[b]);
+                sorted_star.push_back(star[border_id[b]]);
+            }
+            border = std::move(sorted_border);
+            border_star = std::move(sorted_star);
         }
     }
     std::vector<std::uint64_t> is_vertex;  // for `rounds`: bit i, point i is a vertex
@@ -277,12 +319,28 @@ void final_pass(PointsView points, const FinalPassParams& params, const SnappedP
                 mark_squares(vertex_star[k], lattice, dirty);
         for (int c = 0; c < 4; ++c)
             if (rounds->corner_z[c] != vz[c]) mark_squares(corner_star[c], lattice, dirty);
+        // A border vertex lost or gained, or moved in height, as a vertex (both by place).
+        const std::vector<BorderVertex>& last_border = rounds->border;
+        for (std::size_t a = 0, b = 0; a < last_border.size() || b < border.size();) {
+            if (b == border.size() ||
+                (a < last_border.size() && by_place(last_border[a], border[b]))) {
+                mark_squares(rounds->border_star[a++], lattice, dirty);
+            } else if (a == last_border.size() || by_place(border[b], last_border[a])) {
+                mark_squares(border_star[b++], lattice, dirty);
+            } else {
+                if (last_border[a].z != border[b].z) {
+                    mark_squares(rounds->border_star[a], lattice, dirty);
+                    mark_squares(border_star[b], lattice, dirty);
+                }
+                ++a, ++b;
+            }
+        }
     }
     std::vector<std::int32_t> hint(lattice.size(), -1);
     for (std::int32_t t = 0; t < static_cast<std::int32_t>(tin.triangle_count()); ++t)
         for (int k = 0; k < 3 && tin.live(t); ++k) {
             const std::int32_t v = tin.triangle_vertex(t, k);
-            if (v >= 4) hint[lattice.of(tin.vertex_x(v), tin.vertex_y(v))] = t;  // not a corner
+            if (v >= first_vertex) hint[lattice.of(tin.vertex_x(v), tin.vertex_y(v))] = t;
         }
     const std::int64_t near = std::int64_t{2} << lattice.shift;
     const double q = frame.quantum;
@@ -350,6 +408,8 @@ void final_pass(PointsView points, const FinalPassParams& params, const SnappedP
         rounds->vertex_star = std::move(vertex_star);
         rounds->is_vertex = std::move(is_vertex);
         for (int c = 0; c < 4; ++c) rounds->corner_z[c] = vz[c];
+        rounds->border = std::move(border);
+        rounds->border_star = std::move(border_star);
     }
 }
 

@@ -396,9 +396,13 @@ def grid_ground(
     * ``final_cell = c > 0`` (a final pass, as TerraScan classifies points by
       their distance to the ground TIN, with Zhao et al. 2016's
       slope-adaptive threshold): the lowest ground point of each c x c cell
-      (anchored on the world lattice of c) is a vertex of a Delaunay TIN
-      (the four corners of the extent at the height of their nearest
-      vertex); every point, the grower's ground included, is then ground
+      (anchored on the world lattice of c) is a vertex of a Delaunay TIN;
+      its virtual vertices are the extent's four corners, at the height of
+      their nearest vertex, and on each side one per vertex of an outermost
+      cell, continuing a rise from the next cell inwards, up to the height of
+      the cell's ground point nearest the side (so that an uphill border strip
+      is not left below the surface). Every point, the grower's ground
+      included, is then ground
       when ``-final_below <= z - z_TIN <= final_above + final_slope * g``,
       with z_TIN and g = |grad z_TIN| from the TIN's triangle under the
       point. A grower's ground that took low objects along gets the lower

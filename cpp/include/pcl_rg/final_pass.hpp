@@ -46,7 +46,8 @@ void validate(const FinalPassParams& params);
 
 /// Replaces `ground` (N entries, read as the filter's ground) by the final pass's
 /// classification: the TIN's vertices are the lowest ground point of each cell (ties:
-/// smallest index; of vertices on one snapped XY, the lowest, then smallest index);
+/// smallest index; of vertices on one snapped XY, the lowest, then smallest index), with
+/// virtual vertices on its box's corners and sides (final_pass.cpp: border_vertices);
 /// a point p is ground when -below <= z_p - z_TIN(p) <= above + slope * |grad z_TIN(p)|,
 /// in the triangle holding p + (eps, eps^2). No ground in: no ground out. The parameters
 /// are checked by the caller (validate above). Deterministic for any number of
@@ -58,6 +59,12 @@ void final_pass(PointsView points, const FinalPassParams& params, bool* ground);
 /// that snap the points themselves (snap_frame, snap_points).
 void check_final_pass_extent(const std::array<double, 3>& origin,
                              const std::array<double, 3>& upper);
+/// A virtual vertex of the final pass's TIN on a side of its box: grid XY and height.
+struct BorderVertex {
+    std::int32_t x, y;
+    double z;
+};
+
 /// What a round of the final pass leaves for the next round on the same snapped points
 /// and settings (final_pass's `rounds`): its vertices and where their triangles lie.
 struct FinalPassRounds {
@@ -68,6 +75,9 @@ struct FinalPassRounds {
     std::vector<std::array<std::int32_t, 4>> vertex_star;
     std::vector<std::uint64_t> is_vertex;  ///< bit i: point i is a vertex
     std::array<double, 4> corner_z{};      ///< heights of the virtual corners
+    /// The virtual vertices on the box's sides, by (x, y), and the grid boxes of their stars.
+    std::vector<BorderVertex> border;
+    std::vector<std::array<std::int32_t, 4>> border_star;
 };
 
 /// The same pass on points already snapped and sorted (by snap_points, as tin_ground

@@ -17,7 +17,7 @@ import numpy as np
 from ._lattice import lattice_floor
 from .tin_ground import grid_quantum, locate, triangulate, with_corners
 
-__all__ = ["final_pass", "heights_above_tin"]
+__all__ = ["border_vertices", "final_pass", "heights_above_tin"]
 
 
 def final_pass(
@@ -39,6 +39,80 @@ def final_pass(
         return np.zeros(len(xyz), dtype=bool)
     dz, gradient = heights
     return (dz >= -below) & (dz <= above + slope * gradient)
+
+
+def border_vertices(
+    vx: np.ndarray,
+    vy: np.ndarray,
+    vz: np.ndarray,
+    cells: np.ndarray,
+    lattice: tuple[int, int],
+    box: tuple[int, int],
+    ground: tuple[np.ndarray, np.ndarray, np.ndarray],
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The final pass's virtual vertices on the sides of the TIN's box (grid x, y, z).
+
+    Each vertex (grid `vx`, `vy`, height `vz`) whose cell (`cells`, column and row
+    in a lattice of `lattice` columns and rows) lies in the outermost row or column
+    on a side gets one there, at its own position moved onto the side (the box is
+    [0, width] x [0, height], `box`). Its height continues a rise from the vertex
+    of the next cell inwards, w, to this one, v, by at most that rise: z_v +
+    max(z_v - z_w, 0) * min(d_side / d_vw, 1) with grid distances across the side;
+    z_v without such a w or where d_vw is 0, and at most the height of the filter's
+    ground point nearest the side in v's cell (ties: the lowest, then the smallest
+    index). `ground`: the ground points' grid XY (G, 2), heights (G,) and cells
+    (G, 2), by index. A lattice one cell wide or high gets none. Of two at one place,
+    the lower cell's stays.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from pcl_rg.reference._final_pass import border_vertices
+    >>> vx, vy, vz = np.array([5, 5, 13]), np.array([2, 6, 6]), np.array([0.0, 1.0, 2.0])
+    >>> cells = np.array([[0, 0], [0, 1], [1, 1]])  # 2 x 2 cells of 8 grid steps
+    >>> ground = (np.c_[np.r_[vx, 14], np.r_[vy, 10]], np.r_[vz, 2.5], np.r_[cells, [[1, 1]]])
+    >>> bx, by, bz = border_vertices(vx, vy, vz, cells, (2, 2), (16, 16), ground)
+    >>> list(zip(bx.tolist(), by.tolist(), bz.tolist()))  # bottom, top x 2, left x 2, right
+    [(5, 0, 0.0), (5, 16, 1.0), (13, 16, 2.0), (0, 2, 0.0), (0, 6, 1.0), (16, 6, 2.375)]
+    """
+    if min(lattice) == 1:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
+    out: list[tuple[int, int, float]] = []
+    ground_xy, ground_z, ground_cells = ground
+    place = {(int(c), int(r)): k for k, (c, r) in enumerate(cells.tolist())}
+    for axis, upper_side in ((1, False), (1, True), (0, False), (0, True)):  # bottom, top, ...
+        edge, inward = (lattice[axis] - 1, lattice[axis] - 2) if upper_side else (0, 1)
+        at = box[axis] if upper_side else 0
+        across = vy if axis == 1 else vx
+        # The cap: per outermost cell, the ground point nearest the side, then lowest.
+        on_edge = np.flatnonzero(ground_cells[:, axis] == edge)
+        if on_edge.size == 0:
+            continue  # nor any vertex there
+        gap = np.abs(at - ground_xy[on_edge, axis])
+        along = ground_cells[on_edge, 1 - axis]
+        order = np.lexsort((on_edge, ground_z[on_edge], gap, along))
+        first = np.r_[True, along[order][1:] != along[order][:-1]]
+        cap = dict(zip(along[order][first].tolist(), ground_z[on_edge][order][first].tolist()))
+        side: list[tuple[int, int, float]] = []
+        for k in sorted(np.flatnonzero(cells[:, axis] == edge), key=lambda k: cells[k, 1 - axis]):
+            inner = cells[k].copy()
+            inner[axis] = inward
+            w = place.get((int(inner[0]), int(inner[1])))
+            z = float(vz[k])
+            if w is not None:
+                d_side = at - across[k] if upper_side else across[k] - at
+                d_vw = across[k] - across[w] if upper_side else across[w] - across[k]
+                if d_vw > 0:
+                    z = z + max(z - float(vz[w]), 0.0) * min(float(d_side) / float(d_vw), 1.0)
+            z = min(z, cap[int(cells[k, 1 - axis])])
+            point = (int(vx[k]), at, z) if axis == 1 else (at, int(vy[k]), z)
+            if not side or side[-1][:2] != point[:2]:
+                side.append(point)
+        out.extend(side)
+    if not out:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
+    bx, by, bz = zip(*out, strict=True)
+    return np.array(bx, np.int64), np.array(by, np.int64), np.array(bz)
 
 
 def heights_above_tin(
@@ -90,8 +164,19 @@ def heights_above_tin(
     first = np.r_[True, (gx[vertex][1:] != gx[vertex][:-1]) | (gy[vertex][1:] != gy[vertex][:-1])]
     vertex = np.sort(vertex[first])
 
-    # Corners of the box at the height of their nearest vertex (ties: index).
+    # Corners of the box at the height of their nearest vertex (ties: index), then the
+    # virtual vertices on its sides.
     vx, vy, vz = with_corners(gx, gy, z, vertex, vertex, width, height)
+    cells = np.floor((xyz[vertex, :2] - [cell_x0, cell_y0]) / cell).astype(np.int64)
+    lattice = (
+        int(np.floor((upper[0] - cell_x0) / cell)) + 1,
+        int(np.floor((upper[1] - cell_y0) / cell)) + 1,
+    )
+    bx, by, bz = border_vertices(
+        gx[vertex], gy[vertex], z[vertex], cells, lattice, (width, height),
+        (np.c_[gx[index], gy[index]], z[index], np.c_[cx, cy]),
+    )  # fmt: skip
+    vx, vy, vz = np.r_[vx[:4], bx, vx[4:]], np.r_[vy[:4], by, vy[4:]], np.r_[vz[:4], bz, vz[4:]]
 
     tri, neighbors, vertex_to_simplex = triangulate(vx, vy, q)
     t = tri[locate(tri, neighbors, vertex_to_simplex, vx, vy, gx, gy)]

@@ -1,0 +1,58 @@
+// The virtual vertices on the sides of the final pass's TIN box (final_pass.cpp, step 3).
+// Private to cpp/src.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "pcl_rg/cell_lowest.hpp"
+#include "pcl_rg/delaunay.hpp"
+#include "pcl_rg/final_pass.hpp"
+#include "pcl_rg/points.hpp"
+
+namespace pcl_rg::final_pass_border {
+
+// A vertex of the TIN: the lowest ground point of a cell.
+struct Vertex {
+    std::int32_t x, y;  // grid
+    double z;
+    std::uint32_t i;
+};
+
+// The virtual vertices on the sides of the TIN's box. With the corners alone each side is
+// one edge of the TIN, and the strip between the outermost vertices and the side takes
+// heights interpolated towards corners hundreds of metres away; on a slope the lowest
+// point of each cell of the outermost row lies on its downhill side, so the uphill strip,
+// up to a cell wide, was left above that surface and lost its ground.
+//
+// So each vertex v of a cell of the lattice's outermost row or column on a side gets a
+// virtual vertex there, at its own position moved straight onto the side, at the height
+//     min(z_v + max(z_v - z_w, 0) * min(d_side / d_vw, 1), z_o):
+//   - w is the vertex of the next cell inwards; d_side and d_vw are grid distances across
+//     the side (v to the side, w to v); without such a w, or where d_vw is 0, z_v;
+//   - o is the filter's ground point in v's cell nearest the side (ties: the lowest, then
+//     the smallest index), so z_o >= z_v.
+// A rise towards the side is continued, by at most its own height; a drop is not: there
+// the lowest point already lies next to the side, and a drop from an object's top to the
+// ground beside it would sink the side below the ground. The cap z_o keeps a rise from
+// the ground to an object cut by the side (a roof as v's cell's lowest point) from
+// lifting the side above what the filter took there.
+//
+// A lattice one cell wide or high gets none: its points lie in one strip, and on a line
+// (a wall, test_final_pass.py) its side vertices would stand a grid step from the
+// corners, closer than the reference's qhull resolves. Of two at one position (vertices
+// of neighbouring cells snapped to one grid line), the lower cell's stays. Insertion
+// order: the sides' k-th vertices together (bottom, top, left, right), each side along
+// its length, so that each lands beside the last ones (as tin_ground.cpp inserts its
+// border vertices). `cells` (per vertex): its cell's column and row in `lattice`;
+// `ground`: the filter's ground, read as the final pass reads it.
+std::vector<BorderVertex> border_vertices(const std::vector<Vertex>& vertices,
+                                          const std::vector<std::array<std::int64_t, 2>>& cells,
+                                          PointsView points, const bool* ground,
+                                          const CellLattice& lattice, const SnappedPoints& snapped);
+
+// Whether a lies before b by place (x, then y).
+bool by_place(const BorderVertex& a, const BorderVertex& b);
+
+}  // namespace pcl_rg::final_pass_border
