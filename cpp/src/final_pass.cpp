@@ -21,7 +21,7 @@
 //   3. Delaunay TIN of the vertices inside the frame's box, whose four corners are
 //      virtual vertices at the height of their nearest vertex (exact squared grid
 //      distance, ties: the lowest), and whose sides hold one virtual vertex for each
-//      vertex of a cell on that side, its height continuing the slope inwards
+//      vertex of a cell on that side, its height continuing a rise from inwards
 //      (final_pass_border.cpp).
 //   4. Each point p is located in the triangle holding p + (eps, eps^2) (unique whatever
 //      the walk); with the triangle's vertices counter-clockwise from the

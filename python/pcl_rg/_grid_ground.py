@@ -191,8 +191,8 @@ class GridGroundParams:
         the final pass's 4 m cell and the 30 m blocks stay in metres. Among the
         rules for the lengths (every one in metres, every one in spacings, only
         the cell) it has the lowest
-        leave-one-sample-out error on the seven ISPRS samples: 4.43 % fitted,
-        4.45 % cross-validated (kappa 0.859), against 5.48 % for the same
+        leave-one-sample-out error on the seven ISPRS samples: 4.04 % fitted,
+        4.02 % cross-validated (kappa 0.871), against 5.26 % for the same
         search with 3 m cells, 5.15 % for the preset before low outliers, final
         rounds and the deeper final_below (4.64 % fitted) and 10.8 % for the
         former default (``benchmarks/studies/ground_isprs_cv.py``). With cells

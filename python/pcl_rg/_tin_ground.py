@@ -207,12 +207,12 @@ class TinGroundParams:
         ``benchmarks/RESULTS.md``. Against :meth:`lidar360` it switches the angle
         reduction off (no ISPRS triangle has a longest edge under 1 cm), keeps
         the 2 m stop edge (the search now picks 0.01 m, which after the final
-        pass scores no better, 3.3211 against 3.3207 %, in twice the time) and
+        pass scores no better, 3.2331 against 3.2327 %) and
         switches five improvements on. On the seven ISPRS samples it scores
-        3.32 % fitted and 4.21 % left one sample out
+        3.23 % fitted and 4.19 % left one sample out
         (``benchmarks/studies/ground_isprs_cv.py``). Searches whose lengths
-        follow the point spacing did no better there (all of them 5.65 %; stop
-        edge and near-vertex distance 5.14 %), so the lengths are those fitted
+        follow the point spacing did no better there (all of them 5.60 %; stop
+        edge and near-vertex distance 5.21 %), so the lengths are those fitted
         on ISPRS where the data are as sparse (spacing of at least 0.95 m) and
         shrink in proportion to the spacing on denser data, the stop edge only
         below 0.475 m (:attr:`SPACING_CAPS`, :attr:`SPACING_MULTIPLES`; the four
@@ -460,7 +460,7 @@ def tin_ground(
     raster leaves out the long empty runs of cells between them, which changes
     no seed. They join the TIN as seeds, though, and its triangles along the
     border of the data then reach them: on the seven ISPRS samples one point
-    700 km away raises the mean total error from 3.32 to 3.70 %. Drop such
+    700 km away raises the mean total error from 3.23 to 3.63 %. Drop such
     points first (:func:`statistical_outlier_removal`, ``pcl-rg denoise``).
 
     The result does not depend on the order of the points except through ties

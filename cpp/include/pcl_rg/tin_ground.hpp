@@ -16,8 +16,8 @@ namespace pcl_rg {
 /// each multiple is its cap / kTinFullLengthSpacing, so data as sparse as the ISPRS
 /// samples (0.99-2.41 m) keeps the preset's lengths and denser data gets them in
 /// proportion to its spacing. The stop edge's multiple is that of a 4 m stop edge
-/// instead: on ISPRS any stop edge of 2-6 m scores the same (3.32-3.34 %, 10 m
-/// 3.41 %), so up to about 6 spacings it costs no accuracy there, while on dense
+/// instead: on ISPRS any stop edge of 2-6 m scores the same (3.23-3.25 %, 10 m
+/// 3.33 %), so up to about 6 spacings it costs no accuracy there, while on dense
 /// data a stop edge half as long inserts 2-3 times the vertices (0.5 m spacing,
 /// 10M points: 7.4M vertices at 1.05 m, 2.7M at 2 m). It stays 2 m down to a
 /// spacing of 0.475 m (benchmarks/RESULTS.md, "Ground filters at 2-20 points per
