@@ -310,6 +310,9 @@ def test_a_stray_point_barely_changes_the_ground_filters_on_isprs() -> None:
     # its box, the spacing was 56-190 m, and grid_ground's mean total error went from
     # 4.4 to 10.9 %; tin_ground refused the cloud. Now grid_ground's lengths stay those
     # of the data; tin_ground's TIN reaches the stray point along the samples' borders.
+    # The final pass's side vertices (final_pass_border.hpp) mend the data's border only
+    # where it is the box's: the stray point moves the box away, so grid_ground keeps
+    # 4.16 % with it against 4.04 % without (both were 4.4 % before the side vertices).
     data = shared_data("isprs")
     totals: dict[str, list[float]] = {"grid": [], "grid stray": [], "tin": [], "tin stray": []}
     for name in ("samp11", "samp21", "samp31", "samp41", "samp51", "samp52", "samp61"):
@@ -323,8 +326,8 @@ def test_a_stray_point_barely_changes_the_ground_filters_on_isprs() -> None:
                 ground_errors(sample.ground, function(stray)[:n]).total
             )
     mean = {key: 100 * float(np.mean(values)) for key, values in totals.items()}  # %
-    assert mean["grid stray"] == pytest.approx(mean["grid"], abs=0.1)  # 4.42, 4.43
-    assert mean["tin stray"] < mean["tin"] + 0.5  # 3.70, 3.33
+    assert mean["grid stray"] == pytest.approx(mean["grid"], abs=0.2)  # 4.16, 4.04
+    assert mean["tin stray"] < mean["tin"] + 0.5  # 3.63, 3.23
 
 
 @pytest.mark.parametrize("rows", [[0], [0, 1, 150], [299, 300, 301], [5, 301]])

@@ -247,7 +247,7 @@ void final_pass(PointsView points, const FinalPassParams& params, const SnappedP
                    }))
         return;
 
-    // --- 3. the TIN: virtual corners, border vertices, then the vertices in that order --
+    // --- 3. the TIN: virtual corners, the vertices, then the side vertices ------------
     std::vector<GridBox> vertex_star;  // for `rounds`: the star of vertices[k]
     std::array<GridBox, 4> corner_star{};
     std::vector<GridBox> border_star;  // for `rounds`: the star of border[b], border by place
@@ -259,37 +259,54 @@ void final_pass(PointsView points, const FinalPassParams& params, const SnappedP
     std::vector<double> vz;
     for (const std::size_t k : nearest) vz.push_back(vertices[k].z);
     tin.reserve(vertices.size() + 4 + border.size());
-    std::vector<std::int32_t> border_id(border.size());
-    for (std::size_t b = 0, last = 0; b < border.size(); ++b) {  // each next to the last
-        bool inserted = false;  // always: distinct places on the sides, none a corner
-        border_id[b] =
-            tin.insert_on_border(border[b].x, border[b].y, tin.vertex_triangle(last), &inserted);
-        if (inserted) vz.push_back(border[b].z);
-        last = static_cast<std::size_t>(border_id[b]);
-    }
-    const auto first_vertex = static_cast<std::int32_t>(tin.vertex_count());  // past the virtual
+    const std::size_t vertex_count = vertices.size();
+    std::vector<std::int32_t> id(vertex_count);
     {
-        const std::size_t m = vertices.size();
-        std::vector<std::int32_t> vx(m), vy(m), id(m);
-        for (std::size_t k = 0; k < m; ++k) vx[k] = vertices[k].x, vy[k] = vertices[k].y;
-        tin.insert_batch(vx.data(), vy.data(), nullptr, m, id.data());
+        std::vector<std::int32_t> vx(vertex_count), vy(vertex_count);
+        for (std::size_t k = 0; k < vertex_count; ++k) vx[k] = vertices[k].x, vy[k] = vertices[k].y;
+        tin.insert_batch(vx.data(), vy.data(), nullptr, vertex_count, id.data());
         vz.resize(tin.vertex_count(), 0.0);
-        for (std::size_t k = 0; k < m; ++k) vz[id[k]] = vertices[k].z;  // distinct XY
-        if (rounds) {
-            const std::vector<GridBox> star = star_boxes(tin);
-            vertex_star.resize(m);
-            for (std::size_t k = 0; k < m; ++k) vertex_star[k] = star[id[k]];
-            for (int c = 0; c < 4; ++c) corner_star[c] = star[c];
-            // The border vertices by place, for the next round to compare with its own.
-            std::vector<BorderVertex> sorted_border;
-            std::vector<GridBox> sorted_star;
-            for (const std::size_t b : border_by_place) {
-                sorted_border.push_back(border[b]);
-                sorted_star.push_back(star[border_id[b]]);
-            }
-            border = std::move(sorted_border);
-            border_star = std::move(sorted_star);
+        for (std::size_t k = 0; k < vertex_count; ++k) vz[id[k]] = vertices[k].z;  // distinct XY
+    }
+    // The side vertices after the vertices (the TIN is the same in any order), by halves
+    // of their run around the box: the middle one, then those halfway between two in, and
+    // so on. Vertices a grid step from a side leave slivers between them and the side
+    // that fan out to the corners; a side vertex inserted next to the last one along the
+    // side would flip the whole rest of its fan each time (8,000 per side: 8 s), while
+    // one inserted between two earlier ones flips only what lies between them. Each
+    // walk starts at the earlier one before it in the run (or the first corner).
+    const auto first_side = static_cast<std::int32_t>(tin.vertex_count());
+    std::vector<std::int32_t> border_id(border.size());
+    std::size_t step = 1;
+    while (step * 2 <= border.size()) step *= 2;
+    for (; step >= 1; step /= 2)
+        for (std::size_t b = step - 1; b < border.size(); b += 2 * step) {
+            const std::int32_t before = b >= step ? border_id[b - step] : 0;
+            // The triangle at the point a grid step inside: next to the one on the side
+            // (the earlier vertex's own triangles may be a long fan away).
+            const std::int32_t inside_x = std::clamp(border[b].x, 1, frame.width - 1);
+            const std::int32_t inside_y = std::clamp(border[b].y, 1, frame.height - 1);
+            bool inserted = false;
+            border_id[b] = tin.insert_on_border(
+                border[b].x, border[b].y,
+                tin.locate(inside_x, inside_y, tin.vertex_triangle(before)), &inserted);
+            if (!inserted)  // distinct places on the sides, none a corner nor a vertex
+                throw std::logic_error("final_pass: a side vertex was not inserted");
         }
+    vz.resize(tin.vertex_count(), 0.0);
+    for (std::size_t b = 0; b < border.size(); ++b) vz[border_id[b]] = border[b].z;
+    if (rounds) {
+        const std::vector<GridBox> star = star_boxes(tin);
+        vertex_star.resize(vertex_count);
+        for (std::size_t k = 0; k < vertex_count; ++k) vertex_star[k] = star[id[k]];
+        for (int c = 0; c < 4; ++c) corner_star[c] = star[c];
+        // The side vertices by place, for the next round to compare with its own.
+        std::vector<BorderVertex> sorted_border;
+        for (const std::size_t b : border_by_place) {
+            sorted_border.push_back(border[b]);
+            border_star.push_back(star[border_id[b]]);
+        }
+        border = std::move(sorted_border);
     }
     std::vector<std::uint64_t> is_vertex;  // for `rounds`: bit i, point i is a vertex
     if (rounds) {
@@ -307,7 +324,8 @@ void final_pass(PointsView points, const FinalPassParams& params, const SnappedP
     // lies in the last TIN's star of a vertex it lost (removing a vertex changes only its
     // star), or in this TIN's star of a vertex it gained (inserting one changes only
     // triangles that then have it as a vertex), or has a virtual corner whose height
-    // changed, so it lies in one of those stars' boxes.
+    // changed, so it lies in one of those stars' boxes. Side vertices count as vertices
+    // by place and height: one whose height changed is lost and gained.
     std::vector<std::uint8_t> dirty;
     if (rounds && rounds->ran) {
         dirty.assign(lattice.size(), 0);
@@ -319,7 +337,7 @@ void final_pass(PointsView points, const FinalPassParams& params, const SnappedP
                 mark_squares(vertex_star[k], lattice, dirty);
         for (int c = 0; c < 4; ++c)
             if (rounds->corner_z[c] != vz[c]) mark_squares(corner_star[c], lattice, dirty);
-        // A border vertex lost or gained, or moved in height, as a vertex (both by place).
+        // A side vertex lost or gained, or moved in height (both lists by place).
         const std::vector<BorderVertex>& last_border = rounds->border;
         for (std::size_t a = 0, b = 0; a < last_border.size() || b < border.size();) {
             if (b == border.size() ||
@@ -340,7 +358,8 @@ void final_pass(PointsView points, const FinalPassParams& params, const SnappedP
     for (std::int32_t t = 0; t < static_cast<std::int32_t>(tin.triangle_count()); ++t)
         for (int k = 0; k < 3 && tin.live(t); ++k) {
             const std::int32_t v = tin.triangle_vertex(t, k);
-            if (v >= first_vertex) hint[lattice.of(tin.vertex_x(v), tin.vertex_y(v))] = t;
+            if (v >= 4 && v < first_side)  // a vertex, not a corner nor on a side
+                hint[lattice.of(tin.vertex_x(v), tin.vertex_y(v))] = t;
         }
     const std::int64_t near = std::int64_t{2} << lattice.shift;
     const double q = frame.quantum;

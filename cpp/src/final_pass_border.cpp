@@ -97,14 +97,16 @@ std::vector<BorderVertex> border_vertices(const std::vector<Vertex>& vertices,
         z = std::min(z, outermost[side][cell_rank[side]++].z);
         const BorderVertex b =
             along_x ? BorderVertex{v.x, side_at, z} : BorderVertex{side_at, v.y, z};
+        const std::int32_t along = along_x ? v.x : v.y;
+        if (along <= 1 || along >= (along_x ? frame.width : frame.height) - 1) continue;
         if (sides[side].empty() || sides[side].back().x != b.x || sides[side].back().y != b.y)
             sides[side].push_back(b);
     }
-    std::vector<BorderVertex> out;
-    for (std::size_t rank = 0;
-         out.size() < sides[0].size() + sides[1].size() + sides[2].size() + sides[3].size(); ++rank)
-        for (const std::vector<BorderVertex>& side : sides)
-            if (rank < side.size()) out.push_back(side[rank]);
+    // Around the box: bottom left to right, right upwards, top right to left, left down.
+    std::vector<BorderVertex> out(sides[0].begin(), sides[0].end());
+    out.insert(out.end(), sides[3].begin(), sides[3].end());
+    out.insert(out.end(), sides[1].rbegin(), sides[1].rend());
+    out.insert(out.end(), sides[2].rbegin(), sides[2].rend());
     return out;
 }
 

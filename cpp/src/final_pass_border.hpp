@@ -39,14 +39,15 @@ struct Vertex {
 // the ground to an object cut by the side (a roof as v's cell's lowest point) from
 // lifting the side above what the filter took there.
 //
-// A lattice one cell wide or high gets none: its points lie in one strip, and on a line
-// (a wall, test_final_pass.py) its side vertices would stand a grid step from the
-// corners, closer than the reference's qhull resolves. Of two at one position (vertices
-// of neighbouring cells snapped to one grid line), the lower cell's stays. Insertion
-// order: the sides' k-th vertices together (bottom, top, left, right), each side along
-// its length, so that each lands beside the last ones (as tin_ground.cpp inserts its
-// border vertices). `cells` (per vertex): its cell's column and row in `lattice`;
-// `ground`: the filter's ground, read as the final pass reads it.
+// A lattice one cell wide or high gets none (its points lie in one strip), nor does a
+// vertex within one grid step of a corner along the side (the corner's triangles cover
+// it): there a side vertex, a corner and the vertex would stand within a grid step of
+// each other, which in a wide box is more than the reference's qhull resolves (a wall,
+// a far point: test_final_pass.py, test_far_points.py). Of two at one position
+// (vertices of neighbouring cells snapped to one grid line), the lower cell's stays.
+// Returned around the box (bottom, right, top, left, each in that direction), so that
+// each lies next to the one before. `cells` (per vertex): its cell's column and row in
+// `lattice`; `ground`: the filter's ground, read as the final pass reads it.
 std::vector<BorderVertex> border_vertices(const std::vector<Vertex>& vertices,
                                           const std::vector<std::array<std::int64_t, 2>>& cells,
                                           PointsView points, const bool* ground,

@@ -47,7 +47,7 @@ void validate(const FinalPassParams& params);
 /// Replaces `ground` (N entries, read as the filter's ground) by the final pass's
 /// classification: the TIN's vertices are the lowest ground point of each cell (ties:
 /// smallest index; of vertices on one snapped XY, the lowest, then smallest index), with
-/// virtual vertices on its box's corners and sides (final_pass.cpp: border_vertices);
+/// virtual vertices on its box's corners and sides (final_pass_border.hpp);
 /// a point p is ground when -below <= z_p - z_TIN(p) <= above + slope * |grad z_TIN(p)|,
 /// in the triangle holding p + (eps, eps^2). No ground in: no ground out. The parameters
 /// are checked by the caller (validate above). Deterministic for any number of

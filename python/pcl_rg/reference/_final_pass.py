@@ -61,8 +61,9 @@ def border_vertices(
     z_v without such a w or where d_vw is 0, and at most the height of the filter's
     ground point nearest the side in v's cell (ties: the lowest, then the smallest
     index). `ground`: the ground points' grid XY (G, 2), heights (G,) and cells
-    (G, 2), by index. A lattice one cell wide or high gets none. Of two at one place,
-    the lower cell's stays.
+    (G, 2), by index. A lattice one cell wide or high gets none, nor a vertex
+    within one grid step of a corner along the side. Of two at one place, the lower
+    cell's stays.
 
     Examples
     --------
@@ -106,6 +107,9 @@ def border_vertices(
                     z = z + max(z - float(vz[w]), 0.0) * min(float(d_side) / float(d_vw), 1.0)
             z = min(z, cap[int(cells[k, 1 - axis])])
             point = (int(vx[k]), at, z) if axis == 1 else (at, int(vy[k]), z)
+            along = int(vx[k] if axis == 1 else vy[k])
+            if along <= 1 or along >= box[1 - axis] - 1:
+                continue  # within a grid step of a corner
             if not side or side[-1][:2] != point[:2]:
                 side.append(point)
         out.extend(side)

@@ -82,7 +82,8 @@ def triangulate(vx: np.ndarray, vy: np.ndarray, quantum: float) -> tuple:
     Raises
     ------
     QhullPrecisionError
-        qhull dropped vertices closer to others than its precision resolves.
+        qhull dropped vertices closer to others than its precision resolves, or
+        returned a triangulation with too many triangles or a flat one.
     """
     dt = Delaunay(np.c_[vx, vy].astype(np.float64) * quantum)
     if len(dt.coplanar):
@@ -93,6 +94,16 @@ def triangulate(vx: np.ndarray, vy: np.ndarray, quantum: float) -> tuple:
         )
     s = dt.simplices.astype(np.int64)
     o = _orient(vx[s[:, 0]], vy[s[:, 0]], vx[s[:, 1]], vy[s[:, 1]], vx[s[:, 2]], vy[s[:, 2]])
+    # A triangulation of n points with h on its boundary has 2n - 2 - h triangles, none
+    # flat: near-degenerate input (points a grid step apart in a wide box) can get
+    # overlapping or flat triangles from qhull without a word.
+    if len(s) != 2 * len(vx) - 2 - len(dt.convex_hull) or bool(np.any(o == 0)):
+        raise QhullPrecisionError(
+            f"reference: qhull returned {len(s)} triangles for {len(vx)} vertices, "
+            f"{len(dt.convex_hull)} of them on the hull, or a flat one, at points closer "
+            "than its float64 precision resolves; this NumPy reference cannot build that "
+            "TIN exactly (the core can)"
+        )
     cw = o < 0
     s[cw] = s[cw][:, [0, 2, 1]]
     # Co-circular vertices: the core's diagonals (its perturbed in-circle test).
