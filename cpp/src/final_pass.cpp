@@ -273,8 +273,9 @@ void final_pass(PointsView points, const FinalPassParams& params, const SnappedP
     // so on. Vertices a grid step from a side leave slivers between them and the side
     // that fan out to the corners; a side vertex inserted next to the last one along the
     // side would flip the whole rest of its fan each time (8,000 per side: 8 s), while
-    // one inserted between two earlier ones flips only what lies between them. Each
-    // walk starts at the earlier one before it in the run (or the first corner).
+    // one inserted between two earlier ones flips only what lies between them. Each is
+    // looked for from the point a grid step inside it, walked to from the earlier one
+    // before it in the run (or the first corner).
     const auto first_side = static_cast<std::int32_t>(tin.vertex_count());
     std::vector<std::int32_t> border_id(border.size());
     std::size_t step = 1;
@@ -282,8 +283,9 @@ void final_pass(PointsView points, const FinalPassParams& params, const SnappedP
     for (; step >= 1; step /= 2)
         for (std::size_t b = step - 1; b < border.size(); b += 2 * step) {
             const std::int32_t before = b >= step ? border_id[b - step] : 0;
-            // The triangle at the point a grid step inside: next to the one on the side
-            // (the earlier vertex's own triangles may be a long fan away).
+            // The triangle at the point a grid step inside lies next to the one on the
+            // side (the earlier vertex's own triangles may be a long fan away: 16,000 per
+            // side took 3.7 s from there, 0.19 s from here).
             const std::int32_t inside_x = std::clamp(border[b].x, 1, frame.width - 1);
             const std::int32_t inside_y = std::clamp(border[b].y, 1, frame.height - 1);
             bool inserted = false;
