@@ -17,13 +17,6 @@ namespace pcl_rg {
 
 namespace {
 
-// Column and row of point i's cell.
-std::pair<std::int64_t, std::int64_t> cell_of(PointsView points, const CellLattice& lattice,
-                                              std::size_t i) {
-    return {floor_to_int((points.coord(i, 0) - lattice.x0) / lattice.size),
-            floor_to_int((points.coord(i, 1) - lattice.y0) / lattice.size)};
-}
-
 // Point a comes before point b: lower z - z0, then smaller index. z0 is subtracted, not
 // left out, because the subtraction can round two heights to one.
 bool lower(PointsView points, double z0, std::size_t a, std::size_t b) {

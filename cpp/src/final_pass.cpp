@@ -47,6 +47,7 @@
 #include <cstdlib>
 #include <limits>
 #include <stdexcept>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -225,9 +226,8 @@ void final_pass(PointsView points, const FinalPassParams& params, const SnappedP
     {
         std::vector<std::array<std::int64_t, 2>> vertex_cells(vertices.size());
         for (std::size_t k = 0; k < vertices.size(); ++k)
-            vertex_cells[k] = {
-                floor_to_int((points.coord(vertices[k].i, 0) - cells.x0) / cells.size),
-                floor_to_int((points.coord(vertices[k].i, 1) - cells.y0) / cells.size)};
+            std::tie(vertex_cells[k][0], vertex_cells[k][1]) =
+                cell_of(points, cells, vertices[k].i);
         border = border_vertices(vertices, vertex_cells, points, ground, cells, snapped);
     }
     std::vector<std::size_t> border_by_place(border.size());

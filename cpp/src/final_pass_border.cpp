@@ -55,8 +55,7 @@ std::vector<BorderVertex> border_vertices(const std::vector<Vertex>& vertices,
     for (int side = 0; side < 4; ++side) outermost[side].resize(edge_cells[side].size());
     for (std::size_t i = 0; i < points.size; ++i) {
         if (!ground[i]) continue;
-        const std::int64_t cx = floor_to_int((points.coord(i, 0) - lattice.x0) / lattice.size);
-        const std::int64_t cy = floor_to_int((points.coord(i, 1) - lattice.y0) / lattice.size);
+        const auto [cx, cy] = cell_of(points, lattice, i);
         if (cx != 0 && cx != columns - 1 && cy != 0 && cy != rows - 1) continue;
         for (int side = 0; side < 4; ++side) {
             const bool along_x = side < 2, upper_side = side % 2 == 1;

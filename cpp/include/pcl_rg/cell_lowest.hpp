@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 #include "pcl_rg/points.hpp"
@@ -18,6 +19,13 @@ struct CellLattice {
     double size = 1.0;
     std::int64_t columns = 1, rows = 1;
 };
+
+/// Column and row of point i's cell.
+inline std::pair<std::int64_t, std::int64_t> cell_of(PointsView points, const CellLattice& lattice,
+                                                     std::size_t i) {
+    return {floor_to_int((points.coord(i, 0) - lattice.x0) / lattice.size),
+            floor_to_int((points.coord(i, 1) - lattice.y0) / lattice.size)};
+}
 
 /// Lowest point (then smallest index) of every cell, row-major by column then row
 /// (cell cx * rows + cy); -1 for a cell with no point. Only the points i with take[i]

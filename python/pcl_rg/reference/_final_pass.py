@@ -171,7 +171,7 @@ def heights_above_tin(
     # Corners of the box at the height of their nearest vertex (ties: index), then the
     # virtual vertices on its sides.
     vx, vy, vz = with_corners(gx, gy, z, vertex, vertex, width, height)
-    cells = np.floor((xyz[vertex, :2] - [cell_x0, cell_y0]) / cell).astype(np.int64)
+    cells = np.c_[cx, cy][np.searchsorted(index, vertex)]  # vertex: sorted, within index
     lattice = (
         int(np.floor((upper[0] - cell_x0) / cell)) + 1,
         int(np.floor((upper[1] - cell_y0) / cell)) + 1,
