@@ -35,7 +35,7 @@ std::vector<std::int64_t> lowest_in_cells(PointsView points, const CellLattice& 
         std::int64_t i;  // -1: none yet
     };
     const auto cells = static_cast<std::size_t>(lattice.columns * lattice.rows);
-    std::vector<Lowest> lowest(cells, Lowest{0.0, -1});
+    UnfilledVector<Lowest> lowest(cells, Lowest{0.0, -1});
     auto keep_lower = [](Lowest& b, const Lowest& p) {
         if (b.i < 0 || p.z < b.z || (p.z == b.z && p.i < b.i)) b = p;
     };
@@ -58,7 +58,7 @@ std::vector<std::int64_t> lowest_in_cells(PointsView points, const CellLattice& 
         // its own, merged at the end (the merge costs little next to the points).
 #pragma omp parallel firstprivate(interruption)
         {
-            std::vector<Lowest> mine(cells, Lowest{0.0, -1});
+            UnfilledVector<Lowest> mine(cells, Lowest{0.0, -1});
             bool stop = false;
             // By batches: the cells of a batch first, each prefetched, then the updates, so
             // that the cache misses of scattered points overlap instead of queueing.

@@ -58,6 +58,7 @@
 #include "pcl_rg/delaunay.hpp"
 #include "pcl_rg/index_bitmap.hpp"
 #include "pcl_rg/interrupt.hpp"
+#include "pcl_rg/unfilled_vector.hpp"
 
 namespace pcl_rg {
 
@@ -256,7 +257,7 @@ void final_pass(PointsView points, const FinalPassParams& params, const SnappedP
         [&](std::size_t k) { return vertices[k].y; }, [&](std::size_t k) { return vertices[k].z; },
         [&](std::size_t k) { return vertices[k].i; });
     Delaunay tin(frame.width, frame.height);
-    std::vector<double> vz;
+    UnfilledVector<double> vz;  // each vertex's height
     for (const std::size_t k : nearest) vz.push_back(vertices[k].z);
     tin.reserve(vertices.size() + 4 + border.size());
     const std::size_t vertex_count = vertices.size();

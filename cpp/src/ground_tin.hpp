@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "pcl_rg/delaunay.hpp"
+#include "pcl_rg/unfilled_vector.hpp"
 
 namespace pcl_rg::ground_tin {
 
@@ -26,7 +27,7 @@ struct Plane {
 };
 
 // The plane of triangle t of `tin`, vertex heights `vz`, grid step `quantum` (m).
-inline Plane plane_of(const Delaunay& tin, const std::vector<double>& vz, double quantum,
+inline Plane plane_of(const Delaunay& tin, const UnfilledVector<double>& vz, double quantum,
                       std::int32_t t) {
     Plane f;
     const std::int32_t stored[3] = {tin.triangle_vertex(t, 0), tin.triangle_vertex(t, 1),

@@ -11,6 +11,7 @@
 
 #include "ground_tin.hpp"
 #include "pcl_rg/delaunay.hpp"
+#include "pcl_rg/unfilled_vector.hpp"
 
 namespace pcl_rg::tin_acceptance {
 
@@ -45,7 +46,7 @@ struct Facet : ground_tin::Plane {
     double sin_limit;  // sine of the (reduced) iteration angle
 };
 
-inline Facet facet(const Delaunay& tin, const std::vector<double>& vz, const Limits& lim,
+inline Facet facet(const Delaunay& tin, const UnfilledVector<double>& vz, const Limits& lim,
                    std::int32_t t) {
     Facet f;
     static_cast<ground_tin::Plane&>(f) = ground_tin::plane_of(tin, vz, lim.quantum, t);

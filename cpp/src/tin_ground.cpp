@@ -233,7 +233,7 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
     for (const std::uint32_t s : seeds) ground[s] = true;
     // Per sorted position: whether the point is ground (so far: a seed).
     const auto count = static_cast<std::ptrdiff_t>(n);
-    std::vector<std::uint8_t> is_ground(n, 0);
+    UnfilledVector<std::uint8_t> is_ground(n);  // written in full below
 #pragma omp parallel for schedule(static) if (count > 65536)
     for (std::ptrdiff_t s = 0; s < count; ++s) is_ground[s] = ground[order[s]];
     std::vector<std::int32_t> seed_x(seeds.size()), seed_y(seeds.size());
@@ -247,7 +247,7 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
     // The virtual vertices' heights, each its nearest seed's (exact squared grid distance,
     // ties: the lowest, then the smallest index): the corners', one grid step outside the
     // extent, then, with border_vertices, those along the box's long sides.
-    std::vector<double> vz(4);
+    UnfilledVector<double> vz(4);  // each vertex's height, written as it comes in
     vz.reserve(n + 4 + border.size());
     std::vector<double> border_z;
     {
@@ -323,9 +323,9 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
     // a triangle that is still there would fail again. The points to test are gathered
     // through a bitmap, so they stay in sorted (Morton) order: consecutive tests read
     // neighbouring points and triangles, and the chosen points come out sorted.
-    std::vector<std::uint8_t> accepted, stop;
-    std::vector<std::int32_t> tri, next;
-    std::vector<double> dist;
+    UnfilledVector<std::uint8_t> accepted, stop;
+    UnfilledVector<std::int32_t> tri, next;
+    UnfilledVector<double> dist;
     // Filled side by side: each fill writes over fresh pages, serially.
 #pragma omp parallel sections
     {

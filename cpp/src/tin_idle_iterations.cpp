@@ -19,10 +19,10 @@ bool on_vertex(const Delaunay& tin, std::int32_t t, std::int32_t x, std::int32_t
 
 IdleIterations skip_idle_iterations(
     const Delaunay& tin, const UnfilledVector<std::int32_t>& sx,
-    const UnfilledVector<std::int32_t>& sy, const std::vector<std::int32_t>& tri,
-    const std::vector<double>& dist, const UnfilledVector<std::uint32_t>& order,
+    const UnfilledVector<std::int32_t>& sy, const UnfilledVector<std::int32_t>& tri,
+    const UnfilledVector<double>& dist, const UnfilledVector<std::uint32_t>& order,
     std::vector<std::uint32_t>& waiting, std::vector<std::uint64_t>& retest,
-    std::vector<std::uint8_t>& is_ground, UnfilledVector<std::uint32_t>& chosen) {
+    UnfilledVector<std::uint8_t>& is_ground, UnfilledVector<std::uint32_t>& chosen) {
     std::sort(waiting.begin(), waiting.end(), [&](std::uint32_t a, std::uint32_t b) {
         if (tri[a] != tri[b]) return tri[a] < tri[b];
         if (dist[a] != dist[b]) return dist[a] < dist[b];

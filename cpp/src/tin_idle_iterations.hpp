@@ -34,9 +34,9 @@ struct IdleIterations {
 /// index; sx, sy: its grid XY.
 IdleIterations skip_idle_iterations(
     const Delaunay& tin, const UnfilledVector<std::int32_t>& sx,
-    const UnfilledVector<std::int32_t>& sy, const std::vector<std::int32_t>& tri,
-    const std::vector<double>& dist, const UnfilledVector<std::uint32_t>& order,
+    const UnfilledVector<std::int32_t>& sy, const UnfilledVector<std::int32_t>& tri,
+    const UnfilledVector<double>& dist, const UnfilledVector<std::uint32_t>& order,
     std::vector<std::uint32_t>& waiting, std::vector<std::uint64_t>& retest,
-    std::vector<std::uint8_t>& is_ground, UnfilledVector<std::uint32_t>& chosen);
+    UnfilledVector<std::uint8_t>& is_ground, UnfilledVector<std::uint32_t>& chosen);
 
 }  // namespace pcl_rg

@@ -1,7 +1,8 @@
-// Vectors that are not zero-filled when sized, for the large arrays of the core that a
-// parallel loop writes in full right after.
+// Vectors for the core's large arrays: not zero-filled when sized (a parallel loop
+// writes them in full right after), and on huge pages when the kernel gives them.
 #pragma once
 
+#include <cstddef>
 #include <memory>
 #include <new>
 #include <type_traits>
@@ -10,10 +11,18 @@
 
 namespace pcl_rg {
 
+/// Asks the kernel to back [p, p + bytes) with transparent huge pages, where it allows
+/// them only on request (Linux's "madvise" mode); below 4 MiB, or elsewhere, nothing.
+/// The core's per-point arrays (tens to hundreds of MiB at 10M points) are filled right
+/// after they are sized: with 4 KiB pages that is one page fault per 4 KiB, which cost the
+/// ground filters a tenth of their time. NumPy advises its own large arrays the same way.
+void advise_huge_pages(void* p, std::size_t bytes) noexcept;
+
 /// std::allocator, but resize() default-initializes new elements (leaves integers, plain
 /// structs and, in C++17, std::atomic unwritten) instead of zeroing them: for large
 /// arrays that a parallel loop writes in full first, where a zero fill would be one more
-/// serial pass, faulting in every fresh page on one core.
+/// serial pass, faulting in every fresh page on one core. Its allocations ask for huge
+/// pages (advise_huge_pages).
 template <class T>
 struct DefaultInitAllocator : std::allocator<T> {
     template <class U>
@@ -23,6 +32,11 @@ struct DefaultInitAllocator : std::allocator<T> {
     DefaultInitAllocator() = default;
     template <class U>
     DefaultInitAllocator(const DefaultInitAllocator<U>&) noexcept {}
+    T* allocate(std::size_t n) {
+        T* p = std::allocator<T>::allocate(n);
+        advise_huge_pages(p, n * sizeof(T));
+        return p;
+    }
     template <class U>
     void construct(U* p) noexcept(std::is_nothrow_default_constructible_v<U>) {
         ::new (static_cast<void*>(p)) U;
@@ -35,7 +49,8 @@ struct DefaultInitAllocator : std::allocator<T> {
 };
 
 /// A vector whose new elements are not zeroed (DefaultInitAllocator): write each one
-/// before reading it.
+/// before reading it. Also the type of the per-point arrays that are filled with a value
+/// (assign(n, v)), for the huge pages its allocations ask for.
 template <class T>
 using UnfilledVector = std::vector<T, DefaultInitAllocator<T>>;
 
