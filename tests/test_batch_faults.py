@@ -9,6 +9,7 @@ import json
 import os
 import shutil
 import signal
+import socket
 import threading
 import warnings
 from pathlib import Path
@@ -389,10 +390,24 @@ def test_an_interrupt_while_the_local_cluster_starts_waits_for_it_then_closes_it
     from pcl_rg.batch._cluster import dask_client
 
     events = []
+    # Ctrl-C signals the whole process; while the cluster starts the main thread blocks
+    # SIGINT (for the workers it starts), so the kernel hands it to another thread, and
+    # Python's handler then runs in the main thread, mid-start. Sent to such a thread,
+    # and awaited through the wakeup fd (written by the C-level handler), the handler
+    # runs mid-start whatever the load: os.kill to the process left it to chance, and
+    # once, with three test runs on two cores, it ran after the block and escaped.
+    other = threading.Event()
+    other_thread = threading.Thread(target=other.wait, daemon=True)
+    other_thread.start()  # before the block, so SIGINT is not blocked in it
+    receiver, sender = socket.socketpair()
+    sender.setblocking(False)
+    previous_wakeup_fd = signal.set_wakeup_fd(sender.fileno(), warn_on_full_buffer=False)
 
     class StartingCluster:
         def __init__(self, **options):
-            os.kill(os.getpid(), signal.SIGINT)  # mid-start
+            signal.pthread_kill(other_thread.ident, signal.SIGINT)
+            receiver.settimeout(60)
+            assert receiver.recv(1) == bytes([signal.SIGINT])  # handled in the other thread
             events.append("started")
 
         def __enter__(self):
@@ -416,8 +431,15 @@ def test_an_interrupt_while_the_local_cluster_starts_waits_for_it_then_closes_it
 
     monkeypatch.setattr(distributed, "LocalCluster", StartingCluster)
     monkeypatch.setattr(distributed, "Client", FakeClient)
-    with pytest.raises(KeyboardInterrupt), dask_client(1, None):
-        events.append("ran")  # never: the interrupt comes first
+    try:
+        with pytest.raises(KeyboardInterrupt), dask_client(1, None):
+            events.append("ran")  # never: the interrupt comes first
+    finally:
+        signal.set_wakeup_fd(previous_wakeup_fd)
+        receiver.close()
+        sender.close()
+        other.set()
+        other_thread.join()
     assert events == ["started", "client", "plugin", "client closed", "closed"]
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
 
