@@ -378,3 +378,61 @@ def test_extra_bytes_of_several_values_with_their_own_scales_round_trip(tmp_path
     too_big = dict(cloud.fields, amp=cloud.fields["amp"] * [1, 3])  # 3000 / 10 > 255
     with pytest.raises(ValueError, match=r"fields\['amp'\] cannot be stored in LAS"):
         write_points(tmp_path / "big.las", cloud.points, too_big, template=cloud)
+
+
+def _evlr_at(data: bytes, offset: int) -> tuple[str, int, bytes]:
+    """The user id, record id and data of the EVLR whose header starts at `offset`."""
+    user_id = data[offset + 2 : offset + 18].rstrip(b"\0").decode()
+    record_id = int.from_bytes(data[offset + 18 : offset + 20], "little")
+    length = int.from_bytes(data[offset + 20 : offset + 28], "little")
+    return user_id, record_id, data[offset + 60 : offset + 60 + length]
+
+
+@pytest.mark.parametrize("ext", ["las", "laz"])
+def test_las_14_waveform_packets_move_with_their_evlr(tmp_path, ext):
+    # Byte 227 gives where the waveform packets' EVLR begins. It was copied from the
+    # source while the EVLR moved (fewer points, compression): it pointed at other bytes.
+    las = random_las("1.4", 4, 200, seed=3)
+    packets = bytes(range(256)) * 8
+    las.evlrs = VLRList(
+        [laspy.VLR("other", 7, "before", b"x" * 17), laspy.VLR("LASF_Spec", 65535, "", packets)]
+    )
+    las.header.global_encoding.waveform_data_packets_internal = True
+    las.write(tmp_path / "in.las")
+    data = bytearray((tmp_path / "in.las").read_bytes())
+    first_evlr = int.from_bytes(data[235:243], "little")
+    data[227:235] = (first_evlr + 60 + 17).to_bytes(8, "little")  # laspy writes 0
+    (tmp_path / "in.las").write_bytes(bytes(data))
+    assert _evlr_at(data, first_evlr + 60 + 17) == ("LASF_Spec", 65535, packets)
+
+    cloud = read_points(tmp_path / "in.las")
+    keep = np.arange(len(cloud.points)) % 3 != 0
+    fields = {name: values[keep] for name, values in cloud.fields.items()}
+    write_points(tmp_path / f"out.{ext}", cloud.points[keep], fields, template=cloud)
+    out = (tmp_path / f"out.{ext}").read_bytes()
+    start = int.from_bytes(out[227:235], "little")
+    assert start != first_evlr + 60 + 17  # the EVLR moved
+    assert _evlr_at(out, start) == ("LASF_Spec", 65535, packets)
+    assert out[6] & 2  # global encoding: the packets are in the file
+    back = read_points(tmp_path / f"out.{ext}")
+    np.testing.assert_array_equal(back.fields["wavepacket_offset"], fields["wavepacket_offset"])
+
+
+def test_las_13_waveform_packets_not_carried_are_no_longer_claimed(tmp_path):
+    # laspy does not read LAS 1.3's packets after the points, so they are not written:
+    # the output's header said it held them, at the source's offset.
+    random_las("1.3", 4, 100, seed=1).write(tmp_path / "in.las")
+    data = bytearray((tmp_path / "in.las").read_bytes())
+    data[227:235] = len(data).to_bytes(8, "little")
+    data[6] |= 2  # global encoding: waveform data packets internal
+    data += bytes(5 * 200)
+    (tmp_path / "in.las").write_bytes(bytes(data))
+    cloud = read_points(tmp_path / "in.las")
+    with pytest.warns(UserWarning, match="waveform data packets .* are not written"):
+        write_points(tmp_path / "out.las", cloud.points, cloud.fields, template=cloud)
+    out = (tmp_path / "out.las").read_bytes()
+    assert int.from_bytes(out[227:235], "little") == 0 and not out[6] & 2
+    back = read_points(tmp_path / "out.las")
+    np.testing.assert_array_equal(
+        back.fields["wavepacket_offset"], cloud.fields["wavepacket_offset"]
+    )

@@ -439,7 +439,8 @@ def write_points(
     are range-checked, never wrapped); any other field is added as an
     extra-bytes dimension of its dtype (e.g. ``segment_id`` int32). With a
     template, coordinates are stored as ``round((x - offset) / scale)``, so
-    points read from that file are written back bit for bit.
+    points read from that file are written back bit for bit; its waveform
+    packets are kept when in a LAS 1.4 EVLR, else dropped with a warning.
 
     PCD, PLY without a template: x, y, z as float32 when that is exact, else
     float64. Both store fields with their dtype (PLY has no 64-bit integers:

@@ -229,6 +229,7 @@ def _write_las(
         header.vlrs = lists(v for v in header.vlrs if v.user_id != "copc")
         if header.evlrs is not None:
             header.evlrs = lists(v for v in header.evlrs if v.user_id != "copc")
+        _drop_uncarried_waveforms(path, header)
     else:
         with np.errstate(over="ignore", invalid="ignore"):  # checked right after
             header = _new_las_header(laspy, xyz, set(columns))
@@ -372,6 +373,11 @@ def _stream_las(laspy, recorder: _RecordingStream, las, compress: bool) -> None:
             writer.write_points(las.points)
             if las.header.version.minor >= 4 and las.evlrs is not None:
                 writer.write_evlrs(_LenientTexts(las.evlrs))
+                # The waveform packets moved with their EVLR: the header points at it
+                # (written by close(), which writes the header again).
+                start = _waveform_record_start(las.evlrs, writer.header.start_of_first_evlr)
+                if start is not None:
+                    writer.header.start_of_waveform_data_packet_record = start
     except Exception:
         # lazrs turns an exception of the stream (e.g. ENOSPC) into its own
         # LazrsError; surface the original.
@@ -380,6 +386,44 @@ def _stream_las(laspy, recorder: _RecordingStream, las, compress: bool) -> None:
         raise
     if recorder.error is not None:
         raise recorder.error
+
+
+def _is_waveform_record(vlr) -> bool:
+    """The EVLR of a LAS 1.4 file's waveform data packets."""
+    return vlr.user_id == "LASF_Spec" and vlr.record_id == 65535
+
+
+def _drop_uncarried_waveforms(path: str, header) -> None:
+    """Clear a template's claim of waveform packets stored in the file when the packets
+    are not among the EVLRs written (LAS 1.3 keeps them after the points, where laspy
+    does not read them): the header's offset would point at other bytes. A warning says
+    that they are dropped. Packets in an external .wdp file are the reader's business.
+    """
+    carried = header.evlrs is not None and any(_is_waveform_record(v) for v in header.evlrs)
+    if header.version.minor < 3 or carried:
+        return
+    internal = header.global_encoding.waveform_data_packets_internal
+    if internal or header.start_of_waveform_data_packet_record != 0:
+        header.global_encoding.waveform_data_packets_internal = False
+        header.start_of_waveform_data_packet_record = 0
+        warnings.warn(
+            f"{path}: the waveform data packets stored in the source LAS file are not "
+            "written (only LAS 1.4's waveform EVLR is carried over); the points keep "
+            "their wave packet fields, and the header says the file holds no packets",
+            UserWarning,
+            stacklevel=outside_stacklevel(),
+        )
+
+
+def _waveform_record_start(evlrs, first: int) -> int | None:
+    """Where the waveform EVLR begins in a file whose EVLRs begin at `first`: each
+    EVLR is a 60-byte header and its data, in order."""
+    position = first
+    for vlr in evlrs:
+        if _is_waveform_record(vlr):
+            return position
+        position += 60 + len(vlr.record_data_bytes())
+    return None
 
 
 class _LenientTexts:
