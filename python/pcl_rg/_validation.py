@@ -101,4 +101,9 @@ def as_real(name: str, values: npt.ArrayLike) -> np.ndarray:
         raise ValueError(f"{name} must be an array of numbers, got {values!r}") from None
     if array.dtype.kind not in "fiu":
         raise TypeError(f"{name} must be real numbers (float or integer), got dtype {array.dtype}")
+    # NumPy reads a bool among numbers as one: (True, 5) is the integer array [1, 5].
+    if isinstance(values, (list, tuple)) and any(
+        isinstance(v, (bool, np.bool_)) for v in np.asarray(values, dtype=object).flat
+    ):
+        raise TypeError(f"{name} must be real numbers (float or integer), got a bool among them")
     return array.astype(np.float64, copy=False)
