@@ -47,3 +47,30 @@ def test_a_neighbour_without_colours_does_not_grey_a_tiles_voxels(tmp_path, sche
     seam = out.points[:, 0] > 18.0
     assert seam.any() and (out.fields["intensity"][seam] > 100).any()
     assert (out.fields["intensity"][~seam] == 100).all()
+
+
+def test_no_data_stays_out_of_the_seam_voxels_means(tmp_path, scheduler):
+    # Each tile's "no data" heights (LAS extra bytes, -9999 stored) are left out of the
+    # means, across the seam too: a voxel's height is a real one or, where it has none
+    # (4 m on each side of the seam), "no data".
+    from test_cli_downsample import no_data_las
+
+    rng = np.random.default_rng(5)
+    (tmp_path / "in").mkdir()
+    for name, x0 in (("a", 0.0), ("b", 20.0)):
+        points = rng.uniform([x0, 0.0, 0.0], [x0 + 20.0, 20.0, 1.0], (3000, 3))
+        missing = (rng.random(3000) < 0.3) | (np.abs(points[:, 0] - 20.0) < 4.0)
+        height = np.where(missing, -99.99, rng.uniform(1.0, 2.0, 3000))
+        no_data_las(tmp_path / "in" / f"{name}.las", points, height, np.zeros((3000, 3)))
+    report = batch.downsample(
+        [tmp_path / "in" / "a.las", tmp_path / "in" / "b.las"],
+        tmp_path / "out",
+        params=pcl_rg.VoxelGridParams(leaf_size=3.0),
+        scheduler=scheduler,
+    )
+    assert [t.status for t in report.tiles] == ["done", "done"]
+    for name in ("a", "b"):
+        height = read_points(tmp_path / "out" / f"{name}.las").fields["height"]
+        real = height > -99.0
+        assert (height[~real] == height[~real].min()).all() and height.min() < -99.0
+        assert (height[real] >= 1.0 - 1e-9).all() and (height[real] <= 2.0 + 1e-9).all()

@@ -1,11 +1,14 @@
-"""pcl-rg downsample's voxel attributes beyond LAS (test_cli_commands.py has the LAS
-scene): PCL's packed colours, and codes stored as floats."""
+"""pcl-rg downsample's voxel attributes beyond LAS's standard ones (test_cli_commands.py
+has the LAS scene): PCL's packed colours, codes stored as floats, and LAS extra bytes
+with a "no data" value."""
 
 from __future__ import annotations
 
+import laspy
 import numpy as np
 from cli_helpers import run_json
 
+from pcl_rg._classification import no_data_values
 from pcl_rg.io import read_points, write_pcd
 
 
@@ -47,3 +50,43 @@ def test_downsample_takes_float_codes_from_the_first_point(capsys, tmp_path):
     assert out.fields["intensity"][order].tolist() == [3.0, 4.0]
     run_json(capsys, "downsample", tmp_path / "floats.pcd", tmp_path / "v.las", "--leaf-size", "1")
     assert sorted(read_points(tmp_path / "v.las").classification.tolist()) == [2, 5]
+
+
+def no_data_las(path, points: np.ndarray, height: np.ndarray, amp: np.ndarray) -> None:
+    """LAS 1.4 with two extra-bytes fields that declare "no data": a scaled int16
+    (-9999 stored, -99.99 read) and three float32 values (-1 each)."""
+    header = laspy.LasHeader(version="1.4", point_format=6)
+    header.scales, header.offsets = [0.001] * 3, [0.0] * 3
+    header.add_extra_dims(
+        [
+            laspy.ExtraBytesParams(
+                "height", "int16", scales=np.array([0.01]), offsets=np.array([0.0]), no_data=[-9999]
+            ),
+            laspy.ExtraBytesParams("amp", "3f4", no_data=[-1.0, -1.0, -1.0]),
+        ]
+    )
+    las = laspy.LasData(header)
+    las.x, las.y, las.z = points.T
+    las.height, las.amp = height, amp.astype(np.float32)
+    las.write(path)
+
+
+def test_downsample_leaves_no_data_out_of_the_means(capsys, tmp_path):
+    # A LAS extra-bytes field may declare a "no data" value. Averaged with the real
+    # values of a voxel, it gave a number that means nothing: (1 - 99.99 + 3) / 3.
+    points = np.array([[0.1, 0, 0], [0.2, 0, 0], [0.3, 0, 0], [5.1, 5, 5], [5.2, 5, 5]])
+    height = np.array([1.0, -99.99, 3.0, -99.99, -99.99])
+    amp = np.array([[1, 2, 3], [-1, 5, -1], [3, 4, 5], [-1, -1, -1], [-1, -1, -1]])
+    no_data_las(tmp_path / "in.las", points, height, amp)
+    cloud = read_points(tmp_path / "in.las")
+    missing = no_data_values(cloud)
+    assert missing.keys() == {"height", "amp"}
+    # Exactly the values read where the file stores "no data" (-9999 x 0.01 in float64).
+    assert missing["height"].tolist() == [cloud.fields["height"][1]]
+    assert missing["amp"].tolist() == [-1.0, -1.0, -1.0]
+    run_json(capsys, "downsample", tmp_path / "in.las", tmp_path / "out.las", "--leaf-size", "1")
+    out = read_points(tmp_path / "out.las")
+    order = np.argsort(out.points[:, 0])
+    np.testing.assert_allclose(out.fields["height"][order], [2.0, -99.99])
+    np.testing.assert_allclose(out.fields["amp"][order], [[2, 11 / 3, 4], [-1, -1, -1]], rtol=1e-6)
+    assert no_data_values(out).keys() == {"height", "amp"}  # the declarations are kept

@@ -436,3 +436,25 @@ def test_las_13_waveform_packets_not_carried_are_no_longer_claimed(tmp_path):
     np.testing.assert_array_equal(
         back.fields["wavepacket_offset"], cloud.fields["wavepacket_offset"]
     )
+
+
+def test_extra_bytes_no_data_survives_a_write_in_the_files_layout(tmp_path):
+    # laspy reads an extra-bytes field's "no data" into the Extra Bytes VLR only and
+    # rebuilds that VLR from the fields when it writes: pcl-rg ground wrote files whose
+    # -9999 markers then read as real heights of -99.99 m.
+    from test_cli_downsample import no_data_las
+
+    points = np.array([[0.0, 0.0, 0.0], [1.0, 1.0, 1.0]])
+    amp = np.array([[-1.0, -1.0, -1.0], [1.0, 2.0, 3.0]])
+    no_data_las(tmp_path / "in.las", points, np.array([-99.99, 1.5]), amp)
+    cloud = read_points(tmp_path / "in.las").take(np.array([0]))
+    for ext in ("las", "laz"):
+        # Nothing but "no data" in the point left: laspy 2.7 fails to take its minimum.
+        write_points(tmp_path / f"out.{ext}", cloud.points, cloud.fields, template=cloud)
+        (record,) = [
+            r
+            for v in laspy.read(tmp_path / f"out.{ext}").header.vlrs
+            for r in getattr(v, "extra_bytes_structs", ())
+            if r.format_name() == "height"
+        ]
+        assert record.no_data.tolist() == [-9999]

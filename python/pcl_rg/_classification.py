@@ -23,6 +23,7 @@ __all__ = [
     "existing_classes",
     "ground_classes",
     "is_category",
+    "no_data_values",
     "noise_classes",
     "noise_mask",
     "not_class_codes",
@@ -185,20 +186,43 @@ def _first_rows(rows: np.ndarray, voxel: np.ndarray, m: int) -> np.ndarray:
     return np.where(first == np.iinfo(np.int64).max, 0, first)
 
 
+def no_data_values(cloud: PointFile) -> dict[str, np.ndarray]:
+    """The "no data" value of each LAS extra-bytes field that declares one, per value
+    of the field (shape (count,)), as read (its scale and offset applied, in laspy's
+    arithmetic); {} for other formats."""
+    if cloud.format not in ("las", "laz") or cloud.header is None:
+        return {}
+    values = {}
+    for dim in cloud.header.point_format.extra_dimensions:
+        if dim.no_data is not None:
+            value = np.asarray(dim.no_data, np.float64)
+            if dim.scales is not None:
+                value = value * np.asarray(dim.scales, np.float64)
+            if dim.offsets is not None:
+                value = value + np.asarray(dim.offsets, np.float64)
+            values[dim.name] = value
+    return values
+
+
 def voxel_attributes(
     fields: dict[str, np.ndarray],
     rows: np.ndarray,
     voxel: np.ndarray,
     counts: np.ndarray,
     carried: dict[str, np.ndarray] | None = None,
+    no_data: dict[str, np.ndarray] | None = None,
 ) -> dict[str, np.ndarray]:
     """Per-voxel attributes: mean of float fields and MEAN_ATTRIBUTES, channel means of
     PACKED_COLOURS, else (and for codes and ids, is_category) the first point's.
 
     `carried`, if given, marks per field the rows of `fields` that carry it (a batch's
     buffer from tiles of another point format holds zeros for what they lack): each
-    voxel's value then comes from its points that carry the field alone.
+    voxel's value then comes from its points that carry the field alone. `no_data`
+    (no_data_values) leaves a field's "no data" values out of its means: a voxel with
+    no other value gets "no data" (its average with real values was a number that
+    means nothing).
     """
+    no_data = no_data or {}
     m = len(counts)
     everyone = (rows, voxel, counts, _first_rows(rows, voxel, m))
     out = {}
@@ -225,14 +249,31 @@ def voxel_attributes(
         elif values.dtype.kind == "f" or (name in MEAN_ATTRIBUTES and values.dtype.kind in "iu"):
             width = int(np.prod(values.shape[1:]))  # 1 for a column; stays valid at N = 0
             flat = values[rows].reshape(len(rows), width).astype(np.float64)
-            sums = np.stack(
-                [np.bincount(voxel, weights=flat[:, j], minlength=m) for j in range(flat.shape[1])],
-                axis=1,
-            )
-            mean = sums / counts[:, None]
+            if name in no_data and len(no_data[name]) == width:
+                mean = _mean_with_no_data(flat, voxel, m, no_data[name])
+            else:
+                sums = np.stack(
+                    [np.bincount(voxel, weights=flat[:, j], minlength=m) for j in range(width)],
+                    axis=1,
+                )
+                mean = sums / counts[:, None]
             if values.dtype.kind in "iu":
                 mean = np.round(mean)
             out[name] = mean.reshape((m,) + values.shape[1:]).astype(values.dtype)
         else:
             out[name] = values[first]
     return out
+
+
+def _mean_with_no_data(
+    flat: np.ndarray, voxel: np.ndarray, m: int, missing: np.ndarray
+) -> np.ndarray:
+    """Per voxel and column, the mean of the values that are not `missing` (that
+    column's "no data"), or `missing` where the voxel has none."""
+    mean = np.empty((m, flat.shape[1]))
+    for j in range(flat.shape[1]):
+        real = flat[:, j] != missing[j]
+        sums = np.bincount(voxel[real], weights=flat[real, j], minlength=m)
+        counts = np.bincount(voxel[real], minlength=m)
+        mean[:, j] = np.where(counts > 0, sums / np.maximum(counts, 1), missing[j])
+    return mean

@@ -27,6 +27,7 @@ from .. import grid_ground, tin_ground, voxel_grid
 from .._classification import (
     existing_classes,
     ground_classes,
+    no_data_values,
     noise_mask,
     usable_points,
     voxel_attributes,
@@ -374,7 +375,9 @@ def downsample_tile(
         owner = np.full(len(grid.counts), np.iinfo(np.int64).max)
         np.minimum.at(owner, voxel, tile_of[member])
         mine = owner == tile.index
-        attributes = voxel_attributes(fields, member, voxel, grid.counts, carried)
+        attributes = voxel_attributes(
+            fields, member, voxel, grid.counts, carried, no_data_values(own)
+        )
         centroids = grid.centroids[mine] / np.asarray(job.scale)  # in the tile's units
         write_points(
             tile.output,

@@ -19,7 +19,12 @@ import numpy as np
 from .._caller import outside_stacklevel
 from .._held_signals import HeldSignals, held_signals
 from ._atomic import atomic_write
-from ._las_header import check_las_header
+from ._las_header import (
+    check_extra_bytes_scales,
+    check_las_header,
+    keep_min_max_computable,
+    restore_no_data,
+)
 
 __all__ = ["las_coordinate_name", "read", "write"]
 
@@ -81,7 +86,8 @@ def _decode_las(path: str) -> tuple[np.ndarray, dict[str, np.ndarray], object]:
         backend = laspy.LazBackend.LazrsParallel if parallel else laspy.LazBackend.Lazrs
         with laspy.open(stream, closefd=False, laz_backend=backend) as reader:
             header = reader.header
-            _check_extra_bytes_scales(path, header)
+            check_extra_bytes_scales(path, header)
+            restore_no_data(header)
             chunks = []
             # Uncompressed: the size check made the count trustworthy, one step.
             step = _LAZ_FIRST_STEP if facts.compressed else max(facts.point_count, 1)
@@ -109,23 +115,6 @@ def _decode_las(path: str) -> tuple[np.ndarray, dict[str, np.ndarray], object]:
             continue
         fields[dim.name] = np.array(record[dim.name])
     return points.astype(np.float64), fields, header
-
-
-def _check_extra_bytes_scales(path: str, header) -> None:
-    """ValueError for an extra-bytes dimension whose scale is 0 or whose scale or offset
-    is not finite: its values would all read as one number (0 for a scale of 0), and a
-    write back would divide by that scale."""
-    for dim in header.point_format.extra_dimensions:
-        for kind, values in (("scale", dim.scales), ("offset", dim.offsets)):
-            if values is None:
-                continue
-            values = np.atleast_1d(np.asarray(values, dtype=np.float64))
-            if not np.isfinite(values).all() or (kind == "scale" and (values == 0).any()):
-                shown = values.tolist() if len(values) > 1 else values[0].item()
-                raise ValueError(
-                    f"invalid LAS file {path!r}: extra bytes dimension {dim.name!r} has "
-                    f"{kind} {shown!r}; its values cannot be read back"
-                )
 
 
 def _bad_las(path: str, error: BaseException) -> ValueError:
@@ -367,6 +356,7 @@ def _stream_las(laspy, recorder: _RecordingStream, las, compress: bool) -> None:
         # laspy reads as they are: a template's are written back as they came, and
         # a character that ASCII cannot encode becomes "?" ("replace"), rather than
         # the whole write failing on a descriptive field.
+        keep_min_max_computable(las.header, las.points.array)
         with laspy.LasWriter(
             recorder, las.header, do_compress=compress, closefd=False, encoding_errors="replace"
         ) as writer:

@@ -7,6 +7,9 @@ of terabytes. Every count and offset in the header is checked here against the
 file size first, with bounded work (at most one read per VLR, and the VLR count is
 checked against the bytes available before the walk).
 
+Also the extra-bytes records' checks and repairs around laspy: scales, and the "no
+data" values that laspy loses or trips over.
+
 Layout of the public header block (ASPRS LAS 1.4 R15, table 3; the earlier
 versions are prefixes of it): version at byte 24, header size at 94, offset to
 the point data at 96, VLR count at 100, point format at 104, record length at
@@ -21,6 +24,8 @@ import os
 import struct
 from collections.abc import Iterator
 from typing import BinaryIO, NamedTuple
+
+import numpy as np
 
 # Smallest public header block of each minor version 0-4.
 _HEADER_SIZE = {0: 227, 1: 227, 2: 227, 3: 235, 4: 375}
@@ -371,3 +376,55 @@ def _check_layers(
                 f"holds {byte_count - head_size}",
             )
         position += byte_count
+
+
+def restore_no_data(header) -> None:
+    """Give `header`'s extra-bytes dimensions the "no data" values that their Extra
+    Bytes VLR declares. laspy reads them into that VLR only, and rebuilds the VLR from
+    the dimensions when it writes: a file written back in its layout lost them, and
+    its "no data" values then read as real ones."""
+    declared = {}
+    for vlr in header.vlrs:
+        for record in getattr(vlr, "extra_bytes_structs", ()):
+            # Type 0 is untyped bytes: no value to compare with.
+            if record.data_type != 0 and record.no_data is not None:
+                declared[record.format_name()] = record.no_data
+    dimensions = header.point_format.dimensions
+    for i, dim in enumerate(dimensions):
+        if not dim.is_standard and dim.no_data is None and dim.name in declared:
+            dimensions[i] = dim._replace(no_data=declared[dim.name])
+
+
+def check_extra_bytes_scales(path: str, header) -> None:
+    """ValueError for an extra-bytes dimension whose scale is 0 or whose scale or offset
+    is not finite: its values would all read as one number (0 for a scale of 0), and a
+    write back would divide by that scale."""
+    for dim in header.point_format.extra_dimensions:
+        for kind, values in (("scale", dim.scales), ("offset", dim.offsets)):
+            if values is None:
+                continue
+            values = np.atleast_1d(np.asarray(values, dtype=np.float64))
+            if not np.isfinite(values).all() or (kind == "scale" and (values == 0).any()):
+                shown = values.tolist() if len(values) > 1 else values[0].item()
+                raise ValueError(
+                    f"invalid LAS file {path!r}: extra bytes dimension {dim.name!r} has "
+                    f"{kind} {shown!r}; its values cannot be read back"
+                )
+
+
+def keep_min_max_computable(header, records) -> None:
+    """Stop laspy from computing the minimum and maximum of an extra-bytes field that
+    holds nothing but its "no data" value in some position (`records`: the raw point
+    records to write): laspy 2.7 then takes the minimum of nothing and fails the write.
+    The Extra Bytes VLR then states no minimum or maximum for it, as LAS allows."""
+    n = len(records)
+    for vlr in header.vlrs:
+        for record in getattr(vlr, "extra_bytes_structs", ()):
+            if record.data_type == 0 or n == 0:
+                continue
+            missing, name = record.no_data, record.format_name()
+            if missing is None or name not in (records.dtype.names or ()):
+                continue
+            raw = np.asarray(records[name]).reshape(n, -1)
+            if (raw == np.asarray(missing)[: raw.shape[1]]).all(axis=0).any():
+                record.options &= ~(record.MIN_BIT_MASK | record.MAX_BIT_MASK)

@@ -9,7 +9,12 @@ import numpy as np
 
 import pcl_rg
 
-from ..._classification import CATEGORY_ATTRIBUTES, MEAN_ATTRIBUTES, voxel_attributes
+from ..._classification import (
+    CATEGORY_ATTRIBUTES,
+    MEAN_ATTRIBUTES,
+    no_data_values,
+    voxel_attributes,
+)
 from ...io._pcd import unorganized
 from .._common import (
     add_io_arguments,
@@ -47,7 +52,13 @@ def execute(args: argparse.Namespace, run: Run) -> None:
         grid = pcl_rg.voxel_grid(points[rows], params=params)
     kept = grid.voxel_of_point >= 0
     with run.stage("attributes", "voxel attributes", source=args.input):
-        fields = voxel_attributes(cloud.fields, rows[kept], grid.voxel_of_point[kept], grid.counts)
+        fields = voxel_attributes(
+            cloud.fields,
+            rows[kept],
+            grid.voxel_of_point[kept],
+            grid.counts,
+            no_data=no_data_values(cloud),
+        )
     centroids = grid.centroids / scale  # in INPUT's units
     write(run, args.output, centroids, fields, unorganized(cloud))
     run.result.update(
