@@ -407,7 +407,8 @@ def test_an_interrupt_while_the_local_cluster_starts_waits_for_it_then_closes_it
         def __init__(self, **options):
             signal.pthread_kill(other_thread.ident, signal.SIGINT)
             receiver.settimeout(60)
-            assert receiver.recv(1) == bytes([signal.SIGINT])  # handled in the other thread
+            while receiver.recv(1) != bytes([signal.SIGINT]):  # handled in the other thread
+                pass  # another signal's byte
             events.append("started")
 
         def __enter__(self):

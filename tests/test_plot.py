@@ -109,6 +109,7 @@ def test_profile_selects_the_corridor(tmp_path):
         # NumPy reads (True, 5) as the integers [1, 5].
         ({"start": (True, 5)}, TypeError, "start must be real numbers.*a bool"),
         ({"end": [np.True_, 5.0]}, TypeError, "end must be real numbers.*a bool"),
+        ({"end": [np.array(True), 5.0]}, TypeError, "end must be real numbers.*a bool"),
         # b - a overflows: the figure failed in matplotlib on an infinite axis.
         ({"start": (-1e308, 5), "end": (1e308, 5)}, ValueError, "too far apart"),
         ({"classes": np.full((2, 5), 2)}, ValueError, "classes must be one-dimensional"),

@@ -102,8 +102,21 @@ def as_real(name: str, values: npt.ArrayLike) -> np.ndarray:
     if array.dtype.kind not in "fiu":
         raise TypeError(f"{name} must be real numbers (float or integer), got dtype {array.dtype}")
     # NumPy reads a bool among numbers as one: (True, 5) is the integer array [1, 5].
-    if isinstance(values, (list, tuple)) and any(
-        isinstance(v, (bool, np.bool_)) for v in np.asarray(values, dtype=object).flat
-    ):
+    if isinstance(values, (list, tuple)) and _holds_a_bool(values):
         raise TypeError(f"{name} must be real numbers (float or integer), got a bool among them")
     return array.astype(np.float64, copy=False)
+
+
+def _holds_a_bool(values: list | tuple) -> bool:
+    """Whether a bool (Python's, NumPy's, or a bool array) stands in `values` or in the
+    lists, tuples and arrays inside it; by the items' types, without copying them."""
+    types = set(map(type, values))
+    if types & {bool, np.bool_}:
+        return True
+    for item in values if types & {list, tuple, np.ndarray} else ():
+        if isinstance(item, np.ndarray) and item.dtype.kind in "bO":
+            if item.dtype.kind == "b" or _holds_a_bool(item.ravel().tolist()):
+                return True
+        elif isinstance(item, (list, tuple)) and _holds_a_bool(item):
+            return True
+    return False

@@ -366,7 +366,12 @@ def _stream_las(laspy, recorder: _RecordingStream, las, compress: bool) -> None:
                 # The waveform packets moved with their EVLR: the header points at it
                 # (written by close(), which writes the header again).
                 start = _waveform_record_start(las.evlrs, writer.header.start_of_first_evlr)
-                if start is not None:
+                # Only where the template said its packets were in the file: with the
+                # external flag, a non-zero offset would contradict it.
+                claimed = las.header.global_encoding.waveform_data_packets_internal or (
+                    las.header.start_of_waveform_data_packet_record != 0
+                )
+                if start is not None and claimed:
                     writer.header.start_of_waveform_data_packet_record = start
     except Exception:
         # lazrs turns an exception of the stream (e.g. ENOSPC) into its own
