@@ -379,8 +379,9 @@ def test_the_warnings_of_tasks_on_two_threads_stay_apart():
 # ---------------------------------------------------------------- interrupts at start-up
 
 
+@pytest.mark.parametrize("receiver_thread", ["other", "main"])
 def test_an_interrupt_while_the_local_cluster_starts_waits_for_it_then_closes_it(
-    monkeypatch, python_sigint_handler
+    monkeypatch, python_sigint_handler, receiver_thread
 ):
     # Ctrl-C while LocalCluster started its workers left a cluster nobody owned, which
     # Dask's exit hook failed to close (a traceback ending in "AssertionError:
@@ -396,6 +397,7 @@ def test_an_interrupt_while_the_local_cluster_starts_waits_for_it_then_closes_it
     # and awaited through the wakeup fd (written by the C-level handler), the handler
     # runs mid-start whatever the load: os.kill to the process left it to chance, and
     # once, with three test runs on two cores, it ran after the block and escaped.
+    # "main": no other thread takes it, and the main thread gets it when the block ends.
     other = threading.Event()
     other_thread = threading.Thread(target=other.wait, daemon=True)
     other_thread.start()  # before the block, so SIGINT is not blocked in it
@@ -405,10 +407,13 @@ def test_an_interrupt_while_the_local_cluster_starts_waits_for_it_then_closes_it
 
     class StartingCluster:
         def __init__(self, **options):
-            signal.pthread_kill(other_thread.ident, signal.SIGINT)
-            receiver.settimeout(60)
-            while receiver.recv(1) != bytes([signal.SIGINT]):  # handled in the other thread
-                pass  # another signal's byte
+            if receiver_thread == "main":
+                signal.pthread_kill(threading.main_thread().ident, signal.SIGINT)  # pending
+            else:
+                signal.pthread_kill(other_thread.ident, signal.SIGINT)
+                receiver.settimeout(60)
+                while receiver.recv(1) != bytes([signal.SIGINT]):  # handled over there
+                    pass  # another signal's byte
             events.append("started")
 
         def __enter__(self):
