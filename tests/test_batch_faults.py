@@ -8,8 +8,6 @@ import contextlib
 import json
 import os
 import shutil
-import signal
-import socket
 import threading
 import warnings
 from pathlib import Path
@@ -374,101 +372,6 @@ def test_the_warnings_of_tasks_on_two_threads_stay_apart():
         warnings.warn("three", UserWarning, stacklevel=1)  # after the tasks: as before them
     assert lists == {"first": [(UserWarning, "one")], "second": [(RuntimeWarning, "two")]}
     assert [str(w.message) for w in outside] == ["three"]
-
-
-# ---------------------------------------------------------------- interrupts at start-up
-
-
-@pytest.mark.parametrize("receiver_thread", ["other", "main"])
-def test_an_interrupt_while_the_local_cluster_starts_waits_for_it_then_closes_it(
-    monkeypatch, python_sigint_handler, receiver_thread
-):
-    # Ctrl-C while LocalCluster started its workers left a cluster nobody owned, which
-    # Dask's exit hook failed to close (a traceback ending in "AssertionError:
-    # Status.init"). Now the interrupt is raised once the cluster is whole, and closed.
-    import distributed
-
-    from pcl_rg.batch._cluster import dask_client
-
-    events = []
-    # Ctrl-C signals the whole process; while the cluster starts the main thread blocks
-    # SIGINT (for the workers it starts), so the kernel hands it to another thread, and
-    # Python's handler then runs in the main thread, mid-start. Sent to such a thread,
-    # and awaited through the wakeup fd (written by the C-level handler), the handler
-    # runs mid-start whatever the load: os.kill to the process left it to chance, and
-    # once, with three test runs on two cores, it ran after the block and escaped.
-    # "main": no other thread takes it, and the main thread gets it when the block ends.
-    other = threading.Event()
-    other_thread = threading.Thread(target=other.wait, daemon=True)
-    other_thread.start()  # before the block, so SIGINT is not blocked in it
-    receiver, sender = socket.socketpair()
-    sender.setblocking(False)
-    previous_wakeup_fd = signal.set_wakeup_fd(sender.fileno(), warn_on_full_buffer=False)
-
-    class StartingCluster:
-        def __init__(self, **options):
-            if receiver_thread == "main":
-                signal.pthread_kill(threading.main_thread().ident, signal.SIGINT)  # pending
-            else:
-                signal.pthread_kill(other_thread.ident, signal.SIGINT)
-                receiver.settimeout(60)
-                while receiver.recv(1) != bytes([signal.SIGINT]):  # handled over there
-                    pass  # another signal's byte
-            events.append("started")
-
-        def __enter__(self):
-            return self
-
-        def __exit__(self, *exc):
-            events.append("closed")
-
-    class FakeClient:
-        def __init__(self, cluster):
-            events.append("client")
-
-        def __enter__(self):
-            return self
-
-        def __exit__(self, *exc):
-            events.append("client closed")
-
-        def register_plugin(self, plugin, name):
-            events.append("plugin")
-
-    monkeypatch.setattr(distributed, "LocalCluster", StartingCluster)
-    monkeypatch.setattr(distributed, "Client", FakeClient)
-    try:
-        with pytest.raises(KeyboardInterrupt), dask_client(1, None):
-            events.append("ran")  # never: the interrupt comes first
-    finally:
-        signal.set_wakeup_fd(previous_wakeup_fd)
-        receiver.close()
-        sender.close()
-        other.set()
-        other_thread.join()
-    assert events == ["started", "client", "plugin", "client closed", "closed"]
-    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
-
-
-def test_signals_are_held_in_the_main_thread_only(python_sigint_handler):
-    from pcl_rg._held_signals import held_signals
-
-    outcome = []
-
-    def run():
-        with held_signals():
-            outcome.append(signal.getsignal(signal.SIGINT) is signal.default_int_handler)
-
-    thread = threading.Thread(target=run)
-    thread.start()
-    thread.join()
-    with held_signals() as held:  # here, the main thread: held, then raised on request
-        os.kill(os.getpid(), signal.SIGINT)
-        outcome.append(held.pending is not None)
-    assert outcome == [True, True]
-    with pytest.raises(KeyboardInterrupt):
-        held.run_pending()
-    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
 
 
 def test_what_killed_runs_left_in_the_output_folder_is_removed(tmp_path, scheduler):
