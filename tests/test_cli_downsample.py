@@ -8,7 +8,7 @@ import laspy
 import numpy as np
 from cli_helpers import run_json
 
-from pcl_rg._classification import no_data_values
+from pcl_rg._classification import no_data_values, voxel_attributes
 from pcl_rg.io import read_points, write_pcd
 
 
@@ -90,3 +90,16 @@ def test_downsample_leaves_no_data_out_of_the_means(capsys, tmp_path):
     np.testing.assert_allclose(out.fields["height"][order], [2.0, -99.99])
     np.testing.assert_allclose(out.fields["amp"][order], [[2, 11 / 3, 4], [-1, -1, -1]], rtol=1e-6)
     assert no_data_values(out).keys() == {"height", "amp"}  # the declarations are kept
+
+
+def test_a_nan_no_data_is_left_out_of_the_means():
+    # NaN equals nothing, so it is found as NaN: else it was averaged into every voxel.
+    fields = {"f": np.array([1.0, np.nan, 3.0, np.nan])}
+    out = voxel_attributes(
+        fields,
+        np.arange(4),
+        np.array([0, 0, 0, 1]),
+        np.array([3, 1]),
+        no_data={"f": np.array([np.nan])},
+    )
+    np.testing.assert_array_equal(out["f"], [2.0, np.nan])

@@ -272,7 +272,8 @@ def _mean_with_no_data(
     column's "no data"), or `missing` where the voxel has none."""
     mean = np.empty((m, flat.shape[1]))
     for j in range(flat.shape[1]):
-        real = flat[:, j] != missing[j]
+        # NaN can be the "no data" too, and equals nothing.
+        real = ~(np.isnan(flat[:, j]) if np.isnan(missing[j]) else flat[:, j] == missing[j])
         sums = np.bincount(voxel[real], weights=flat[real, j], minlength=m)
         counts = np.bincount(voxel[real], minlength=m)
         mean[:, j] = np.where(counts > 0, sums / np.maximum(counts, 1), missing[j])
