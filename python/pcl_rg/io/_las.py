@@ -368,10 +368,7 @@ def _stream_las(laspy, recorder: _RecordingStream, las, compress: bool) -> None:
                 start = _waveform_record_start(las.evlrs, writer.header.start_of_first_evlr)
                 # Only where the template said its packets were in the file: with the
                 # external flag, a non-zero offset would contradict it.
-                claimed = las.header.global_encoding.waveform_data_packets_internal or (
-                    las.header.start_of_waveform_data_packet_record != 0
-                )
-                if start is not None and claimed:
+                if start is not None and _claims_packets_in_file(las.header):
                     writer.header.start_of_waveform_data_packet_record = start
     except Exception:
         # lazrs turns an exception of the stream (e.g. ENOSPC) into its own
@@ -388,6 +385,13 @@ def _is_waveform_record(vlr) -> bool:
     return vlr.user_id == "LASF_Spec" and vlr.record_id == 65535
 
 
+def _claims_packets_in_file(header) -> bool:
+    """Whether `header` says its waveform packets are in the file (the internal flag,
+    or an offset to them)."""
+    internal = header.global_encoding.waveform_data_packets_internal
+    return internal or header.start_of_waveform_data_packet_record != 0
+
+
 def _drop_uncarried_waveforms(path: str, header) -> None:
     """Clear a template's claim of waveform packets stored in the file when the packets
     are not among the EVLRs written (LAS 1.3 keeps them after the points, where laspy
@@ -397,8 +401,7 @@ def _drop_uncarried_waveforms(path: str, header) -> None:
     carried = header.evlrs is not None and any(_is_waveform_record(v) for v in header.evlrs)
     if header.version.minor < 3 or carried:
         return
-    internal = header.global_encoding.waveform_data_packets_internal
-    if internal or header.start_of_waveform_data_packet_record != 0:
+    if _claims_packets_in_file(header):
         header.global_encoding.waveform_data_packets_internal = False
         header.start_of_waveform_data_packet_record = 0
         warnings.warn(

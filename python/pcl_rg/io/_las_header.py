@@ -378,17 +378,21 @@ def _check_layers(
         position += byte_count
 
 
+def _declaring_no_data(header) -> Iterator:
+    """The records of `header`'s Extra Bytes VLR that declare a "no data" value."""
+    for vlr in header.vlrs:
+        for record in getattr(vlr, "extra_bytes_structs", ()):
+            # Type 0 is untyped bytes: no value to compare with.
+            if record.data_type != 0 and record.no_data is not None:
+                yield record
+
+
 def restore_no_data(header) -> None:
     """Give `header`'s extra-bytes dimensions the "no data" values that their Extra
     Bytes VLR declares. laspy reads them into that VLR only, and rebuilds the VLR from
     the dimensions when it writes: a file written back in its layout lost them, and
     its "no data" values then read as real ones."""
-    declared = {}
-    for vlr in header.vlrs:
-        for record in getattr(vlr, "extra_bytes_structs", ()):
-            # Type 0 is untyped bytes: no value to compare with.
-            if record.data_type != 0 and record.no_data is not None:
-                declared[record.format_name()] = record.no_data
+    declared = {record.format_name(): record.no_data for record in _declaring_no_data(header)}
     dimensions = header.point_format.dimensions
     for i, dim in enumerate(dimensions):
         if not dim.is_standard and dim.no_data is None and dim.name in declared:
@@ -418,13 +422,10 @@ def keep_min_max_computable(header, records) -> None:
     records to write): laspy 2.7 then takes the minimum of nothing and fails the write.
     The Extra Bytes VLR then states no minimum or maximum for it, as LAS allows."""
     n = len(records)
-    for vlr in header.vlrs:
-        for record in getattr(vlr, "extra_bytes_structs", ()):
-            if record.data_type == 0 or n == 0:
-                continue
-            missing, name = record.no_data, record.format_name()
-            if missing is None or name not in (records.dtype.names or ()):
-                continue
-            raw = np.asarray(records[name]).reshape(n, -1)
-            if (raw == np.asarray(missing)[: raw.shape[1]]).all(axis=0).any():
-                record.options &= ~(record.MIN_BIT_MASK | record.MAX_BIT_MASK)
+    for record in _declaring_no_data(header) if n else ():
+        name = record.format_name()
+        if name not in (records.dtype.names or ()):
+            continue
+        raw = np.asarray(records[name]).reshape(n, -1)
+        if (raw == np.asarray(record.no_data)[: raw.shape[1]]).all(axis=0).any():
+            record.options &= ~(record.MIN_BIT_MASK | record.MAX_BIT_MASK)
