@@ -1,14 +1,21 @@
 """pcl-rg downsample's voxel attributes beyond LAS's standard ones (test_cli_commands.py
-has the LAS scene): PCL's packed colours, codes stored as floats, and LAS extra bytes
-with a "no data" value."""
+has the LAS scene): PCL's packed colours, codes stored as floats, LAS extra bytes
+with a "no data" value, and LAS's waveform descriptors."""
 
 from __future__ import annotations
 
 import laspy
 import numpy as np
 from cli_helpers import run_json
+from las_helpers import random_las
 
-from pcl_rg._classification import no_data_values, voxel_attributes
+import pcl_rg
+from pcl_rg._classification import (
+    WAVEFORM_ATTRIBUTES,
+    no_data_values,
+    usable_points,
+    voxel_attributes,
+)
 from pcl_rg.io import read_points, write_pcd
 
 
@@ -103,3 +110,27 @@ def test_a_nan_no_data_is_left_out_of_the_means():
         no_data={"f": np.array([np.nan])},
     )
     np.testing.assert_array_equal(out["f"], [2.0, np.nan])
+
+
+def test_downsample_keeps_each_waveform_descriptor_whole(capsys, tmp_path):
+    # The seven waveform fields describe one pulse together. x_t, y_t, z_t and the
+    # return's location on the packet are floats: they were averaged, beside the first
+    # point's packet index and offset, so the descriptor written matched no pulse.
+    las = random_las("1.4", 9, 400, seed=5, extra=False)
+    las.write(tmp_path / "in.las")
+    cloud = read_points(tmp_path / "in.las")
+    run_json(capsys, "downsample", tmp_path / "in.las", tmp_path / "out.las", "--leaf-size", "20")
+    out = read_points(tmp_path / "out.las")
+    assert len(out.points) < len(cloud.points) / 2  # voxels of several points
+    names = list(WAVEFORM_ATTRIBUTES)
+    assert set(names) <= set(out.fields)
+    descriptors = {tuple(row) for row in zip(*(cloud.fields[k].tolist() for k in names))}
+    written = list(zip(*(out.fields[k].tolist() for k in names)))
+    assert all(row in descriptors for row in written)
+    # The first point's in file order: of the points the command keeps, the least index.
+    rows = np.flatnonzero(usable_points(cloud))
+    voxel = pcl_rg.voxel_grid(cloud.points[rows], leaf_size=20.0).voxel_of_point
+    _, first = np.unique(voxel, return_index=True)
+    assert sorted(written) == sorted(
+        tuple(cloud.fields[k][rows[i]].item() for k in names) for i in first if voxel[i] >= 0
+    )

@@ -19,6 +19,7 @@ __all__ = [
     "NOISE",
     "NOISE_CLASSES",
     "UNCLASSIFIED",
+    "WAVEFORM_ATTRIBUTES",
     "class_array",
     "existing_classes",
     "ground_classes",
@@ -168,10 +169,31 @@ MEAN_ATTRIBUTES = ("intensity", "red", "green", "blue", "nir", "gps_time")
 CATEGORY_ATTRIBUTES = ("classification", "label", "return_number", "number_of_returns")
 
 
+#: LAS's waveform descriptor of a return (point formats 4, 5, 9, 10): which packet, where
+#: it is, and where the return lies on it. The seven describe one pulse together, so a
+#: voxel takes all of them from its first point; averaged, x_t, y_t, z_t and the return's
+#: location described no pulse, beside the first point's packet offset.
+WAVEFORM_ATTRIBUTES = (
+    "wavepacket_index",
+    "wavepacket_offset",
+    "wavepacket_size",
+    "return_point_wave_location",
+    "x_t",
+    "y_t",
+    "z_t",
+)
+
+
 def is_category(name: str) -> bool:
     """Whether a field holds codes or ids (CATEGORY_ATTRIBUTES, ``id``, ``*_id``)."""
     key = name.lower()
     return key in CATEGORY_ATTRIBUTES or key == "id" or key.endswith("_id")
+
+
+def _first_point_of_voxel(name: str) -> bool:
+    """Whether a voxel takes the field from its first point: codes, ids and the
+    waveform descriptor, whatever their type."""
+    return is_category(name) or name in WAVEFORM_ATTRIBUTES
 
 
 #: PCL's packed colours: four bytes per point (blue, green, red, alpha or 0) stored in a
@@ -213,7 +235,7 @@ def voxel_attributes(
     no_data: dict[str, np.ndarray] | None = None,
 ) -> dict[str, np.ndarray]:
     """Per-voxel attributes: mean of float fields and MEAN_ATTRIBUTES, channel means of
-    PACKED_COLOURS, else (and for codes and ids, is_category) the first point's.
+    PACKED_COLOURS, else (and for codes, ids and WAVEFORM_ATTRIBUTES) the first point's.
 
     `carried`, if given, marks per field the rows of `fields` that carry it (a batch's
     buffer from tiles of another point format holds zeros for what they lack): each
@@ -236,7 +258,7 @@ def voxel_attributes(
             # 0's): never one a caller keeps, since its own points carry every field.
             counts = np.maximum(np.bincount(voxel, minlength=m), 1)
             first = _first_rows(rows, voxel, m)
-        if is_category(name):
+        if _first_point_of_voxel(name):
             out[name] = values[first]
         elif name in PACKED_COLOURS and values.ndim == 1 and values.dtype.itemsize == 4:
             channels = np.ascontiguousarray(values[rows]).view(np.uint8).reshape(len(rows), 4)

@@ -12,6 +12,7 @@ import pcl_rg
 from ..._classification import (
     CATEGORY_ATTRIBUTES,
     MEAN_ATTRIBUTES,
+    WAVEFORM_ATTRIBUTES,
     no_data_values,
     voxel_attributes,
 )
@@ -36,7 +37,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "for integers) of " + ", ".join(MEAN_ATTRIBUTES) + " and of every floating-point field, "
         "PCL's packed rgb/rgba colours channel by channel; every other field (flags, ...) and "
         "every code or id, integer or float (" + ", ".join(CATEGORY_ATTRIBUTES) + ", id, *_id), "
-        "is taken from the voxel's first point in file order."
+        "and LAS's waveform descriptor (" + ", ".join(WAVEFORM_ATTRIBUTES) + ", which describe "
+        "one pulse together) are taken from the voxel's first point in file order; an extra-bytes "
+        'field\'s declared "no data" is left out of its mean.'
     )
     add_io_arguments(parser, None)
     flags = add_param_flags(parser, "voxel grid parameters", {"voxel": pcl_rg.VoxelGridParams})
