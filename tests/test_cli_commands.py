@@ -13,7 +13,8 @@ import numpy as np
 import pytest
 from cli_helpers import assert_one_error_line, run, run_json
 from conftest import run_command, shared_data
-from las_helpers import raw_points
+from las_helpers import random_las, raw_points
+from laspy.vlrs.vlrlist import VLRList
 
 import pcl_rg
 import pcl_rg._grid_ground
@@ -379,6 +380,30 @@ def test_info(capsys, tmp_path, scene_las):
         (~np.isfinite(read_points(shared_data("mosd", "learn5.pcd")).points).all(axis=1)).sum()
     )
     assert f"{invalid:,} with NaN or Inf coordinates" in out and "label (uint32)" in out
+
+
+def test_info_lists_the_vlrs_and_evlrs(capsys, tmp_path):
+    # Only the VLRs' class names were listed ("VLR"), and no EVLR: not which records,
+    # by whom, nor how large (a waveform EVLR can be most of a file).
+    las = random_las("1.4", 9, 50, seed=3)
+    las.evlrs = VLRList(
+        [
+            laspy.VLR("other", 7, "bell\x07 \x1b[2J", b"x" * 17),
+            laspy.VLR("LASF_Spec", 65535, "", b"y" * 1000),
+        ]
+    )
+    las.write(tmp_path / "records.las")
+    report = run_json(capsys, "info", tmp_path / "records.las")
+    assert [(r["user_id"], r["record_id"], r["bytes"]) for r in report["las"]["vlrs"]] == [
+        (v.user_id, v.record_id, len(v.record_data_bytes())) for v in las.header.vlrs
+    ]
+    assert report["las"]["evlrs"] == [
+        {"user_id": "other", "record_id": 7, "description": "bell\x07 \x1b[2J", "bytes": 17},
+        {"user_id": "LASF_Spec", "record_id": 65535, "description": "", "bytes": 1000},
+    ]
+    _, out, _ = run(capsys, "info", tmp_path / "records.las")
+    assert "evlr          other 7 (bell? ?[2J, 17 bytes)\n" in out  # no escape reaches a terminal
+    assert "evlr          LASF_Spec 65535 (no description, 1,000 bytes)\n" in out
 
 
 def test_plots(capsys, tmp_path, scene_las):

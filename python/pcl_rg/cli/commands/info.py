@@ -61,7 +61,8 @@ def execute(args: argparse.Namespace, run: Run) -> None:
             "point_format": int(header.point_format.id),
             "scales": np.asarray(header.scales),
             "offsets": np.asarray(header.offsets),
-            "vlrs": [type(v).__name__ for v in header.vlrs],
+            "vlrs": _records(header.vlrs),
+            "evlrs": _records(header.evlrs or []),
             "extra_dimensions": list(header.point_format.extra_dimension_names),
         }
     elif header is not None:
@@ -132,11 +133,18 @@ def execute(args: argparse.Namespace, run: Run) -> None:
         # showed an offset of 512345.678 as 512346.
         run.say(f"{'scale':<14}{' '.join(repr(float(s)) for s in info['las']['scales'])}")
         run.say(f"{'offset':<14}{' '.join(repr(float(s)) for s in info['las']['offsets'])}")
+        for kind in ("vlrs", "evlrs"):
+            for record in info["las"][kind]:
+                run.say(
+                    f"{kind[:-1]:<14}{_shown(record['user_id'])} {record['record_id']}"
+                    f" ({_shown(record['description']) or 'no description'}, "
+                    f"{record['bytes']:,} bytes)"
+                )
     elif header is not None:
         run.say(f"{'layout':<14}" + ", ".join(f"{k} {v}" for k, v in info[cloud.format].items()))
     run.say(
         f"{'fields':<14}"
-        + (", ".join(f"{k} ({v['dtype']})" for k, v in info["fields"].items()) or "none")
+        + (", ".join(f"{_shown(k)} ({v['dtype']})" for k, v in info["fields"].items()) or "none")
     )
     if "classes" in info:
         run.say(f"{'classes':<14}" + ", ".join(f"{k}: {v:,}" for k, v in info["classes"].items()))
@@ -157,6 +165,25 @@ def execute(args: argparse.Namespace, run: Run) -> None:
         title=os.path.basename(args.input),
         metres_per_unit=stated_metres_per_unit(cloud),
     )
+
+
+def _records(records: Any) -> list[dict[str, Any]]:
+    """Who wrote each (E)VLR, which record it is, and its size, as lasinfo lists them."""
+    return [
+        {
+            "user_id": record.user_id,
+            "record_id": int(record.record_id),
+            "description": record.description,
+            "bytes": len(record.record_data_bytes()),
+        }
+        for record in records
+    ]
+
+
+def _shown(text: str) -> str:
+    """Text from the file as a terminal can show it: a control character (an escape
+    sequence in a hostile file's description) becomes "?"."""
+    return "".join(c if c.isprintable() else "?" for c in text)
 
 
 def _z_not_stated(stated: CoordinateUnits) -> str:
