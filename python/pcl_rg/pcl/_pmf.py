@@ -126,6 +126,12 @@ def progressive_morphological_filter(
     ProgressiveMorphologicalFilter segmentation". The filter runs on the
     points minus the local origin, as float32.
 
+    The point-wise filter is slow, and PCL cannot stop it once it runs (Ctrl-C
+    waits for the end): with these defaults it took 2.3, 14 and 79 s for
+    10,000, 41,000 and 166,000 points of ``pcl_rg.datasets.synthetic_scene``
+    on two cores, against 0.09, 0.10 and 0.22 s with ``approximate=True``. For
+    a whole tile, use the approximate filter.
+
     References
     ----------
     Zhang et al., "A progressive morphological filter for removing nonground
