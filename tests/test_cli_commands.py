@@ -384,26 +384,43 @@ def test_info(capsys, tmp_path, scene_las):
 
 def test_info_lists_the_vlrs_and_evlrs(capsys, tmp_path):
     # Only the VLRs' class names were listed ("VLR"), and no EVLR: not which records,
-    # by whom, nor how large (a waveform EVLR can be most of a file).
+    # by whom, nor how large (a waveform EVLR can be most of a file). The listing comes
+    # from the records' headers in the file: laspy re-encodes the records it knows, and
+    # one (COPC's info) it cannot encode at all.
     las = random_las("1.4", 9, 50, seed=3)
+    las.header.vlrs.append(laspy.VLR("copc", 1, "copc info", bytes(160)))
     las.evlrs = VLRList(
         [
-            laspy.VLR("other", 7, "bell\x07 \x1b[2J", b"x" * 17),
+            laspy.VLR("other", 7, "PLACEHOLDER", b"x" * 17),
             laspy.VLR("LASF_Spec", 65535, "", b"y" * 1000),
         ]
     )
     las.write(tmp_path / "records.las")
+    data = (tmp_path / "records.las").read_bytes()
+    # A description that is not ASCII, with an escape sequence in it.
+    data = data.replace(b"PLACEHOLDER", b"H\xc3\xb6he \x1b[2J!")  # as long: 11 bytes
+    (tmp_path / "records.las").write_bytes(data)
     report = run_json(capsys, "info", tmp_path / "records.las")
     assert [(r["user_id"], r["record_id"], r["bytes"]) for r in report["las"]["vlrs"]] == [
-        (v.user_id, v.record_id, len(v.record_data_bytes())) for v in las.header.vlrs
+        ("LASF_Spec", 4, 768),  # the extra bytes: four fields of 192 bytes
+        ("pcl_rg_test", 42, 37),
+        ("copc", 1, 160),
     ]
     assert report["las"]["evlrs"] == [
-        {"user_id": "other", "record_id": 7, "description": "bell\x07 \x1b[2J", "bytes": 17},
+        {"user_id": "other", "record_id": 7, "description": "H\u00f6he \x1b[2J!", "bytes": 17},
         {"user_id": "LASF_Spec", "record_id": 65535, "description": "", "bytes": 1000},
     ]
     _, out, _ = run(capsys, "info", tmp_path / "records.las")
-    assert "evlr          other 7 (bell? ?[2J, 17 bytes)\n" in out  # no escape reaches a terminal
+    assert (
+        "evlr          other 7 (H\u00f6he ?[2J!, 17 bytes)\n" in out
+    )  # no escape reaches a terminal
     assert "evlr          LASF_Spec 65535 (no description, 1,000 bytes)\n" in out
+    # LAZ: LASzip's own VLR, which laspy hides, is in the file and in the list.
+    random_las("1.4", 6, 50, seed=4).write(tmp_path / "records.laz")
+    report = run_json(capsys, "info", tmp_path / "records.laz")
+    assert ("laszip encoded", 22204) in [
+        (r["user_id"], r["record_id"]) for r in report["las"]["vlrs"]
+    ]
 
 
 def test_plots(capsys, tmp_path, scene_las):

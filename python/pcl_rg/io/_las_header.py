@@ -50,6 +50,16 @@ _LAZ_MAX_RATIO = 100_000
 _PARALLEL_CHUNK_BYTES = 64 << 20
 
 
+class LasRecord(NamedTuple):
+    """A VLR or EVLR as its header in the file gives it (``pcl-rg info`` lists them)."""
+
+    kind: str  # "VLR" or "EVLR"
+    user_id: str
+    record_id: int
+    description: str
+    length: int  # bytes after the record's header
+
+
 class LasFacts(NamedTuple):
     """What the checks found, for the reader to size its work by."""
 
@@ -62,6 +72,8 @@ class LasFacts(NamedTuple):
     """How many more point records the file holds after the counted ones: LAS, the
     room before what follows them (EVLRs, waveform packets, the end of the file);
     LAZ, the points its chunk table gives beyond the count, at least."""
+    records: tuple[LasRecord, ...]
+    """The VLRs, then the EVLRs, in file order."""
 
 
 def _bad(path: str, problem: str) -> ValueError:
@@ -164,7 +176,9 @@ def check_las_header(path: str, stream: BinaryIO) -> LasFacts:
     vlrs = _records(
         stream, path, "VLR", header_size, vlr_count, data_offset, "the start of the point data"
     )
+    records = []
     for position, vlr, length in vlrs:
+        records.append(_record("VLR", vlr, length))
         user_id = vlr[2:18].rstrip(b"\0")
         (record_id,) = struct.unpack_from("<H", vlr, 18)
         if user_id == _LASZIP_USER_ID and record_id == _LASZIP_RECORD_ID:
@@ -177,11 +191,10 @@ def check_las_header(path: str, stream: BinaryIO) -> LasFacts:
                 f"{evlr_count} EVLRs from offset {evlr_start} do not fit between the point "
                 f"data at {data_offset} and the end of the file at {file_size}",
             )
-        # Walked only to check that every record lies inside the file.
-        for _ in _records(
+        evlrs = _records(
             stream, path, "EVLR", evlr_start, evlr_count, file_size, "the end of the file"
-        ):
-            pass
+        )
+        records += [_record("EVLR", evlr, length) for _, evlr, length in evlrs]
 
     point_end = evlr_start if evlr_count else file_size
     payload = point_end - data_offset
@@ -219,7 +232,27 @@ def check_las_header(path: str, stream: BinaryIO) -> LasFacts:
             at_file_end=not evlr_count,
         )
     parallel = largest_chunk * record_length <= _PARALLEL_CHUNK_BYTES
-    return LasFacts(point_count, compressed, parallel, spare_records)
+    return LasFacts(point_count, compressed, parallel, spare_records, tuple(records))
+
+
+def _record(kind: str, header: bytes, length: int) -> LasRecord:
+    """The LasRecord of an (E)VLR `header`; its texts as UTF-8, undecodable bytes as
+    U+FFFD (the specification asks for ASCII, NUL-padded)."""
+    (record_id,) = struct.unpack_from("<H", header, 18)
+
+    def text(raw: bytes) -> str:
+        return raw.split(b"\0", 1)[0].decode("utf-8", "replace")
+
+    description = header[22:54] if kind == "VLR" else header[28:60]  # after a u16 or u64 length
+    return LasRecord(kind, text(header[2:18]), record_id, text(description), length)
+
+
+def las_records(path: str) -> tuple[LasRecord, ...]:
+    """The VLRs and EVLRs of the LAS/LAZ file at `path`, from their headers in the file
+    (what laspy makes of them can differ: it re-encodes known records and drops LASzip's),
+    after the checks of check_las_header."""
+    with open(path, "rb") as stream:
+        return check_las_header(path, stream).records
 
 
 def _check_laz_payload(

@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..._classification import whole_numbers
+from ...io._las_header import LasRecord, las_records
 from .._common import (
     add_output_options,
     check_extension,
@@ -56,13 +57,14 @@ def execute(args: argparse.Namespace, run: Run) -> None:
         info["bounds"] = {"min": points[valid].min(axis=0), "max": points[valid].max(axis=0)}
     header = cloud.header
     if cloud.format in ("las", "laz"):
+        records = las_records(args.input)
         info["las"] = {
             "version": str(header.version),
             "point_format": int(header.point_format.id),
             "scales": np.asarray(header.scales),
             "offsets": np.asarray(header.offsets),
-            "vlrs": _records(header.vlrs),
-            "evlrs": _records(header.evlrs or []),
+            "vlrs": _records(records, "VLR"),
+            "evlrs": _records(records, "EVLR"),
             "extra_dimensions": list(header.point_format.extra_dimension_names),
         }
     elif header is not None:
@@ -167,16 +169,18 @@ def execute(args: argparse.Namespace, run: Run) -> None:
     )
 
 
-def _records(records: Any) -> list[dict[str, Any]]:
-    """Who wrote each (E)VLR, which record it is, and its size, as lasinfo lists them."""
+def _records(records: tuple[LasRecord, ...], kind: str) -> list[dict[str, Any]]:
+    """Who wrote each VLR or EVLR, which record it is, and its size, from its header in
+    the file, as lasinfo lists them."""
     return [
         {
-            "user_id": record.user_id,
-            "record_id": int(record.record_id),
-            "description": record.description,
-            "bytes": len(record.record_data_bytes()),
+            "user_id": r.user_id,
+            "record_id": r.record_id,
+            "description": r.description,
+            "bytes": r.length,
         }
-        for record in records
+        for r in records
+        if r.kind == kind
     ]
 
 
