@@ -172,7 +172,9 @@ CATEGORY_ATTRIBUTES = ("classification", "label", "return_number", "number_of_re
 #: LAS's waveform descriptor of a return (point formats 4, 5, 9, 10): which packet, where
 #: it is, and where the return lies on it. The seven describe one pulse together, so a
 #: voxel takes all of them from its first point; averaged, x_t, y_t, z_t and the return's
-#: location described no pulse, beside the first point's packet offset.
+#: location described no pulse, beside the first point's packet offset. The point itself
+#: moves to the centroid, so the return's place on the pulse (its position plus location
+#: times (x_t, y_t, z_t)) is the first point's, up to a leaf size away.
 WAVEFORM_ATTRIBUTES = (
     "wavepacket_index",
     "wavepacket_offset",
@@ -193,7 +195,7 @@ def is_category(name: str) -> bool:
 def _first_point_of_voxel(name: str) -> bool:
     """Whether a voxel takes the field from its first point: codes, ids and the
     waveform descriptor, whatever their type."""
-    return is_category(name) or name in WAVEFORM_ATTRIBUTES
+    return is_category(name) or name.lower() in WAVEFORM_ATTRIBUTES
 
 
 #: PCL's packed colours: four bytes per point (blue, green, red, alpha or 0) stored in a
