@@ -223,8 +223,9 @@ def test_final_passes_rerun_the_final_pass_on_its_own_ground(scene):
     once = pcl_rg.grid_ground(scene.points, params=dataclasses.replace(p, final_passes=1))
     twice = assert_core_equals_reference(scene.points, dataclasses.replace(p, final_passes=2))
     again = final_pass(
-        scene.points, once, p.final_cell, p.final_above, p.final_below, p.final_slope
-    )
+        scene.points, once, p.final_cell, p.final_above, p.final_below, p.final_slope,
+        p.final_low_depth,
+    )  # fmt: skip
     np.testing.assert_array_equal(twice, again)
     # Without the final pass there is nothing to repeat.
     off = GridGroundParams(final_cell=0.0)

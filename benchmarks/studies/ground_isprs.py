@@ -164,10 +164,11 @@ START = pcl_rg.GridGroundParams.definition(
 # over every field (block and cell sizes, tolerances, seed component, passes too) fits
 # the seven samples better (4.30 % with the final pass) but picks unstable sets on six
 # of them: leave one sample out, its held-out error was about twice this small
-# search's (benchmarks/RESULTS.md, cross-validated presets). The eight fields left are
+# search's (benchmarks/RESULTS.md, cross-validated presets). The nine fields left are
 # the growth's and the pre-filter's slopes, the low-outlier depth (from 0, off, the
 # START), and the final pass (its depth below the TIN with tin_isprs_params.py's values;
-# its rounds from one, the START), which decides last.
+# its low-ground depth from 0, off, the START; its rounds from one, the START), which
+# decides last.
 SEARCH_GRID = {
     "slope": [0.3, 0.5, 0.8, 1.2],
     "filter_slope": [0.5, 0.7, 1.0],
@@ -176,6 +177,7 @@ SEARCH_GRID = {
     "final_above": [0.3, 0.5, 0.8, 1.0],
     "final_below": [0.5, 1.0, 2.0, 5.0],
     "final_slope": [0.5, 1.0, 2.0],
+    "final_low_depth": [0.0, 2.0, 3.0, 5.0],
     "final_passes": [1, 2, 3],
 }
 

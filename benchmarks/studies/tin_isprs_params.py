@@ -70,8 +70,15 @@ FINAL_GRID: dict[str, list] = {
     "final_below": [0.5, 1.0, 2.0, 5.0],
     "final_slope": [0.0, 0.5, 1.0, 2.0],
     "stop_edge": SEARCH_GRID["stop_edge"],
+    "final_low_depth": [0.0, 2.0, 3.0, 5.0],
 }
-FINAL_START = {"final_cell": 2.0, "final_above": 0.5, "final_below": 1.0, "final_slope": 1.0}
+FINAL_START = {
+    "final_cell": 2.0,
+    "final_above": 0.5,
+    "final_below": 1.0,
+    "final_slope": 1.0,
+    "final_low_depth": 0.0,
+}
 
 # The same lengths as multiples of the point spacing (the ISPRS samples have 1.0-1.1 m
 # urban, 2.3-2.4 m rural; 0 switches near_vertex_distance, seed_cell, final_cell off).

@@ -39,6 +39,7 @@ void bind_grid_ground(py::module_& m) {
         .def_readwrite("final_above", &GridGroundParams::final_above)
         .def_readwrite("final_below", &GridGroundParams::final_below)
         .def_readwrite("final_slope", &GridGroundParams::final_slope)
+        .def_readwrite("final_low_depth", &GridGroundParams::final_low_depth)
         .def_readwrite("final_passes", &GridGroundParams::final_passes);
 
     m.def(

@@ -26,7 +26,8 @@ void bind_tin_ground(py::module_& m) {
         .def_readwrite("final_cell", &TinGroundParams::final_cell)
         .def_readwrite("final_above", &TinGroundParams::final_above)
         .def_readwrite("final_below", &TinGroundParams::final_below)
-        .def_readwrite("final_slope", &TinGroundParams::final_slope);
+        .def_readwrite("final_slope", &TinGroundParams::final_slope)
+        .def_readwrite("final_low_depth", &TinGroundParams::final_low_depth);
 
     m.def(
         "tin_ground",

@@ -18,6 +18,9 @@
 //   2. Cells of `cell` metres, anchored at multiples of `cell` in world coordinates
 //      (lattice_floor, points.hpp); the lowest ground point of each (ties: smallest
 //      index) is a vertex. Of vertices on one snapped XY, the lowest (ties: index) stays.
+//      With low_depth, a ground point more than that below the median of the lowest
+//      ground heights of the 7 x 7 cells around its own is no candidate
+//      (final_pass_low.hpp).
 //   3. Delaunay TIN of the vertices inside the frame's box, whose four corners are
 //      virtual vertices at the height of their nearest vertex (exact squared grid
 //      distance, ties: the lowest), and whose sides hold one virtual vertex for each
@@ -46,12 +49,14 @@
 #include <cstdint>
 #include <cstdlib>
 #include <limits>
+#include <memory>
 #include <stdexcept>
 #include <tuple>
 #include <utility>
 #include <vector>
 
 #include "final_pass_border.hpp"
+#include "final_pass_low.hpp"
 #include "ground_tin.hpp"
 #include "pcl_rg/cell_lowest.hpp"
 #include "pcl_rg/check.hpp"
@@ -67,6 +72,7 @@ void validate(const FinalPassParams& params) {
     check::real("final_above", params.above, check::non_negative());
     check::real("final_below", params.below, check::non_negative());
     check::real("final_slope", params.slope, check::non_negative());
+    check::real("final_low_depth", params.low_depth, check::non_negative());
 }
 
 namespace {
@@ -161,9 +167,18 @@ void final_pass(PointsView points, const FinalPassParams& params, const SnappedP
     // a scan of the snapped points, sequential reads, for tin_ground already in curve
     // order; few (grid_ground's): read from the input, one scattered read each, cheaper
     // than the scan. The order below does not depend on which.
+    // With low_depth, the ground that may give vertices (and side vertices) is the
+    // filter's without its points far below their surroundings; every point, those
+    // included, is classified as always.
+    std::unique_ptr<bool[]> not_low;
+    if (params.low_depth > 0.0) {
+        not_low.reset(new bool[n]);
+        final_pass_low::keep_not_low(points, cells, params.low_depth, ground, not_low.get());
+    }
+    const bool* vertex_ground = not_low ? not_low.get() : ground;
     std::vector<Vertex> candidates;
     {
-        const std::vector<std::uint32_t> lowest = lowest_points(points, cells, ground);
+        const std::vector<std::uint32_t> lowest = lowest_points(points, cells, vertex_ground);
         const auto count = static_cast<std::ptrdiff_t>(lowest.size());
         if (lowest.size() < n / 16) {
             candidates.resize(lowest.size());
@@ -229,7 +244,7 @@ void final_pass(PointsView points, const FinalPassParams& params, const SnappedP
         for (std::size_t k = 0; k < vertices.size(); ++k)
             std::tie(vertex_cells[k][0], vertex_cells[k][1]) =
                 cell_of(points, cells, vertices[k].i);
-        border = border_vertices(vertices, vertex_cells, points, ground, cells, snapped);
+        border = border_vertices(vertices, vertex_cells, points, vertex_ground, cells, snapped);
     }
     std::vector<std::size_t> border_by_place(border.size());
     for (std::size_t b = 0; b < border.size(); ++b) border_by_place[b] = b;

@@ -39,6 +39,7 @@ class GridGroundParams:
     final_above: float
     final_below: float
     final_slope: float
+    final_low_depth: float
     final_passes: int
     def __init__(self) -> None: ...
 
@@ -63,6 +64,7 @@ class TinGroundParams:
     final_above: float
     final_below: float
     final_slope: float
+    final_low_depth: float
     def __init__(self) -> None: ...
 
 def tin_ground(

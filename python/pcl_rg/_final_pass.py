@@ -1,4 +1,4 @@
-"""The final pass's four settings, declared once for both ground filters.
+"""The final pass's five settings, declared once for both ground filters.
 
 The pass itself is C++ (``cpp/src/final_pass.cpp``, NumPy reference
 ``reference/_final_pass.py``); :class:`GridGroundParams` and
@@ -22,6 +22,9 @@ _HELP = {
     "final_below": "final pass: depth below the TIN down to which a point is ground",
     "final_slope": "final pass: allowance per unit of the TIN's gradient, added to "
     "final_above (slope-adaptive threshold after Zhao et al. 2016)",
+    "final_low_depth": "final pass (0: off): a ground point more than this below the median "
+    "of the lowest ground heights of the 7 x 7 final cells around its own gives no TIN "
+    "vertex, so a patch of low points (multipath) pulls no surface down to it",
 }
 
 

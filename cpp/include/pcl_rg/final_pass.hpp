@@ -25,6 +25,10 @@ struct FinalPassParams {
     /// Allowance per unit of the TIN's gradient (m, >= 0): a point is ground up to
     /// above + slope * |grad z| above the TIN (Zhao et al. 2016's slope-adaptive threshold).
     double slope = 1.0;
+    /// Depth (m, >= 0; 0: off) below the median of the lowest ground heights of the 7 x 7
+    /// cells around its cell beyond which a ground point is no vertex candidate
+    /// (final_pass_low.hpp): a patch of low points then pulls no TIN down to it.
+    double low_depth = 0.0;
 };
 
 /// A setting's value; a filter's unset (std::nullopt) final_cell reads as 0, which passes
@@ -33,11 +37,11 @@ inline double final_setting(double value) { return value; }
 inline double final_setting(const std::optional<double>& value) { return value.value_or(0.0); }
 
 /// The final pass's settings of a filter's params (fields final_cell, final_above,
-/// final_below, final_slope).
+/// final_below, final_slope, final_low_depth).
 template <class FilterParams>
 FinalPassParams final_pass_params(const FilterParams& params) {
     return {final_setting(params.final_cell), params.final_above, params.final_below,
-            params.final_slope};
+            params.final_slope, params.final_low_depth};
 }
 
 /// Throws std::invalid_argument when a setting is out of range, naming it as the filters
@@ -45,7 +49,8 @@ FinalPassParams final_pass_params(const FilterParams& params) {
 void validate(const FinalPassParams& params);
 
 /// Replaces `ground` (N entries, read as the filter's ground) by the final pass's
-/// classification: the TIN's vertices are the lowest ground point of each cell (ties:
+/// classification: the TIN's vertices are the lowest ground point of each cell (with
+/// low_depth, of those not too low: final_pass_low.hpp; ties:
 /// smallest index; of vertices on one snapped XY, the lowest, then smallest index), with
 /// virtual vertices on its box's corners and sides (final_pass_border.hpp);
 /// a point p is ground when -below <= z_p - z_TIN(p) <= above + slope * |grad z_TIN(p)|,

@@ -76,6 +76,11 @@ struct GridGroundParams {
     double final_below = 5.0;
     /// Allowance per unit of the final TIN's gradient (m, >= 0).
     double final_slope = 2.0;
+    /// Depth (m, >= 0; 0: off) below the median of the lowest ground heights of the 7 x 7
+    /// final cells around its own beyond which a ground point gives no vertex of the
+    /// final TIN (final_pass.hpp), so that a patch of low points (multipath) pulls no
+    /// surface down to it. 2 m: the ISPRS preset's (cross-validated).
+    double final_low_depth = 2.0;
     /// Rounds of the final pass (1 to kGridMaxPasses; used when final_cell > 0): each
     /// round after the first builds its TIN from the previous round's ground, whose
     /// lowest point per cell may be a ground point the growth missed where the growth's

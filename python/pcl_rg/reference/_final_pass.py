@@ -17,11 +17,17 @@ import numpy as np
 from ._lattice import lattice_floor
 from .tin_ground import grid_quantum, locate, triangulate, with_corners
 
-__all__ = ["border_vertices", "final_pass", "heights_above_tin"]
+__all__ = ["border_vertices", "final_pass", "heights_above_tin", "low_ground"]
 
 
 def final_pass(
-    xyz: np.ndarray, ground: np.ndarray, cell: float, above: float, below: float, slope: float
+    xyz: np.ndarray,
+    ground: np.ndarray,
+    cell: float,
+    above: float,
+    below: float,
+    slope: float,
+    low_depth: float = 0.0,
 ) -> np.ndarray:
     """The final pass's ground mask of float64 (N, 3) points given the filter's `ground`.
 
@@ -34,7 +40,7 @@ def final_pass(
     >>> final_pass(xyz, ground, cell=4.0, above=0.5, below=1.0, slope=1.0).tolist()
     [True, True, True, True, True, False]
     """
-    heights = heights_above_tin(xyz, ground, cell)
+    heights = heights_above_tin(xyz, ground, cell, low_depth)
     if heights is None:
         return np.zeros(len(xyz), dtype=bool)
     dz, gradient = heights
@@ -120,11 +126,12 @@ def border_vertices(
 
 
 def heights_above_tin(
-    xyz: np.ndarray, ground: np.ndarray, cell: float
+    xyz: np.ndarray, ground: np.ndarray, cell: float, low_depth: float = 0.0
 ) -> tuple[np.ndarray, np.ndarray] | None:
     """(z - z_TIN, |grad z_TIN|) per point for the final pass's TIN (None: no ground).
 
-    The TIN is the final pass's: the lowest `ground` point of each `cell` cell; the
+    The TIN is the final pass's: the lowest `ground` point of each `cell` cell (with
+    `low_depth` > 0, of those not that far below their surroundings: low_ground); the
     errors study (benchmarks/studies/tin_isprs_errors.py) bins the errors by both.
 
     Examples
@@ -154,6 +161,8 @@ def heights_above_tin(
     width, height = int(np.rint(ex / q)) + 2, int(np.rint(ey / q)) + 2
     z = xyz[:, 2] - lowest[2]
 
+    if low_depth > 0:
+        ground = ground & ~low_ground(xyz, z, ground, (cell_x0, cell_y0, cell), low_depth)
     # The lowest ground point of each cell (ties: index), then of each snapped XY.
     index = np.flatnonzero(ground)
     if index.size == 0:
@@ -197,3 +206,57 @@ def heights_above_tin(
     surface = tz[:, 0] - (nx * (px - x[:, 0]) + ny * (py - y[:, 0])) / nz
     gradient = np.sqrt(nx * nx + ny * ny) / nz
     return z - surface, gradient
+
+
+def low_ground(
+    xyz: np.ndarray,
+    z: np.ndarray,
+    ground: np.ndarray,
+    lattice: tuple[float, float, float],
+    depth: float,
+    reach: int = 3,
+) -> np.ndarray:
+    """The `ground` points more than `depth` below the median of the lowest `ground`
+    heights `z` of the occupied cells of the (2 reach + 1)^2 window around their own
+    cell (x0, y0, size of `lattice`), as final_pass_low.cpp (window reach kWindowReach).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from pcl_rg.reference._final_pass import low_ground
+    >>> xyz = np.array([[x + 0.5, y + 0.5, 0.0] for x in range(5) for y in range(5)])
+    >>> xyz[12, 2] = -9.0  # the middle cell's point, 9 m below the others
+    >>> z = xyz[:, 2] - xyz[:, 2].min()
+    >>> np.flatnonzero(low_ground(xyz, z, np.ones(25, bool), (0.0, 0.0, 1.0), 3.0)).tolist()
+    [12]
+    """
+    x0, y0, size = lattice
+    index = np.flatnonzero(ground)
+    cx = np.floor((xyz[index, 0] - x0) / size).astype(np.int64)
+    cy = np.floor((xyz[index, 1] - y0) / size).astype(np.int64)
+    order = np.lexsort((z[index], cy, cx))
+    first = np.r_[True, (np.diff(cx[order]) != 0) | (np.diff(cy[order]) != 0)]
+    lowest = order[first]  # of index's positions: each occupied cell's lowest, by place
+    ux, uy = np.unique(cx), np.unique(cy)
+
+    def rank(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """Each cell (x, y)'s place in `lowest`, or -1 where no ground cell is."""
+        ix = np.minimum(np.searchsorted(ux, x), len(ux) - 1)
+        iy = np.minimum(np.searchsorted(uy, y), len(uy) - 1)
+        key = ix * len(uy) + iy
+        place = np.minimum(np.searchsorted(cell_keys, key), len(cell_keys) - 1)
+        found = (ux[ix] == x) & (uy[iy] == y) & (cell_keys[place] == key)
+        return np.where(found, place, -1)
+
+    cell_keys = np.searchsorted(ux, cx[lowest]) * len(uy) + np.searchsorted(uy, cy[lowest])
+    heights = z[index[lowest]]
+    window = np.full((len(lowest), (2 * reach + 1) ** 2), np.nan)
+    offsets = range(-reach, reach + 1)
+    for column, (dx, dy) in enumerate((dx, dy) for dx in offsets for dy in offsets):
+        place = rank(cx[lowest] + dx, cy[lowest] + dy)
+        window[place >= 0, column] = heights[place[place >= 0]]
+    threshold = np.nanmedian(window, axis=1) - depth
+    own = rank(cx, cy)
+    low = np.zeros(len(xyz), dtype=bool)
+    low[index] = z[index] < threshold[own]
+    return low

@@ -179,6 +179,7 @@ def grid_ground(
     final_above: float | None = None,
     final_below: float | None = None,
     final_slope: float | None = None,
+    final_low_depth: float | None = None,
     final_passes: int | None = None,
     params: GridGroundParams | None = None,
 ) -> np.ndarray:
@@ -232,8 +233,14 @@ def grid_ground(
                 ground,
                 kept
                 & final_pass(
-                    xyz, ground, p.final_cell, p.final_above, p.final_below, p.final_slope
-                ),
+                    xyz,
+                    ground,
+                    p.final_cell,
+                    p.final_above,
+                    p.final_below,
+                    p.final_slope,
+                    p.final_low_depth,
+                ),  # fmt: skip
             )
             if np.array_equal(ground, last):
                 break  # every later round would start from this ground again

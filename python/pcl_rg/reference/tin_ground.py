@@ -286,6 +286,7 @@ def tin_ground(
     final_above: float | None = None,
     final_below: float | None = None,
     final_slope: float | None = None,
+    final_low_depth: float | None = None,
     params: TinGroundParams | None = None,
 ) -> np.ndarray:
     """Reference progressive TIN densification: same signature and result as the core.
@@ -399,5 +400,8 @@ def tin_ground(
     if p.final_cell > 0:
         from ._final_pass import final_pass  # here: it imports this module's TIN
 
-        ground = final_pass(xyz, ground, p.final_cell, p.final_above, p.final_below, p.final_slope)
+        ground = final_pass(
+            xyz, ground, p.final_cell, p.final_above, p.final_below, p.final_slope,
+            p.final_low_depth,
+        )  # fmt: skip
     return ground

@@ -1,0 +1,143 @@
+// Ground points far below their surroundings: see final_pass_low.hpp.
+#include "final_pass_low.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstddef>
+#include <limits>
+#include <vector>
+
+#include "pcl_rg/interrupt.hpp"
+
+namespace pcl_rg::final_pass_low {
+
+namespace {
+
+constexpr std::size_t kWindowCells = (2 * kWindowReach + 1) * (2 * kWindowReach + 1);
+constexpr double kNotLow = -std::numeric_limits<double>::infinity();
+
+struct Cell {
+    std::int64_t cx, cy;
+    double z;  // its lowest ground point's height; for `low` below: the threshold
+};
+
+bool by_place(const Cell& a, const Cell& b) { return a.cx < b.cx || (a.cx == b.cx && a.cy < b.cy); }
+
+// The threshold of a cell whose lowest ground height is z, given its window's heights
+// (values[0, count), reordered): median - depth when z lies below it, else kNotLow.
+// Most cells are no lower than their surroundings, and a count decides that without the
+// median: z < fl(median - depth) needs z < fl(v - depth) for the middle value v (odd
+// count) or the upper middle one (even: the mean of the two middles is at most that),
+// so for at least half of the values, fl(v - depth) being monotone in v.
+double threshold(double z, double depth, double* values, std::size_t count) {
+    std::size_t above = 0;
+    for (std::size_t k = 0; k < count; ++k) above += z < values[k] - depth ? 1 : 0;
+    if (above < (count + 1) / 2) return kNotLow;
+    double* middle = values + count / 2;
+    std::nth_element(values, middle, values + count);
+    const double median =
+        count % 2 == 1 ? *middle : (*std::max_element(values, middle) + *middle) / 2.0;
+    return z < median - depth ? median - depth : kNotLow;
+}
+
+}  // namespace
+
+void keep_not_low(PointsView points, const CellLattice& cells, double depth, const bool* ground,
+                  bool* kept) {
+    const std::size_t n = points.size;
+    const Interruption interruption;
+    const std::int64_t rows = cells.rows;
+    const auto z_of = [&](std::size_t i) { return points.coord(i, 2) - cells.z0; };
+    // Per cell, its threshold (kNotLow: no point of it is dropped), through a raster of
+    // the cells' lowest heights where the lattice is at most a few cells per point (as
+    // lowest_points), else through the occupied cells sorted by place.
+    std::vector<double> raster_threshold;
+    std::vector<Cell> low;  // sparse: the cells with points to drop, by place
+    if (cells.columns <= (4 * static_cast<std::int64_t>(n) + 4096) / rows) {
+        const std::vector<std::int64_t> lowest = lowest_in_cells(points, cells, ground);
+        const auto count = static_cast<std::ptrdiff_t>(lowest.size());
+        std::vector<double> height(lowest.size());
+#pragma omp parallel for schedule(static) if (count > 65536)
+        for (std::ptrdiff_t c = 0; c < count; ++c)
+            height[c] = lowest[c] >= 0 ? z_of(static_cast<std::size_t>(lowest[c]))
+                                       : std::numeric_limits<double>::quiet_NaN();
+        raster_threshold.assign(lowest.size(), kNotLow);
+#pragma omp parallel for schedule(static) if (count > 65536) firstprivate(interruption)
+        for (std::ptrdiff_t c = 0; c < count; ++c) {
+            if (lowest[c] < 0 || interruption.requested()) continue;
+            const std::int64_t cx = c / rows, cy = c % rows;
+            std::array<double, kWindowCells> window;
+            std::size_t size = 0;
+            for (std::int64_t x = std::max<std::int64_t>(cx - kWindowReach, 0);
+                 x <= std::min(cx + kWindowReach, cells.columns - 1); ++x)
+                for (std::int64_t y = std::max<std::int64_t>(cy - kWindowReach, 0);
+                     y <= std::min(cy + kWindowReach, rows - 1); ++y)
+                    if (lowest[x * rows + y] >= 0) window[size++] = height[x * rows + y];
+            raster_threshold[c] = threshold(height[c], depth, window.data(), size);
+        }
+        interruption.check();
+    } else {
+        std::vector<Cell> occupied;
+        for (const std::uint32_t i : lowest_points(points, cells, ground)) {
+            const auto [cx, cy] = cell_of(points, cells, i);
+            occupied.push_back({cx, cy, z_of(i)});
+        }
+        std::sort(occupied.begin(), occupied.end(), by_place);
+        interruption.check_now();
+        const auto count = static_cast<std::ptrdiff_t>(occupied.size());
+        std::vector<double> cell_threshold(occupied.size());
+#pragma omp parallel for schedule(static) if (count > 4096) firstprivate(interruption)
+        for (std::ptrdiff_t k = 0; k < count; ++k) {
+            if (interruption.requested()) continue;
+            std::array<double, kWindowCells> window;
+            std::size_t size = 0;
+            const Cell& c = occupied[k];
+            for (std::int64_t cx = c.cx - kWindowReach; cx <= c.cx + kWindowReach; ++cx) {
+                auto at = std::lower_bound(occupied.begin(), occupied.end(),
+                                           Cell{cx, c.cy - kWindowReach, 0.0}, by_place);
+                for (; at != occupied.end() && at->cx == cx && at->cy <= c.cy + kWindowReach; ++at)
+                    window[size++] = at->z;
+            }
+            cell_threshold[k] = threshold(c.z, depth, window.data(), size);
+        }
+        interruption.check();
+        for (std::size_t k = 0; k < occupied.size(); ++k)
+            if (cell_threshold[k] != kNotLow)
+                low.push_back({occupied[k].cx, occupied[k].cy, cell_threshold[k]});
+    }
+    // A point is dropped only below its cell's threshold. Most points lie above the
+    // highest threshold of their column of cells (a small array; kNotLow in a column
+    // without a low cell), which a division tells without the raster's scattered reads.
+    double highest = kNotLow;
+    std::vector<double> column_highest;
+    if (!raster_threshold.empty()) {
+        column_highest.assign(static_cast<std::size_t>(cells.columns), kNotLow);
+        for (std::size_t c = 0; c < raster_threshold.size(); ++c) {
+            double& bound = column_highest[c / static_cast<std::size_t>(rows)];
+            bound = std::max(bound, raster_threshold[c]);
+        }
+    }
+    for (const Cell& c : low) highest = std::max(highest, c.z);
+    const auto m = static_cast<std::ptrdiff_t>(n);
+#pragma omp parallel for schedule(static) if (m > 65536)
+    for (std::ptrdiff_t i = 0; i < m; ++i) {
+        kept[i] = ground[i];
+        if (!ground[i]) continue;
+        const auto p = static_cast<std::size_t>(i);
+        const double z = z_of(p);
+        if (!raster_threshold.empty()) {
+            const std::int64_t cx = floor_to_int((points.coord(p, 0) - cells.x0) / cells.size);
+            if (!(z < column_highest[static_cast<std::size_t>(cx)])) continue;
+            const std::int64_t cy = floor_to_int((points.coord(p, 1) - cells.y0) / cells.size);
+            if (z < raster_threshold[static_cast<std::size_t>(cx * rows + cy)]) kept[i] = false;
+            continue;
+        }
+        if (!(z < highest)) continue;
+        const auto [cx, cy] = cell_of(points, cells, p);
+        const auto at = std::lower_bound(low.begin(), low.end(), Cell{cx, cy, 0.0}, by_place);
+        if (at != low.end() && at->cx == cx && at->cy == cy && z < at->z) kept[i] = false;
+    }
+}
+
+}  // namespace pcl_rg::final_pass_low

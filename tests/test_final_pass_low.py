@@ -1,0 +1,72 @@
+"""final_low_depth, the final pass's test of ground points far below their surroundings
+(final_pass_low.cpp): core vs reference, its effect on a patch of low points, order
+independence. Thread independence: tests/thread_probe.py runs both filters with it."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import shared_data
+
+import pcl_rg
+from pcl_rg import reference
+from pcl_rg.datasets import load_isprs, synthetic_scene
+
+FILTERS = [
+    (pcl_rg.grid_ground, reference.grid_ground),
+    (pcl_rg.tin_ground, reference.tin_ground),
+]
+IDS = ["grid", "tin"]
+
+
+def plane_with_patch(depth: float, side: float = 6.0, count: int = 200) -> tuple[np.ndarray, int]:
+    """A 100 m plane rising 0.3 per m at 4 points per m^2, then a square patch of
+    `count` points `depth` below it at its centre (a cluster of multipath echoes)."""
+    rng = np.random.default_rng(1)
+    xy = rng.uniform(0.0, 100.0, (40_000, 2))
+    plane = np.c_[xy, 0.3 * xy[:, 0] + rng.normal(0.0, 0.03, len(xy))]
+    pxy = 50.0 + rng.uniform(-side / 2, side / 2, (count, 2))
+    patch = np.c_[pxy, 0.3 * pxy[:, 0] - depth + rng.normal(0.0, 0.1, count)]
+    return np.r_[plane, patch], len(plane)
+
+
+@pytest.mark.parametrize(("core", "ref"), FILTERS, ids=IDS)
+def test_a_deep_patch_of_low_points_is_no_ground(core, ref):
+    points, n = plane_with_patch(depth=12.0)
+    without = core(points, final_low_depth=0.0)
+    assert without[n:].mean() > 0.5  # the defect: the patch is taken as ground
+    with_low = core(points)  # the defaults: final_low_depth 2 m
+    assert not with_low[n:].any()
+    assert with_low[:n].mean() >= without[:n].mean()  # the plane loses nothing
+    np.testing.assert_array_equal(with_low, ref(points))
+    # A patch as deep as final_below is ground by design, with the option or without.
+    shallow, n = plane_with_patch(depth=3.0)
+    assert core(shallow)[n:].mean() > 0.9
+
+
+@pytest.mark.parametrize(("core", "ref"), FILTERS, ids=IDS)
+@pytest.mark.parametrize("depth", [0.5, 2.0])
+def test_core_equals_reference_on_a_scene(core, ref, depth):
+    """Random XY: the TINs are unique, and the window medians are the same numbers.
+    The scene gets a patch of 40 low points, 10 m below its lowest point near the middle."""
+    points = synthetic_scene(seed=7, size=90.0, density=2.0, n_buildings=2, n_trees=10).points
+    middle = points[:, :2].mean(axis=0)
+    below = points[np.abs(points[:, :2] - middle).max(axis=1) < 5.0, 2].min() - 10.0
+    rng = np.random.default_rng(3)
+    points = np.r_[points, np.c_[middle + rng.uniform(-1.5, 1.5, (40, 2)), np.full(40, below)]]
+    got = core(points, final_low_depth=depth)
+    np.testing.assert_array_equal(got, ref(points, final_low_depth=depth))
+    assert (got != core(points, final_low_depth=0.0)).any()  # it acts (else this could not fail)
+    order = rng.permutation(len(points))
+    np.testing.assert_array_equal(core(points[order], final_low_depth=depth), got[order])
+
+
+@pytest.mark.parametrize(("core", "ref"), FILTERS, ids=IDS)
+def test_isprs_core_equals_reference(core, ref):
+    """samp41: two ground levels 6 m apart, where the option acts most on ISPRS."""
+    points, _ = load_isprs(
+        shared_data("isprs", "samp41-utm.pcd"), shared_data("isprs", "samp41-utm-ground.pcd")
+    )
+    got = core(points, final_low_depth=2.0)
+    np.testing.assert_array_equal(got, ref(points, final_low_depth=2.0))
+    assert (got != core(points, final_low_depth=0.0)).any()
