@@ -87,6 +87,13 @@ def machine() -> str:
     )
 
 
+def study_arguments(doc: str) -> argparse.ArgumentParser:
+    """The option every study takes: --write, which puts its section in RESULTS.md."""
+    parser = argparse.ArgumentParser(description=doc.splitlines()[0])
+    parser.add_argument("--write", action="store_true", help="update RESULTS.md")
+    return parser
+
+
 def speed_arguments(doc: str, points: int) -> argparse.ArgumentParser:
     """The options every speed run takes: --points, --repeats and --write."""
     parser = argparse.ArgumentParser(description=doc.splitlines()[0])

@@ -13,7 +13,6 @@ seams). Denoise and downsample are exact by construction; their rows check it.
 
 from __future__ import annotations
 
-import argparse
 import sys
 import tempfile
 from pathlib import Path
@@ -21,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/_common.py
-from _common import SHARED_DATA, publish_report  # noqa: E402
+from _common import SHARED_DATA, publish_report, study_arguments  # noqa: E402
 
 import pcl_rg  # noqa: E402
 from pcl_rg import batch  # noqa: E402
@@ -96,8 +95,7 @@ def ground_rows(name, paths, xs, ys, buffers, scheduler, folder) -> list[list[st
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--write", action="store_true", help="update RESULTS.md")
+    parser = study_arguments(__doc__)
     parser.add_argument(
         "--buffers", type=float, nargs="+", default=[0, 10, 20, 40, 60, 80, 90, 120]
     )

@@ -20,7 +20,6 @@ grid_ground default.
 
 from __future__ import annotations
 
-import argparse
 import sys
 import time
 from collections.abc import Callable
@@ -29,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/_common.py
-from _common import command_of, former_grid_default, publish_report  # noqa: E402
+from _common import command_of, former_grid_default, publish_report, study_arguments  # noqa: E402
 from _scaled import Scaled  # noqa: E402
 
 import pcl_rg  # noqa: E402
@@ -183,8 +182,7 @@ def run(densities, seeds, methods) -> tuple[list[list[str]], list[str]]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--write", action="store_true", help="update RESULTS.md")
+    parser = study_arguments(__doc__)
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
     parser.add_argument("--densities", type=float, nargs="+", default=[2.0, 8.0, 20.0, 50.0])
     parser.add_argument("--methods", nargs="*", help="names (prefixes) of METHODS to run")

@@ -18,7 +18,6 @@ the one its preset follows).
 
 from __future__ import annotations
 
-import argparse
 import functools
 import multiprocessing
 import sys
@@ -32,7 +31,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/_comm
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # the two search studies
 import ground_isprs  # noqa: E402
 import tin_isprs_params  # noqa: E402
-from _common import machine, markdown_table, publish  # noqa: E402
+from _common import machine, markdown_table, publish, study_arguments  # noqa: E402
 from _scaled import sample_errors  # noqa: E402
 
 import pcl_rg  # noqa: E402
@@ -143,8 +142,7 @@ def _mean(errors, field: str) -> float:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--write", action="store_true", help="update RESULTS.md")
+    parser = study_arguments(__doc__)
     parser.add_argument("--filters", nargs="+", choices=list(FILTERS), default=list(FILTERS))
     parser.add_argument(
         "--rules", nargs="+", default=None, help="rules of the studies' RULES (default: own)"

@@ -22,14 +22,13 @@ leave-one-sample-out figure is in ground_isprs_cv.py's section).
 
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/_common.py
-from _common import markdown_table, publish_report  # noqa: E402
+from _common import markdown_table, publish_report, study_arguments  # noqa: E402
 from ground_isprs import load_samples  # noqa: E402  (same folder)
 
 import pcl_rg  # noqa: E402
@@ -95,8 +94,7 @@ def isprs_rows() -> list[list[str]]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--write", action="store_true", help="update RESULTS.md")
+    parser = study_arguments(__doc__)
     args = parser.parse_args(argv)
     rows = patch_rows()
     isprs = markdown_table(

@@ -15,7 +15,6 @@ in metres, so feet taken for metres shrink the 40 m building window to 12 m, the
 
 from __future__ import annotations
 
-import argparse
 import subprocess
 import sys
 import tempfile
@@ -25,7 +24,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/_common.py
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "tests"))  # units_files.py
-from _common import publish_report  # noqa: E402
+from _common import publish_report, study_arguments  # noqa: E402
 from ground_isprs import load_samples  # noqa: E402  (same folder)
 from units_files import NEW_YORK_FTUS_WKT1, US_FOOT, wkt_record, write_las  # noqa: E402
 
@@ -46,8 +45,7 @@ def command_line(path: Path, method: str, folder: str) -> np.ndarray:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--write", action="store_true", help="update RESULTS.md")
+    parser = study_arguments(__doc__)
     args = parser.parse_args(argv)
     rows, totals = [], []
     with tempfile.TemporaryDirectory() as folder:

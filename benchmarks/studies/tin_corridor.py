@@ -19,7 +19,6 @@ No evaluation code lives here: the scores come from pcl_rg.evaluation.ground_err
 
 from __future__ import annotations
 
-import argparse
 import math
 import sys
 import time
@@ -28,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/_common.py
-from _common import machine, markdown_table, publish  # noqa: E402
+from _common import machine, markdown_table, publish, study_arguments  # noqa: E402
 
 import pcl_rg  # noqa: E402
 from pcl_rg.evaluation import ground_errors  # noqa: E402
@@ -114,8 +113,7 @@ def score(seeds: int) -> list[list[str]]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--write", action="store_true", help="update RESULTS.md")
+    parser = study_arguments(__doc__)
     parser.add_argument("--seeds", type=int, default=3, help="scenes per row (seeds 0..N-1)")
     args = parser.parse_args(argv)
     rows = score(args.seeds)

@@ -19,14 +19,13 @@ with a perfect densification, at the default's thresholds.
 
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/_common.py
-from _common import machine, markdown_table, publish  # noqa: E402
+from _common import machine, markdown_table, publish, study_arguments  # noqa: E402
 from ground_isprs import load_samples  # noqa: E402  (same folder)
 
 import pcl_rg  # noqa: E402
@@ -97,8 +96,7 @@ def stages(samples) -> list[list[str]]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--write", action="store_true", help="update RESULTS.md")
+    parser = study_arguments(__doc__)
     args = parser.parse_args(argv)
     samples = load_samples()
     by_height, by_gradient = binned(samples)

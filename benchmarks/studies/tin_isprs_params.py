@@ -25,7 +25,6 @@ the scores from pcl_rg.evaluation.ground_errors.
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import sys
 import time
@@ -35,7 +34,14 @@ from typing import Any
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/_common.py
-from _common import coordinate_descent, error_cells, machine, markdown_table, publish  # noqa: E402
+from _common import (  # noqa: E402
+    coordinate_descent,
+    error_cells,
+    machine,
+    markdown_table,
+    publish,
+    study_arguments,
+)
 from _scaled import PER_SPACING, Scaled, sample_errors  # noqa: E402
 from ground_isprs import METHODS, load_samples  # noqa: E402  (same folder)
 
@@ -330,9 +336,8 @@ def report(samples, command: str, compare: bool = False) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = study_arguments(__doc__)
     parser.add_argument("--report", action="store_true", help="skip the search")
-    parser.add_argument("--write", action="store_true", help="update RESULTS.md")
     parser.add_argument(
         "--compare", action="store_true", help="also the means of ground_isprs.METHODS"
     )
