@@ -11,6 +11,7 @@ from conftest import shared_data
 import pcl_rg
 from pcl_rg import reference
 from pcl_rg.datasets import load_isprs, synthetic_scene
+from pcl_rg.reference._final_pass import final_pass
 
 FILTERS = [
     (pcl_rg.grid_ground, reference.grid_ground),
@@ -70,3 +71,25 @@ def test_isprs_core_equals_reference(core, ref):
     got = core(points, final_low_depth=2.0)
     np.testing.assert_array_equal(got, ref(points, final_low_depth=2.0))
     assert (got != core(points, final_low_depth=0.0)).any()
+
+
+@pytest.mark.parametrize(("core", "ref"), FILTERS, ids=IDS)
+def test_core_equals_reference_on_a_sparse_lattice(core, ref):
+    """Two patches of terrain 5 km apart with 1 m final cells: more cells than the
+    raster of cells takes (final_pass_low.cpp's sorted path); a cluster 4 m low in each."""
+    rng = np.random.default_rng(4)
+    parts = []
+    for corner in (0.0, 5000.0):
+        xy = corner + rng.uniform(0.0, 40.0, (4000, 2))
+        parts.append(np.c_[xy, 0.2 * xy[:, 0] + rng.normal(0.0, 0.05, len(xy))])
+        pxy = corner + 20.0 + rng.uniform(-1.5, 1.5, (40, 2))
+        parts.append(np.c_[pxy, 0.2 * pxy[:, 0] - 4.0])
+    points = np.concatenate(parts)
+    got = core(points, final_cell=1.0, final_low_depth=1.0)
+    np.testing.assert_array_equal(got, ref(points, final_cell=1.0, final_low_depth=1.0))
+    assert (got != core(points, final_cell=1.0, final_low_depth=0.0)).any()
+
+
+def test_the_reference_gives_no_ground_for_no_ground():
+    xyz = np.random.default_rng(5).uniform(0.0, 10.0, (30, 3))
+    assert not final_pass(xyz, np.zeros(30, bool), 3.0, 0.5, 5.0, 1.0, 2.0).any()

@@ -89,9 +89,14 @@ def _jobs(c: dict[str, np.ndarray]) -> dict[str, Callable[[], str]]:
         "tin_ground_copies": lambda: _digest(pcl_rg.tin_ground(c["stacked"])),
         "point_spacing": lambda: _digest(np.array([pcl_rg.point_spacing(air)])),
         "tin_ground": lambda: _digest(pcl_rg.tin_ground(air)),
-        # The window medians of final_pass_low.cpp, in parallel beyond 4096 cells.
-        "grid_ground_low_depth": lambda: _digest(pcl_rg.grid_ground(air, final_low_depth=3.0)),
-        "tin_ground_low_depth": lambda: _digest(pcl_rg.tin_ground(air, final_low_depth=3.0)),
+        # The window medians of final_pass_low.cpp, in parallel beyond 65536 cells of
+        # the raster: 1 m final cells over the 360 m scene.
+        "grid_ground_low_depth": lambda: _digest(
+            pcl_rg.grid_ground(air, final_cell=1.0, final_low_depth=0.5)
+        ),
+        "tin_ground_low_depth": lambda: _digest(
+            pcl_rg.tin_ground(air, final_cell=1.0, final_low_depth=0.5)
+        ),
         "tin_ground_lidar360": lambda: _digest(
             pcl_rg.tin_ground(air, params=pcl_rg.TinGroundParams.lidar360())
         ),

@@ -17,9 +17,11 @@ namespace {
 constexpr std::size_t kWindowCells = (2 * kWindowReach + 1) * (2 * kWindowReach + 1);
 constexpr double kNotLow = -std::numeric_limits<double>::infinity();
 
+// An occupied cell by place, with a value: its lowest ground height (`occupied`) or its
+// threshold (`low`).
 struct Cell {
     std::int64_t cx, cy;
-    double z;  // its lowest ground point's height; for `low` below: the threshold
+    double value;
 };
 
 bool by_place(const Cell& a, const Cell& b) { return a.cx < b.cx || (a.cx == b.cx && a.cy < b.cy); }
@@ -97,9 +99,9 @@ void keep_not_low(PointsView points, const CellLattice& cells, double depth, con
                 auto at = std::lower_bound(occupied.begin(), occupied.end(),
                                            Cell{cx, c.cy - kWindowReach, 0.0}, by_place);
                 for (; at != occupied.end() && at->cx == cx && at->cy <= c.cy + kWindowReach; ++at)
-                    window[size++] = at->z;
+                    window[size++] = at->value;
             }
-            cell_threshold[k] = threshold(c.z, depth, window.data(), size);
+            cell_threshold[k] = threshold(c.value, depth, window.data(), size);
         }
         interruption.check();
         for (std::size_t k = 0; k < occupied.size(); ++k)
@@ -118,7 +120,7 @@ void keep_not_low(PointsView points, const CellLattice& cells, double depth, con
             bound = std::max(bound, raster_threshold[c]);
         }
     }
-    for (const Cell& c : low) highest = std::max(highest, c.z);
+    for (const Cell& c : low) highest = std::max(highest, c.value);
     const auto m = static_cast<std::ptrdiff_t>(n);
 #pragma omp parallel for schedule(static) if (m > 65536)
     for (std::ptrdiff_t i = 0; i < m; ++i) {
@@ -127,6 +129,7 @@ void keep_not_low(PointsView points, const CellLattice& cells, double depth, con
         const auto p = static_cast<std::size_t>(i);
         const double z = z_of(p);
         if (!raster_threshold.empty()) {
+            // cell_of's column, then its row only where the column's bound asks for it.
             const std::int64_t cx = floor_to_int((points.coord(p, 0) - cells.x0) / cells.size);
             if (!(z < column_highest[static_cast<std::size_t>(cx)])) continue;
             const std::int64_t cy = floor_to_int((points.coord(p, 1) - cells.y0) / cells.size);
@@ -136,7 +139,7 @@ void keep_not_low(PointsView points, const CellLattice& cells, double depth, con
         if (!(z < highest)) continue;
         const auto [cx, cy] = cell_of(points, cells, p);
         const auto at = std::lower_bound(low.begin(), low.end(), Cell{cx, cy, 0.0}, by_place);
-        if (at != low.end() && at->cx == cx && at->cy == cy && z < at->z) kept[i] = false;
+        if (at != low.end() && at->cx == cx && at->cy == cy && z < at->value) kept[i] = false;
     }
 }
 

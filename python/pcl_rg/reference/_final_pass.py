@@ -232,12 +232,15 @@ def low_ground(
     """
     x0, y0, size = lattice
     index = np.flatnonzero(ground)
+    if index.size == 0:
+        return np.zeros(len(xyz), dtype=bool)
     cx = np.floor((xyz[index, 0] - x0) / size).astype(np.int64)
     cy = np.floor((xyz[index, 1] - y0) / size).astype(np.int64)
     order = np.lexsort((z[index], cy, cx))
     first = np.r_[True, (np.diff(cx[order]) != 0) | (np.diff(cy[order]) != 0)]
     lowest = order[first]  # of index's positions: each occupied cell's lowest, by place
     ux, uy = np.unique(cx), np.unique(cy)
+    cell_keys = np.searchsorted(ux, cx[lowest]) * len(uy) + np.searchsorted(uy, cy[lowest])
 
     def rank(x: np.ndarray, y: np.ndarray) -> np.ndarray:
         """Each cell (x, y)'s place in `lowest`, or -1 where no ground cell is."""
@@ -248,7 +251,6 @@ def low_ground(
         found = (ux[ix] == x) & (uy[iy] == y) & (cell_keys[place] == key)
         return np.where(found, place, -1)
 
-    cell_keys = np.searchsorted(ux, cx[lowest]) * len(uy) + np.searchsorted(uy, cy[lowest])
     heights = z[index[lowest]]
     window = np.full((len(lowest), (2 * reach + 1) ** 2), np.nan)
     offsets = range(-reach, reach + 1)
