@@ -30,6 +30,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/_common.py
 from _common import command_of, former_grid_default, publish_report, study_arguments  # noqa: E402
 from _scaled import Scaled  # noqa: E402
+from ground_isprs import FORMER_PRESET  # noqa: E402  (same folder: the preset before issue 14)
 
 import pcl_rg  # noqa: E402
 import pcl_rg.pcl  # noqa: E402
@@ -66,13 +67,6 @@ TIN_RESOLUTION = Scaled(
     (("near_vertex_distance", 1.0), ("stop_edge", 3.0)),
 )
 GRID_FORMER = former_grid_default()
-# grid_ground's preset before issue 14's options (ground_isprs.FORMER_PRESET).
-FORMER_PRESET = Scaled(
-    pcl_rg.GridGroundParams(
-        outlier_depth=0.0, final_above=0.8, final_below=1.0, final_slope=1.0, final_passes=1
-    ),
-    (("cell_size", 2.0),),
-)
 
 METHODS: list[tuple[str, Callable[[np.ndarray], np.ndarray]]] = [
     ("tin_ground (defaults: isprs preset)", lambda points: pcl_rg.tin_ground(points)),

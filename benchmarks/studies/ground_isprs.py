@@ -200,6 +200,7 @@ FORMER_PRESET = Scaled(
         final_above=0.8,
         final_below=1.0,
         final_slope=1.0,
+        final_low_depth=0.0,
         final_passes=1,
     ),
     (("cell_size", 2.0),),
@@ -320,6 +321,10 @@ def ablation(samples) -> str:
         ("final_passes = 1 (one final round)", dataclasses.replace(defaults, final_passes=1)),
         ("final_passes = 3", dataclasses.replace(defaults, final_passes=3)),
         ("outlier_depth = 0 (low outliers kept)", dataclasses.replace(defaults, outlier_depth=0.0)),
+        (
+            "final_low_depth = 0 (low ground gives TIN vertices)",
+            dataclasses.replace(defaults, final_low_depth=0.0),
+        ),
         ("final_below = 1 m (the former depth)", dataclasses.replace(defaults, final_below=1.0)),
         (
             "final_below = 1 m, outlier_depth = 0, final_passes = 1",

@@ -154,6 +154,7 @@ IMPROVEMENTS = {
     "outlier_depth": 0.0,
     "border_vertices": False,
     "final_cell": 0.0,
+    "final_low_depth": 0.0,
 }
 
 # Options the preset leaves off, and the value the ablation switches each on at.
