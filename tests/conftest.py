@@ -219,6 +219,15 @@ def scheduler():
 
 @pytest.fixture(scope="module")
 def survey(tmp_path_factory):
-    """A 5 x 5 synthetic survey (about 140k points) with objects across tile borders."""
+    """A 5 x 5 synthetic survey (about 380k points) with objects across tile borders."""
     folder = tmp_path_factory.mktemp("survey")
     return datasets.synthetic_survey(folder, tiles=(5, 5), tile_size=60.0, seed=7)
+
+
+@pytest.fixture(scope="module")
+def small_survey(tmp_path_factory):
+    """A 3 x 3 survey like `survey` (about 140k points), for the tests whose work grows
+    with the tiles times the points each one reads (a denoise buffer beyond the survey)
+    or that run a survey twice: a middle tile with eight neighbours is what they need."""
+    folder = tmp_path_factory.mktemp("small_survey")
+    return datasets.synthetic_survey(folder, tiles=(3, 3), tile_size=60.0, seed=7)

@@ -134,22 +134,26 @@ def test_denoise_is_identical_to_the_merged_run(sample, tmp_path, scheduler):
     assert expected.any() and np.array_equal(got, expected)
 
 
-def test_a_buffer_far_beyond_the_survey_is_the_merged_run(survey, tmp_path, scheduler):
+def test_a_buffer_far_beyond_the_survey_is_the_merged_run(small_survey, tmp_path, scheduler):
     # A buffer of 1e20 m overflowed int64 in the neighbour index, which then read only
     # its first column of cells: 18 labels differed from the merged run.
     params = pcl_rg.StatisticalOutlierRemovalParams(mean_k=12, std_mul=1.0)
-    report = batch.denoise(survey.paths, tmp_path, params=params, buffer=1e20, scheduler=scheduler)
-    points = np.concatenate([c.points for c in merged(survey.paths)])
+    report = batch.denoise(
+        small_survey.paths, tmp_path, params=params, buffer=1e20, scheduler=scheduler
+    )
+    points = np.concatenate([c.points for c in merged(small_survey.paths)])
     expected = ~pcl_rg.statistical_outlier_removal(points, params=params)
     got = np.concatenate([c.classification for c in outputs_of(report)]) == 7
     assert expected.any() and np.array_equal(got, expected)
 
 
-def test_denoise_grows_a_buffer_that_is_too_small(survey, tmp_path, scheduler):
+def test_denoise_grows_a_buffer_that_is_too_small(small_survey, tmp_path, scheduler):
     params = pcl_rg.StatisticalOutlierRemovalParams(mean_k=30)
-    report = batch.denoise(survey.paths, tmp_path, params=params, buffer=0.5, scheduler=scheduler)
+    report = batch.denoise(
+        small_survey.paths, tmp_path, params=params, buffer=0.5, scheduler=scheduler
+    )
     assert max(t.details["buffer_used"] for t in report.tiles) > 0.5
-    points = np.concatenate([c.points for c in merged(survey.paths)])
+    points = np.concatenate([c.points for c in merged(small_survey.paths)])
     expected = ~pcl_rg.statistical_outlier_removal(points, params=params)
     got = np.concatenate([c.classification for c in outputs_of(report)]) == 7
     assert np.array_equal(got, expected)
@@ -302,7 +306,7 @@ def test_the_embedded_local_cluster_and_the_command_line(tmp_path):
         np.testing.assert_array_equal(written.fields["intensity"], original.fields["intensity"])
 
 
-def test_a_cluster_of_dask_scheduler_and_dask_worker_processes(tmp_path, survey, scheduler):
+def test_a_cluster_of_dask_scheduler_and_dask_worker_processes(tmp_path, small_survey, scheduler):
     dask = os.path.join(os.path.dirname(PYTHON), "dask")
     port_file = tmp_path / "scheduler.json"
     env = dict(os.environ, PYTHONWARNINGS="ignore")
@@ -345,9 +349,9 @@ def test_a_cluster_of_dask_scheduler_and_dask_worker_processes(tmp_path, survey,
 
         with Client(address) as client:
             client.wait_for_workers(2, timeout=60)
-        report = batch.ground(survey.paths, tmp_path / "out", scheduler=address)
+        report = batch.ground(small_survey.paths, tmp_path / "out", scheduler=address)
         assert report.workers == 2 and not report.failed
-        local = batch.ground(survey.paths, tmp_path / "local", scheduler=scheduler)
+        local = batch.ground(small_survey.paths, tmp_path / "local", scheduler=scheduler)
         for a, b in zip(outputs_of(report), outputs_of(local), strict=True):
             np.testing.assert_array_equal(a.classification, b.classification)
     finally:
@@ -440,15 +444,15 @@ def test_empty_and_nan_tiles_come_out_like_their_inputs(operation, tmp_path, sch
         assert written.shape == holes.shape and np.isnan(written[::7]).all()
 
 
-def test_a_resumed_denoise_uses_every_tile_for_its_threshold(survey, tmp_path, scheduler):
+def test_a_resumed_denoise_uses_every_tile_for_its_threshold(small_survey, tmp_path, scheduler):
     # Redoing one tile must not compute the global mean and deviation from it alone.
     params = pcl_rg.StatisticalOutlierRemovalParams(mean_k=8)
-    first = batch.denoise(survey.paths, tmp_path, params=params, scheduler=scheduler)
+    first = batch.denoise(small_survey.paths, tmp_path, params=params, scheduler=scheduler)
     os.unlink(first.tiles[3].output)
-    again = batch.denoise(survey.paths, tmp_path, params=params, scheduler=scheduler)
+    again = batch.denoise(small_survey.paths, tmp_path, params=params, scheduler=scheduler)
     assert [t.status for t in again.tiles].count("done") == 1
     assert again.tiles[3].details["threshold"] == first.tiles[3].details["threshold"]
-    points = np.concatenate([c.points for c in merged(survey.paths)])
+    points = np.concatenate([c.points for c in merged(small_survey.paths)])
     expected = ~pcl_rg.statistical_outlier_removal(points, params=params)
     got = np.concatenate([c.classification for c in outputs_of(again)]) == 7
     assert np.array_equal(got, expected)

@@ -74,3 +74,35 @@ def test_no_data_stays_out_of_the_seam_voxels_means(tmp_path, scheduler):
         real = height > -99.0
         assert (height[~real] == height[~real].min()).all() and height.min() < -99.0
         assert (height[real] >= 1.0 - 1e-9).all() and (height[real] <= 2.0 + 1e-9).all()
+
+
+def test_seam_voxels_keep_each_waveform_descriptor_whole(tmp_path, scheduler):
+    # Tile a holds waveform descriptors (point format 9), tile b none (format 6). Every
+    # voxel written, the seam's too, must carry one descriptor of a's points whole:
+    # averaged, x_t, y_t, z_t and the return's location described no pulse.
+    from las_helpers import random_las
+
+    from pcl_rg._classification import WAVEFORM_ATTRIBUTES
+
+    (tmp_path / "in").mkdir()
+    a = random_las("1.4", 9, 3000, seed=11, extra=False)
+    b = random_las("1.4", 6, 3000, seed=12, extra=False)
+    b.x = b.x + 200.0  # beside a, sharing the seam at x = 512200
+    a.write(tmp_path / "in" / "a.las")
+    b.write(tmp_path / "in" / "b.las")
+    report = batch.downsample(
+        [tmp_path / "in" / "a.las", tmp_path / "in" / "b.las"],
+        tmp_path / "out",
+        params=pcl_rg.VoxelGridParams(leaf_size=15.0),
+        scheduler=scheduler,
+    )
+    assert [t.status for t in report.tiles] == ["done", "done"]
+    names = list(WAVEFORM_ATTRIBUTES)
+    source = read_points(tmp_path / "in" / "a.las")
+    descriptors = {tuple(row) for row in zip(*(source.fields[k].tolist() for k in names))}
+    out = read_points(tmp_path / "out" / "a.las")
+    assert len(out.points) < len(source.points) / 2  # voxels of several points
+    seam = out.points[:, 0] > 512200.0 - 15.0
+    assert seam.any()
+    written = list(zip(*(out.fields[k].tolist() for k in names)))
+    assert all(row in descriptors for row in written)

@@ -112,6 +112,30 @@ def test_a_nan_no_data_is_left_out_of_the_means():
     np.testing.assert_array_equal(out["f"], [2.0, np.nan])
 
 
+def test_a_code_with_no_data_comes_from_the_first_point_that_has_one(capsys, tmp_path):
+    # Codes are the first point's. Where a field declares "no data" and the first point
+    # holds it, the voxel took "no data" although its other points had a code.
+    header = laspy.LasHeader(version="1.4", point_format=6)
+    header.scales, header.offsets = [0.001] * 3, [0.0] * 3
+    header.add_extra_dims(
+        [
+            laspy.ExtraBytesParams("tree_id", "uint16", no_data=[0]),
+            laspy.ExtraBytesParams("codes", "2u1", no_data=[255, 255]),
+        ]
+    )
+    las = laspy.LasData(header)
+    points = np.array([[0.1, 0, 0], [0.2, 0, 0], [0.3, 0, 0], [5.1, 5, 5], [5.2, 5, 5]])
+    las.x, las.y, las.z = points.T
+    las.tree_id = np.array([0, 7, 9, 0, 0], np.uint16)
+    las.codes = np.array([[255, 4], [3, 255], [5, 6], [255, 255], [255, 1]], np.uint8)
+    las.write(tmp_path / "in.las")
+    run_json(capsys, "downsample", tmp_path / "in.las", tmp_path / "out.las", "--leaf-size", "1")
+    out = read_points(tmp_path / "out.las")
+    order = np.argsort(out.points[:, 0])
+    assert out.fields["tree_id"][order].tolist() == [7, 0]  # none in the second voxel
+    assert out.fields["codes"][order].tolist() == [[3, 4], [255, 1]]  # column by column
+
+
 def test_downsample_keeps_each_waveform_descriptor_whole(capsys, tmp_path):
     # The seven waveform fields describe one pulse together. x_t, y_t, z_t and the
     # return's location on the packet are floats: they were averaged, beside the first

@@ -138,9 +138,8 @@ std::vector<std::int64_t> lowest_in_cells(PointsView points, const CellLattice& 
 
 std::vector<std::uint32_t> lowest_points(PointsView points, const CellLattice& lattice,
                                          const bool* take) {
-    const auto n = static_cast<std::int64_t>(points.size);
     std::vector<std::uint32_t> lowest;
-    if (lattice.columns <= (4 * n + 4096) / lattice.rows) {
+    if (fits_raster(lattice, points.size)) {
         for (const std::int64_t b : lowest_in_cells(points, lattice, take))
             if (b >= 0) lowest.push_back(static_cast<std::uint32_t>(b));
     } else {

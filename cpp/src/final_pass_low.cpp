@@ -56,7 +56,7 @@ void keep_not_low(PointsView points, const CellLattice& cells, double depth, con
     // lowest_points), else through the occupied cells sorted by place.
     std::vector<double> raster_threshold;
     std::vector<Cell> low;  // sparse: the cells with points to drop, by place
-    if (cells.columns <= (4 * static_cast<std::int64_t>(n) + 4096) / rows) {
+    if (fits_raster(cells, n)) {
         const std::vector<std::int64_t> lowest = lowest_in_cells(points, cells, ground);
         const auto count = static_cast<std::ptrdiff_t>(lowest.size());
         std::vector<double> height(lowest.size());

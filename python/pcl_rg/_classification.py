@@ -244,7 +244,8 @@ def voxel_attributes(
     voxel's value then comes from its points that carry the field alone. `no_data`
     (no_data_values) leaves a field's "no data" values out of its means: a voxel with
     no other value gets "no data" (its average with real values was a number that
-    means nothing).
+    means nothing); a field taken from the first point takes it from the first point
+    with data.
     """
     no_data = no_data or {}
     m = len(counts)
@@ -261,7 +262,7 @@ def voxel_attributes(
             counts = np.maximum(np.bincount(voxel, minlength=m), 1)
             first = _first_rows(rows, voxel, m)
         if _first_point_of_voxel(name):
-            out[name] = values[first]
+            out[name] = _first_with_data(values, rows, voxel, first, no_data.get(name))
         elif name in PACKED_COLOURS and values.ndim == 1 and values.dtype.itemsize == 4:
             channels = np.ascontiguousarray(values[rows]).view(np.uint8).reshape(len(rows), 4)
             sums = np.stack(
@@ -285,8 +286,33 @@ def voxel_attributes(
                 mean = np.round(mean)
             out[name] = mean.reshape((m,) + values.shape[1:]).astype(values.dtype)
         else:
-            out[name] = values[first]
+            out[name] = _first_with_data(values, rows, voxel, first, no_data.get(name))
     return out
+
+
+def _first_with_data(
+    values: np.ndarray,
+    rows: np.ndarray,
+    voxel: np.ndarray,
+    first: np.ndarray,
+    missing: np.ndarray | None,
+) -> np.ndarray:
+    """Per voxel, the value of its first point; where a column declares a "no data"
+    value (`missing`, one per column) and the first point holds it, that column's value
+    of the voxel's first point that holds another, or "no data" where none does."""
+    chosen = values[first]
+    width = int(np.prod(values.shape[1:]))
+    if missing is None or len(missing) != width or not len(rows):
+        return chosen
+    m = len(first)
+    flat = values.reshape(len(values), width)
+    out = chosen.reshape(m, width)
+    for j in range(width):
+        column = flat[rows, j]
+        real = ~(np.isnan(column) if np.isnan(missing[j]) else column == missing[j])
+        has = np.bincount(voxel[real], minlength=m) > 0
+        out[:, j] = np.where(has, flat[_first_rows(rows[real], voxel[real], m), j], out[:, j])
+    return out.reshape(chosen.shape)
 
 
 def _mean_with_no_data(

@@ -2,6 +2,7 @@
 // and the vertices of the ground filters' final pass (final_pass.cpp).
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <utility>
 #include <vector>
@@ -19,6 +20,13 @@ struct CellLattice {
     double size = 1.0;
     std::int64_t columns = 1, rows = 1;
 };
+
+/// Whether a dense raster of the lattice's cells holds at most about 4 cells per point
+/// of n: then lowest_points and the final pass's window (final_pass_low.cpp) use one,
+/// else they sort the occupied cells, so that any cell size works.
+inline bool fits_raster(const CellLattice& lattice, std::size_t n) {
+    return lattice.columns <= (4 * static_cast<std::int64_t>(n) + 4096) / lattice.rows;
+}
 
 /// Column and row of point i's cell.
 inline std::pair<std::int64_t, std::int64_t> cell_of(PointsView points, const CellLattice& lattice,

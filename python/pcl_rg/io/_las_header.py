@@ -35,7 +35,7 @@ _RECORD_SIZE = (20, 28, 26, 34, 57, 63, 30, 36, 38, 59, 67)
 # u64 for an EVLR), description 32 bytes.
 _VLR_HEADER = 54
 _EVLR_HEADER = 60
-_LASZIP_USER_ID = b"laszip encoded"
+_LASZIP_USER_ID = "laszip encoded"
 _LASZIP_RECORD_ID = 22204
 _VARIABLE_CHUNKS = 0xFFFFFFFF
 _LAYERED_CHUNKED = 3  # LASzip's compressor code for LAS 1.4 point formats 6-10
@@ -179,9 +179,7 @@ def check_las_header(path: str, stream: BinaryIO) -> LasFacts:
     records = []
     for position, vlr, length in vlrs:
         records.append(_record("VLR", vlr, length))
-        user_id = vlr[2:18].rstrip(b"\0")
-        (record_id,) = struct.unpack_from("<H", vlr, 18)
-        if user_id == _LASZIP_USER_ID and record_id == _LASZIP_RECORD_ID:
+        if (records[-1].user_id, records[-1].record_id) == (_LASZIP_USER_ID, _LASZIP_RECORD_ID):
             laszip_vlr = _read_at(stream, position + _VLR_HEADER, length)
 
     if evlr_count:
