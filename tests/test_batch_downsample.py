@@ -21,6 +21,17 @@ def las_tile(path, points: np.ndarray, point_format: int, **values) -> None:
     las.write(path)
 
 
+def downsample_a_and_b(tmp_path, scheduler, leaf_size: float) -> None:
+    """Batch downsample of in/a.las and in/b.las into out/, both tiles done."""
+    report = batch.downsample(
+        [tmp_path / "in" / "a.las", tmp_path / "in" / "b.las"],
+        tmp_path / "out",
+        params=pcl_rg.VoxelGridParams(leaf_size=leaf_size),
+        scheduler=scheduler,
+    )
+    assert [t.status for t in report.tiles] == ["done", "done"]
+
+
 def test_a_neighbour_without_colours_does_not_grey_a_tiles_voxels(tmp_path, scheduler):
     # Tile a (point format 3) is white; tile b (format 1) has no colours. b's points in
     # a's seam voxels were averaged in as zeros: red 32133 instead of 65535.
@@ -31,14 +42,7 @@ def test_a_neighbour_without_colours_does_not_grey_a_tiles_voxels(tmp_path, sche
     white = {"red": 65535, "green": 65535, "blue": 65535, "intensity": 100, "gps_time": 1e6}
     las_tile(tmp_path / "in" / "a.las", a, 3, **white)
     las_tile(tmp_path / "in" / "b.las", b, 1, intensity=300, gps_time=2e6)
-    params = pcl_rg.VoxelGridParams(leaf_size=3.0)  # voxels across x = 20 m, from both
-    report = batch.downsample(
-        [tmp_path / "in" / "a.las", tmp_path / "in" / "b.las"],
-        tmp_path / "out",
-        params=params,
-        scheduler=scheduler,
-    )
-    assert [t.status for t in report.tiles] == ["done", "done"]
+    downsample_a_and_b(tmp_path, scheduler, leaf_size=3.0)  # voxels across x = 20 m, from both
     out = read_points(tmp_path / "out" / "a.las")
     assert set(out.fields["red"].tolist()) == {65535}
     assert set(out.fields["blue"].tolist()) == {65535}
@@ -62,13 +66,7 @@ def test_no_data_stays_out_of_the_seam_voxels_means(tmp_path, scheduler):
         missing = (rng.random(3000) < 0.3) | (np.abs(points[:, 0] - 20.0) < 4.0)
         height = np.where(missing, -99.99, rng.uniform(1.0, 2.0, 3000))
         no_data_las(tmp_path / "in" / f"{name}.las", points, height, np.zeros((3000, 3)))
-    report = batch.downsample(
-        [tmp_path / "in" / "a.las", tmp_path / "in" / "b.las"],
-        tmp_path / "out",
-        params=pcl_rg.VoxelGridParams(leaf_size=3.0),
-        scheduler=scheduler,
-    )
-    assert [t.status for t in report.tiles] == ["done", "done"]
+    downsample_a_and_b(tmp_path, scheduler, leaf_size=3.0)
     for name in ("a", "b"):
         height = read_points(tmp_path / "out" / f"{name}.las").fields["height"]
         real = height > -99.0
@@ -90,13 +88,7 @@ def test_seam_voxels_keep_each_waveform_descriptor_whole(tmp_path, scheduler):
     b.x = b.x + 200.0  # beside a, sharing the seam at x = 512200
     a.write(tmp_path / "in" / "a.las")
     b.write(tmp_path / "in" / "b.las")
-    report = batch.downsample(
-        [tmp_path / "in" / "a.las", tmp_path / "in" / "b.las"],
-        tmp_path / "out",
-        params=pcl_rg.VoxelGridParams(leaf_size=15.0),
-        scheduler=scheduler,
-    )
-    assert [t.status for t in report.tiles] == ["done", "done"]
+    downsample_a_and_b(tmp_path, scheduler, leaf_size=15.0)
     names = list(WAVEFORM_ATTRIBUTES)
     source = read_points(tmp_path / "in" / "a.las")
     descriptors = {tuple(row) for row in zip(*(source.fields[k].tolist() for k in names))}
