@@ -50,6 +50,7 @@ void keep_not_low(PointsView points, const CellLattice& cells, double depth, con
     const std::size_t n = points.size;
     const Interruption interruption;
     const std::int64_t rows = cells.rows;
+    const std::int64_t stride = window_stride(cells.size);
     const auto z_of = [&](std::size_t i) { return points.coord(i, 2) - cells.z0; };
     // Per cell, its threshold (kNotLow: no point of it is dropped), through a raster of
     // the cells' lowest heights where the lattice is at most a few cells per point (as
@@ -71,11 +72,15 @@ void keep_not_low(PointsView points, const CellLattice& cells, double depth, con
             const std::int64_t cx = c / rows, cy = c % rows;
             std::array<double, kWindowCells> window;
             std::size_t size = 0;
-            for (std::int64_t x = std::max<std::int64_t>(cx - kWindowReach, 0);
-                 x <= std::min(cx + kWindowReach, cells.columns - 1); ++x)
-                for (std::int64_t y = std::max<std::int64_t>(cy - kWindowReach, 0);
-                     y <= std::min(cy + kWindowReach, rows - 1); ++y)
-                    if (lowest[x * rows + y] >= 0) window[size++] = height[x * rows + y];
+            for (std::int64_t dx = -kWindowReach; dx <= kWindowReach; ++dx) {
+                const std::int64_t x = cx + dx * stride;
+                if (x < 0 || x >= cells.columns) continue;
+                for (std::int64_t dy = -kWindowReach; dy <= kWindowReach; ++dy) {
+                    const std::int64_t y = cy + dy * stride;
+                    if (y >= 0 && y < rows && lowest[x * rows + y] >= 0)
+                        window[size++] = height[x * rows + y];
+                }
+            }
             raster_threshold[c] = threshold(height[c], depth, window.data(), size);
         }
         interruption.check();
@@ -95,11 +100,12 @@ void keep_not_low(PointsView points, const CellLattice& cells, double depth, con
             std::array<double, kWindowCells> window;
             std::size_t size = 0;
             const Cell& c = occupied[k];
-            for (std::int64_t cx = c.cx - kWindowReach; cx <= c.cx + kWindowReach; ++cx) {
+            const std::int64_t reach = kWindowReach * stride;
+            for (std::int64_t cx = c.cx - reach; cx <= c.cx + reach; cx += stride) {
                 auto at = std::lower_bound(occupied.begin(), occupied.end(),
-                                           Cell{cx, c.cy - kWindowReach, 0.0}, by_place);
-                for (; at != occupied.end() && at->cx == cx && at->cy <= c.cy + kWindowReach; ++at)
-                    window[size++] = at->value;
+                                           Cell{cx, c.cy - reach, 0.0}, by_place);
+                for (; at != occupied.end() && at->cx == cx && at->cy <= c.cy + reach; ++at)
+                    if ((at->cy - c.cy) % stride == 0) window[size++] = at->value;
             }
             cell_threshold[k] = threshold(c.value, depth, window.data(), size);
         }

@@ -2,6 +2,8 @@
 // (final_pass.cpp, step 2, with final_low_depth). Private to cpp/src.
 #pragma once
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 
 #include "pcl_rg/cell_lowest.hpp"
@@ -9,10 +11,24 @@
 
 namespace pcl_rg::final_pass_low {
 
-// Cells on each side of a point's cell in the window of its surroundings: 7 x 7 cells,
-// 21 m at ISPRS's 3 m final cells. A patch of low points is found while it covers less
-// than half of the window's cells that hold ground.
+// The window of a point's surroundings: 7 x 7 cells, kWindowReach on each side of the
+// point's own, taken every window_stride(size) cells, so that it spans about 21 m
+// whatever the final cell (7 cells of ISPRS's 3 m final cells, where the stride is 1).
+// A patch of low points is found while it covers less than half of the window's cells
+// that hold ground; the densification often leaves a ring of terrain a few metres wide
+// around a patch as object, which a window of 7 cells of tin_ground's 1.6 m cells at 4
+// points per m^2 (11 m) did not see past.
 constexpr std::int64_t kWindowReach = 3;
+constexpr double kWindowStepMetres = 3.0;
+
+// Cells between two of the window's: kWindowStepMetres in cells of `size`, rounded
+// (half up), at least 1 and at most 2^40 (a lattice's bound on cells per axis, so that
+// no absurdly small cell overflows the conversion); the NumPy reference computes it
+// the same way.
+inline std::int64_t window_stride(double size) {
+    const double cells = std::min(std::floor(kWindowStepMetres / size + 0.5), 0x1p40);
+    return std::max<std::int64_t>(1, static_cast<std::int64_t>(cells));
+}
 
 // A cluster of low points (multipath echoes under the terrain) holds the filters'
 // low-outlier tests off, as its points vouch for each other, and becomes TIN vertices

@@ -45,15 +45,16 @@ final_low_depth : float, optional
     ISPRS samples; left one sample out it lowers tin_ground's error, 4.19 to
     3.97 %, and leaves grid_ground's, 4.02 to 4.03 %; 0: off). With the final
     pass, a ground point more than this below the median of the lowest ground
-    heights of the 7 x 7 final cells around its own gives no TIN vertex, so a
-    patch of low points (multipath echoes, which vouch for each other in the
-    low-outlier tests) pulls no surface down to it; its points, more than
-    ``final_below`` below the TIN, are then no ground. It works while the
-    patch covers less than half of the window's cells
-    (``benchmarks/studies/ground_low_patches.py``). The window is 7 final
-    cells wide: where the final cell follows the point spacing (tin_ground on
-    data denser than ISPRS) it narrows, and so does the largest patch it
-    removes. The bottom of a real pit or ditch that narrow and deeper than
+    heights of a window of 7 x 7 final cells around its own gives no TIN
+    vertex, so a patch of low points (multipath echoes, which vouch for each
+    other in the low-outlier tests) pulls no surface down to it; its points,
+    more than ``final_below`` below the TIN, are then no ground. The window
+    takes every k-th cell, k the cells in 3 m (rounded, at least 1), so it
+    spans about 21 m whatever the final cell (tin_ground's follows the point
+    spacing). It works while the patch, with the ring of terrain the
+    densification may leave as object around it, covers less than half of
+    the window's cells (``benchmarks/studies/ground_low_patches.py``). The
+    bottom of a real pit or ditch narrower than about 10 m and deeper than
     ``final_below`` is lost the same way.""",
     "far_points": """\
 Far points: the neighbour search runs in float32, relative to a float64

@@ -19,6 +19,10 @@ from .tin_ground import grid_quantum, locate, triangulate, with_corners
 
 __all__ = ["border_vertices", "final_pass", "heights_above_tin", "low_ground"]
 
+#: Metres between two cells of low_ground's window (final_pass_low.hpp's
+#: kWindowStepMetres): 7 x 7 cells every 3 m span about 21 m whatever the cell.
+WINDOW_STEP_METRES = 3.0
+
 
 def final_pass(
     xyz: np.ndarray,
@@ -218,19 +222,26 @@ def low_ground(
 ) -> np.ndarray:
     """The `ground` points more than `depth` below the median of the lowest `ground`
     heights `z` of the occupied cells of the (2 reach + 1)^2 window around their own
-    cell (x0, y0, size of `lattice`), as final_pass_low.cpp (window reach kWindowReach).
+    cell (x0, y0, size of `lattice`), taken every `stride` cells (WINDOW_STEP_METRES in
+    cells, rounded half up, at least 1), as final_pass_low.cpp (kWindowReach,
+    window_stride).
 
     Examples
     --------
     >>> import numpy as np
     >>> from pcl_rg.reference._final_pass import low_ground
-    >>> xyz = np.array([[x + 0.5, y + 0.5, 0.0] for x in range(5) for y in range(5)])
+    >>> xyz = np.array([[3 * x + 1.5, 3 * y + 1.5, 0.0] for x in range(5) for y in range(5)])
     >>> xyz[12, 2] = -9.0  # the middle cell's point, 9 m below the others
     >>> z = xyz[:, 2] - xyz[:, 2].min()
-    >>> np.flatnonzero(low_ground(xyz, z, np.ones(25, bool), (0.0, 0.0, 1.0), 3.0)).tolist()
+    >>> np.flatnonzero(low_ground(xyz, z, np.ones(25, bool), (0.0, 0.0, 3.0), 3.0)).tolist()
     [12]
+    >>> # 1 m cells: the window takes every third cell, none of which holds a point here
+    >>> xyz[:, :2] /= 3.0
+    >>> np.flatnonzero(low_ground(xyz, z, np.ones(25, bool), (0.0, 0.0, 1.0), 3.0)).tolist()
+    []
     """
     x0, y0, size = lattice
+    stride = max(1, int(min(np.floor(WINDOW_STEP_METRES / size + 0.5), 2.0**40)))
     index = np.flatnonzero(ground)
     if index.size == 0:
         return np.zeros(len(xyz), dtype=bool)
@@ -253,7 +264,7 @@ def low_ground(
 
     heights = z[index[lowest]]
     window = np.full((len(lowest), (2 * reach + 1) ** 2), np.nan)
-    offsets = range(-reach, reach + 1)
+    offsets = range(-reach * stride, reach * stride + 1, stride)
     for column, (dx, dy) in enumerate((dx, dy) for dx in offsets for dy in offsets):
         place = rank(cx[lowest] + dx, cy[lowest] + dy)
         window[place >= 0, column] = heights[place[place >= 0]]
