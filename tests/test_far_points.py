@@ -381,12 +381,18 @@ def test_a_far_point_costs_no_second_neighbour_table() -> None:
         for case in ("clean", "far")
     }
     peak_kib = {}
-    for case, run in runs.items():
-        # A bound against a hang, not a speed: 400,000 points under AddressSanitizer
-        # beside another job took over 120 s once.
-        out, err = run.communicate(timeout=600)
-        assert run.returncode == 0, err
-        peak_kib[case] = int(out)
+    try:
+        for case, run in runs.items():
+            # A bound against a hang, not a speed: 400,000 points under AddressSanitizer
+            # beside another job took over 120 s once.
+            out, err = run.communicate(timeout=600)
+            assert run.returncode == 0, err
+            peak_kib[case] = int(out)
+    finally:  # neither outlives a failure of the other
+        for run in runs.values():
+            if run.poll() is None:
+                run.kill()
+                run.communicate()
     table_kib = 400_000 * 30 * 4 / 1024
     # Left: a float64 copy of the kept points and their row numbers, 32 bytes a point.
     assert peak_kib["far"] - peak_kib["clean"] < 0.5 * table_kib, peak_kib

@@ -14,7 +14,6 @@ import json
 import os
 import subprocess
 import sys
-from functools import cache
 from pathlib import Path
 
 import pytest
@@ -34,64 +33,84 @@ CONDITIONS = {
 }
 
 
-@cache
-def _started() -> dict[str, subprocess.Popen]:
-    """Every condition's probe, and the plain run's, started at once on first use: the
-    machine's cores are then shared by nine interpreters (each mostly one thread in its
-    set-up, or waiting on OpenMP's barriers), not left idle between them, and each
-    result must still be the plain run's."""
-    started = {}
-    for name, (environment, mode) in {"plain": ({}, "plain"), **CONDITIONS}.items():
-        env = {k: v for k, v in os.environ.items() if k not in OMP_VARIABLES}
-        env.update(environment)
-        started[name] = subprocess.Popen(
-            [sys.executable, str(PROBE), mode],
-            env=env,
-            stdout=subprocess.PIPE,
-            stderr=subprocess.PIPE,
-            text=True,
-            cwd=PROBE.parent,
-        )
-    return started
+class _Probes:
+    """The plain run's probe and those of the selected conditions, started at once: the
+    machine's cores are then shared by up to nine interpreters (each mostly one thread
+    in its set-up, or waiting on OpenMP's barriers), not left idle between them, and
+    each result must still be the plain run's."""
 
+    TIMEOUT = 600  # seconds for each probe: a bound against a hang, not a speed
 
-@cache
-def _digests(name: str) -> dict[str, str]:
-    probe = _started()[name]
-    try:
-        out, err = probe.communicate(timeout=600)
-    except subprocess.TimeoutExpired:
-        for other in _started().values():
-            other.kill()
-        raise
-    assert probe.returncode == 0, f"probe failed ({name}):\n{err}"
-    return json.loads(out)
+    def __init__(self, names: list[str]) -> None:
+        self.running: dict[str, subprocess.Popen] = {}
+        self.outcome: dict[str, dict[str, str] | str] = {}  # digests, or why there are none
+        for name in names:
+            environment, mode = ({}, "plain") if name == "plain" else CONDITIONS[name]
+            env = {k: v for k, v in os.environ.items() if k not in OMP_VARIABLES}
+            env.update(environment)
+            self.running[name] = subprocess.Popen(
+                [sys.executable, str(PROBE), mode],
+                env=env,
+                stdout=subprocess.PIPE,
+                stderr=subprocess.PIPE,
+                text=True,
+                cwd=PROBE.parent,
+            )
 
-
-def _plain() -> dict[str, str]:
-    return _digests("plain")
-
-
-@pytest.fixture(scope="module", autouse=True)
-def _no_probe_outlives_the_module():
-    yield
-    if _started.cache_info().currsize:
-        for probe in _started().values():
-            if probe.poll() is None:
+    def digests(self, name: str) -> dict[str, str]:
+        if name not in self.outcome:
+            probe = self.running.pop(name)
+            try:
+                out, err = probe.communicate(timeout=self.TIMEOUT)
+            except subprocess.TimeoutExpired:
+                self.stop(f"stopped when the probe of {name!r} ran past {self.TIMEOUT} s")
                 probe.kill()
                 probe.communicate()
+                self.outcome[name] = f"ran past {self.TIMEOUT} s"
+            else:
+                self.outcome[name] = json.loads(out) if probe.returncode == 0 else err
+        outcome = self.outcome[name]
+        assert isinstance(outcome, dict), f"probe failed ({name}):\n{outcome}"
+        return outcome
+
+    def stop(self, why: str) -> None:
+        for name, probe in self.running.items():
+            probe.kill()
+            probe.communicate()
+            self.outcome[name] = why
+        self.running.clear()
+
+
+def _condition(item: pytest.Item) -> str | None:
+    callspec = getattr(item, "callspec", None)
+    return callspec.params.get("condition") if callspec else None
+
+
+@pytest.fixture(scope="module")
+def probes(request):
+    """The probes of the conditions this session runs (all of them but when a selection
+    leaves some out), started when the module's first test asks."""
+    here = request.node.path
+    selected = [
+        condition
+        for item in request.session.items
+        if item.path == here and (condition := _condition(item)) is not None
+    ]
+    started = _Probes(["plain", *dict.fromkeys(selected)])
+    yield started
+    started.stop("the module ended first")
 
 
 @pytest.mark.parametrize("condition", list(CONDITIONS))
-def test_same_results_as_the_plain_run(condition: str) -> None:
-    plain = _plain()
-    got = _digests(condition)
+def test_same_results_as_the_plain_run(condition: str, probes: _Probes) -> None:
+    plain = probes.digests("plain")
+    got = probes.digests(condition)
     assert set(got) == set(plain)
     differing = sorted(name for name in plain if got[name] != plain[name])
     assert not differing, f"{condition}: results differ from the plain run for {differing}"
 
 
-def test_probe_covers_every_public_algorithm() -> None:
+def test_probe_covers_every_public_algorithm(probes: _Probes) -> None:
     import pcl_rg
     import pcl_rg.pcl
 
@@ -104,4 +123,4 @@ def test_probe_covers_every_public_algorithm() -> None:
 
     # collect_diagnostics is no algorithm; PCL's classes (pcl_rg.pcl) are probed too.
     algorithms = functions(pcl_rg, "") - {"collect_diagnostics"} | functions(pcl_rg.pcl, "pcl.")
-    assert algorithms <= set(_plain())
+    assert algorithms <= set(probes.digests("plain"))

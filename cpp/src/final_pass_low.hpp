@@ -12,22 +12,22 @@
 namespace pcl_rg::final_pass_low {
 
 // The window of a point's surroundings: 7 x 7 cells, kWindowReach on each side of the
-// point's own, taken every window_stride(size) cells, so that it spans about 21 m
-// whatever the final cell (7 cells of ISPRS's 3 m final cells, where the stride is 1).
-// A patch of low points is found while it covers less than half of the window's cells
-// that hold ground; the densification often leaves a ring of terrain a few metres wide
-// around a patch as object, which a window of 7 cells of tin_ground's 1.6 m cells at 4
-// points per m^2 (11 m) did not see past.
+// point's own, taken every window_stride(size) = k cells, the least k >= 1 for which
+// the window's 6k + 1 cells span at least kWindowMetres: 14-24 m whatever the final
+// cell (21 and 28 m at the presets' 3 and 4 m final cells, where k is 1). A patch of
+// low points is found while it covers less than half of the window's cells that hold
+// ground; the densification often leaves a ring of terrain a few metres wide around a
+// patch as object, which a window of 7 adjacent cells of tin_ground's 1.6 m cells at 4
+// points per m^2 (11 m) did not see past, and one of 14 m did.
 constexpr std::int64_t kWindowReach = 3;
-constexpr double kWindowStepMetres = 3.0;
+constexpr double kWindowMetres = 14.0;
 
-// Cells between two of the window's: kWindowStepMetres in cells of `size`, rounded
-// (half up), at least 1 and at most 2^40 (a lattice's bound on cells per axis, so that
-// no absurdly small cell overflows the conversion); the NumPy reference computes it
-// the same way.
+// The least k >= 1 with (6k + 1) x size >= kWindowMetres, at most 2^40 (a lattice's
+// bound on cells per axis, so that no absurdly small cell overflows the conversion);
+// the NumPy reference computes it with the same operations.
 inline std::int64_t window_stride(double size) {
-    const double cells = std::min(std::floor(kWindowStepMetres / size + 0.5), 0x1p40);
-    return std::max<std::int64_t>(1, static_cast<std::int64_t>(cells));
+    const double k = std::ceil((kWindowMetres / size - 1.0) / (2 * kWindowReach));
+    return std::max<std::int64_t>(1, static_cast<std::int64_t>(std::min(k, 0x1p40)));
 }
 
 // A cluster of low points (multipath echoes under the terrain) holds the filters'

@@ -49,13 +49,15 @@ final_low_depth : float, optional
     vertex, so a patch of low points (multipath echoes, which vouch for each
     other in the low-outlier tests) pulls no surface down to it; its points,
     more than ``final_below`` below the TIN, are then no ground. The window
-    takes every k-th cell, k the cells in 3 m (rounded, at least 1), so it
-    spans about 21 m whatever the final cell (tin_ground's follows the point
-    spacing). It works while the patch, with the ring of terrain the
-    densification may leave as object around it, covers less than half of
-    the window's cells (``benchmarks/studies/ground_low_patches.py``). The
-    bottom of a real pit or ditch narrower than about 10 m and deeper than
-    ``final_below`` is lost the same way.""",
+    takes every k-th cell, the least k >= 1 for which its 6k + 1 cells span
+    14 m, so it spans 14-24 m whatever the final cell (tin_ground's follows
+    the point spacing; k is 1 at 2 m and above). It works while the patch, with the ring of terrain
+    the densification may leave as object around it, covers less than half
+    of the window's cells (``benchmarks/studies/ground_low_patches.py``), and
+    not near the cloud's edge, where the window is cut off. The bottom of a
+    real ditch narrower than about half the window, or of a pit up to about
+    two thirds of it across, deeper than ``final_below``, is lost the same
+    way.""",
     "far_points": """\
 Far points: the neighbour search runs in float32, relative to a float64
 local origin (the minimum corner, stray points far below left out). A point

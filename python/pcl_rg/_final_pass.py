@@ -23,8 +23,9 @@ _HELP = {
     "final_slope": "final pass: allowance per unit of the TIN's gradient, added to "
     "final_above (slope-adaptive threshold after Zhao et al. 2016)",
     "final_low_depth": "final pass (0: off): a ground point more than this below the median "
-    "of the lowest ground heights of 7 x 7 final cells around its own, taken every 3 m, "
-    "gives no TIN vertex, so a patch of low points (multipath) pulls no surface down to it",
+    "of the lowest ground heights of 7 x 7 final cells around its own (every k-th cell, "
+    "spanning at least 14 m) gives no TIN vertex, so a patch of low points (multipath) "
+    "pulls no surface down to it",
 }
 
 

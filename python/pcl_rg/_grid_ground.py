@@ -424,8 +424,8 @@ def grid_ground(
     low points (multipath echoes under the terrain), whose points vouch for
     each other in the low-outlier test, is the seed of every block it
     reaches. On a clip of one block, or of 2 x 2 blocks with the cluster at
-    their common corner, no terrain point is then seeded and nothing is
-    ground: 20 points 8 m deep in a 30 m clip at 2.2 points per m^2 do it.
+    their common corner, no terrain point is then seeded: the cluster is the
+    only ground (20 points 8 m deep in a 30 m clip at 2.2 points per m^2).
     Larger clips are seeded in their other blocks. Set ``min_seed_component``
     above the cluster's size on such clips (``pcl-rg denoise`` removed the
     20 points but not 50). Seed tests against the median of the cells

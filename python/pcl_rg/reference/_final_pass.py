@@ -19,9 +19,10 @@ from .tin_ground import grid_quantum, locate, triangulate, with_corners
 
 __all__ = ["border_vertices", "final_pass", "heights_above_tin", "low_ground"]
 
-#: Metres between two cells of low_ground's window (final_pass_low.hpp's
-#: kWindowStepMetres): 7 x 7 cells every 3 m span about 21 m whatever the cell.
-WINDOW_STEP_METRES = 3.0
+#: The least width of low_ground's window (final_pass_low.hpp's kWindowMetres): its
+#: 7 x 7 cells are taken every k cells, the least k >= 1 for which 6k + 1 cells span
+#: this much, so the window spans 14-24 m whatever the cell.
+WINDOW_METRES = 14.0
 
 
 def final_pass(
@@ -222,8 +223,8 @@ def low_ground(
 ) -> np.ndarray:
     """The `ground` points more than `depth` below the median of the lowest `ground`
     heights `z` of the occupied cells of the (2 reach + 1)^2 window around their own
-    cell (x0, y0, size of `lattice`), taken every `stride` cells (WINDOW_STEP_METRES in
-    cells, rounded half up, at least 1), as final_pass_low.cpp (kWindowReach,
+    cell (x0, y0, size of `lattice`), taken every `stride` cells (the least stride >= 1
+    for which the window spans WINDOW_METRES), as final_pass_low.cpp (kWindowReach,
     window_stride).
 
     Examples
@@ -241,7 +242,7 @@ def low_ground(
     []
     """
     x0, y0, size = lattice
-    stride = max(1, int(min(np.floor(WINDOW_STEP_METRES / size + 0.5), 2.0**40)))
+    stride = max(1, int(min(np.ceil((WINDOW_METRES / size - 1.0) / (2 * reach)), 2.0**40)))
     index = np.flatnonzero(ground)
     if index.size == 0:
         return np.zeros(len(xyz), dtype=bool)
