@@ -51,6 +51,7 @@ void keep_not_low(PointsView points, const CellLattice& cells, double depth, con
     const Interruption interruption;
     const std::int64_t rows = cells.rows;
     const std::int64_t stride = window_stride(cells.size);
+    const std::int64_t reach = kWindowReach * stride;  // in cells, on each side
     const auto z_of = [&](std::size_t i) { return points.coord(i, 2) - cells.z0; };
     // Per cell, its threshold (kNotLow: no point of it is dropped), through a raster of
     // the cells' lowest heights where the lattice is at most a few cells per point (as
@@ -100,7 +101,6 @@ void keep_not_low(PointsView points, const CellLattice& cells, double depth, con
             std::array<double, kWindowCells> window;
             std::size_t size = 0;
             const Cell& c = occupied[k];
-            const std::int64_t reach = kWindowReach * stride;
             for (std::int64_t cx = c.cx - reach; cx <= c.cx + reach; cx += stride) {
                 auto at = std::lower_bound(occupied.begin(), occupied.end(),
                                            Cell{cx, c.cy - reach, 0.0}, by_place);

@@ -51,10 +51,11 @@ final_low_depth : float, optional
     more than ``final_below`` below the TIN, are then no ground. The window
     takes every k-th cell, the least k >= 1 for which its 6k + 1 cells span
     14 m, so it spans 14-24 m whatever the final cell (tin_ground's follows
-    the point spacing; k is 1 at 2 m and above). It works while the patch, with the ring of terrain
-    the densification may leave as object around it, covers less than half
-    of the window's cells (``benchmarks/studies/ground_low_patches.py``), and
-    not near the cloud's edge, where the window is cut off. The bottom of a
+    the point spacing; k is 1 at 2 m and above). It works while the patch,
+    with the ring of terrain the densification may leave as object around
+    it, covers less than half of the window's cells
+    (``benchmarks/studies/ground_low_patches.py``), and not near the cloud's
+    edge, where the window is cut off. The bottom of a
     real ditch narrower than about half the window, or of a pit up to about
     two thirds of it across, deeper than ``final_below``, is lost the same
     way.""",
