@@ -38,15 +38,15 @@ def plane_with_patch(
     return np.r_[plane, patch], len(plane)
 
 
-@pytest.mark.parametrize(("core", "ref"), FILTERS, ids=IDS)
-def test_a_deep_patch_of_low_points_is_no_ground(core, ref):
+@pytest.mark.parametrize("core", [core for core, _ in FILTERS], ids=IDS)
+def test_a_deep_patch_of_low_points_is_no_ground(core):
+    # The reference's verdicts on such a patch: test_core_equals_reference_on_a_scene.
     points, n = plane_with_patch(depth=12.0)
     without = core(points, final_low_depth=0.0)
     assert without[n:].mean() > 0.5  # the defect: the patch is taken as ground
     with_low = core(points)  # the defaults: final_low_depth 2 m
     assert not with_low[n:].any()
     assert with_low[:n].mean() >= without[:n].mean()  # the plane loses nothing
-    np.testing.assert_array_equal(with_low, ref(points))
     # A patch as deep as final_below is ground by design, with the option or without.
     shallow, n = plane_with_patch(depth=3.0)
     assert core(shallow)[n:].mean() > 0.9

@@ -138,6 +138,20 @@ def test_las_template_with_header_text_that_is_not_ascii(tmp_path):
     assert read_points(tmp_path / "named.las").header.system_identifier == "Z?rich survey"
 
 
+def test_records_are_the_files_own_and_follow_a_selection(tmp_path):
+    # `records` lists the (E)VLR headers as the file holds them, read with the points
+    # (pcl-rg info used to open the file a second time for them): LASzip's VLR, which
+    # laspy's header hides, is among a LAZ file's; other formats have none.
+    random_las("1.4", 6, 50, seed=4).write(tmp_path / "a.laz")
+    cloud = read_points(tmp_path / "a.laz")
+    ids = [(r.kind, r.user_id, r.record_id) for r in cloud.records]
+    assert ("VLR", "laszip encoded", 22204) in ids
+    assert not any("laszip" in v.user_id for v in cloud.header.vlrs)
+    assert cloud.take(cloud.points[:, 0] > cloud.points[0, 0]).records == cloud.records
+    write_points(tmp_path / "a.ply", cloud.points)
+    assert read_points(tmp_path / "a.ply").records == ()
+
+
 @pytest.mark.parametrize("ext", [".las", ".laz"])
 def test_las_template_with_an_evlr_text_that_is_not_ascii(tmp_path, ext):
     # The same for an extended VLR (LAS 1.4), which laspy writes with strict ASCII.

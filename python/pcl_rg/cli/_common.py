@@ -384,7 +384,7 @@ def _int32_segments(cloud: PointFile) -> PointFile:
         return cloud
     header = copy.deepcopy(header)
     header.remove_extra_dim("segment_id")
-    return PointFile(cloud.points, cloud.fields, cloud.format, header, cloud.path)
+    return PointFile(cloud.points, cloud.fields, cloud.format, header, cloud.path, cloud.records)
 
 
 def finish_segments(

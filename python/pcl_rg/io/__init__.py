@@ -19,15 +19,14 @@ Every reader returns one container, :class:`PointFile`:
   :func:`write_points` writes back in: a ``laspy.LasHeader``, a
   :class:`PcdLayout` (encoding, x/y/z dtype, width, height, viewpoint), a
   :class:`PlyLayout` (encoding, x/y/z dtype, comments), or None for XYZ text;
-- ``path``: the file read.
+- ``path``: the file read; ``records``: a LAS/LAZ file's (E)VLR headers.
 
 ``PointFile.units`` tells what a LAS/LAZ file's coordinate-system records (OGC
 WKT, GeoTIFF keys) say of its units: every length of the package is in metres.
 
-Every writer goes through a temporary file in the destination folder, renamed
-over the target when complete. The formats live in private modules (``_las``,
-``_pcd``, ``_ply``, ``_xyz``), which this module dispatches to; ``_formats`` tells
-which format a file is.
+Every writer goes through a temporary file in the destination folder, renamed over
+the target when complete. The formats live in private modules (``_las``, ``_pcd``,
+``_ply``, ``_xyz``) this module dispatches to; ``_formats`` tells a file's format.
 """
 
 from __future__ import annotations
@@ -44,6 +43,7 @@ from ._columns import check_columns, check_path, check_xyz
 from ._crs import CoordinateUnits, units_of
 from ._extent import Extent, read_extent
 from ._formats import EXTENSIONS, check_magic, format_of
+from ._las_header import LasRecord
 from ._pcd import write_pcd
 
 __all__ = [
@@ -110,9 +110,12 @@ class PointFile:
         :class:`PlyLayout`, or None for XYZ text.
     path : str or None
         The file read, if any.
+    records : tuple of LasRecord
+        LAS/LAZ: the VLRs, then the EVLRs, as their headers in the file give them
+        (laspy's header re-encodes known records and drops LASzip's); else empty.
     """
 
-    __slots__ = ("points", "fields", "format", "header", "path")
+    __slots__ = ("points", "fields", "format", "header", "path", "records")
 
     def __init__(
         self,
@@ -121,12 +124,14 @@ class PointFile:
         format: str,
         header: object | None = None,
         path: str | None = None,
+        records: tuple[LasRecord, ...] = (),
     ) -> None:
         self.points = points
         self.fields = fields
         self.format = format
         self.header = header
         self.path = path
+        self.records = records
 
     def __len__(self) -> int:
         return len(self.points)
@@ -174,6 +179,7 @@ class PointFile:
             self.format,
             self.header,
             self.path,
+            self.records,
         )
 
 
@@ -267,23 +273,18 @@ def read_points(path: str | os.PathLike[str], *, format: str | None = None) -> P
     return _read(name, fmt)
 
 
-_READERS = {
-    "las": _las.read,
-    "laz": _las.read,
-    "ply": _ply.read,
-    "pcd": _pcd.read,
-    "xyz": _xyz.read,
-}
+_READERS = {"ply": _ply.read, "pcd": _pcd.read, "xyz": _xyz.read}
 _LAYOUTS = {"ply": PlyLayout, "pcd": PcdLayout}
 
 
 def _read(name: str, fmt: str) -> PointFile:
+    if fmt in ("las", "laz"):
+        points, fields, header, records = _las.read(name)
+        return PointFile(points, fields, fmt, header, name, records)
     points, fields, header = _READERS[fmt](name)
     if fmt in _LAYOUTS:
         header = _LAYOUTS[fmt](*header)
-    if fmt in ("ply", "pcd", "xyz"):
-        fields = _classification_named(fields)
-    return PointFile(points, fields, fmt, header, name)
+    return PointFile(points, _classification_named(fields), fmt, header, name)
 
 
 def _classification_named(fields: dict[str, np.ndarray]) -> dict[str, np.ndarray]:

@@ -20,6 +20,7 @@ from .._caller import outside_stacklevel
 from .._held_signals import HeldSignals, held_signals
 from ._atomic import atomic_write
 from ._las_header import (
+    LasRecord,
     check_extra_bytes_scales,
     check_las_header,
     keep_min_max_computable,
@@ -46,8 +47,13 @@ _LAZ_FIRST_STEP = 1 << 16
 _LAZ_LARGEST_STEP = 1 << 22
 
 
-def read(path: str) -> tuple[np.ndarray, dict[str, np.ndarray], object]:
-    """Points, fields and the ``laspy.LasHeader``; any decoder failure as a ValueError."""
+# Points, fields, the laspy.LasHeader and the (E)VLRs as the file's headers give them.
+LasContents = tuple[np.ndarray, dict[str, np.ndarray], object, tuple[LasRecord, ...]]
+
+
+def read(path: str) -> LasContents:
+    """Points, fields, the ``laspy.LasHeader`` and the file's own (E)VLR headers; any
+    decoder failure as a ValueError."""
     try:
         return _decode_las(path)
     except OSError as error:
@@ -69,7 +75,7 @@ def read(path: str) -> tuple[np.ndarray, dict[str, np.ndarray], object]:
         raise _bad_las(path, error) from None
 
 
-def _decode_las(path: str) -> tuple[np.ndarray, dict[str, np.ndarray], object]:
+def _decode_las(path: str) -> LasContents:
     laspy = _laspy()
     with open(path, "rb") as stream:
         facts = check_las_header(path, stream)
@@ -114,7 +120,7 @@ def _decode_las(path: str) -> tuple[np.ndarray, dict[str, np.ndarray], object]:
         if dim.name in ("X", "Y", "Z"):
             continue
         fields[dim.name] = np.array(record[dim.name])
-    return points.astype(np.float64), fields, header
+    return points.astype(np.float64), fields, header, facts.records
 
 
 def _bad_las(path: str, error: BaseException) -> ValueError:

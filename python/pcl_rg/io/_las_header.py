@@ -245,14 +245,6 @@ def _record(kind: str, header: bytes, length: int) -> LasRecord:
     return LasRecord(kind, text(header[2:18]), record_id, text(description), length)
 
 
-def las_records(path: str) -> tuple[LasRecord, ...]:
-    """The VLRs and EVLRs of the LAS/LAZ file at `path`, from their headers in the file
-    (what laspy makes of them can differ: it re-encodes known records and drops LASzip's),
-    after the checks of check_las_header."""
-    with open(path, "rb") as stream:
-        return check_las_header(path, stream).records
-
-
 def _check_laz_payload(
     path: str,
     stream: BinaryIO,

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..._classification import whole_numbers
-from ...io._las_header import LasRecord, las_records
+from ...io._las_header import LasRecord
 from .._common import (
     add_output_options,
     check_extension,
@@ -57,14 +57,13 @@ def execute(args: argparse.Namespace, run: Run) -> None:
         info["bounds"] = {"min": points[valid].min(axis=0), "max": points[valid].max(axis=0)}
     header = cloud.header
     if cloud.format in ("las", "laz"):
-        records = las_records(args.input)
         info["las"] = {
             "version": str(header.version),
             "point_format": int(header.point_format.id),
             "scales": np.asarray(header.scales),
             "offsets": np.asarray(header.offsets),
-            "vlrs": _records(records, "VLR"),
-            "evlrs": _records(records, "EVLR"),
+            "vlrs": _records(cloud.records, "VLR"),
+            "evlrs": _records(cloud.records, "EVLR"),
             "extra_dimensions": list(header.point_format.extra_dimension_names),
         }
     elif header is not None:
