@@ -121,6 +121,8 @@ def test_a_code_with_no_data_comes_from_the_first_point_that_has_one(capsys, tmp
         [
             laspy.ExtraBytesParams("tree_id", "uint16", no_data=[0]),
             laspy.ExtraBytesParams("codes", "2u1", no_data=[255, 255]),
+            # In float64 the no data 2^64 - 1 also matched 2^64 - 2, a code like any other.
+            laspy.ExtraBytesParams("serial", "u8", no_data=[2**64 - 1]),
         ]
     )
     las = laspy.LasData(header)
@@ -128,12 +130,14 @@ def test_a_code_with_no_data_comes_from_the_first_point_that_has_one(capsys, tmp
     las.x, las.y, las.z = points.T
     las.tree_id = np.array([0, 7, 9, 0, 0], np.uint16)
     las.codes = np.array([[255, 4], [3, 255], [5, 6], [255, 255], [255, 1]], np.uint8)
+    las.serial = np.array([2**64 - 1, 2**64 - 2, 9, 2**64 - 1, 2**64 - 1], np.uint64)
     las.write(tmp_path / "in.las")
     run_json(capsys, "downsample", tmp_path / "in.las", tmp_path / "out.las", "--leaf-size", "1")
     out = read_points(tmp_path / "out.las")
     order = np.argsort(out.points[:, 0])
     assert out.fields["tree_id"][order].tolist() == [7, 0]  # none in the second voxel
     assert out.fields["codes"][order].tolist() == [[3, 4], [255, 1]]  # column by column
+    assert out.fields["serial"][order].tolist() == [2**64 - 2, 2**64 - 1]
 
 
 def test_downsample_keeps_each_waveform_descriptor_whole(capsys, tmp_path):

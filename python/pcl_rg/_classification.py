@@ -213,13 +213,18 @@ def _first_rows(rows: np.ndarray, voxel: np.ndarray, m: int) -> np.ndarray:
 def no_data_values(cloud: PointFile) -> dict[str, np.ndarray]:
     """The "no data" value of each LAS extra-bytes field that declares one, per value
     of the field (shape (count,)), as read (its scale and offset applied, in laspy's
-    arithmetic); {} for other formats."""
+    arithmetic); {} for other formats. An unscaled field's keeps laspy's type: a 64-bit
+    integer's, in float64, would also match the values next to it."""
     if cloud.format not in ("las", "laz") or cloud.header is None:
         return {}
     values = {}
     for dim in cloud.header.point_format.extra_dimensions:
         if dim.no_data is not None:
-            value = np.asarray(dim.no_data, np.float64)
+            value = np.asarray(dim.no_data)
+            if dim.scales is None and dim.offsets is None:
+                values[dim.name] = value
+                continue
+            value = value.astype(np.float64)
             if dim.scales is not None:
                 value = value * np.asarray(dim.scales, np.float64)
             if dim.offsets is not None:
