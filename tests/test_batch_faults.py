@@ -7,6 +7,7 @@ from __future__ import annotations
 import contextlib
 import json
 import os
+import resource
 import shutil
 import threading
 import warnings
@@ -89,7 +90,34 @@ def test_tiles_in_two_coordinate_systems_are_refused(tmp_path, scheduler):
     add_crs_record(source.paths[1], UTM_32N_WKT2.replace("32632", "32633"))
     with pytest.raises(ValueError, match="EPSG:32632 and .* in EPSG:32633"):
         batch.ground(source.paths, tmp_path / "b", scheduler=scheduler)
-    assert not [name for name in os.listdir(tmp_path / "b") if not name.startswith(".")]
+    assert not os.path.exists(tmp_path / "b")  # not even the folder the run made
+
+
+def test_a_tile_that_cannot_be_written_exits_1_and_leaves_no_folder(tmp_path):
+    # A full disk was exit status 2, bad input, where one file's command exits with 1,
+    # and "wrote DIR" was said of a folder that got nothing. A file-size limit stands
+    # in for the full disk: Python ignores SIGXFSZ, so a write past it fails (EFBIG).
+    source = synthetic_survey(tmp_path / "in", tiles=(1, 2), tile_size=40.0, seed=4)
+
+    def small_files() -> None:
+        resource.setrlimit(resource.RLIMIT_FSIZE, (20_000, 20_000))
+
+    argv = ["batch", "ground", *source.paths, "--out", tmp_path / "out", "--workers", "1"]
+    result = run_pcl_rg(*argv, preexec_fn=small_files)
+    assert result.returncode == 1, result.stderr
+    assert "2 of 2 tiles failed" in result.stderr and "cannot write" in result.stderr
+    assert "wrote" not in result.stdout
+    assert not (tmp_path / "out").exists()  # the run made it, and nothing is in it
+    report = batch.ground(source.paths, tmp_path / "fine", workers=1)
+    assert not report.failed and not any(t.cannot_write for t in report.tiles)
+
+
+def test_an_empty_output_path_is_refused(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    source = synthetic_survey(tmp_path / "in", tiles=(1, 1), tile_size=40.0, seed=4)
+    with pytest.raises(ValueError, match="out is an empty path"):
+        batch.ground(source.paths, "")
+    assert os.listdir(tmp_path) == ["in"]
 
 
 @pytest.mark.parametrize("damage", ["header", "points"])  # found at stage 0, at stage 1

@@ -71,6 +71,18 @@ def test_an_error_about_the_points_names_their_file(capsys, tmp_path, command):
     assert not (tmp_path / "out.pcd").exists()
 
 
+@pytest.mark.parametrize("argv", [["batch", "ground", "IN", "--out"], ["demo", "--output"]])
+def test_an_empty_output_folder_is_refused(capsys, tmp_path, scene_las, argv, monkeypatch):
+    # "" is the working folder to os.path (an unset shell variable, most often): the
+    # tiles or the demo's files were written there, replacing any of the same names.
+    monkeypatch.chdir(tmp_path)
+    argv = [scene_las if word == "IN" else word for word in argv]
+    code, _, err = run(capsys, *argv, "")
+    assert code == 2
+    assert_one_error_line(err, "an empty folder name")
+    assert not os.listdir(tmp_path)
+
+
 @pytest.mark.parametrize(
     "argv, fragment",
     [

@@ -19,7 +19,16 @@ from .._far_points import check_fewer_than_kept
 from ..io import write_points
 from ._origin import far_points_error, merged_float32_origin
 from ._plan import Box, covers, grow, meets, room_inside
-from ._tasks import Job, Tile, context_parts, guarded, in_metres, load_cached, tile_folder
+from ._tasks import (
+    Job,
+    Tile,
+    context_parts,
+    guarded,
+    in_metres,
+    load_cached,
+    tile_folder,
+    writing,
+)
 
 __all__ = ["denoise_distances", "denoise_write", "sor_threshold", "survey_origin"]
 
@@ -94,7 +103,8 @@ def denoise_distances(
             if not short.any() or whole:
                 break
             margin = max(2.0 * margin, float(farthest[short].max()) * 1.01 + margin)
-        np.save(os.path.join(tile_folder(job, tile), "distance.npy"), distance)
+        with writing("the scratch folder"):
+            np.save(os.path.join(tile_folder(job, tile), "distance.npy"), distance)
         counted = distance[np.isfinite(distance)]  # far points stay out of mu and sigma
         d64 = counted.astype(np.float64)
         squares = (counted * counted).astype(np.float64)  # float products, as PCL sums them
@@ -125,9 +135,10 @@ def denoise_write(
         outlier = np.zeros(len(own), bool)
         outlier[valid] = (distance > threshold) | np.isinf(distance)  # far: always
         classes = noise_classes(own, valid, outlier)
-        write_points(
-            tile.output, own.points, dict(own.fields, classification=classes), template=own
-        )
+        with writing(tile.output):
+            write_points(
+                tile.output, own.points, dict(own.fields, classification=classes), template=own
+            )
         return {
             "points": len(own),
             "noise": int(outlier.sum()),

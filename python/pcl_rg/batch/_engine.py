@@ -10,6 +10,7 @@ every worker sees).
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import errno
 import hashlib
@@ -60,6 +61,9 @@ class TileReport:
     details: dict[str, Any] = dataclasses.field(default_factory=dict)
     """The task's own figures (e.g. denoise: ``noise``, ``threshold``, ``buffer_used``, and
     ``far_points`` of its ``usable`` points, left out and flagged as noise)."""
+    cannot_write: bool = False
+    """Whether it failed writing its output or scratch files (a full disk, no
+    permission) rather than on its data."""
     warnings: list[str] = dataclasses.field(default_factory=list)
     """The warnings its tasks raised (a damaged header's point count, ...), each as
     ``<input's file name>: <message>`` (or the message alone where it names the input's
@@ -191,10 +195,13 @@ def run(
     """Run one operation over every input; see :func:`pcl_rg.batch.ground`."""
     start = time.perf_counter()
     paths = expand_inputs(inputs)
+    if not os.fspath(out):  # "" is the working folder to os.path: an unset variable?
+        raise ValueError("out is an empty path: give the output folder")
     folder = os.path.abspath(os.fspath(out))
     if os.path.exists(folder) and not os.path.isdir(folder):
         raise NotADirectoryError(errno.ENOTDIR, "--out must be a folder, not a file", folder)
     outputs = output_paths(paths, folder)  # refused name clashes leave no folder behind
+    made = not os.path.isdir(folder)
     os.makedirs(folder, exist_ok=True)
     reports = [TileReport(p, o, "failed") for p, o in zip(paths, outputs, strict=True)]
     manifest = Manifest(folder)
@@ -221,6 +228,9 @@ def run(
                 raise
     finally:
         remove_partial_outputs([*outputs, manifest.path])
+        if made:  # a run that wrote nothing (refused, interrupted, every tile failed)
+            with contextlib.suppress(OSError):  # leaves no folder it made: only if empty
+                os.rmdir(folder)
     return BatchReport(
         job_template.operation,
         reports,
@@ -387,6 +397,7 @@ def _run_on(
             else:
                 report.status = "failed"
                 report.error = result["error"] + _discard(manifest, outputs[i])
+                report.cannot_write = result.get("cannot_write", False)
             bar.update(report.points)
     finally:
         bar.close()
@@ -398,6 +409,7 @@ def _run_on(
         # output cannot be vouched for any more.
         reports[i].status = "failed"
         reports[i].error = result["error"] + _discard(manifest, outputs[i])
+        reports[i].cannot_write = result.get("cannot_write", False)
     for i, report in enumerate(reports):
         missing = [j for j in near[i] if j in outcomes and not outcomes[j]["ok"]]
         report.no_buffer_from = [os.path.basename(paths[j]) for j in missing] + unreadable

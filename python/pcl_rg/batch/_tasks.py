@@ -18,7 +18,7 @@ import os
 import pickle
 import resource
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -52,6 +52,8 @@ __all__ = [
     "tile_extent",
     "tile_folder",
     "Tile",
+    "WriteFailure",
+    "writing",
 ]
 
 GROUND_METHODS: dict[str, Callable[..., np.ndarray]] = {"grid": grid_ground, "tin": tin_ground}
@@ -80,8 +82,28 @@ class Tile(NamedTuple):
     box: Box  # its points' xy box (an empty box at 0 when it has no finite point)
 
 
+class WriteFailure(OSError):
+    """An OSError of writing a tile's output or its scratch files (a full disk, no
+    permission): the machine's failure, not the tile's data (pcl-rg batch exits with 1,
+    as for a single file, not 2)."""
+
+
+@contextlib.contextmanager
+def writing(what: str) -> Iterator[None]:
+    try:
+        yield
+    except WriteFailure:
+        raise
+    except OSError as error:
+        raise WriteFailure(f"cannot write {what}: {error.strerror or error}") from None
+
+
 def _failure(error: BaseException) -> dict[str, Any]:
-    return {"ok": False, "error": f"{type(error).__name__}: {error}"}
+    return {
+        "ok": False,
+        "error": f"{type(error).__name__}: {error}",
+        "cannot_write": isinstance(error, WriteFailure),
+    }
 
 
 def _peak_mib() -> float:
@@ -153,14 +175,15 @@ def cache_tile(job: Job, tile: Tile) -> dict[str, Any]:
         cloud = read_points(tile.path)
         check_header_box(tile.path, tile.box, cloud)
         folder = tile_folder(job, tile)
-        # Not makedirs: a task still running after an interrupted run removed its scratch
-        # folder (on a cluster's worker) must fail, not make that folder again.
-        with contextlib.suppress(FileExistsError):  # a retried task's
-            os.mkdir(folder)
-        np.save(os.path.join(folder, "points.npy"), cloud.points)
         names = list(cloud.fields)
-        for k, name in enumerate(names):
-            np.save(os.path.join(folder, f"field{k}.npy"), np.asarray(cloud.fields[name]))
+        with writing("the scratch folder"):
+            # Not makedirs: a task still running after an interrupted run removed its
+            # scratch folder (on a cluster's worker) must fail, not make it again.
+            with contextlib.suppress(FileExistsError):  # a retried task's
+                os.mkdir(folder)
+            np.save(os.path.join(folder, "points.npy"), cloud.points)
+            for k, name in enumerate(names):
+                np.save(os.path.join(folder, f"field{k}.npy"), np.asarray(cloud.fields[name]))
         rows = _context_rows(job, cloud)
         xy = cloud.points[rows, :2]
         boxes = footprint(xy)
@@ -171,13 +194,14 @@ def cache_tile(job: Job, tile: Tile) -> dict[str, Any]:
         cell_xy = np.clip(((xy - low) / size).astype(np.int64), 0, INDEX_CELLS - 1)
         cell = cell_xy[:, 1] * INDEX_CELLS + cell_xy[:, 0]
         order = np.argsort(cell, kind="stable")
-        np.save(os.path.join(folder, "cell_rows.npy"), rows[order])
         starts = np.searchsorted(cell[order], np.arange(INDEX_CELLS * INDEX_CELLS + 1))
-        np.save(os.path.join(folder, "cell_start.npy"), starts)
-        with open(os.path.join(folder, "layout.pkl"), "wb") as stream:
-            pickle.dump((cloud.format, cloud.header, names, low, size, boxes), stream)
-        if job.operation == "denoise":  # for the merged run's origin (survey_origin)
-            save_sorted_axes(folder, in_metres(job, cloud.points[rows]))
+        with writing("the scratch folder"):
+            np.save(os.path.join(folder, "cell_rows.npy"), rows[order])
+            np.save(os.path.join(folder, "cell_start.npy"), starts)
+            with open(os.path.join(folder, "layout.pkl"), "wb") as stream:
+                pickle.dump((cloud.format, cloud.header, names, low, size, boxes), stream)
+            if job.operation == "denoise":  # for the merged run's origin (survey_origin)
+                save_sorted_axes(folder, in_metres(job, cloud.points[rows]))
         return {"points": len(cloud), "usable": len(rows)}
 
     return guarded(work)
@@ -318,9 +342,10 @@ def ground_tile(
         ground = GROUND_METHODS[job.method](in_metres(job, xyz), params=job.params)
         ground = ground[: int(work_rows.sum())]
         classes = ground_classes(own, work_rows, ground, job.keep_classes)
-        write_points(
-            tile.output, own.points, dict(own.fields, classification=classes), template=own
-        )
+        with writing(tile.output):
+            write_points(
+                tile.output, own.points, dict(own.fields, classification=classes), template=own
+            )
         return {
             "points": len(own),
             "buffer_points": len(xyz) - int(work_rows.sum()),
@@ -379,12 +404,13 @@ def downsample_tile(
             fields, member, voxel, grid.counts, carried, no_data_values(own)
         )
         centroids = grid.centroids[mine] / np.asarray(job.scale)  # in the tile's units
-        write_points(
-            tile.output,
-            centroids,
-            {n: v[mine] for n, v in attributes.items()},
-            template=unorganized(own),
-        )
+        with writing(tile.output):
+            write_points(
+                tile.output,
+                centroids,
+                {n: v[mine] for n, v in attributes.items()},
+                template=unorganized(own),
+            )
         return {"points": len(own), "voxels": int(mine.sum())}
 
     return _with_buffer(neighbours, ready, work)

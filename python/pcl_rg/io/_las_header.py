@@ -45,6 +45,10 @@ _LAYERS = {10: 9, 11: 1, 12: 2, 13: 1}  # Point14, RGB14, RGBNIR14, Wavepacket14
 # million identical points compress about 3000-fold (point formats 0-7, measured
 # with lazrs); real surveys 5- to 10-fold. A larger claim is damage.
 _LAZ_MAX_RATIO = 100_000
+# Most bytes a point after a pointwise chunk's first takes, per byte of its record:
+# LASzip's arithmetic coder spends about a tenth on real surveys and never more than
+# about twice on any; 4x is a bound that only a count far too low can beat.
+_POINTWISE_MAX_RATIO = 4
 # Largest chunk handed to lazrs's parallel reader (LASzip's default chunk of 50 000
 # points takes 1.5-3.4 MB); files with larger chunks are read sequentially.
 _PARALLEL_CHUNK_BYTES = 64 << 20
@@ -71,7 +75,7 @@ class LasFacts(NamedTuple):
     spare_records: int
     """How many more point records the file holds after the counted ones: LAS, the
     room before what follows them (EVLRs, waveform packets, the end of the file);
-    LAZ, the points its chunk table gives beyond the count, at least."""
+    LAZ, the points its chunks hold beyond the count, at least (_check_chunk_table)."""
     records: tuple[LasRecord, ...]
     """The VLRs, then the EVLRs, in file order."""
 
@@ -218,7 +222,7 @@ def check_las_header(path: str, stream: BinaryIO) -> LasFacts:
     else:
         spare_records = 0
     largest_chunk = 0
-    if compressed and point_count:
+    if compressed:  # a count of 0 too: the chunks tell whether the file holds more
         largest_chunk, spare_records = _check_laz_payload(
             path,
             stream,
@@ -329,26 +333,37 @@ def _check_laz_payload(
         )
     if table_offset == -1:  # no table: the chunk count above is only a bound
         return (chunk_size if chunk_size != _VARIABLE_CHUNKS else point_count), 0
-    largest, table_points = _check_chunk_table(path, stream, laszip_vlr, data_offset, table_offset)
-    # Fixed chunks are all full but the last, which holds at least one point; variable
-    # ones state their points.
-    held = (chunks - 1) * chunk_size + 1 if chunk_size != _VARIABLE_CHUNKS else table_points
+    largest, held = _check_chunk_table(
+        path, stream, laszip_vlr, data_offset, table_offset, record_length
+    )
     return largest, max(0, held - point_count)
 
 
 def _check_chunk_table(
-    path: str, stream: BinaryIO, laszip_vlr: bytes, data_offset: int, table_offset: int
+    path: str,
+    stream: BinaryIO,
+    laszip_vlr: bytes,
+    data_offset: int,
+    table_offset: int,
+    record_length: int,
 ) -> tuple[int, int]:
     """Check the chunks' byte counts against the data; return the largest chunk's points
-    and the points of all chunks.
+    and how many points the chunks hold, at least.
 
     lazrs's parallel reader allocates each chunk's stated bytes, and its stated
-    points (the chunk size, with fixed chunks), before reading it.
+    points (the chunk size, with fixed chunks), before reading it. Variable chunks
+    state their points in the table, and layered chunks (point formats 6-10) in their
+    own headers. Fixed pointwise chunks are full but the last, which holds its first
+    point raw and the others in at most _POINTWISE_MAX_RATIO x `record_length` bytes
+    each: a count that leaves it more bytes than that is too low.
     """
     import lazrs
 
     stream.seek(data_offset)
-    table = lazrs.read_chunk_table(stream, lazrs.LazVlr(laszip_vlr))
+    try:
+        table = lazrs.read_chunk_table(stream, lazrs.LazVlr(laszip_vlr))
+    except Exception as error:  # lazrs.LazrsError: an unknown item or compressor, a cut
+        raise _bad(path, f"LASzip VLR or chunk table cannot be read ({error})") from None
     room = table_offset - data_offset - 8
     total = largest = points_in_all = 0
     for index, (points, byte_count) in enumerate(table):
@@ -362,19 +377,25 @@ def _check_chunk_table(
                 f"{room} bytes of compressed points",
             )
     (compressor,) = struct.unpack_from("<H", laszip_vlr, 0)
+    (chunk_size,) = struct.unpack_from("<I", laszip_vlr, 12)
     if compressor == _LAYERED_CHUNKED:
-        _check_layers(path, stream, laszip_vlr, data_offset + 8, table)
-    return largest, points_in_all
+        return largest, _check_layers(path, stream, laszip_vlr, data_offset + 8, table)
+    if chunk_size == _VARIABLE_CHUNKS or not table:
+        return largest, points_in_all
+    last_bytes = table[-1][1] - record_length  # after the last chunk's raw first point
+    in_last = 1 + max(0, last_bytes - 1) // (_POINTWISE_MAX_RATIO * record_length)
+    return largest, (len(table) - 1) * chunk_size + min(in_last, chunk_size)
 
 
 def _check_layers(
     path: str, stream: BinaryIO, laszip_vlr: bytes, start: int, table: list[tuple[int, int]]
-) -> None:
-    """LAS 1.4 layered chunks: the layer sizes must fit in their chunk.
+) -> int:
+    """LAS 1.4 layered chunks: the layer sizes must fit in their chunk; return the
+    points the chunks state.
 
-    A layered chunk holds its first point raw, its point count (u32) and one u32
-    byte count per layer, then the layers; lazrs allocates each layer's stated
-    size before reading it. Point14 items have 9 layers, RGB14 1, RGBNIR14 2,
+    A layered chunk holds its first point raw, its point count (u32, that point
+    included) and one u32 byte count per layer, then the layers; lazrs allocates each
+    layer's stated size before reading it. Point14 items have 9 layers, RGB14 1, RGBNIR14 2,
     wave packets 1 and extra bytes one per byte (LASzip's layered compressor).
     """
     (item_count,) = struct.unpack_from("<H", laszip_vlr, 32)
@@ -386,11 +407,12 @@ def _check_layers(
         raw_size += item_size
         layers += item_size if item_type == _BYTE14 else _LAYERS.get(item_type, 0)
     head_size = raw_size + 4 + 4 * layers
-    position = start
+    position, stated = start, 0
     for index, (_, byte_count) in enumerate(table):
         head = _read_at(stream, position, head_size)
         if byte_count < head_size or len(head) < head_size:
             raise _bad(path, f"LASzip chunk {index} is shorter than its layer header")
+        stated += struct.unpack_from("<I", head, raw_size)[0]
         sizes = struct.unpack_from(f"<{layers}I", head, raw_size + 4)
         if sum(sizes) > byte_count - head_size:
             raise _bad(
@@ -399,6 +421,7 @@ def _check_layers(
                 f"holds {byte_count - head_size}",
             )
         position += byte_count
+    return stated
 
 
 def _declaring_no_data(header) -> Iterator:

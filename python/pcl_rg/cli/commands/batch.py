@@ -10,10 +10,12 @@ import pcl_rg
 
 from .._common import add_common_options, add_units_option, say_units
 from .._flags import (
+    EXIT_FAILURE,
     EXIT_USAGE,
     add_method_flags,
     add_param_flags,
     float_type,
+    folder_type,
     int_type,
     method_params,
     params_from_args,
@@ -38,7 +40,11 @@ def _common_arguments(parser: argparse.ArgumentParser) -> None:
         help="LAS/LAZ, PCD, PLY or XYZ text files, folders (their point files) or quoted globs",
     )
     parser.add_argument(
-        "--out", required=True, metavar="DIR", help="output folder: DIR/<input file name>"
+        "--out",
+        required=True,
+        type=folder_type,
+        metavar="DIR",
+        help="output folder: DIR/<input file name>",
     )
     group = parser.add_argument_group("survey")
     group.add_argument(
@@ -68,7 +74,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "Process a survey of many tiles on Dask: each tile with a buffer of its "
         "neighbours' points, each input giving DIR/<its name> as the single-file command "
         "writes it. A rerun skips tiles that are up to date. Exit status 2 when a tile "
-        "failed (the others are still written)."
+        "failed on its data, 1 when one could not be written (a full disk); the others are "
+        "still written."
     )
     sub = parser.add_subparsers(dest="operation", required=True, metavar="OPERATION")
     operations = {
@@ -131,14 +138,18 @@ def execute(args: argparse.Namespace, run: Run) -> None:
                 f"  {os.path.basename(tile.output)}: no buffer from "
                 + ", ".join(tile.no_buffer_from)
             )
-    run.say(f"wrote {os.path.abspath(args.out)}")
+    if len(report.failed) < len(report.tiles):  # else nothing there is of this run
+        run.say(f"wrote {os.path.abspath(args.out)}")
     if report.failed:
         names = "; ".join(f"{os.path.basename(t.input)} ({t.error})" for t in report.failed)
         print(
             f"pcl-rg: error: {len(report.failed)} of {len(report.tiles)} tiles failed: {names}",
             file=sys.stderr,
         )
-        run.exit_status = EXIT_USAGE
+        # A tile that could not be written is the machine's failure (exit 1, as for one
+        # file: a full disk, no permission), not bad input (exit 2).
+        failed_writing = any(t.cannot_write for t in report.failed)
+        run.exit_status = EXIT_FAILURE if failed_writing else EXIT_USAGE
 
 
 def _show_dashboard(address: str) -> None:

@@ -6,7 +6,7 @@ import argparse
 import os
 
 from .._common import add_common_options
-from .._flags import CliError, float_type, int_type
+from .._flags import CliError, float_type, folder_type, int_type
 from .._run import Run
 
 __all__ = ["configure", "execute"]
@@ -22,6 +22,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--output",
         default="demo-output",
+        type=folder_type,
         metavar="DIR",
         help="folder for the files and figures (default: demo-output)",
     )
