@@ -259,6 +259,18 @@ def test_absurd_leaf_for_coordinates():
         pcl_rg.voxel_grid([[0.0, 0.0, 0.0], [1e300, 0, 0]], 1e-300)
 
 
+def test_pcl_voxel_grid_blames_a_leaf_that_moves_its_frame_out_of_reach():
+    # PCL anchors its voxels at multiples of the leaf: for points just below 0, the one
+    # below them is -2e6, beyond float32's reach; the message blamed a stray point.
+    points = np.random.default_rng(0).uniform(-5.0, 5.0, (100, 3))
+    with pytest.raises(ValueError, match="leaf_size: pcl::VoxelGrid anchors its voxels"):
+        pcl_rg.pcl.voxel_grid(points, 2e6)
+    assert pcl_rg.voxel_grid(points, 2e6).counts.sum() == 100  # ours has no such limit
+    points[0] = 1e9  # a stray point is still named as one
+    with pytest.raises(ValueError, match="stray point"):
+        pcl_rg.pcl.voxel_grid(points, 2e6)
+
+
 def test_coordinates_near_the_float64_limit_have_a_finite_centroid():
     # The reference summed plain coordinates: 1e308 + 1.5e308 overflowed to inf.
     points = np.array([[1e308, 0.0, -1e308], [1.5e308, 1.0, -1.5e308]])

@@ -30,11 +30,29 @@ PclVoxelGridResult pcl_voxel_grid(PointsView points, const VoxelGridParams& para
     // below the rest: then the rest keep their millimetres) snapped down to the voxel
     // lattice: PCL anchors its grid at the origin of the frame it sees, so the voxels
     // stay those of the caller's frame, as in pcl_rg::voxel_grid.
-    auto origin = float32_origin(points);
+    const auto corner = float32_origin(points);
+    auto origin = corner;
     for (int a = 0; a < 3; ++a)
         origin[a] = std::floor(origin[a] / params.leaf_size[a]) * params.leaf_size[a];
     // PCL's classes cannot be interrupted: polls between their stages only.
-    const auto cloud = to_pcl_cloud(points, origin);
+    pcl::PointCloud<pcl::PointXYZ>::Ptr cloud;
+    try {
+        cloud = to_pcl_cloud(points, origin);
+    } catch (const std::invalid_argument&) {
+        // Points within float32's reach of their corner but not of the lattice point
+        // below it: the leaf, not a stray point, moved the frame that far.
+        bool leaf_moved_it = true;
+        try {
+            to_pcl_cloud(points, corner);
+        } catch (const std::invalid_argument&) {
+            leaf_moved_it = false;
+        }
+        if (!leaf_moved_it) throw;
+        throw std::invalid_argument(
+            "leaf_size: pcl::VoxelGrid anchors its voxels at multiples of the leaf, and the "
+            "one below the points lies beyond float32's reach of them (2^24 x 0.1 = "
+            "1677721.6); give a smaller leaf, or use pcl_rg.voxel_grid");
+    }
     poll_interrupt();
 
     // PCL's own voxel expression (voxel_grid.hpp, applyFilter): float32 products with
