@@ -126,6 +126,27 @@ def test_sor_errors_and_empty() -> None:
     assert empty.dtype == np.bool_ and empty.shape == (0,)
 
 
+def test_many_copies_of_a_position_are_refused_before_pcl_searches() -> None:
+    # FLANN's tree cannot split copies: 100k identical points took SOR and
+    # NormalEstimation 73 s each and RegionGrowing more than 2 min, not interruptible.
+    # Refused in a moment when the sum of copies^2 passes 1e10 (kPclCopiesWork).
+    copies = np.repeat(np.random.default_rng(0).uniform(0, 9, (2, 3)), 80_000, axis=0)
+    for function in (
+        pcl_rg.pcl.statistical_outlier_removal,
+        pcl_rg.pcl.normals,
+        pcl_rg.pcl.region_growing,
+    ):
+        with pytest.raises(ValueError, match="up to 80000 copies of one position"):
+            function(copies)
+        assert pcl_rg.statistical_outlier_removal(copies).all()  # ours: at once
+    # Below the bound: 50 positions of 1,000 copies (sum 5e7) and 60k other points run.
+    rng = np.random.default_rng(1)
+    mixed = np.r_[
+        np.repeat(rng.uniform(0, 9, (50, 3)), 1_000, axis=0), rng.uniform(0, 9, (60_000, 3))
+    ]
+    assert pcl_rg.pcl.statistical_outlier_removal(mixed, mean_k=8).shape == (len(mixed),)
+
+
 # --- NormalEstimation + RegionGrowing ------------------------------------------------
 
 

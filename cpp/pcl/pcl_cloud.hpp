@@ -32,4 +32,16 @@ inline constexpr double kPclNeighbourWork = 1.2e9;
 /// (check::per_point_at_most).
 void check_pcl_neighbour_work(const char* name, std::int64_t k, std::size_t n);
 
+/// Bound on the sum over positions of copies^2 for PCL's k-nearest searches. FLANN's
+/// k-d tree cannot split copies of one point, so each query among g copies compares all
+/// g: measured on this project's machines (PCL 1.13, g identical points),
+/// StatisticalOutlierRemoval and NormalEstimation took 5-7 ns per g^2 and
+/// NormalEstimation + RegionGrowing 10-14 ns (40,000 copies: 11.6, 8.5 and 20.9 s).
+/// 1e10 is one to two minutes of that, the bound kPclNeighbourWork keeps too.
+inline constexpr double kPclCopiesWork = 1e10;
+
+/// Throws std::invalid_argument when the cloud's copies (points equal in all three
+/// float32 coordinates) pass kPclCopiesWork, naming the most copied position's count.
+void check_pcl_copies(const pcl::PointCloud<pcl::PointXYZ>& cloud);
+
 }  // namespace pcl_rg

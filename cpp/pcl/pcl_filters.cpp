@@ -149,6 +149,7 @@ void pcl_statistical_outlier_removal(PointsView points,
     check::fewer_than_points("mean_k", params.mean_k, points.size);
     check_pcl_neighbour_work("mean_k", params.mean_k, points.size);
     const auto cloud = to_pcl_cloud(points, float32_origin(points));
+    check_pcl_copies(*cloud);
     poll_interrupt();
     pcl::StatisticalOutlierRemoval<pcl::PointXYZ> filter;
     filter.setInputCloud(cloud);

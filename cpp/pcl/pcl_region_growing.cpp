@@ -79,6 +79,7 @@ Frame to_frame(PointsView points) {
     const std::array<double, 3> origin = float32_origin(points);
     const std::array<double, 3> lowest = local_origin(points);
     Frame frame{to_pcl_cloud(points, origin), {}};
+    check_pcl_copies(*frame.cloud);
     for (int a = 0; a < 3; ++a) frame.corner[a] = static_cast<float>(lowest[a] - origin[a]);
     return frame;
 }

@@ -120,8 +120,9 @@ def statistical_outlier_removal(
     ------
     ValueError
         Non-finite points, a wrong shape, or a parameter out of range
-        (``mean_k < 1``, ``mean_k >= N``, ``std_mul < 0``), or N * mean_k
-        over 1.2e9 (PCL's search would take minutes).
+        (``mean_k < 1``, ``mean_k >= N``, ``std_mul < 0``), N * mean_k over
+        1.2e9, or copies of positions whose counts' squares sum over 1e10
+        (PCL's search would take minutes).
     %(type_error)s
 
     Notes

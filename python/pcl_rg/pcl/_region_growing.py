@@ -110,8 +110,9 @@ def normals(
     Raises
     ------
     ValueError
-        Non-finite points, a wrong shape, ``k < 3``, ``k >= N``, or N * k
-        over 1.2e9 (PCL's search would take minutes).
+        Non-finite points, a wrong shape, ``k < 3``, ``k >= N``, N * k over
+        1.2e9, or copies of positions whose counts' squares sum over 1e10
+        (PCL's search would take minutes).
     %(type_error)s
 
     Notes
@@ -184,8 +185,9 @@ def region_growing(
     ValueError
         Non-finite points, a wrong shape, or a parameter out of range
         (``k < 3``, ``k >= N``, an angle outside (0, 180), a negative
-        threshold, ``min_cluster_size > max_cluster_size``), or N * k over
-        1.2e9 (PCL's searches would take minutes).
+        threshold, ``min_cluster_size > max_cluster_size``), N * k over
+        1.2e9, or copies of positions whose counts' squares sum over 1e10
+        (PCL's searches would take minutes).
     %(type_error)s
 
     Notes
