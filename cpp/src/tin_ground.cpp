@@ -145,8 +145,11 @@ TinGroundParams with_spacing(const TinGroundParams& params, double spacing) {
     };
     fill(resolved.stop_edge, kTinStopEdgeCap, kTinStopEdgePerSpacing);
     fill(resolved.near_vertex_distance, kTinNearVertexCap, kTinNearVertexPerSpacing);
-    fill(resolved.seed_cell, kTinSeedCellCap, kTinSeedCellPerSpacing);
-    fill(resolved.final_cell, kTinFinalCellCap, kTinFinalCellPerSpacing);
+    if (!resolved.seed_cell)
+        resolved.seed_cell = tin_lattice_length(kTinSeedCellCap, kTinSeedCellPerSpacing, spacing);
+    if (!resolved.final_cell)
+        resolved.final_cell =
+            tin_lattice_length(kTinFinalCellCap, kTinFinalCellPerSpacing, spacing);
     return resolved;
 }
 

@@ -25,6 +25,7 @@ from ._params import (
     spacing_length,
     to_core,
 )
+from ._point_spacing import lattice_length
 from ._validation import MAX_POINTS_INT32, as_points
 
 __all__ = ["TinGroundParams", "tin_ground"]
@@ -40,23 +41,22 @@ class TinGroundParams:
     pts/m^2; :meth:`lidar360` is LiDAR360's own set (the seed's definition), which
     keeps only a sparse key-point set as ground on such data (see the README).
 
-    The four lengths that depend on the point spacing, ``stop_edge``,
-    ``near_vertex_distance``, ``seed_cell`` and ``final_cell``, are None
-    ("unset") by default: each call then takes
-    ``min(SPACING_CAPS[name], SPACING_MULTIPLES[name] * spacing)`` with the
-    spacing of its points (:func:`pcl_rg.point_spacing`, 1 m where that is
-    undefined). The caps are the lengths chosen on the ISPRS samples (2, 1, 2 and
-    3 m) and each multiple is its cap / 0.95 m, so data as sparse as those
-    samples (spacing 0.99-2.41 m) gets exactly the ISPRS lengths, and denser
-    data gets them in proportion to its spacing. The stop edge's multiple is
-    that of a 4 m stop edge (4 / 0.95): on ISPRS every stop edge of 2-6 m
-    scores the same, and a shorter one inserts far more points into the TIN
-    on dense data, so it stays 2 m down to a spacing of 0.475 m (0.5 m spacing:
-    2, 0.53, 1.05 and 1.58 m). A number fixes the length; 0 still switches
-    ``near_vertex_distance``, ``seed_cell`` and ``final_cell`` off. The spacing
-    and the lengths a call used are in :func:`pcl_rg.collect_diagnostics`;
-    :meth:`at_spacing` fixes them ahead (for example once for all tiles of a
-    survey).
+    The four lengths that depend on the point spacing (``stop_edge``,
+    ``near_vertex_distance``, ``seed_cell``, ``final_cell``) are None ("unset")
+    by default: each call takes ``m = SPACING_MULTIPLES[name] * spacing`` with
+    its points' spacing (:func:`pcl_rg.point_spacing`, 1 m where undefined), and
+    ``min(cap, m)`` with ``cap = SPACING_CAPS[name]``, or for the seed and final
+    cells (on the world lattice of their size, which one stray point nudging the
+    spacing must not move) cap / the least whole number that makes it <= m.
+    The caps are the ISPRS samples' lengths (2, 1, 2, 3 m) and each multiple
+    is its cap / 0.95 m: data as sparse as those samples (spacing 0.99-2.41 m)
+    gets the ISPRS lengths, denser data about its spacing's share. The stop
+    edge's multiple is a 4 m stop edge's (on ISPRS every one of 2-6 m scores
+    the same; a shorter one inserts far more points into the TIN on dense
+    data): it stays 2 m down to a spacing of 0.475 m (at 0.5 m: 2, 0.53, 1 and
+    1.5 m). A number fixes the length; 0 still switches the last three off.
+    :func:`pcl_rg.collect_diagnostics` gives the spacing and lengths a call
+    used; :meth:`at_spacing` fixes them ahead (say for all tiles of a survey).
     """
 
     SPACING_CAPS: ClassVar[Mapping[str, float]] = MappingProxyType(
@@ -124,8 +124,8 @@ class TinGroundParams:
         minimum=0.0,
         help="improvement (0: off): seeds are the lowest points of seed_cell cells lying "
         "within seed_tolerance of the grey opening of those heights by a max_building_size "
-        "window (dense seeds, none on roofs; after Zhao et al. 2016); unset: min(2 m, 2.1 x "
-        "the point spacing)",
+        "window (dense seeds, none on roofs; after Zhao et al. 2016); unset: 2 m / the least "
+        "whole number that makes it at most 2.1 x the point spacing",
     )
     seed_tolerance: float = param(
         0.5,
@@ -175,10 +175,9 @@ class TinGroundParams:
         Returns
         -------
         TinGroundParams
-            A copy in which each length that was None is
-            ``min(SPACING_CAPS[name], SPACING_MULTIPLES[name] * spacing)``; a call
-            with it gives what a call with these parameters gives on points of
-            that spacing.
+            A copy in which each length that was None is set as the class
+            docstring says; a call with it gives what a call with these
+            parameters gives on points of that spacing.
 
         Examples
         --------
@@ -189,11 +188,13 @@ class TinGroundParams:
         True
         >>> dense = TinGroundParams().at_spacing(0.25)  # 16 points per m^2
         >>> [round(v, 3) for v in (dense.stop_edge, dense.seed_cell, dense.final_cell)]
-        [1.053, 0.526, 0.789]
+        [1.053, 0.5, 0.75]
         """
         spacing = check_number("spacing", spacing, float, above=0.0)
         unset = {
-            name: min(self.SPACING_CAPS[name], multiple * spacing)
+            name: (lattice_length if name in ("seed_cell", "final_cell") else min)(
+                self.SPACING_CAPS[name], multiple * spacing
+            )
             for name, multiple in self.SPACING_MULTIPLES.items()
             if getattr(self, name) is None
         }
@@ -322,11 +323,11 @@ def tin_ground(
         ``d <= sin(limit) * near_vertex_distance`` instead of being judged by an
         angle close to 90 degrees minus the slope.
     seed_cell : float, optional
-        Metres (default: unset, min(2 m, 2.1 x the point spacing); 0: one seed per
-        ``max_building_size`` cell, LiDAR360). An improvement after Zhao et al.
-        2016: the lowest point of every ``seed_cell`` cell is a seed when it lies
-        at most ``seed_tolerance`` above the grey opening of those lowest heights
-        by a square window of ``max_building_size``, which gives dense seeds on
+        Metres (default: unset, 2 m / the least whole m with 2 m / m <= 2.1 x the
+        point spacing; 0: one seed per ``max_building_size`` cell, LiDAR360). After
+        Zhao et al. 2016: the lowest point of every ``seed_cell`` cell is a seed
+        when it lies at most ``seed_tolerance`` above the grey opening of those
+        lowest heights by a ``max_building_size`` square window: dense seeds on
         open terrain and none on roofs.
     seed_tolerance : float, optional
         Metres (default 0.5): see ``seed_cell``.
@@ -364,16 +365,15 @@ def tin_ground(
         x 30 m corridor rising 0.25 across, it lost 31 % of the uphill 10 m's
         ground, 1.1 % with them (``benchmarks/studies/tin_corridor.py``).
     final_cell : float, optional
-        Metres (default: unset, min(3 m, 3.16 x the point spacing); 0: off). An
-        improvement after TerraScan's practice of classifying the points close
-        to the final ground TIN: a TIN is built
-        from the lowest ground point of each ``final_cell`` cell (anchored on
-        the world lattice of that size), and every point is ground when
+        Metres (default: unset, 3 m / the least whole m with 3 m / m <= 3.16 x the
+        point spacing; 0: off). After TerraScan's practice of classifying the
+        points close to the final ground TIN: a TIN is built from the lowest
+        ground point of each ``final_cell`` cell (anchored on the world lattice
+        of that size), and every point is ground when
         ``-final_below <= z - z_TIN <= final_above + final_slope * g``, with
         ``g = |grad z_TIN|`` of the triangle under it (the slope-adaptive
-        threshold of Zhao et al. 2016). With a cell near the point spacing it
-        adds the points just above the TIN that the densification left out
-        below the stop edge.
+        threshold of Zhao et al. 2016): it adds the points just above the TIN
+        that the densification left out below the stop edge.
     final_above : float, optional
         Metres (default 0.5): see ``final_cell``.
     final_below : float, optional

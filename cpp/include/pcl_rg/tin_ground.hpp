@@ -1,6 +1,8 @@
 // Progressive TIN densification ground filter (Axelsson 2000; LiDAR360's parameters).
 #pragma once
 
+#include <algorithm>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <optional>
@@ -21,7 +23,10 @@ namespace pcl_rg {
 /// data a stop edge half as long inserts 2-3 times the vertices (0.5 m spacing,
 /// 10M points: 7.4M vertices at 1.05 m, 2.7M at 2 m). It stays 2 m down to a
 /// spacing of 0.475 m (benchmarks/RESULTS.md, "Ground filters at 2-20 points per
-/// m^2"). Python mirror: TinGroundParams.SPACING_CAPS and SPACING_MULTIPLES.
+/// m^2"). The seed and final cells lie on the world lattice of their size, and their
+/// unset lengths are whole fractions of their caps instead (tin_lattice_length), as
+/// grid_ground's cell divides its block. Python mirror: TinGroundParams.SPACING_CAPS and
+/// SPACING_MULTIPLES.
 inline constexpr double kTinFullLengthSpacing = 0.95;
 inline constexpr double kTinStopEdgeCap = 2.0;
 inline constexpr double kTinNearVertexCap = 1.0;
@@ -35,6 +40,15 @@ inline constexpr double kTinSeedCellPerSpacing = kTinSeedCellCap / kTinFullLengt
 /// 2^25 / opening_rank).
 inline constexpr std::int64_t kTinMaxOpeningRank = 8;
 inline constexpr double kTinFinalCellPerSpacing = kTinFinalCellCap / kTinFullLengthSpacing;
+
+/// An unset seed or final cell: cap / the least whole m >= 1 for which it is at most
+/// multiple x spacing (0 when that is 0). A cell in proportion to the spacing moved the
+/// lattice's cells far from the world origin by metres when one stray point nudged the
+/// spacing (UTM coordinates: 508 of 60,000 labels changed); whole fractions of the cap
+/// change only where the spacing crosses one of them.
+inline double tin_lattice_length(double cap, double multiple, double spacing) {
+    return cap / std::max(1.0, std::ceil(cap / (multiple * spacing)));
+}
 
 /// The defaults are Python's TinGroundParams.isprs() preset (chosen on the ISPRS
 /// samples); TinGroundParams.lidar360() is LiDAR360's own set: 20, 88, 8, 1.4, 5, 2 and
@@ -75,7 +89,7 @@ struct TinGroundParams {
     /// is a seed when it lies at most seed_tolerance above the grey opening of the
     /// cells' lowest heights by a square window of max_building_size, in the manner of
     /// Zhao et al. 2016's morphological seeds: dense seeds on open terrain, none on roofs.
-    /// Unset: min(kTinSeedCellCap, kTinSeedCellPerSpacing x the point spacing).
+    /// Unset: tin_lattice_length(kTinSeedCellCap, kTinSeedCellPerSpacing, the point spacing).
     std::optional<double> seed_cell;
     /// Height above the opened surface up to which a seed_cell cell's lowest point is a
     /// seed (m, >= 0); used only when seed_cell > 0.
@@ -100,8 +114,8 @@ struct TinGroundParams {
     /// Final pass (0: off): cell (m, >= 0) of a TIN of the lowest ground point per cell;
     /// every point is then ground when -final_below <= z - z_TIN <= final_above +
     /// final_slope * |grad z_TIN| (final_pass.hpp; TerraScan, Zhao et al. 2016), so ground
-    /// is complete below the stop edge. Unset: min(kTinFinalCellCap,
-    /// kTinFinalCellPerSpacing x the point spacing).
+    /// is complete below the stop edge. Unset: tin_lattice_length(kTinFinalCellCap,
+    /// kTinFinalCellPerSpacing, the point spacing).
     std::optional<double> final_cell;
     /// Height above the final TIN up to which a point is ground on flat terrain (m, >= 0).
     double final_above = 0.5;
