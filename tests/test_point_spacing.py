@@ -146,13 +146,23 @@ def test_unset_and_given_values_are_checked() -> None:
             params.at_spacing(math.nan)
 
 
+def assert_rung(length: float, name: str, spacing: float) -> None:
+    """`length` is the largest cap x 2^(-j/8), j >= 0 whole, at most multiple x spacing."""
+    cap, most = (
+        TinGroundParams.SPACING_CAPS[name],
+        TinGroundParams.SPACING_MULTIPLES[name] * spacing,
+    )
+    j = round(-8 * math.log2(length / cap))
+    assert j >= 0 and length == pytest.approx(cap * 2 ** (-j / 8), rel=1e-12)
+    assert length <= most and (j == 0 or cap * 2 ** (-(j - 1) / 8) > most)
+
+
 def test_at_spacing_uses_the_multiples_and_keeps_given_lengths() -> None:
     spacing = 0.37
     fixed = TinGroundParams(near_vertex_distance=0.0).at_spacing(spacing)
     assert fixed.stop_edge == TinGroundParams.SPACING_MULTIPLES["stop_edge"] * spacing
-    # The cells on a world lattice: whole fractions of their caps, 2 m / 3 and 3 m / 3
-    # for at most 2.1 x 0.37 = 0.78 m and 3.16 x 0.37 = 1.17 m.
-    assert (fixed.seed_cell, fixed.final_cell) == (2.0 / 3, 3.0 / 3)
+    for name in ("seed_cell", "final_cell"):  # on a world lattice: a rung below the cap
+        assert_rung(getattr(fixed, name), name, spacing)
     assert fixed.near_vertex_distance == 0.0  # given: kept (0 is "off")
     assert fixed.at_spacing(5.0) == fixed  # nothing left unset
     cells = GridGroundParams(block_size=(30.0, 20.0)).at_spacing(spacing).cell_size
@@ -172,10 +182,10 @@ def test_at_isprs_spacing_and_sparser_the_unset_lengths_are_the_isprs_ones(
     # the stop edge (multiple of a 4 m edge) only below 0.475 m.
     assert TinGroundParams().at_spacing(spacing) == TinGroundParams(**ISPRS_LENGTHS)
     denser = TinGroundParams().at_spacing(0.9 * 0.95)
-    halves = {"seed_cell", "final_cell"}  # whole fractions of the cap: 0.9 x cap -> cap / 2
-    for name, length in ISPRS_LENGTHS.items():
-        expected = length if name == "stop_edge" else length / 2 if name in halves else 0.9 * length
-        assert getattr(denser, name) == pytest.approx(expected), name
+    assert denser.stop_edge == 2.0 and denser.near_vertex_distance == pytest.approx(0.9)
+    for name in ("seed_cell", "final_cell"):  # 0.9 x cap: the rung cap x 2^(-2/8)
+        assert_rung(getattr(denser, name), name, 0.9 * 0.95)
+        assert getattr(denser, name) == pytest.approx(ISPRS_LENGTHS[name] * 2**-0.25)
     for factor, stop_edge in ((1.01, 2.0), (0.9, 0.9 * 2.0)):
         assert TinGroundParams().at_spacing(factor * 0.475).stop_edge == pytest.approx(stop_edge)
 
@@ -265,16 +275,16 @@ def test_the_lengths_scale_with_the_density() -> None:
     ratio = used[1]["point_spacing"] / used[0]["point_spacing"]
     assert ratio == pytest.approx(0.5, rel=0.05)
     for name in TIN_LENGTHS:
-        # The cells are whole fractions of their caps: in proportion up to that step.
-        step = 0.25 if name in ("seed_cell", "final_cell") else 1e-9
+        # The cells are rungs 2^(1/8) apart: in proportion up to that step.
+        step = 0.1 if name in ("seed_cell", "final_cell") else 1e-9
         assert used[1][name] / used[0][name] == pytest.approx(ratio, rel=step)
 
 
 def test_a_stray_point_moves_no_cell_of_tin_grounds_lattices_in_utm() -> None:
     # One point 1 km above the tile nudges the spacing by 1.6e-5 (0.819847 -> 0.819834
     # m). Cells in proportion to it sat on the world lattice of a length 1.6e-5 shorter,
-    # which at x = 500 km is 8 m of shift: 508 of 60,000 labels changed. Whole fractions
-    # of the caps do not move with such a nudge.
+    # which at x = 500 km is 8 m of shift: 508 of 60,000 labels changed. The rungs of a
+    # ladder below the caps do not move with such a nudge.
     points = synthetic_scene(seed=0, offset=(5e5, 5.4e6, 0.0)).points[:60_000]
     stray = np.r_[points, [[500_100.0, 5_400_100.0, 1000.0]]]
     np.testing.assert_array_equal(pcl_rg.tin_ground(stray)[:-1], pcl_rg.tin_ground(points))

@@ -47,7 +47,7 @@ class TinGroundParams:
     its points' spacing (:func:`pcl_rg.point_spacing`, 1 m where undefined), and
     ``min(cap, m)`` with ``cap = SPACING_CAPS[name]``, or for the seed and final
     cells (on the world lattice of their size, which one stray point nudging the
-    spacing must not move) cap / the least whole number that makes it <= m.
+    spacing must not move) the largest ``cap * 2**(-j / 8)``, j >= 0, at most m.
     The caps are the ISPRS samples' lengths (2, 1, 2, 3 m) and each multiple
     is its cap / 0.95 m: data as sparse as those samples (spacing 0.99-2.41 m)
     gets the ISPRS lengths, denser data about its spacing's share. The stop
@@ -124,8 +124,8 @@ class TinGroundParams:
         minimum=0.0,
         help="improvement (0: off): seeds are the lowest points of seed_cell cells lying "
         "within seed_tolerance of the grey opening of those heights by a max_building_size "
-        "window (dense seeds, none on roofs; after Zhao et al. 2016); unset: 2 m / the least "
-        "whole number that makes it at most 2.1 x the point spacing",
+        "window (dense seeds, none on roofs; after Zhao et al. 2016); unset: the largest "
+        "2 m x 2^(-j/8) at most 2.1 x the point spacing",
     )
     seed_tolerance: float = param(
         0.5,
@@ -323,7 +323,7 @@ def tin_ground(
         ``d <= sin(limit) * near_vertex_distance`` instead of being judged by an
         angle close to 90 degrees minus the slope.
     seed_cell : float, optional
-        Metres (default: unset, 2 m / the least whole m with 2 m / m <= 2.1 x the
+        Metres (default: unset, the largest 2 m x 2^(-j/8) at most 2.1 x the
         point spacing; 0: one seed per ``max_building_size`` cell, LiDAR360). After
         Zhao et al. 2016: the lowest point of every ``seed_cell`` cell is a seed
         when it lies at most ``seed_tolerance`` above the grey opening of those
@@ -365,7 +365,7 @@ def tin_ground(
         x 30 m corridor rising 0.25 across, it lost 31 % of the uphill 10 m's
         ground, 1.1 % with them (``benchmarks/studies/tin_corridor.py``).
     final_cell : float, optional
-        Metres (default: unset, 3 m / the least whole m with 3 m / m <= 3.16 x the
+        Metres (default: unset, the largest 3 m x 2^(-j/8) at most 3.16 x the
         point spacing; 0: off). After TerraScan's practice of classifying the
         points close to the final ground TIN: a TIN is built from the lowest
         ground point of each ``final_cell`` cell (anchored on the world lattice
