@@ -280,6 +280,15 @@ def test_the_lengths_scale_with_the_density() -> None:
         assert used[1][name] / used[0][name] == pytest.approx(ratio, rel=step)
 
 
+def test_extreme_spacings_give_the_caps_or_the_proportional_cells() -> None:
+    # 1e308 overflowed the product to inf and log2(0) raised "math domain error"; the
+    # core gives the caps there. Below cap / DBL_MAX the rungs cannot be counted: as
+    # min(cap, multiple x spacing), as before.
+    assert TinGroundParams().at_spacing(1e308) == TinGroundParams(**ISPRS_LENGTHS)
+    tiny = TinGroundParams().at_spacing(1e-310)
+    assert tiny.seed_cell == TinGroundParams.SPACING_MULTIPLES["seed_cell"] * 1e-310
+
+
 def test_a_stray_point_moves_no_cell_of_tin_grounds_lattices_in_utm() -> None:
     # One point 1 km above the tile nudges the spacing by 1.6e-5 (0.819847 -> 0.819834
     # m). Cells in proportion to it sat on the world lattice of a length 1.6e-5 shorter,

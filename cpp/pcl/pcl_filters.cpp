@@ -26,6 +26,18 @@ PclVoxelGridResult pcl_voxel_grid(PointsView points, const VoxelGridParams& para
     PclVoxelGridResult result;
     const std::size_t n = points.size;
     if (n == 0) return result;
+    // PCL's own voxel expression (voxel_grid.hpp, applyFilter): float32 products with
+    // the float32 inverse leaf size, floored.
+    const float inverse[3] = {1.0f / static_cast<float>(params.leaf_size[0]),
+                              1.0f / static_cast<float>(params.leaf_size[1]),
+                              1.0f / static_cast<float>(params.leaf_size[2])};
+    // A leaf whose float32 inverse is not finite would put every point in one voxel.
+    for (int a = 0; a < 3; ++a)
+        if (!std::isfinite(inverse[a]))  // also a leaf that float32 rounds to 0
+            throw std::invalid_argument(
+                "leaf_size: pcl::VoxelGrid computes in float32, which "
+                "cannot hold the inverse of " +
+                check::format_value(params.leaf_size[a]));
     // The float32 frame's origin (the minimum corner, unless a stray point lies far
     // below the rest: then the rest keep their millimetres) snapped down to the voxel
     // lattice: PCL anchors its grid at the origin of the frame it sees, so the voxels
@@ -55,18 +67,6 @@ PclVoxelGridResult pcl_voxel_grid(PointsView points, const VoxelGridParams& para
     }
     poll_interrupt();
 
-    // PCL's own voxel expression (voxel_grid.hpp, applyFilter): float32 products with
-    // the float32 inverse leaf size, floored.
-    const float inverse[3] = {1.0f / static_cast<float>(params.leaf_size[0]),
-                              1.0f / static_cast<float>(params.leaf_size[1]),
-                              1.0f / static_cast<float>(params.leaf_size[2])};
-    // A leaf whose float32 inverse is not finite would put every point in one voxel.
-    for (int a = 0; a < 3; ++a)
-        if (!std::isfinite(inverse[a]))  // also a leaf that float32 rounds to 0
-            throw std::invalid_argument(
-                "leaf_size: pcl::VoxelGrid computes in float32, which "
-                "cannot hold the inverse of " +
-                check::format_value(params.leaf_size[a]));
     // PCL's overflow refusal (warn, return the input) becomes an error here, and so does
     // the overflow it misses: it counts trunc(extent / leaf) + 1 voxels per axis, but
     // numbers them from floor(min / leaf) to floor(max / leaf), which can be one more

@@ -434,9 +434,10 @@ std::invalid_argument unset_seed_cell_error(const std::invalid_argument& error, 
     // one XY position (copies, poles, a scanner's footprint) make it tiny. Or, on a cloud
     // far sparser than airborne LiDAR, its cap binds.
     const std::string unset =
-        " (seed_cell was left unset: the least of " + check::format_value(kTinSeedCellCap) +
-        " m and " + check::format_value(kTinSeedCellPerSpacing) +
-        " x the measured point spacing, " + check::format_value(spacing) + " m, ";
+        " (seed_cell was left unset: a rung of its ladder at most the least of " +
+        check::format_value(kTinSeedCellCap) + " m and " +
+        check::format_value(kTinSeedCellPerSpacing) + " x the measured point spacing, " +
+        check::format_value(spacing) + " m, ";
     if (kTinSeedCellPerSpacing * spacing > kTinSeedCellCap)
         return std::invalid_argument(std::string(error.what()) + unset +
                                      "so the cap, made for airborne densities; at this "

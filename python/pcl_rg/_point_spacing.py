@@ -102,13 +102,16 @@ def point_spacing(points: npt.ArrayLike) -> float:
 
 
 def lattice_length(cap: float, length: float) -> float:
-    """The largest ``cap * 2**(-j / 8)``, j >= 0 whole, at most `length` (0 for 0), with
-    C++'s operations (tin_lattice_length): a cell on the world lattice of its size in
-    exact proportion to the spacing moved the cells far from the world origin by metres
-    when one stray point nudged the spacing (UTM: 508 of 60,000 labels changed)."""
+    """The largest ``cap * 2**(-j / 8)``, j >= 0 whole, at most `length` (to rounding: at
+    an exact rung, one either side), with C++'s operations (tin_lattice_length): a cell
+    on the world lattice of its size in exact proportion to the spacing moved the cells
+    far from the world origin by metres when one stray point nudged the spacing (UTM:
+    508 of 60,000 labels changed)."""
     ratio = cap / length if length > 0.0 else math.inf
-    if not math.isfinite(ratio):
-        return 0.0
+    if not math.isfinite(ratio):  # a length below cap / DBL_MAX: as min(cap, length)
+        return min(cap, length)
+    if ratio <= 1.0:  # C++ gets there through log2(0) = -inf for an infinite length
+        return cap
     rungs = math.ceil(LATTICE_RUNGS * math.log2(ratio))
     return cap * 2.0 ** (-max(0.0, rungs) / LATTICE_RUNGS)
 

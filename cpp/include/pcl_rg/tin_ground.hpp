@@ -11,7 +11,8 @@
 
 namespace pcl_rg {
 
-/// The lengths left unset take min(cap, multiple x the point spacing) (point_spacing.hpp:
+/// The lengths left unset take min(cap, multiple x the point spacing), the seed and final
+/// cells a rung below it (tin_lattice_length) (point_spacing.hpp:
 /// spacing_or_one_metre). The caps are the lengths of the ISPRS preset, fixed lengths
 /// chosen and cross-validated on the seven ISPRS samples (benchmarks/studies/
 /// tin_isprs_params.py, ground_isprs_cv.py: no rule that scales them did better there);
@@ -42,14 +43,17 @@ inline constexpr double kTinFinalCellPerSpacing = kTinFinalCellCap / kTinFullLen
 inline constexpr double kTinLatticeRungs = 8.0;  // rungs per halving (tin_lattice_length)
 
 /// An unset seed or final cell: the largest cap x 2^(-j / 8), j >= 0 whole, that is at
-/// most multiple x spacing (0 when that is 0). A cell in exact proportion to the spacing
-/// moved the lattice's cells far from the world origin by metres when one stray point
-/// nudged the spacing (UTM coordinates: 508 of 60,000 labels changed); on a ladder of
+/// most multiple x spacing (to rounding: at an exact rung, one either side). A cell in exact
+/// proportion to the spacing moved the lattice's cells far from the world origin by metres when one
+/// stray point nudged the spacing (UTM coordinates: 508 of 60,000 labels changed); on a ladder of
 /// 9 % rungs it changes only where the spacing crosses one. (Whole fractions of the cap,
 /// as grid_ground's cell, halved the cells just below the caps: 2 pts/m^2 scored 7.58
 /// against 6.97 %.) Python: _point_spacing.lattice_length, the same operations.
 inline double tin_lattice_length(double cap, double multiple, double spacing) {
-    const double rungs = std::ceil(kTinLatticeRungs * std::log2(cap / (multiple * spacing)));
+    const double ratio = cap / (multiple * spacing);
+    // Below cap / DBL_MAX, as min(cap, length): 0 or a cell the seeds then refuse.
+    if (!std::isfinite(ratio)) return std::min(cap, multiple * spacing);
+    const double rungs = std::ceil(kTinLatticeRungs * std::log2(ratio));
     return cap * std::pow(2.0, -std::max(0.0, rungs) / kTinLatticeRungs);
 }
 

@@ -201,8 +201,12 @@ def run(
     if os.path.exists(folder) and not os.path.isdir(folder):
         raise NotADirectoryError(errno.ENOTDIR, "--out must be a folder, not a file", folder)
     outputs = output_paths(paths, folder)  # refused name clashes leave no folder behind
-    made = not os.path.isdir(folder)
-    os.makedirs(folder, exist_ok=True)
+    os.makedirs(os.path.dirname(folder), exist_ok=True)
+    try:  # made here or not, decided by the one call that makes it
+        os.mkdir(folder)
+        made = True
+    except FileExistsError:
+        made = False
     reports = [TileReport(p, o, "failed") for p, o in zip(paths, outputs, strict=True)]
     manifest = Manifest(folder)
     if not resume:

@@ -222,7 +222,10 @@ def check_las_header(path: str, stream: BinaryIO) -> LasFacts:
     else:
         spare_records = 0
     largest_chunk = 0
-    if compressed:  # a count of 0 too: the chunks tell whether the file holds more
+    # A count of 0 too, when the data can hold a point: the chunks tell whether the
+    # file holds more (an empty file's data is smaller; lazrs's sequential writer
+    # gives it one chunk of no point).
+    if compressed and (point_count or payload >= 8 + record_length):
         largest_chunk, spare_records = _check_laz_payload(
             path,
             stream,

@@ -351,7 +351,8 @@ def tin_ground(
         multiple = TinGroundParams.SPACING_MULTIPLES["seed_cell"]
         spacing = point_spacing(xyz)
         unset = (
-            f" (seed_cell was left unset: the least of {format_value(cap)} m and "
+            f" (seed_cell was left unset: a rung of its ladder at most the least of "
+            f"{format_value(cap)} m and "
             f"{format_value(multiple)} x the measured point spacing, {format_value(spacing)} m, "
         )
         if multiple * spacing > cap:

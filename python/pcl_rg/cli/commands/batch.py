@@ -74,8 +74,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "Process a survey of many tiles on Dask: each tile with a buffer of its "
         "neighbours' points, each input giving DIR/<its name> as the single-file command "
         "writes it. A rerun skips tiles that are up to date. Exit status 2 when a tile "
-        "failed on its data, 1 when one could not be written (a full disk); the others are "
-        "still written."
+        "failed on its data, 1 when one could not be written (a full disk), 1 when both; the "
+        "others are still written."
     )
     sub = parser.add_subparsers(dest="operation", required=True, metavar="OPERATION")
     operations = {
