@@ -3,7 +3,6 @@ VLRs kept bit for bit, templates, scales, what LAS cannot store, and damaged fil
 
 from __future__ import annotations
 
-import re
 import warnings
 from datetime import datetime, timezone
 
@@ -314,54 +313,6 @@ def test_las_13_waveform_packets_after_the_points_are_no_spare_room(tmp_path):
     (tmp_path / "c.las").write_bytes(bytes(data))
     with pytest.warns(UserWarning, match="room for"):
         read_points(tmp_path / "c.las")
-
-
-def test_laz_with_whole_chunks_beyond_its_count_warns(tmp_path):
-    random_las("1.2", 3, 120_000, seed=1, extra=False).write(tmp_path / "a.laz")
-    data = bytearray((tmp_path / "a.laz").read_bytes())
-    # LASzip's fixed chunks of 50,000 points: 3 chunks, the last one of 20,000. Whole
-    # chunks beyond the count are points for sure, and so is a last chunk's share of
-    # its bytes beyond what the count leaves it (at most 4 x 34 bytes a point).
-    for count in (120_000, 100_001, 100_000, 30_000):
-        data[107:111] = count.to_bytes(4, "little")
-        (tmp_path / "b.laz").write_bytes(bytes(data))
-        if count == 120_000:
-            with warnings.catch_warnings():
-                warnings.simplefilter("error")
-                assert len(read_points(tmp_path / "b.laz").points) == count
-            continue
-        with pytest.warns(UserWarning, match="more records") as caught:
-            assert len(read_points(tmp_path / "b.laz").points) == count
-        at_least = int(re.search(r"holds at least (\d+) more", str(caught[0].message))[1])
-        assert max(1, 100_001 - count) <= at_least <= 120_000 - count
-
-
-def test_a_laz_count_of_0_or_too_low_for_its_chunks_warns(tmp_path):
-    # A count of 0 skipped every check of the compressed data, and a count too low
-    # for a file of one chunk passed them, so a damaged count read the file short (or
-    # empty) without a word. Layered chunks (point formats 6-10) state their points:
-    # the count of every point beyond is exact.
-    random_las("1.4", 6, 5_000, seed=2, extra=False).write(tmp_path / "a.laz")
-    random_las("1.2", 3, 5_000, seed=2, extra=False).write(tmp_path / "p.laz")
-    for name, count_at, exact in (("a.laz", 247, True), ("p.laz", 107, False)):
-        data = bytearray((tmp_path / name).read_bytes())
-        for count in (0, 100):
-            width = 8 if count_at == 247 else 4
-            data[count_at : count_at + width] = count.to_bytes(width, "little")
-            (tmp_path / "b.laz").write_bytes(bytes(data))
-            with pytest.warns(UserWarning, match="more records") as caught:
-                assert len(read_points(tmp_path / "b.laz").points) == count
-            found = re.search(r"holds at least (\d+) more", str(caught[0].message))
-            assert int(found[1]) == 5_000 - count if exact else 1 <= int(found[1]) <= 5_000 - count
-    # A file of no point: nothing to warn of, whichever lazrs writer made it (the
-    # sequential one gives it one chunk of no point, which the checks refused).
-    for backend in (laspy.LazBackend.LazrsParallel, laspy.LazBackend.Lazrs):
-        for version, point_format in (("1.2", 3), ("1.4", 6)):
-            header = laspy.LasHeader(point_format=point_format, version=version)
-            laspy.LasData(header).write(tmp_path / "empty.laz", laz_backend=backend)
-            with warnings.catch_warnings():
-                warnings.simplefilter("error")
-                assert len(read_points(tmp_path / "empty.laz").points) == 0
 
 
 def test_an_extra_bytes_name_over_32_bytes_is_refused_naming_the_field(tmp_path):

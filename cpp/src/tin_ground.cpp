@@ -140,16 +140,15 @@ void validate(const TinGroundParams& params) {
 
 TinGroundParams with_spacing(const TinGroundParams& params, double spacing) {
     TinGroundParams resolved = params;
-    const auto fill = [spacing](std::optional<double>& length, double cap, double multiple) {
-        if (!length) length = std::min(cap, multiple * spacing);
+    const auto fill = [](std::optional<double>& length, double value) {
+        if (!length) length = value;
     };
-    fill(resolved.stop_edge, kTinStopEdgeCap, kTinStopEdgePerSpacing);
-    fill(resolved.near_vertex_distance, kTinNearVertexCap, kTinNearVertexPerSpacing);
-    if (!resolved.seed_cell)
-        resolved.seed_cell = tin_lattice_length(kTinSeedCellCap, kTinSeedCellPerSpacing, spacing);
-    if (!resolved.final_cell)
-        resolved.final_cell =
-            tin_lattice_length(kTinFinalCellCap, kTinFinalCellPerSpacing, spacing);
+    fill(resolved.stop_edge, std::min(kTinStopEdgeCap, kTinStopEdgePerSpacing * spacing));
+    fill(resolved.near_vertex_distance,
+         std::min(kTinNearVertexCap, kTinNearVertexPerSpacing * spacing));
+    fill(resolved.seed_cell, tin_lattice_length(kTinSeedCellCap, kTinSeedCellPerSpacing, spacing));
+    fill(resolved.final_cell,
+         tin_lattice_length(kTinFinalCellCap, kTinFinalCellPerSpacing, spacing));
     return resolved;
 }
 

@@ -25,8 +25,8 @@ namespace pcl_rg {
 /// 10M points: 7.4M vertices at 1.05 m, 2.7M at 2 m). It stays 2 m down to a
 /// spacing of 0.475 m (benchmarks/RESULTS.md, "Ground filters at 2-20 points per
 /// m^2"). The seed and final cells lie on the world lattice of their size, and their
-/// unset lengths are the rungs of a ladder below their caps (tin_lattice_length). Python mirror:
-/// TinGroundParams.SPACING_CAPS and SPACING_MULTIPLES.
+/// unset lengths are the rungs of a ladder below their caps (tin_lattice_length).
+/// Python mirror: TinGroundParams.SPACING_CAPS and SPACING_MULTIPLES.
 inline constexpr double kTinFullLengthSpacing = 0.95;
 inline constexpr double kTinStopEdgeCap = 2.0;
 inline constexpr double kTinNearVertexCap = 1.0;
@@ -43,12 +43,13 @@ inline constexpr double kTinFinalCellPerSpacing = kTinFinalCellCap / kTinFullLen
 inline constexpr double kTinLatticeRungs = 8.0;  // rungs per halving (tin_lattice_length)
 
 /// An unset seed or final cell: the largest cap x 2^(-j / 8), j >= 0 whole, that is at
-/// most multiple x spacing (to rounding: at an exact rung, one either side). A cell in exact
-/// proportion to the spacing moved the lattice's cells far from the world origin by metres when one
-/// stray point nudged the spacing (UTM coordinates: 508 of 60,000 labels changed); on a ladder of
-/// 9 % rungs it changes only where the spacing crosses one. (Whole fractions of the cap,
-/// as grid_ground's cell, halved the cells just below the caps: 2 pts/m^2 scored 7.58
-/// against 6.97 %.) Python: _point_spacing.lattice_length, the same operations.
+/// most multiple x spacing (to rounding: at an exact rung, one either side). A cell in
+/// exact proportion to the spacing moved the lattice's cells far from the world origin
+/// by metres when one stray point nudged the spacing (UTM coordinates: 508 of 60,000
+/// labels changed); on a ladder of 9 % rungs it changes only where the spacing crosses
+/// one. (Whole fractions of the cap, as grid_ground's cell, halved the cells just below
+/// the caps: 2 pts/m^2 scored 7.58 against 6.97 %.) Python: _point_spacing.lattice_length,
+/// the same operations.
 inline double tin_lattice_length(double cap, double multiple, double spacing) {
     const double ratio = cap / (multiple * spacing);
     // Below cap / DBL_MAX, as min(cap, length): 0 or a cell the seeds then refuse.

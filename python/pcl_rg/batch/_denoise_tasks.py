@@ -16,7 +16,6 @@ import numpy as np
 from .. import _core
 from .._classification import noise_classes, usable_points
 from .._far_points import check_fewer_than_kept
-from ..io import write_points
 from ._origin import far_points_error, merged_float32_origin
 from ._plan import Box, covers, grow, meets, room_inside
 from ._tasks import (
@@ -27,6 +26,7 @@ from ._tasks import (
     in_metres,
     load_cached,
     tile_folder,
+    write_tile,
     writing,
 )
 
@@ -135,10 +135,7 @@ def denoise_write(
         outlier = np.zeros(len(own), bool)
         outlier[valid] = (distance > threshold) | np.isinf(distance)  # far: always
         classes = noise_classes(own, valid, outlier)
-        with writing(tile.output):
-            write_points(
-                tile.output, own.points, dict(own.fields, classification=classes), template=own
-            )
+        write_tile(tile, own.points, dict(own.fields, classification=classes), own)
         return {
             "points": len(own),
             "noise": int(outlier.sum()),

@@ -53,6 +53,7 @@ __all__ = [
     "tile_folder",
     "Tile",
     "WriteFailure",
+    "write_tile",
     "writing",
 ]
 
@@ -96,6 +97,12 @@ def writing(what: str) -> Iterator[None]:
         raise
     except OSError as error:
         raise WriteFailure(f"cannot write {what}: {error.strerror or error}") from None
+
+
+def write_tile(tile: Tile, points: np.ndarray, fields: dict, template: PointFile) -> None:
+    """The tile's output, as `write_points` writes it; an OSError as a WriteFailure."""
+    with writing(tile.output):
+        write_points(tile.output, points, fields, template=template)
 
 
 def _failure(error: BaseException) -> dict[str, Any]:
@@ -174,16 +181,6 @@ def cache_tile(job: Job, tile: Tile) -> dict[str, Any]:
     def work() -> dict[str, Any]:
         cloud = read_points(tile.path)
         check_header_box(tile.path, tile.box, cloud)
-        folder = tile_folder(job, tile)
-        names = list(cloud.fields)
-        with writing("the scratch folder"):
-            # Not makedirs: a task still running after an interrupted run removed its
-            # scratch folder (on a cluster's worker) must fail, not make it again.
-            with contextlib.suppress(FileExistsError):  # a retried task's
-                os.mkdir(folder)
-            np.save(os.path.join(folder, "points.npy"), cloud.points)
-            for k, name in enumerate(names):
-                np.save(os.path.join(folder, f"field{k}.npy"), np.asarray(cloud.fields[name]))
         rows = _context_rows(job, cloud)
         xy = cloud.points[rows, :2]
         boxes = footprint(xy)
@@ -195,7 +192,16 @@ def cache_tile(job: Job, tile: Tile) -> dict[str, Any]:
         cell = cell_xy[:, 1] * INDEX_CELLS + cell_xy[:, 0]
         order = np.argsort(cell, kind="stable")
         starts = np.searchsorted(cell[order], np.arange(INDEX_CELLS * INDEX_CELLS + 1))
+        folder = tile_folder(job, tile)
+        names = list(cloud.fields)
         with writing("the scratch folder"):
+            # Not makedirs: a task still running after an interrupted run removed its
+            # scratch folder (on a cluster's worker) must fail, not make it again.
+            with contextlib.suppress(FileExistsError):  # a retried task's
+                os.mkdir(folder)
+            np.save(os.path.join(folder, "points.npy"), cloud.points)
+            for k, name in enumerate(names):
+                np.save(os.path.join(folder, f"field{k}.npy"), np.asarray(cloud.fields[name]))
             np.save(os.path.join(folder, "cell_rows.npy"), rows[order])
             np.save(os.path.join(folder, "cell_start.npy"), starts)
             with open(os.path.join(folder, "layout.pkl"), "wb") as stream:
@@ -342,10 +348,7 @@ def ground_tile(
         ground = GROUND_METHODS[job.method](in_metres(job, xyz), params=job.params)
         ground = ground[: int(work_rows.sum())]
         classes = ground_classes(own, work_rows, ground, job.keep_classes)
-        with writing(tile.output):
-            write_points(
-                tile.output, own.points, dict(own.fields, classification=classes), template=own
-            )
+        write_tile(tile, own.points, dict(own.fields, classification=classes), own)
         return {
             "points": len(own),
             "buffer_points": len(xyz) - int(work_rows.sum()),
@@ -404,13 +407,7 @@ def downsample_tile(
             fields, member, voxel, grid.counts, carried, no_data_values(own)
         )
         centroids = grid.centroids[mine] / np.asarray(job.scale)  # in the tile's units
-        with writing(tile.output):
-            write_points(
-                tile.output,
-                centroids,
-                {n: v[mine] for n, v in attributes.items()},
-                template=unorganized(own),
-            )
+        write_tile(tile, centroids, {n: v[mine] for n, v in attributes.items()}, unorganized(own))
         return {"points": len(own), "voxels": int(mine.sum())}
 
     return _with_buffer(neighbours, ready, work)

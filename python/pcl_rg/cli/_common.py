@@ -140,6 +140,14 @@ def add_output_options(parser: argparse.ArgumentParser, execute: Any) -> None:
 # ------------------------------------------------------------------ files
 
 
+def folder_type(text: str) -> str:
+    """An output folder flag's value (argparse type): "" would be the working folder,
+    an unset shell variable most likely."""
+    if not text:
+        raise argparse.ArgumentTypeError("an empty folder name")
+    return text
+
+
 def check_extension(path: str, what: str) -> None:
     ext = os.path.splitext(path)[1].lower()
     if ext not in EXTENSIONS:

@@ -164,12 +164,6 @@ def float_type(text: str) -> float:
         raise argparse.ArgumentTypeError(f"invalid number: {text!r}") from None
 
 
-def folder_type(text: str) -> str:
-    if not text:  # "" would be the working folder: an unset shell variable, most likely
-        raise argparse.ArgumentTypeError("an empty folder name")
-    return text
-
-
 def int_type(text: str) -> int:
     try:
         return int(text)

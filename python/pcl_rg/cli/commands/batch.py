@@ -8,14 +8,13 @@ import sys
 
 import pcl_rg
 
-from .._common import add_common_options, add_units_option, say_units
+from .._common import add_common_options, add_units_option, folder_type, say_units
 from .._flags import (
     EXIT_FAILURE,
     EXIT_USAGE,
     add_method_flags,
     add_param_flags,
     float_type,
-    folder_type,
     int_type,
     method_params,
     params_from_args,

@@ -5,8 +5,8 @@ from __future__ import annotations
 import argparse
 import os
 
-from .._common import add_common_options
-from .._flags import CliError, float_type, folder_type, int_type
+from .._common import add_common_options, folder_type
+from .._flags import CliError, float_type, int_type
 from .._run import Run
 
 __all__ = ["configure", "execute"]
