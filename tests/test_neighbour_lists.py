@@ -179,3 +179,23 @@ def test_long_lists_are_nearest_on_either_side_of_the_heap(k: int) -> None:
             _core.neighbour_lists(stacks, params, leaf_budget=budget),
             _core.neighbour_lists(stacks, params),
         )
+
+
+def test_poles_that_share_x_and_y_get_the_nearest_lists() -> None:
+    # Three vertical lines, each of one x and one y exactly. nanoflann's own split rule
+    # cut such nodes by index along x or y (cpp/src/knn.cpp), which made every query
+    # walk its whole pole; the lists were right, only slow (benchmarks/speed/copies.py,
+    # "three poles"). The split knn.cpp uses instead must keep them nearest, and both
+    # walks must still agree on its tree.
+    rng = np.random.default_rng(3)
+    points = np.zeros((3000, 3))
+    points[:, :2] = np.array([[0.0, 0.0], [5.0, 0.0], [0.0, 5.0]])[np.arange(3000) % 3]
+    points[:, 2] = rng.uniform(0.0, 10.0, 3000)
+    points[::7, 2] = np.round(points[::7, 2], 1)  # and some equal heights
+    for k in (3, 15, 50):
+        assert_lists_are_nearest(points, k)
+        params = NormalsParams(k=k).to_core()
+        np.testing.assert_array_equal(
+            _core.neighbour_lists(points, params, leaf_budget=0),
+            _core.neighbour_lists(points, params, leaf_budget=2**62),
+        )

@@ -7,14 +7,14 @@ so are dense spots (near a terrestrial scanner) and returns quantised to a latti
 Each algorithm runs at its defaults (grid_ground also with the seed's plain rule) on
 clouds of --points points and of a quarter of that, side by side with as many distinct
 points spread over a 10 m cube:
-"one stack", every point at the origin but 10 spread over the cube; "two stacks",
-half at the origin and half 1 cm away, and one point 1 m off; "lattice", a 3 cm
-cube of returns rounded to 1 cm (64 positions); "column", one vertical line of
-distinct heights; "dense spot", half the points in a 1 cm cube inside a cloud of
-10 points per m^2. An algorithm that spends quadratic time on such a cloud shows a
-cloud / distinct ratio that grows about four-fold from the quarter to the full size
-(growth about 4); a linear one keeps it (growth about 1). Every case runs in its
-own child process; times are medians of the repeats.
+"one stack", every point at the origin but 10 spread over the cube; "two stacks", half
+at the origin and half 1 cm away, and one point 1 m off; "lattice", a 3 cm cube of
+returns rounded to 1 cm (64 positions); "column", one vertical line of distinct
+heights; "three poles", three such lines 5 m apart; "dense spot", half the points in a
+1 cm cube inside a cloud of 10 points per m^2. An algorithm that spends quadratic time
+on such a cloud shows a cloud / distinct ratio that grows about four-fold from the
+quarter to the full size (growth about 4); a linear one keeps it (growth about 1).
+Every case runs in its own child process; times are medians of the repeats.
 """
 
 from __future__ import annotations
@@ -69,6 +69,15 @@ def column(n: int) -> np.ndarray:
     return points
 
 
+def three_poles(n: int) -> np.ndarray:
+    # Each pole shares one x and one y exactly: nanoflann's own split rule cut them by
+    # index along an axis they do not spread on (cpp/src/knn.cpp).
+    points = np.zeros((n, 3))
+    points[:, :2] = np.array([[0.0, 0.0], [5.0, 0.0], [0.0, 5.0]])[np.arange(n) % 3]
+    points[:, 2] = np.random.default_rng(0).uniform(0.0, 10.0, n)
+    return points
+
+
 def dense_spot(n: int) -> np.ndarray:
     rng = np.random.default_rng(0)
     side = np.sqrt(n / 10.0)
@@ -86,6 +95,7 @@ CLOUDS = {
     "two stacks": two_stacks,
     "lattice": lattice,
     "column": column,
+    "three poles": three_poles,
     "dense spot": dense_spot,
 }
 

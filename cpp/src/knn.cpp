@@ -15,6 +15,61 @@
 static_assert(NANOFLANN_VERSION >= 0x140 && NANOFLANN_VERSION < 0x150,
               "knn.cpp walks nanoflann 1.4's tree: check its layout and searchLevel first");
 
+// nanoflann 1.4 chooses a node's split axis among those where the node's *cell* (its
+// parent's cell cut at the parent's split) is widest, taking the one its points spread
+// most along. When every point of the node has the same value there (points on a line
+// or plane parallel to the axes, inside a cell that is wider across them), the split
+// value is that one value, half the points go each way by index, and both children's
+// cells keep the same width on that axis: every later split down to the leaves repeats
+// it, the children's extents coincide, and a query walks every point of its line. Three
+// vertical lines of 100k points took SOR 5.4 s against 0.36 s with 1e-9 m of jitter.
+//
+// This replaces nanoflann's split for our tree only: the same choice wherever the chosen
+// axis separates the points, so trees, and which of several points tied at the k-th
+// distance a list keeps, are unchanged on such clouds; and the axis of the points' widest
+// spread where it would not. A node of copies (no spread on any axis) is still cut by
+// index, as nanoflann does: the walk stops at once among copies (see walk()).
+template <>
+void nanoflann::KDTreeBaseClass<pcl_rg::knn_tree::Tree, pcl_rg::knn_tree::Distance,
+                                pcl_rg::knn_tree::Points, 3,
+                                std::uint32_t>::middleSplit_(pcl_rg::knn_tree::Tree& obj,
+                                                             Offset ind, Size count, Offset& index,
+                                                             Dimension& cutfeat,
+                                                             DistanceType& cutval,
+                                                             const BoundingBox& bbox) {
+    constexpr Dimension kDims = 3;
+    float widest_cell = bbox[0].high - bbox[0].low;
+    for (Dimension axis = 1; axis < kDims; ++axis)
+        widest_cell = std::max(widest_cell, bbox[axis].high - bbox[axis].low);
+    const float near_widest = (1 - static_cast<float>(0.00001)) * widest_cell;
+
+    std::array<float, kDims> low{}, high{};
+    for (Dimension axis = 0; axis < kDims; ++axis)
+        computeMinMax(obj, ind, count, axis, low[axis], high[axis]);
+    float spread = -1.0f;
+    cutfeat = 0;
+    for (Dimension axis = 0; axis < kDims; ++axis) {
+        if (bbox[axis].high - bbox[axis].low > near_widest && high[axis] - low[axis] > spread) {
+            cutfeat = axis;
+            spread = high[axis] - low[axis];
+        }
+    }
+    if (spread == 0.0f) {  // the cell's widest axes do not separate these points
+        for (Dimension axis = 0; axis < kDims; ++axis) {
+            if (high[axis] - low[axis] > spread) {
+                cutfeat = axis;
+                spread = high[axis] - low[axis];
+            }
+        }
+    }
+    const float middle = (bbox[cutfeat].low + bbox[cutfeat].high) / 2;
+    cutval = std::clamp(middle, low[cutfeat], high[cutfeat]);
+
+    Offset below = 0, up_to = 0;  // points < cutval come first, then those == cutval
+    planeSplit(obj, ind, count, cutfeat, cutval, below, up_to);
+    index = below > count / 2 ? below : up_to < count / 2 ? up_to : count / 2;
+}
+
 namespace pcl_rg {
 
 namespace {

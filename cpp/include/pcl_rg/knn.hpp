@@ -19,6 +19,25 @@
 
 namespace pcl_rg {
 
+namespace knn_tree {
+
+// Points as nanoflann reads them.
+struct Points {
+    const float* xyz;
+    std::size_t size;
+    std::size_t kdtree_get_point_count() const { return size; }
+    float kdtree_get_pt(std::size_t i, std::size_t axis) const { return xyz[3 * i + axis]; }
+    template <class Box>
+    bool kdtree_get_bbox(Box&) const {
+        return false;
+    }
+};
+using Distance = nanoflann::L2_Simple_Adaptor<float, Points>;
+// Its split rule is knn.cpp's, not nanoflann's own (a specialization there).
+using Tree = nanoflann::KDTreeSingleIndexAdaptor<Distance, Points, 3, std::uint32_t>;
+
+}  // namespace knn_tree
+
 /// k-d tree over row-major finite float32 x, y, z (the buffer must outlive the index).
 /// Squared distances are summed in float over x, y, z in that order, as
 /// pcl::KdTreeFLANN's L2_Simple does, so both return bit-identical distances. The
@@ -44,25 +63,14 @@ class KnnIndex {
     std::size_t size() const { return adaptor_.size; }
 
    private:
-    struct Adaptor {
-        const float* xyz;
-        std::size_t size;
-        std::size_t kdtree_get_point_count() const { return size; }
-        float kdtree_get_pt(std::size_t i, std::size_t axis) const { return xyz[3 * i + axis]; }
-        template <class Box>
-        bool kdtree_get_bbox(Box&) const {
-            return false;
-        }
-    };
-    using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, Adaptor>,
-                                                     Adaptor, 3, std::uint32_t>;
     template <class List>
     struct Search;  // the walk of nearest() over the tree (knn.cpp)
     // nearest() with a list of the k nearest so far of type List (knn.cpp).
     template <class List>
     std::size_t nearest_in(List& list, std::size_t query, std::size_t k, std::uint32_t* indices,
                            float* squared_distances, std::optional<std::size_t> leaf_budget) const;
-    Adaptor adaptor_;
+    using Tree = knn_tree::Tree;
+    knn_tree::Points adaptor_;
     std::unique_ptr<Tree> tree_;
 };
 
