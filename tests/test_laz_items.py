@@ -1,15 +1,19 @@
 """A LAZ file's LASzip VLR must describe its point record: lazrs divides by the items'
 sizes and panics on none (found by `make fuzz FUZZ_SEED=1616`), and a panic from the
 decoder is a ValueError naming the file, like every other complaint of a decoder. And
-its chunks bound its point count: points beyond the header's count are warned of."""
+its chunks bound its point count: points beyond the header's count are warned of,
+wherever the chunk table's offset is kept."""
 
 from __future__ import annotations
 
+import io
 import re
 import struct
 import warnings
 
 import laspy
+import lazrs
+import numpy as np
 import pytest
 from las_helpers import random_las
 
@@ -117,3 +121,68 @@ def test_a_laz_count_of_0_or_too_low_for_its_chunks_warns(tmp_path):
             with warnings.catch_warnings():
                 warnings.simplefilter("error")
                 assert len(read_points(tmp_path / "empty.laz").points) == 0
+
+
+def with_table_offset_at_the_end(data: bytes) -> bytearray:
+    """The LAZ file as a LASzip writer that cannot seek back leaves it: -1 where the
+    chunk table's offset belongs, and the offset in the file's last 8 bytes."""
+    (data_offset,) = struct.unpack_from("<I", data, 96)
+    (table_offset,) = struct.unpack_from("<q", data, data_offset)
+    moved = bytearray(data) + struct.pack("<q", table_offset)
+    struct.pack_into("<q", moved, data_offset, -1)
+    return moved
+
+
+def test_a_table_offset_in_the_last_8_bytes_is_read_and_checked(tmp_path):
+    random_las("1.2", 3, 120_000, seed=3, extra=False).write(tmp_path / "a.laz")
+    original = read_points(tmp_path / "a.laz").points
+    moved = with_table_offset_at_the_end((tmp_path / "a.laz").read_bytes())
+    (tmp_path / "b.laz").write_bytes(bytes(moved))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert (read_points(tmp_path / "b.laz").points == original).all()
+    # The table's checks hold for it too: a count too low for the chunks warns (the
+    # file's chunks went unchecked when the offset was -1).
+    moved[107:111] = (30_000).to_bytes(4, "little")
+    (tmp_path / "c.laz").write_bytes(bytes(moved))
+    with pytest.warns(UserWarning, match="more records"):
+        assert len(read_points(tmp_path / "c.laz").points) == 30_000
+    # An offset there that points into the compressed points: lazrs read a chunk count
+    # from them, asked for 40 GB and aborted the process. Outside the data, or -1 again.
+    (table_offset,) = struct.unpack_from("<q", moved, len(moved) - 8)
+    for bad in (table_offset - 100, 5, -1, 2**62):
+        struct.pack_into("<q", moved, len(moved) - 8, bad)
+        (tmp_path / "d.laz").write_bytes(bytes(moved))
+        with pytest.raises(ValueError, match="invalid LAS/LAZ file .*(last 8 bytes|chunk table)"):
+            read_points(tmp_path / "d.laz")
+
+
+def test_a_layered_file_whose_variable_chunks_end_in_an_empty_one_reads(tmp_path):
+    # lazrs's compressor with variable chunks, told to close a chunk just before the
+    # file ends, writes a last chunk of no point and no byte; lazrs reads the file,
+    # and the layer check refused it ("chunk 2 is shorter than its layer header").
+    las = random_las("1.4", 6, 3000, seed=1, extra=False)
+    record = las.point_format.size
+    laszip = lazrs.LazVlr.new_for_compression(6, 0, True)  # variable chunks
+    header = laspy.LasHeader(point_format=6, version="1.4")
+    header.scales, header.offsets = las.header.scales, las.header.offsets
+    header.vlrs.append(laspy.VLR("laszip encoded", 22204, "lazrs", laszip.record_data()))
+    plain = io.BytesIO()
+    with laspy.open(plain, mode="w", header=header, closefd=False) as writer:
+        writer.write_points(las.points)
+    head = bytearray(plain.getvalue()[: struct.unpack_from("<I", plain.getvalue(), 96)[0]])
+    head[104] |= 0x80  # the compressed bit of the point format
+    struct.pack_into("<Q", head, 247, 3000)
+    raw = las.points.array.tobytes()
+    with open(tmp_path / "a.laz", "wb") as stream:
+        stream.write(head)
+        compressor = lazrs.LasZipCompressor(stream, laszip)
+        compressor.compress_many(raw[: 1000 * record])
+        compressor.finish_current_chunk()
+        compressor.compress_many(raw[1000 * record :])
+        compressor.finish_current_chunk()
+        compressor.done()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        read = read_points(tmp_path / "a.laz")
+    np.testing.assert_array_equal(read.points, np.c_[las.x, las.y, las.z])

@@ -297,31 +297,35 @@ def _check_laz_payload(
     if len(head) < 8:
         raise _bad(path, "compressed point data is truncated (no chunk table offset)")
     (table_offset,) = struct.unpack("<q", head)
+    where = ""
+    if table_offset == -1:
+        # A LASzip writer that could not seek back to this place leaves -1 here and
+        # puts the table's offset in the file's last 8 bytes, where LASzip and lazrs
+        # read it: a hostile value there made lazrs allocate 40 GB for a chunk count
+        # read from the middle of the data, and abort the process.
+        file_end = stream.seek(0, os.SEEK_END)
+        (table_offset,) = struct.unpack("<q", _read_at(stream, file_end - 8, 8))
+        where = " (from the file's last 8 bytes, the point data's first 8 being -1)"
     payload = point_end - data_offset - 8
     max_chunks = payload // record_length
-    if table_offset == -1:
-        # Written by a streaming LASzip that never came back to record the table:
-        # lazrs then decompresses without one, chunk after chunk.
-        chunks = max_chunks
-    else:
-        if not data_offset + 8 <= table_offset <= point_end - 8:
-            raise _bad(
-                path,
-                f"LASzip chunk table offset {table_offset} lies outside the point data "
-                f"({data_offset + 8} to {point_end - 8})"
-                # Past the end of the file, not of the points before the EVLRs: a cut.
-                + (" (truncated?)" if at_file_end and table_offset > point_end - 8 else ""),
-            )
-        version, chunks = struct.unpack("<II", _read_at(stream, table_offset, 8))
-        if version != 0:
-            raise _bad(path, f"LASzip chunk table version {version} is not 0")
-        if chunks > max_chunks:
-            raise _bad(
-                path,
-                f"LASzip chunk table claims {chunks} chunks, but {payload} bytes of "
-                f"compressed data hold at most {max_chunks} chunks of at least one "
-                f"{record_length}-byte point",
-            )
+    if not data_offset + 8 <= table_offset <= point_end - 8:
+        raise _bad(
+            path,
+            f"LASzip chunk table offset {table_offset}{where} lies outside the point "
+            f"data ({data_offset + 8} to {point_end - 8})"
+            # Past the end of the file, not of the points before the EVLRs: a cut.
+            + (" (truncated?)" if at_file_end and table_offset > point_end - 8 else ""),
+        )
+    version, chunks = struct.unpack("<II", _read_at(stream, table_offset, 8))
+    if version != 0:
+        raise _bad(path, f"LASzip chunk table version {version} is not 0")
+    if chunks > max_chunks:
+        raise _bad(
+            path,
+            f"LASzip chunk table claims {chunks} chunks, but {payload} bytes of "
+            f"compressed data hold at most {max_chunks} chunks of at least one "
+            f"{record_length}-byte point",
+        )
     if chunk_size != _VARIABLE_CHUNKS and point_count > chunks * chunk_size:
         raise _bad(
             path,
@@ -334,8 +338,6 @@ def _check_laz_payload(
             f"header claims {point_count} points of {record_length} bytes, more than "
             f"{_LAZ_MAX_RATIO} times the {payload} bytes of compressed data (truncated?)",
         )
-    if table_offset == -1:  # no table: the chunk count above is only a bound
-        return (chunk_size if chunk_size != _VARIABLE_CHUNKS else point_count), 0
     largest, held = _check_chunk_table(
         path, stream, laszip_vlr, data_offset, table_offset, record_length
     )
@@ -411,7 +413,12 @@ def _check_layers(
         layers += item_size if item_type == _BYTE14 else _LAYERS.get(item_type, 0)
     head_size = raw_size + 4 + 4 * layers
     position, stated = start, 0
-    for index, (_, byte_count) in enumerate(table):
+    for index, (points, byte_count) in enumerate(table):
+        if points == 0 and byte_count == 0:
+            # A writer that closes a chunk just before it ends the file (lazrs's
+            # finish_current_chunk then done, with variable chunks) leaves one of
+            # nothing, which lazrs reads as nothing.
+            continue
         head = _read_at(stream, position, head_size)
         if byte_count < head_size or len(head) < head_size:
             raise _bad(path, f"LASzip chunk {index} is shorter than its layer header")
