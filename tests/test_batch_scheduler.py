@@ -97,6 +97,7 @@ def test_a_client_that_connects_after_the_deadline_is_closed(monkeypatch):
             closed.set()
 
     monkeypatch.setattr(distributed, "Client", SlowClient)
+    monkeypatch.setattr(_cluster, "CONNECT_SLACK_SECONDS", 0.2)
     with dask.config.set({"distributed.comm.timeouts.connect": "0s"}):
         with pytest.raises(ConnectionError, match="no Dask scheduler answered.*8786"):
             _cluster._connect("tcp://127.0.0.1:1")

@@ -42,6 +42,11 @@ def _workers_deaf_to_ctrl_c() -> Iterator[None]:
         signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
 
+# Seconds a Client may take beyond twice Dask's connect timeout (_connect): the
+# scheduler's handshake and the Client's start after the connection.
+CONNECT_SLACK_SECONDS = 5.0
+
+
 def _connect(scheduler: str) -> Any:
     """A Client of the scheduler at `scheduler`, or ConnectionError when what answers
     there is not one.
@@ -50,13 +55,15 @@ def _connect(scheduler: str) -> Any:
     then stays silent (dask/distributed#8071): the Client waited for ever. And an HTTP
     server (the dashboard's port, 8787) sent back bytes that Dask read as a message
     length, which failed as "MemoryError: Unable to allocate 3.07 EiB". So the Client
-    is made in a thread of its own, given twice Dask's connect timeout and 5 s.
+    is made in a thread of its own, given twice Dask's connect timeout and
+    CONNECT_SLACK_SECONDS.
     """
     import dask
     from dask.utils import parse_timedelta
     from distributed import Client
 
-    limit = 2.0 * parse_timedelta(dask.config.get("distributed.comm.timeouts.connect")) + 5.0
+    connect_timeout = parse_timedelta(dask.config.get("distributed.comm.timeouts.connect"))
+    limit = 2.0 * connect_timeout + CONNECT_SLACK_SECONDS
     port_hint = "a scheduler listens on port 8786 unless told otherwise"
     outcome: dict[str, Any] = {}
     # A Client that connects after the caller gave up is closed at once, not left open
