@@ -77,15 +77,15 @@ def test_iterations_end_when_every_point_is_ground(copies, monkeypatch) -> None:
 
 
 def test_a_corridor_across_the_axes_is_not_refused() -> None:
-    # A 3.5 km x 25 m strip at 45 degrees fills every row and column of its box: 1.55M
-    # seed cells of 2 m for 43,750 points, 35 a point, over the 4-per-point limit, so it
-    # was refused while the same strip along an axis ran (ground hunt; roads and power
-    # lines run so). 1.4 % of its cells hold a point; a cloud too sparse for its cells
-    # stays refused (test_tin_ground.py's tests of the seed cell's advice).
+    # A 7 km x 50 m strip at 45 degrees fills every row and column of its box: 6.2M seed
+    # cells for 175,000 points, over the 4-per-point limit, so it was refused while the
+    # same strip along an axis ran (ground hunt; roads and power lines run so). 1.4 % of
+    # its cells hold a point; a cloud too sparse for its cells stays refused
+    # (test_tin_ground.py's tests of the seed cell's advice).
     rng = np.random.default_rng(0)
-    along, across = rng.uniform(0.0, 3500.0, 43_750), rng.uniform(0.0, 25.0, 43_750)
+    along, across = rng.uniform(0.0, 7000.0, 175_000), rng.uniform(0.0, 50.0, 175_000)
     c = np.sqrt(0.5)
-    points = np.c_[c * (along - across), c * (along + across), rng.normal(0.0, 0.03, 43_750)]
+    points = np.c_[c * (along - across), c * (along + across), rng.normal(0.0, 0.03, 175_000)]
     points += (500_000.0, 5_000_000.0, 100.0)
     ground = pcl_rg.tin_ground(points)
     assert ground.mean() > 0.99

@@ -33,10 +33,22 @@ struct Points {
     }
 };
 using Distance = nanoflann::L2_Simple_Adaptor<float, Points>;
-// Its split rule is knn.cpp's, not nanoflann's own (a specialization there).
+// Its split rule is knn.cpp's, not nanoflann's own (declared below).
 using Tree = nanoflann::KDTreeSingleIndexAdaptor<Distance, Points, 3, std::uint32_t>;
 
 }  // namespace knn_tree
+
+}  // namespace pcl_rg
+
+// The tree's own split rule (defined in knn.cpp): declared here so that every file that
+// builds a knn_tree::Tree uses it, not nanoflann's (the one-definition rule).
+template <>
+void nanoflann::KDTreeBaseClass<
+    pcl_rg::knn_tree::Tree, pcl_rg::knn_tree::Distance, pcl_rg::knn_tree::Points, 3,
+    std::uint32_t>::middleSplit_(pcl_rg::knn_tree::Tree& obj, Offset ind, Size count, Offset& index,
+                                 Dimension& cutfeat, DistanceType& cutval, const BoundingBox& bbox);
+
+namespace pcl_rg {
 
 /// k-d tree over row-major finite float32 x, y, z (the buffer must outlive the index).
 /// Squared distances are summed in float over x, y, z in that order, as
