@@ -6,6 +6,8 @@ from __future__ import annotations
 import os
 import re
 import struct
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -14,6 +16,7 @@ from pcd_helpers import ENCODINGS, bits, data_offset, synthetic_cloud
 
 import pcl_rg.io._atomic as atomic_io
 import pcl_rg.io._pcd as pcd_io
+from pcl_rg._core import lzf_compress, lzf_decompress
 from pcl_rg.io import read_pcd, write_pcd
 
 # ------------------------------------------------------------------- corrupt files
@@ -334,3 +337,30 @@ def test_written_file_follows_umask(tmp_path):
     finally:
         os.umask(mask)
     assert (tmp_path / "m.pcd").stat().st_mode & 0o777 == 0o644
+
+
+def test_an_lzf_size_claim_is_checked_before_the_output_is_allocated():
+    # The codec zero-filled the claimed size before liblzf found the payload corrupt:
+    # random bytes claiming 88 times their size (what the header check allows) made a
+    # 24 MiB file allocate 2.2 GB. The size now comes from the payload's control bytes
+    # first: under a 1 GB address-space limit, a 3 GB claim is a ValueError, not a
+    # MemoryError.
+    script = (
+        "import os, resource\n"
+        "resource.setrlimit(resource.RLIMIT_AS, (1 << 30, 1 << 30))\n"
+        "from pcl_rg._core import lzf_decompress\n"
+        "try:\n"
+        "    lzf_decompress(os.urandom(1 << 20), 3_000_000_000)\n"
+        "except ValueError as error:\n"
+        "    print('ValueError', error)\n"
+    )
+    result = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, timeout=120
+    )
+    assert result.stdout.startswith("ValueError corrupt LZF data"), result.stderr
+    data = np.random.default_rng(3).integers(0, 4, 100_000, dtype=np.uint8).tobytes()
+    packed = lzf_compress(data)
+    assert lzf_decompress(packed, len(data)) == data
+    for claim, holds in ((len(data) + 1, str(len(data))), (len(data) - 1, "more")):
+        with pytest.raises(ValueError, match=f"expected {claim} bytes, it holds {holds}$"):
+            lzf_decompress(packed, claim)

@@ -102,7 +102,8 @@ def _decode_compressed(path: str, header: PcdHeader, data: memoryview) -> dict[s
         )
     # An LZF back-reference of 3 bytes expands to at most 264 bytes, so no payload
     # decompresses to more than 88 times its size: a larger claim is damage, caught
-    # before the output buffer is allocated.
+    # here; a smaller false one, by the codec's scan of the payload's control bytes
+    # before it allocates the output (lzf_codec.cpp).
     if uncompressed_size > _LZF_MAX_EXPANSION * compressed_size:
         raise bad_pcd(
             path,
