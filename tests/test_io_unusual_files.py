@@ -182,3 +182,37 @@ def test_an_ascii_ply_list_counted_by_floats(tmp_path):
         b"end_header\n0 0 0\n1 0 0\n0 1 0\n3.0 0 1 2\n"
     )
     assert len(read_points(tmp_path / "f.ply")) == 3
+
+
+def test_wide_xyz_rows_of_whole_numbers_are_read_in_one_scan(tmp_path):
+    # 3 + 20,000 columns of whole numbers: each column looked for an integer in every
+    # row, splitting the whole row again each time, so ten such rows took minutes
+    # (quadratic in the width). One column written as an integer in the last row only
+    # must still come back int64, and the others float64, as before.
+    rows = [" ".join(["1."] * 20_003) for _ in range(10)]  # 60 kB, within the line limit
+    rows[-1] = rows[-1][: -len("1.")] + "7"
+    (tmp_path / "wide.xyz").write_text("\n".join(rows) + "\n")
+    fields = read_points(tmp_path / "wide.xyz").fields
+    assert len(fields) == 20_000 and fields["column_20003"].dtype == np.int64
+    assert fields["column_20003"].tolist() == [1] * 9 + [7]
+    assert all(fields[f"column_{i}"].dtype == np.float64 for i in range(4, 20_003))
+
+
+@pytest.mark.parametrize("name", ["x", "y", "synthetic", "return_number", "pt_src_id"])
+def test_an_extra_bytes_field_named_as_a_standard_one_is_refused(tmp_path, name):
+    # laspy reads such a name as the standard field (the coordinate, a flag packed in a
+    # byte, an old alias): the file's own values, 42 and 43, came back as x's 1 and 2.
+    # laspy writes no such file, so the name is put in the Extra Bytes record after.
+    header = laspy.LasHeader(point_format=3, version="1.2")
+    header.add_extra_dims([laspy.ExtraBytesParams(name="placeholder_name", type=np.float32)])
+    las = laspy.LasData(header)
+    las.x, las.y, las.z = [1.0, 2.0], [3.0, 4.0], [5.0, 6.0]
+    las["placeholder_name"] = [42.0, 43.0]
+    buffer = io.BytesIO()
+    las.write(buffer)
+    data = bytearray(buffer.getvalue())
+    at = data.index(b"placeholder_name")
+    data[at : at + 32] = name.encode().ljust(32, b"\0")
+    (tmp_path / "a.las").write_bytes(bytes(data))
+    with pytest.raises(ValueError, match=f"extra bytes dimension '{name}' has the name of a"):
+        read_points(tmp_path / "a.las")

@@ -43,7 +43,13 @@ def laszip_record(data: bytes) -> int:
 
 @pytest.mark.parametrize(
     ("damage", "message"),
-    [("no items", "lists 0 point items"), ("short items", "point items take")],
+    [
+        ("no items", "lists 0 point items"),
+        ("short items", "point items take"),
+        # Sizes that still add up: lazrs decoded the items it was given, into garbage.
+        ("Point10 as bytes", r"item types are \[0, 7\], point format 1 .* has \[6, 7\]"),
+        ("items swapped", r"item types are \[7, 6\]"),
+    ],
 )
 def test_a_laszip_vlr_unlike_the_point_record_is_refused(damage, message, tmp_path):
     path = tmp_path / "a.laz"
@@ -52,6 +58,11 @@ def test_a_laszip_vlr_unlike_the_point_record_is_refused(damage, message, tmp_pa
     record = laszip_record(bytes(data))
     if damage == "no items":
         struct.pack_into("<H", data, record + 32, 0)
+    elif damage == "Point10 as bytes":
+        struct.pack_into("<H", data, record + 34, 0)
+    elif damage == "items swapped":
+        first, second = data[record + 34 : record + 40], data[record + 40 : record + 46]
+        data[record + 34 : record + 46] = second + first
     else:  # the first item 1 byte shorter than the record it describes
         (size,) = struct.unpack_from("<H", data, record + 36)
         struct.pack_into("<H", data, record + 36, size - 1)
@@ -186,3 +197,40 @@ def test_a_layered_file_whose_variable_chunks_end_in_an_empty_one_reads(tmp_path
         warnings.simplefilter("error")
         read = read_points(tmp_path / "a.laz")
     np.testing.assert_array_equal(read.points, np.c_[las.x, las.y, las.z])
+
+
+@pytest.mark.parametrize("mark", [0xC0, 0x40])
+def test_a_format_byte_with_bit_6_is_refused(tmp_path, mark):
+    # Bit 6 made the checks take the file as LAZ, while laspy reads it as uncompressed
+    # records: one point came back as garbage, silently.
+    random_las("1.2", 3, 1, seed=4, extra=False).write(tmp_path / "a.laz")
+    data = bytearray((tmp_path / "a.laz").read_bytes())
+    data[104] = mark | (data[104] & 0x3F)
+    (tmp_path / "b.laz").write_bytes(bytes(data))
+    with pytest.raises(ValueError, match="invalid LAS/LAZ file .*sets bit 6"):
+        read_points(tmp_path / "b.laz")
+
+
+def test_a_chunk_table_that_misplaces_chunks_is_read_chunk_after_chunk(tmp_path):
+    # A byte moved from one chunk's count to the next, their sum unchanged: lazrs's
+    # parallel reader, which seeks each chunk by the table, decoded 50,000 points of
+    # garbage without a word. The chunks' raw first points then lie outside the
+    # header's box, and the file is read by the sequential reader, which does not
+    # seek by the table.
+    random_las("1.2", 3, 120_000, seed=5, extra=False).write(tmp_path / "a.laz")
+    original = read_points(tmp_path / "a.laz").points
+    data = (tmp_path / "a.laz").read_bytes()
+    (data_offset,) = struct.unpack_from("<I", data, 96)
+    (table_offset,) = struct.unpack_from("<q", data, data_offset)
+    laszip = lazrs.LazVlr(data[laszip_record(data) : laszip_record(data) + 52])
+    stream = io.BytesIO(data)
+    stream.seek(data_offset)
+    table = [list(entry) for entry in lazrs.read_chunk_table(stream, laszip)]
+    table[0][1] += 1
+    table[1][1] -= 1
+    rewritten = io.BytesIO()
+    lazrs.write_chunk_table(rewritten, [tuple(entry) for entry in table], laszip)
+    (tmp_path / "b.laz").write_bytes(data[:table_offset] + rewritten.getvalue())
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        np.testing.assert_array_equal(read_points(tmp_path / "b.laz").points, original)

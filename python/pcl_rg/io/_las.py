@@ -19,13 +19,8 @@ import numpy as np
 from .._caller import outside_stacklevel
 from .._held_signals import HeldSignals, held_signals
 from ._atomic import atomic_write
-from ._las_header import (
-    LasRecord,
-    check_extra_bytes_scales,
-    check_las_header,
-    keep_min_max_computable,
-    restore_no_data,
-)
+from ._las_extra_bytes import check_extra_bytes, keep_min_max_computable, restore_no_data
+from ._las_header import LasRecord, check_las_header
 
 __all__ = ["las_coordinate_name", "read", "write"]
 
@@ -92,7 +87,7 @@ def _decode_las(path: str) -> LasContents:
         backend = laspy.LazBackend.LazrsParallel if parallel else laspy.LazBackend.Lazrs
         with laspy.open(stream, closefd=False, laz_backend=backend) as reader:
             header = reader.header
-            check_extra_bytes_scales(path, header)
+            check_extra_bytes(path, header)
             restore_no_data(header)
             chunks = []
             # Uncompressed: the size check made the count trustworthy, one step.

@@ -7,8 +7,7 @@ of terabytes. Every count and offset in the header is checked here against the
 file size first, with bounded work (at most one read per VLR, and the VLR count is
 checked against the bytes available before the walk).
 
-Also the extra-bytes records' checks and repairs around laspy: scales, and the "no
-data" values that laspy loses or trips over.
+The extra-bytes records' checks and repairs are in _las_extra_bytes.py.
 
 Layout of the public header block (ASPRS LAS 1.4 R15, table 3; the earlier
 versions are prefixes of it): version at byte 24, header size at 94, offset to
@@ -25,8 +24,6 @@ import struct
 from collections.abc import Iterator
 from typing import BinaryIO, NamedTuple
 
-import numpy as np
-
 # Smallest public header block of each minor version 0-4.
 _HEADER_SIZE = {0: 227, 1: 227, 2: 227, 3: 235, 4: 375}
 # Smallest record of each point data format 0-10 (LAS 1.4 R15, tables 7-17).
@@ -41,6 +38,13 @@ _VARIABLE_CHUNKS = 0xFFFFFFFF
 _LAYERED_CHUNKED = 3  # LASzip's compressor code for LAS 1.4 point formats 6-10
 _BYTE14 = 14
 _LAYERS = {10: 9, 11: 1, 12: 2, 13: 1}  # Point14, RGB14, RGBNIR14, Wavepacket14
+# LASzip's item types for each point data format 0-10, in record order: Point10 (6),
+# GpsTime11 (7), Rgb12 (8), Wavepacket13 (9); Point14 (10), Rgb14 (11), RgbNir14 (12),
+# Wavepacket14 (13); extra bytes add one Byte (0) item, or Byte14 (14) in formats 6-10.
+_ITEM_TYPES = (
+    (6,), (6, 7), (6, 8), (6, 7, 8), (6, 7, 9), (6, 7, 8, 9),
+    (10,), (10, 11), (10, 12), (10, 13), (10, 12, 13),
+)  # fmt: skip
 # Largest accepted ratio of a LAZ file's point records to its compressed bytes. A
 # million identical points compress about 3000-fold (point formats 0-7, measured
 # with lazrs); real surveys 5- to 10-fold. A larger claim is damage.
@@ -71,7 +75,8 @@ class LasFacts(NamedTuple):
     compressed: bool
     parallel_decompression: bool
     """False when a LAZ chunk is too large for lazrs's parallel reader, which
-    allocates a whole chunk's points at once; the sequential reader does not."""
+    allocates a whole chunk's points at once (the sequential reader does not), or when
+    the chunk table misplaces a chunk (_first_points_in_box)."""
     spare_records: int
     """How many more point records the file holds after the counted ones: LAS, the
     room before what follows them (EVLRs, waveform packets, the end of the file);
@@ -138,8 +143,16 @@ def check_las_header(path: str, stream: BinaryIO) -> LasFacts:
             f"offset to point data {data_offset} must be between the header size "
             f"{header_size} and the file size {file_size}",
         )
-    # Bits 6 and 7 of the format byte mark LASzip compression.
-    point_format, compressed = format_byte & 0x3F, bool(format_byte & 0xC0)
+    # Bit 7 of the format byte marks LASzip compression. laspy reads a byte with bit 6
+    # set too as uncompressed records, which is what LASzip's compressed bytes are not:
+    # the checks below took such a file as LAZ, and laspy then read garbage.
+    if format_byte & 0x40:
+        raise _bad(
+            path,
+            f"point data format byte 0x{format_byte:02x} sets bit 6, which marks no "
+            "format laspy reads (LAZ sets bit 7 alone)",
+        )
+    point_format, compressed = format_byte & 0x3F, bool(format_byte & 0x80)
     if point_format >= len(_RECORD_SIZE):
         raise _bad(path, f"point data format {point_format} is not one of 0-10")
     if record_length < _RECORD_SIZE[point_format]:
@@ -221,22 +234,26 @@ def check_las_header(path: str, stream: BinaryIO) -> LasFacts:
         spare_records = (records_end - counted_end) // record_length
     else:
         spare_records = 0
-    largest_chunk = 0
+    largest_chunk, first_points_fit = 0, True
     # A count of 0 too, when the data can hold a point: the chunks tell whether the
     # file holds more (an empty file's data is smaller; lazrs's sequential writer
     # gives it one chunk of no point).
     if compressed and (point_count or payload >= 8 + record_length):
-        largest_chunk, spare_records = _check_laz_payload(
+        bounds = struct.unpack_from("<6d", head, 179)  # max x, min x, max y, min y, ...
+        box = (scales, offsets, bounds[1::2], bounds[0::2])
+        largest_chunk, spare_records, first_points_fit = _check_laz_payload(
             path,
             stream,
             laszip_vlr,
             data_offset,
             point_end,
             point_count,
+            point_format,
             record_length,
             at_file_end=not evlr_count,
+            box=box,
         )
-    parallel = largest_chunk * record_length <= _PARALLEL_CHUNK_BYTES
+    parallel = largest_chunk * record_length <= _PARALLEL_CHUNK_BYTES and first_points_fit
     return LasFacts(point_count, compressed, parallel, spare_records, tuple(records))
 
 
@@ -259,11 +276,15 @@ def _check_laz_payload(
     data_offset: int,
     point_end: int,
     point_count: int,
+    point_format: int,
     record_length: int,
     at_file_end: bool,
-) -> tuple[int, int]:
-    """Bound a LAZ file's point count by its chunks; return the largest chunk's points
-    and how many points the chunks hold beyond the count, at least (0: none for sure).
+    box: tuple,
+) -> tuple[int, int, bool]:
+    """Bound a LAZ file's point count by its chunks; return the largest chunk's points,
+    how many points the chunks hold beyond the count, at least (0: none for sure), and
+    whether the chunks' first points lie in the header's `box` (scales, offsets, least
+    and greatest x, y, z: _first_points_in_box).
 
     LASzip compresses points in chunks and stores the first point of every chunk
     uncompressed, so a chunk takes at least `record_length` bytes; with a fixed
@@ -292,6 +313,20 @@ def _check_laz_payload(
             path,
             f"LASzip VLR's point items take {item_bytes} bytes, the header's point "
             f"record {record_length}",
+        )
+    # And their types must be the point format's, in its order: lazrs decodes the items
+    # it is given, so a Point10 item listed as bytes, or two items swapped, gave points
+    # of garbage without a word.
+    types = tuple(struct.unpack_from("<H", laszip_vlr, 34 + 6 * k)[0] for k in range(items))
+    expected = _ITEM_TYPES[point_format]
+    if record_length > _RECORD_SIZE[point_format]:
+        expected += (_BYTE14 if point_format >= 6 else 0,)
+    if types != expected:
+        raise _bad(
+            path,
+            f"LASzip VLR's point item types are {list(types)}, point format {point_format} "
+            f"with {record_length - _RECORD_SIZE[point_format]} extra bytes has "
+            f"{list(expected)}",
         )
     head = _read_at(stream, data_offset, 8)
     if len(head) < 8:
@@ -338,10 +373,10 @@ def _check_laz_payload(
             f"header claims {point_count} points of {record_length} bytes, more than "
             f"{_LAZ_MAX_RATIO} times the {payload} bytes of compressed data (truncated?)",
         )
-    largest, held = _check_chunk_table(
-        path, stream, laszip_vlr, data_offset, table_offset, record_length
+    largest, held, fit = _check_chunk_table(
+        path, stream, laszip_vlr, data_offset, table_offset, record_length, box
     )
-    return largest, max(0, held - point_count)
+    return largest, max(0, held - point_count), fit
 
 
 def _check_chunk_table(
@@ -351,9 +386,11 @@ def _check_chunk_table(
     data_offset: int,
     table_offset: int,
     record_length: int,
-) -> tuple[int, int]:
-    """Check the chunks' byte counts against the data; return the largest chunk's points
-    and how many points the chunks hold, at least.
+    box: tuple,
+) -> tuple[int, int, bool]:
+    """Check the chunks' byte counts against the data; return the largest chunk's points,
+    how many points the chunks hold, at least, and whether every chunk's first point
+    lies in the header's box (_first_points_in_box).
 
     lazrs's parallel reader allocates each chunk's stated bytes, and its stated
     points (the chunk size, with fixed chunks), before reading it. Variable chunks
@@ -383,13 +420,38 @@ def _check_chunk_table(
             )
     (compressor,) = struct.unpack_from("<H", laszip_vlr, 0)
     (chunk_size,) = struct.unpack_from("<I", laszip_vlr, 12)
+    fit = _first_points_in_box(stream, data_offset + 8, table, box)
     if compressor == _LAYERED_CHUNKED:
-        return largest, _check_layers(path, stream, laszip_vlr, data_offset + 8, table)
+        return largest, _check_layers(path, stream, laszip_vlr, data_offset + 8, table), fit
     if chunk_size == _VARIABLE_CHUNKS or not table:
-        return largest, points_in_all
+        return largest, points_in_all, fit
     last_bytes = table[-1][1] - record_length  # after the last chunk's raw first point
     in_last = 1 + max(0, last_bytes - 1) // (_POINTWISE_MAX_RATIO * record_length)
-    return largest, (len(table) - 1) * chunk_size + min(in_last, chunk_size)
+    return largest, (len(table) - 1) * chunk_size + min(in_last, chunk_size), fit
+
+
+def _first_points_in_box(stream: BinaryIO, start: int, table: list, box: tuple) -> bool:
+    """Whether the first point of every chunk, stored raw where the table's byte counts
+    place the chunk (its x, y, z the record's first 12 bytes), lies in the header's
+    box. Only lazrs's parallel reader goes by those counts: counts that move bytes from
+    one chunk to the next, their sum unchanged, made it decode garbage without a word,
+    while the sequential reader, which decodes the chunks one after another, read the
+    file right. A file that fails this is read sequentially."""
+    scales, offsets, low, high = box
+    position = start
+    for _, byte_count in table:
+        if byte_count:  # (a chunk of no byte holds no point)
+            raw = _read_at(stream, position, 12)
+            if len(raw) < 12:
+                return False
+            for stored, scale, offset, least, most in zip(
+                struct.unpack("<3i", raw), scales, offsets, low, high
+            ):
+                value, slack = stored * scale + offset, 1.5 * abs(scale)
+                if not least - slack <= value <= most + slack:
+                    return False
+        position += byte_count
+    return True
 
 
 def _check_layers(
@@ -432,56 +494,3 @@ def _check_layers(
             )
         position += byte_count
     return stated
-
-
-def _declaring_no_data(header) -> Iterator:
-    """The records of `header`'s Extra Bytes VLR that declare a "no data" value."""
-    for vlr in header.vlrs:
-        for record in getattr(vlr, "extra_bytes_structs", ()):
-            # Type 0 is untyped bytes: no value to compare with.
-            if record.data_type != 0 and record.no_data is not None:
-                yield record
-
-
-def restore_no_data(header) -> None:
-    """Give `header`'s extra-bytes dimensions the "no data" values that their Extra
-    Bytes VLR declares. laspy reads them into that VLR only, and rebuilds the VLR from
-    the dimensions when it writes: a file written back in its layout lost them, and
-    its "no data" values then read as real ones."""
-    declared = {record.format_name(): record.no_data for record in _declaring_no_data(header)}
-    dimensions = header.point_format.dimensions
-    for i, dim in enumerate(dimensions):
-        if not dim.is_standard and dim.no_data is None and dim.name in declared:
-            dimensions[i] = dim._replace(no_data=declared[dim.name])
-
-
-def check_extra_bytes_scales(path: str, header) -> None:
-    """ValueError for an extra-bytes dimension whose scale is 0 or whose scale or offset
-    is not finite: its values would all read as one number (0 for a scale of 0), and a
-    write back would divide by that scale."""
-    for dim in header.point_format.extra_dimensions:
-        for kind, values in (("scale", dim.scales), ("offset", dim.offsets)):
-            if values is None:
-                continue
-            values = np.atleast_1d(np.asarray(values, dtype=np.float64))
-            if not np.isfinite(values).all() or (kind == "scale" and (values == 0).any()):
-                shown = values.tolist() if len(values) > 1 else values[0].item()
-                raise ValueError(
-                    f"invalid LAS file {path!r}: extra bytes dimension {dim.name!r} has "
-                    f"{kind} {shown!r}; its values cannot be read back"
-                )
-
-
-def keep_min_max_computable(header, records) -> None:
-    """Stop laspy from computing the minimum and maximum of an extra-bytes field that
-    holds nothing but its "no data" value in some position (`records`: the raw point
-    records to write): laspy 2.7 then takes the minimum of nothing and fails the write.
-    The Extra Bytes VLR then states no minimum or maximum for it, as LAS allows."""
-    n = len(records)
-    for record in _declaring_no_data(header) if n else ():
-        name = record.format_name()
-        if name not in (records.dtype.names or ()):
-            continue
-        raw = np.asarray(records[name]).reshape(n, -1)
-        if (raw == np.asarray(record.no_data)[: raw.shape[1]]).all(axis=0).any():
-            record.options &= ~(record.MIN_BIT_MASK | record.MAX_BIT_MASK)

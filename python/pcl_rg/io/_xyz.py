@@ -122,23 +122,58 @@ def read(path: str) -> tuple[np.ndarray, dict[str, np.ndarray], None]:
         names = _PTS_NAMES[width]
     else:
         names = [f"column_{i + 1}" for i in range(3, width)]
+    # Integers are what the text says: a column of whole numbers with at least one
+    # written as one (7, not 7.0 or 7e0). write_points writes every float with a point
+    # or an exponent, so its float64 columns come back float64, large whole values
+    # (1.2345678901234568e+17) as the double they were, not as the integer their
+    # shortest text spells.
+    whole = [
+        i
+        for i in range(3, width)
+        if np.isfinite(table[:, i]).all() and np.array_equal(table[:, i], np.round(table[:, i]))
+    ]
+    integer = _written_as_integers(rows, whole)
+    # float64 rounds integers from 2^53: those columns are read from the text.
+    exact = [i for i in integer if np.abs(table[:, i]).max() >= 2.0**53]
+    texts = _column_texts(rows, exact)
     fields = {}
     for i, key in enumerate(names, start=3):
         column = table[:, i]
-        whole = np.isfinite(column).all() and np.array_equal(column, np.round(column))
-        integers = None
-        # Integers are what the text says: a column of whole numbers with at least one
-        # written as one (7, not 7.0 or 7e0; the scan mostly stops at the first row).
-        # write_points writes every float with a point or an exponent, so its float64
-        # columns come back float64, large whole values (1.2345678901234568e+17) as the
-        # double they were, not as the integer their shortest text spells.
-        if whole and any(DECIMAL_INTEGER.fullmatch(row.split()[i]) for row in rows):
-            if np.abs(column).max() < 2.0**53:  # float64 holds them exactly
-                integers = column.astype(np.int64)
-            else:  # float64 rounds them: read from the text
-                integers = _exact_integers([row.split()[i] for row in rows])
-        fields[key] = column.copy() if integers is None else integers
+        if i not in integer:
+            fields[key] = column.copy()
+        elif i in texts:
+            integers = _exact_integers(texts[i])
+            fields[key] = column.copy() if integers is None else integers
+        else:
+            fields[key] = column.astype(np.int64)
     return np.ascontiguousarray(table[:, :3]), fields, None
+
+
+def _written_as_integers(rows: list[str], columns: list[int]) -> set[int]:
+    """The `columns` in which some row writes a decimal integer. Each row is split
+    once, and the scan stops when every column has one (mostly at the first row):
+    a scan a column, each splitting every row again, took minutes on rows of
+    thousands of whole numbers written as floats."""
+    left, found = set(columns), set()
+    for row in rows:
+        if not left:
+            break
+        tokens = row.split()
+        hits = {i for i in left if DECIMAL_INTEGER.fullmatch(tokens[i])}
+        found |= hits
+        left -= hits
+    return found
+
+
+def _column_texts(rows: list[str], columns: list[int]) -> dict[int, list[str]]:
+    """The text of each of `columns` in every row, each row split once."""
+    texts: dict[int, list[str]] = {i: [] for i in columns}
+    if columns:
+        for row in rows:
+            tokens = row.split()
+            for i in columns:
+                texts[i].append(tokens[i])
+    return texts
 
 
 def _exact_integers(tokens: list[str]) -> np.ndarray | None:
