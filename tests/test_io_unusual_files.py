@@ -216,3 +216,6 @@ def test_an_extra_bytes_field_named_as_a_standard_one_is_refused(tmp_path, name)
     (tmp_path / "a.las").write_bytes(bytes(data))
     with pytest.raises(ValueError, match=f"extra bytes dimension '{name}' has the name of a"):
         read_points(tmp_path / "a.las")
+    if name == "pt_src_id":  # nor can write_points write such a field
+        with pytest.raises(ValueError, match="laspy reads this name as another"):
+            write_points(tmp_path / "b.las", np.zeros((2, 3)), fields={name: np.ones(2)})

@@ -18,8 +18,8 @@ import numpy as np
 
 from .._caller import outside_stacklevel
 from .._held_signals import HeldSignals, held_signals
+from . import _las_extra_bytes as extra_bytes
 from ._atomic import atomic_write
-from ._las_extra_bytes import check_extra_bytes, keep_min_max_computable, restore_no_data
 from ._las_header import LasRecord, check_las_header
 
 __all__ = ["las_coordinate_name", "read", "write"]
@@ -87,8 +87,8 @@ def _decode_las(path: str) -> LasContents:
         backend = laspy.LazBackend.LazrsParallel if parallel else laspy.LazBackend.Lazrs
         with laspy.open(stream, closefd=False, laz_backend=backend) as reader:
             header = reader.header
-            check_extra_bytes(path, header)
-            restore_no_data(header)
+            extra_bytes.check_extra_bytes(path, header)
+            extra_bytes.restore_no_data(header)
             chunks = []
             # Uncompressed: the size check made the count trustworthy, one step.
             step = _LAZ_FIRST_STEP if facts.compressed else max(facts.point_count, 1)
@@ -241,6 +241,8 @@ def _write_las(
             )
         if key in standard:
             continue
+        if key in extra_bytes.laspy_aliases():  # (laspy would read them as others)
+            raise ValueError(f"fields[{key!r}]: laspy reads this name as another; rename it")
         array = np.asarray(array)
         base = np.dtype(np.uint8) if array.dtype == np.bool_ else array.dtype
         if base.kind == "f" and base.itemsize < 4:
@@ -357,7 +359,7 @@ def _stream_las(laspy, recorder: _RecordingStream, las, compress: bool) -> None:
         # laspy reads as they are: a template's are written back as they came, and
         # a character that ASCII cannot encode becomes "?" ("replace"), rather than
         # the whole write failing on a descriptive field.
-        keep_min_max_computable(las.header, las.points.array)
+        extra_bytes.keep_min_max_computable(las.header, las.points.array)
         with laspy.LasWriter(
             recorder, las.header, do_compress=compress, closefd=False, encoding_errors="replace"
         ) as writer:

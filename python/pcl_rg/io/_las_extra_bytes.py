@@ -35,10 +35,9 @@ def check_extra_bytes(path: str, header) -> None:
     write back would divide by that scale; or whose name laspy resolves to another
     field (x, y, z, a flag packed in a byte, an old laspy alias), whose values came
     back as that field's."""
-    from laspy.point.dims import OLD_LASPY_NAMES
     from laspy.point.record import PackedPointRecord
 
-    taken = {"x", "y", "z", *OLD_LASPY_NAMES}
+    taken = {"x", "y", "z", *laspy_aliases()}
     taken |= set(PackedPointRecord.zeros(0, header.point_format).sub_fields_dict)
     for dim in header.point_format.extra_dimensions:
         if dim.name in taken:
@@ -71,3 +70,10 @@ def keep_min_max_computable(header, records) -> None:
         raw = np.asarray(records[name]).reshape(n, -1)
         if (raw == np.asarray(record.no_data)[: raw.shape[1]]).all(axis=0).any():
             record.options &= ~(record.MIN_BIT_MASK | record.MAX_BIT_MASK)
+
+
+def laspy_aliases() -> dict[str, str]:
+    """The old names laspy still reads as standard fields (return_num: return_number)."""
+    from laspy.point.dims import OLD_LASPY_NAMES
+
+    return OLD_LASPY_NAMES
