@@ -234,3 +234,18 @@ def test_a_chunk_table_that_misplaces_chunks_is_read_chunk_after_chunk(tmp_path)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         np.testing.assert_array_equal(read_points(tmp_path / "b.laz").points, original)
+
+
+def test_points_decoded_past_a_wrong_chunk_size_are_warned_of(tmp_path):
+    # A chunk size larger than the writer's: the decoder reads on past the end of the
+    # first chunk into garbage (70,000 of 120,000 points here), which only decoding can
+    # tell from a header count too low. The garbage lies outside the header's box, and
+    # the reader says so.
+    random_las("1.2", 3, 120_000, seed=6, extra=False).write(tmp_path / "a.laz")
+    data = bytearray((tmp_path / "a.laz").read_bytes())
+    struct.pack_into("<I", data, laszip_record(bytes(data)) + 12, 2_200_000)
+    (tmp_path / "b.laz").write_bytes(bytes(data))
+    with pytest.warns(UserWarning) as caught:
+        read_points(tmp_path / "b.laz")
+    outside = [str(w.message) for w in caught if "outside the header's box" in str(w.message)]
+    assert len(outside) == 1 and re.search(r": \d+ of 120000 points lie outside", outside[0])

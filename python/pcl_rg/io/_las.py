@@ -19,6 +19,7 @@ import numpy as np
 from .._caller import outside_stacklevel
 from .._held_signals import HeldSignals, held_signals
 from . import _las_extra_bytes as extra_bytes
+from . import _las_waveforms as waveforms
 from ._atomic import atomic_write
 from ._las_header import LasRecord, check_las_header
 
@@ -110,12 +111,27 @@ def _decode_las(path: str) -> LasContents:
         array, header.point_format, scales=header.scales, offsets=header.offsets
     )
     points = np.column_stack([np.asarray(record.x), np.asarray(record.y), np.asarray(record.z)])
+    _warn_outside_box(path, points, header)
     fields = {}
     for dim in header.point_format.dimensions:
         if dim.name in ("X", "Y", "Z"):
             continue
         fields[dim.name] = np.array(record[dim.name])
     return points.astype(np.float64), fields, header, facts.records
+
+
+def _warn_outside_box(path: str, points: np.ndarray, header) -> None:
+    """Warn when points lie outside the header's box: a stale header, or a damaged LAZ
+    file (a wrong chunk size or chunk table) whose decoder read on into garbage."""
+    slack = 1.5 * np.abs(header.scales)
+    outside = ((points < header.mins - slack) | (points > header.maxs + slack)).any(axis=1)
+    if outside.any():
+        warnings.warn(
+            f"LAS file {path!r}: {int(outside.sum())} of {len(points)} points lie outside "
+            f"the header's box ({header.mins.tolist()} to {header.maxs.tolist()}): is the "
+            "file damaged, or its header's box stale?",
+            stacklevel=outside_stacklevel(),
+        )
 
 
 def _bad_las(path: str, error: BaseException) -> ValueError:
@@ -219,7 +235,7 @@ def _write_las(
         header.vlrs = lists(v for v in header.vlrs if v.user_id != "copc")
         if header.evlrs is not None:
             header.evlrs = lists(v for v in header.evlrs if v.user_id != "copc")
-        _drop_uncarried_waveforms(path, header)
+        waveforms.drop_uncarried_waveforms(path, header)
     else:
         with np.errstate(over="ignore", invalid="ignore"):  # checked right after
             header = _new_las_header(laspy, xyz, set(columns))
@@ -368,10 +384,12 @@ def _stream_las(laspy, recorder: _RecordingStream, las, compress: bool) -> None:
                 writer.write_evlrs(_LenientTexts(las.evlrs))
                 # The waveform packets moved with their EVLR: the header points at it
                 # (written by close(), which writes the header again).
-                start = _waveform_record_start(las.evlrs, writer.header.start_of_first_evlr)
+                start = waveforms.waveform_record_start(
+                    las.evlrs, writer.header.start_of_first_evlr
+                )
                 # Only where the template said its packets were in the file: with the
                 # external flag, a non-zero offset would contradict it.
-                if start is not None and _claims_packets_in_file(las.header):
+                if start is not None and waveforms.claims_packets_in_file(las.header):
                     writer.header.start_of_waveform_data_packet_record = start
     except Exception:
         # lazrs turns an exception of the stream (e.g. ENOSPC) into its own
@@ -381,50 +399,6 @@ def _stream_las(laspy, recorder: _RecordingStream, las, compress: bool) -> None:
         raise
     if recorder.error is not None:
         raise recorder.error
-
-
-def _is_waveform_record(vlr) -> bool:
-    """The EVLR of a LAS 1.4 file's waveform data packets."""
-    return vlr.user_id == "LASF_Spec" and vlr.record_id == 65535
-
-
-def _claims_packets_in_file(header) -> bool:
-    """Whether `header` says its waveform packets are in the file (the internal flag,
-    or an offset to them)."""
-    internal = header.global_encoding.waveform_data_packets_internal
-    return internal or header.start_of_waveform_data_packet_record != 0
-
-
-def _drop_uncarried_waveforms(path: str, header) -> None:
-    """Clear a template's claim of waveform packets stored in the file when the packets
-    are not among the EVLRs written (LAS 1.3 keeps them after the points, where laspy
-    does not read them): the header's offset would point at other bytes. A warning says
-    that they are dropped. Packets in an external .wdp file are the reader's business.
-    """
-    carried = header.evlrs is not None and any(_is_waveform_record(v) for v in header.evlrs)
-    if header.version.minor < 3 or carried:
-        return
-    if _claims_packets_in_file(header):
-        header.global_encoding.waveform_data_packets_internal = False
-        header.start_of_waveform_data_packet_record = 0
-        warnings.warn(
-            f"{path}: the waveform data packets stored in the source LAS file are not "
-            "written (only LAS 1.4's waveform EVLR is carried over); the points keep "
-            "their wave packet fields, and the header says the file holds no packets",
-            UserWarning,
-            stacklevel=outside_stacklevel(),
-        )
-
-
-def _waveform_record_start(evlrs, first: int) -> int | None:
-    """Where the waveform EVLR begins in a file whose EVLRs begin at `first`: each
-    EVLR is a 60-byte header and its data, in order."""
-    position = first
-    for vlr in evlrs:
-        if _is_waveform_record(vlr):
-            return position
-        position += 60 + len(vlr.record_data_bytes())
-    return None
 
 
 class _LenientTexts:
