@@ -219,3 +219,18 @@ def test_an_extra_bytes_field_named_as_a_standard_one_is_refused(tmp_path, name)
     if name == "pt_src_id":  # nor can write_points write such a field
         with pytest.raises(ValueError, match="laspy reads this name as another"):
             write_points(tmp_path / "b.las", np.zeros((2, 3)), fields={name: np.ones(2)})
+
+
+def test_an_unknown_extra_bytes_type_is_named(tmp_path):
+    # laspy's complaint was the bare type number: "invalid LAS/LAZ file '…': 31".
+    header = laspy.LasHeader(point_format=3, version="1.2")
+    header.add_extra_dims([laspy.ExtraBytesParams(name="placeholder_name", type=np.float32)])
+    las = laspy.LasData(header)
+    las.x, las.y, las.z = [1.0, 2.0], [3.0, 4.0], [5.0, 6.0]
+    buffer = io.BytesIO()
+    las.write(buffer)
+    data = bytearray(buffer.getvalue())
+    data[data.index(b"placeholder_name") - 2] = 31  # the record's data_type
+    (tmp_path / "a.las").write_bytes(bytes(data))
+    with pytest.raises(ValueError, match=r"UnknownExtraType 31 \(a value the LAS format does not"):
+        read_points(tmp_path / "a.las")

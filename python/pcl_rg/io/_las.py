@@ -136,6 +136,8 @@ def _warn_outside_box(path: str, points: np.ndarray, header) -> None:
 
 def _bad_las(path: str, error: BaseException) -> ValueError:
     detail = str(error) or type(error).__name__
+    if detail.isdigit():  # laspy's UnknownExtraType(31): a bare "31" said nothing
+        detail = f"{type(error).__name__} {detail} (a value the LAS format does not define)"
     return ValueError(f"invalid LAS/LAZ file {path!r}: {detail}")
 
 
