@@ -249,3 +249,69 @@ def test_points_decoded_past_a_wrong_chunk_size_are_warned_of(tmp_path):
         read_points(tmp_path / "b.laz")
     outside = [str(w.message) for w in caught if "outside the header's box" in str(w.message)]
     assert len(outside) == 1 and re.search(r": \d+ of 120000 points lie outside", outside[0])
+
+
+def header_facts(path):
+    from pcl_rg.io._las_header import check_las_header
+
+    with open(path, "rb") as stream:
+        return check_las_header(str(path), stream)
+
+
+@pytest.mark.parametrize("box", ["rounded to 1 cm", "all 0", "negative x scale"])
+def test_a_header_box_a_little_off_or_unset_reads_in_parallel_without_a_word(tmp_path, box):
+    # Common, harmless header faults: a box rounded (here inwards, to 1 cm with a 1 mm
+    # scale), one never filled in, and laspy's swapped bounds of a negative scale. The
+    # first points' check sent such files to the slower sequential reader, and the
+    # box's check warned of every point.
+    las = random_las("1.2", 3, 120_000, seed=7, extra=False)
+    las.points = las.points[np.argsort(las.x)]  # the first chunk starts at the least x
+    las.write(tmp_path / "a.laz")
+    data = bytearray((tmp_path / "a.laz").read_bytes())
+    bounds = np.frombuffer(bytes(data[179:227]), "<f8").copy()  # max x, min x, ...
+    if box == "negative x scale":  # x' = offset - X scale = 2 offset - x, as laspy writes it
+        (scale,), (offset,) = (
+            struct.unpack_from("<d", data, 131),
+            struct.unpack_from("<d", data, 155),
+        )
+        struct.pack_into("<d", data, 131, -scale)
+        bounds[0], bounds[1] = 2 * offset - bounds[0], 2 * offset - bounds[1]  # swapped
+    elif box == "rounded to 1 cm":
+        bounds[0::2], bounds[1::2] = (
+            np.floor(bounds[0::2] * 100) / 100,
+            np.ceil(bounds[1::2] * 100) / 100,
+        )
+    elif box == "all 0":
+        bounds[:] = 0.0
+    data[179:227] = bounds.tobytes()
+    (tmp_path / "b.laz").write_bytes(bytes(data))
+    assert header_facts(tmp_path / "b.laz").parallel_decompression
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert len(read_points(tmp_path / "b.laz").points) == 120_000
+
+
+def test_a_variable_chunk_table_ending_in_lazrs_empty_chunk_reads_in_parallel(tmp_path):
+    # lazrs's compressor, told to close a chunk just before it ends the file, leaves a
+    # last chunk of no point in 4 bytes; the first points' check read 12 bytes there,
+    # from the chunk table, and sent the file to the sequential reader.
+    las = random_las("1.2", 3, 3000, seed=8, extra=False)
+    laszip = lazrs.LazVlr.new_for_compression(3, 0, True)  # variable chunks
+    header = laspy.LasHeader(point_format=3, version="1.2")
+    header.scales, header.offsets = las.header.scales, las.header.offsets
+    header.vlrs.append(laspy.VLR("laszip encoded", 22204, "lazrs", laszip.record_data()))
+    plain = io.BytesIO()
+    with laspy.open(plain, mode="w", header=header, closefd=False) as writer:
+        writer.write_points(las.points)
+    head = bytearray(plain.getvalue()[: struct.unpack_from("<I", plain.getvalue(), 96)[0]])
+    head[104] |= 0x80
+    with open(tmp_path / "a.laz", "wb") as stream:
+        stream.write(head)
+        compressor = lazrs.LasZipCompressor(stream, laszip)
+        compressor.compress_many(las.points.array.tobytes())
+        compressor.finish_current_chunk()
+        compressor.done()
+    assert header_facts(tmp_path / "a.laz").parallel_decompression
+    np.testing.assert_array_equal(
+        read_points(tmp_path / "a.laz").points, np.c_[las.x, las.y, las.z]
+    )

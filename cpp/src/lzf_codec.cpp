@@ -55,7 +55,8 @@ std::vector<std::uint8_t> lzf_decompress(const std::uint8_t* data, std::size_t s
     const std::optional<std::size_t> holds = decompressed_size(data, size, expected_size);
     if (!holds)
         throw std::invalid_argument(
-            "corrupt LZF data: a run or back reference reaches past the block's ends");
+            "corrupt LZF data: a run reaches past the block's end, or a back reference "
+            "before the output's start");
     if (*holds != expected_size)
         throw std::invalid_argument("corrupt LZF data: expected " + std::to_string(expected_size) +
                                     " bytes, it holds " +

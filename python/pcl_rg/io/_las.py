@@ -122,13 +122,20 @@ def _decode_las(path: str) -> LasContents:
 
 def _warn_outside_box(path: str, points: np.ndarray, header) -> None:
     """Warn when points lie outside the header's box: a stale header, or a damaged LAZ
-    file (a wrong chunk size or chunk table) whose decoder read on into garbage."""
-    slack = 1.5 * np.abs(header.scales)
-    outside = ((points < header.mins - slack) | (points > header.maxs + slack)).any(axis=1)
+    file (a wrong chunk size or chunk table) whose decoder read on into garbage, which
+    lands far off. A box all 0 (never filled in) is no box, and one rounded (to 0.01
+    with a scale of 0.001, say) or a little stale passes: 1 % of its size, 1 cm and 1.5
+    steps of the scale. (laspy swaps a negative scale's bounds.)"""
+    low = np.minimum(header.mins, header.maxs)
+    high = np.maximum(header.mins, header.maxs)
+    if not low.any() and not high.any():
+        return
+    slack = 1.5 * np.abs(header.scales) + 0.01 * (high - low) + 0.01
+    outside = ((points < low - slack) | (points > high + slack)).any(axis=1)
     if outside.any():
         warnings.warn(
             f"LAS file {path!r}: {int(outside.sum())} of {len(points)} points lie outside "
-            f"the header's box ({header.mins.tolist()} to {header.maxs.tolist()}): is the "
+            f"the header's box ({low.tolist()} to {high.tolist()}): is the "
             "file damaged, or its header's box stale?",
             stacklevel=outside_stacklevel(),
         )

@@ -240,7 +240,8 @@ def check_las_header(path: str, stream: BinaryIO) -> LasFacts:
     # gives it one chunk of no point).
     if compressed and (point_count or payload >= 8 + record_length):
         bounds = struct.unpack_from("<6d", head, 179)  # max x, min x, max y, min y, ...
-        box = (scales, offsets, bounds[1::2], bounds[0::2])
+        low, high = zip(*map(sorted, zip(bounds[1::2], bounds[0::2])))  # (sorted: laspy
+        box = (scales, offsets, low, high)  # swaps the bounds of a negative scale)
         largest_chunk, spare_records, first_points_fit = _check_laz_payload(
             path,
             stream,
@@ -432,23 +433,24 @@ def _check_chunk_table(
 
 def _first_points_in_box(stream: BinaryIO, start: int, table: list, box: tuple) -> bool:
     """Whether the first point of every chunk, stored raw where the table's byte counts
-    place the chunk (its x, y, z the record's first 12 bytes), lies in the header's
-    box. Only lazrs's parallel reader goes by those counts: counts that move bytes from
-    one chunk to the next, their sum unchanged, made it decode garbage without a word,
-    while the sequential reader, which decodes the chunks one after another, read the
-    file right. A file that fails this is read sequentially."""
+    place the chunk (x, y, z: the record's first 12 bytes), lies near the header's box.
+    Only lazrs's parallel reader goes by those counts: counts that move bytes from one
+    chunk to the next, their sum unchanged, made it decode garbage without a word; the
+    sequential reader, used when this fails, reads such a file right. Misplaced bytes
+    land far from any box, while a box a little off (rounded, stale) or all 0 (never
+    filled in) is common and harmless: so "near" is within the box's size and 1 m."""
     scales, offsets, low, high = box
+    if not any(low) and not any(high):
+        return True
+    slack = [most - least + 1.0 for least, most in zip(low, high)]
     position = start
-    for _, byte_count in table:
-        if byte_count:  # (a chunk of no byte holds no point)
+    for points, byte_count in table:
+        if points and byte_count >= 12:  # (lazrs ends some tables with a chunk of none)
             raw = _read_at(stream, position, 12)
-            if len(raw) < 12:
-                return False
-            for stored, scale, offset, least, most in zip(
-                struct.unpack("<3i", raw), scales, offsets, low, high
+            for stored, scale, offset, least, most, margin in zip(
+                struct.unpack("<3i", raw), scales, offsets, low, high, slack
             ):
-                value, slack = stored * scale + offset, 1.5 * abs(scale)
-                if not least - slack <= value <= most + slack:
+                if not least - margin <= stored * scale + offset <= most + margin:
                     return False
         position += byte_count
     return True
