@@ -168,14 +168,12 @@ def test_a_table_offset_in_the_last_8_bytes_is_read_and_checked(tmp_path):
             read_points(tmp_path / "d.laz")
 
 
-def test_a_layered_file_whose_variable_chunks_end_in_an_empty_one_reads(tmp_path):
-    # lazrs's compressor with variable chunks, told to close a chunk just before the
-    # file ends, writes a last chunk of no point and no byte; lazrs reads the file,
-    # and the layer check refused it ("chunk 2 is shorter than its layer header").
-    las = random_las("1.4", 6, 3000, seed=1, extra=False)
-    record = las.point_format.size
-    laszip = lazrs.LazVlr.new_for_compression(6, 0, True)  # variable chunks
-    header = laspy.LasHeader(point_format=6, version="1.4")
+def write_variable_chunks(path, las, chunk_ends: list[int]) -> None:
+    """`las` as LAZ with variable chunks, each closed after the points of `chunk_ends`
+    (lazrs's compressor; the last one closed just before the file ends)."""
+    point_format, record = las.point_format.id, las.point_format.size
+    laszip = lazrs.LazVlr.new_for_compression(point_format, 0, True)  # variable chunks
+    header = laspy.LasHeader(point_format=point_format, version=str(las.header.version))
     header.scales, header.offsets = las.header.scales, las.header.offsets
     header.vlrs.append(laspy.VLR("laszip encoded", 22204, "lazrs", laszip.record_data()))
     plain = io.BytesIO()
@@ -183,16 +181,23 @@ def test_a_layered_file_whose_variable_chunks_end_in_an_empty_one_reads(tmp_path
         writer.write_points(las.points)
     head = bytearray(plain.getvalue()[: struct.unpack_from("<I", plain.getvalue(), 96)[0]])
     head[104] |= 0x80  # the compressed bit of the point format
-    struct.pack_into("<Q", head, 247, 3000)
-    raw = las.points.array.tobytes()
-    with open(tmp_path / "a.laz", "wb") as stream:
+    raw, start = las.points.array.tobytes(), 0
+    with open(path, "wb") as stream:
         stream.write(head)
         compressor = lazrs.LasZipCompressor(stream, laszip)
-        compressor.compress_many(raw[: 1000 * record])
-        compressor.finish_current_chunk()
-        compressor.compress_many(raw[1000 * record :])
-        compressor.finish_current_chunk()
+        for end in chunk_ends:
+            compressor.compress_many(raw[start * record : end * record])
+            compressor.finish_current_chunk()
+            start = end
         compressor.done()
+
+
+def test_a_layered_file_whose_variable_chunks_end_in_an_empty_one_reads(tmp_path):
+    # lazrs's compressor with variable chunks, told to close a chunk just before the
+    # file ends, writes a last chunk of no point and no byte; lazrs reads the file,
+    # and the layer check refused it ("chunk 2 is shorter than its layer header").
+    las = random_las("1.4", 6, 3000, seed=1, extra=False)
+    write_variable_chunks(tmp_path / "a.laz", las, [1000, 3000])
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         read = read_points(tmp_path / "a.laz")
@@ -296,21 +301,7 @@ def test_a_variable_chunk_table_ending_in_lazrs_empty_chunk_reads_in_parallel(tm
     # last chunk of no point in 4 bytes; the first points' check read 12 bytes there,
     # from the chunk table, and sent the file to the sequential reader.
     las = random_las("1.2", 3, 3000, seed=8, extra=False)
-    laszip = lazrs.LazVlr.new_for_compression(3, 0, True)  # variable chunks
-    header = laspy.LasHeader(point_format=3, version="1.2")
-    header.scales, header.offsets = las.header.scales, las.header.offsets
-    header.vlrs.append(laspy.VLR("laszip encoded", 22204, "lazrs", laszip.record_data()))
-    plain = io.BytesIO()
-    with laspy.open(plain, mode="w", header=header, closefd=False) as writer:
-        writer.write_points(las.points)
-    head = bytearray(plain.getvalue()[: struct.unpack_from("<I", plain.getvalue(), 96)[0]])
-    head[104] |= 0x80
-    with open(tmp_path / "a.laz", "wb") as stream:
-        stream.write(head)
-        compressor = lazrs.LasZipCompressor(stream, laszip)
-        compressor.compress_many(las.points.array.tobytes())
-        compressor.finish_current_chunk()
-        compressor.done()
+    write_variable_chunks(tmp_path / "a.laz", las, [3000])
     assert header_facts(tmp_path / "a.laz").parallel_decompression
     np.testing.assert_array_equal(
         read_points(tmp_path / "a.laz").points, np.c_[las.x, las.y, las.z]
