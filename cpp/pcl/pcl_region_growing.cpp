@@ -106,7 +106,6 @@ void pcl_normal_estimation(PointsView points, const NormalEstimationParams& para
     if (n == 0) return;
     check_size(n, params.k);
     const Frame frame = to_frame(points);
-    const Cloud::Ptr& cloud = frame.cloud;
     poll_interrupt();  // PCL's classes cannot be interrupted: polls between their stages
     pcl::search::Search<pcl::PointXYZ>::Ptr tree(new pcl::search::KdTree<pcl::PointXYZ>);
     const auto normals = estimate(frame, tree, params.k);

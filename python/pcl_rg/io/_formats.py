@@ -45,7 +45,7 @@ def sniff(head: bytes) -> str:
         return "empty"
     if head.startswith(b"LASF"):
         return "las"
-    if head.startswith((b"ply\n", b"ply\r\n")):
+    if head.startswith((b"ply\n", b"ply\r")):  # LF, CR LF, or CR alone (the reader refuses)
         return "ply"
     try:
         # UTF-8, which ASCII is, with a byte order mark or not (text editors on Windows
@@ -57,7 +57,9 @@ def sniff(head: bytes) -> str:
         before = head.split(b"\nDATA", 1)[0]
         text = codecs.getincrementaldecoder("utf-8")(errors="replace").decode(before)
         if "\ufffd" in text:
-            return "binary"
+            # A PCD header whose DATA line is missing runs into its binary data: the
+            # PCD reader names what is missing, better than "binary data" would.
+            return "pcd" if _starts_as_pcd(text.split("\ufffd", 1)[0]) else "binary"
     lines = text.splitlines()
     if len(lines) > 1 and not text.endswith(("\n", "\r")):
         lines.pop()  # cut by the head's end: its first word may be a keyword's half
@@ -80,6 +82,15 @@ def sniff(head: bytes) -> str:
         return "binary"
     # Comment lines to the end of the head: the header of a PCD file or XYZ text.
     return "comments" if only_comments and text.strip() else "text"
+
+
+def _starts_as_pcd(text: str) -> bool:
+    """Whether the first line of `text` that is not blank is a PCD header's."""
+    for line in text.splitlines():
+        line = line.strip()
+        if line:
+            return line.startswith("# .PCD") or line.split()[0] in _PCD_KEYWORDS
+    return False
 
 
 _KIND_NAMES = {

@@ -145,6 +145,11 @@ def _bad_las(path: str, error: BaseException) -> ValueError:
     detail = str(error) or type(error).__name__
     if detail.isdigit():  # laspy's UnknownExtraType(31): a bare "31" said nothing
         detail = f"{type(error).__name__} {detail} (a value the LAS format does not define)"
+    elif isinstance(error, UnicodeDecodeError):
+        what = "a name laspy reads as text (a VLR's user id, an extra bytes field's)"
+        detail = f"{what} is not UTF-8: {detail}"
+    elif "failed to fill whole buffer" in detail:  # lazrs's, of data that end too soon
+        detail += " (the compressed points end before all are decoded: damaged or cut short)"
     return ValueError(f"invalid LAS/LAZ file {path!r}: {detail}")
 
 

@@ -3,9 +3,12 @@ laspy would read wrongly, and the "no data" values that it loses or trips over."
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Iterator
 
 import numpy as np
+
+from .._caller import outside_stacklevel
 
 
 def _declaring_no_data(header) -> Iterator:
@@ -36,7 +39,18 @@ def check_extra_bytes(path: str, header) -> None:
     field (x, y, z, a flag packed in a byte, an old laspy alias), whose values came
     back as that field's."""
     from laspy.point.record import PackedPointRecord
+    from laspy.vlrs.known import ExtraBytesVlr
 
+    for vlr in header.vlrs:
+        if (vlr.user_id, vlr.record_id) == ("LASF_Spec", 4) and not isinstance(vlr, ExtraBytesVlr):
+            # laspy keeps a record it cannot parse as raw bytes, and the points' extra
+            # bytes then come as one unnamed field: say so rather than lose the names.
+            warnings.warn(
+                f"LAS file {path!r}: its Extra Bytes VLR ({len(vlr.record_data)} bytes) is "
+                "not a whole number of 192-byte records; the extra bytes of each point are "
+                "read as one raw field, 'ExtraBytes', without their names and types",
+                stacklevel=outside_stacklevel(),
+            )
     taken = {"x", "y", "z", *laspy_aliases()}
     taken |= set(PackedPointRecord.zeros(0, header.point_format).sub_fields_dict)
     for dim in header.point_format.extra_dimensions:

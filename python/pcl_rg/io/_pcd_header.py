@@ -132,6 +132,8 @@ def parse_header(path: str, head: bytes) -> PcdHeader:
         # holding them could be read but never written back.
         if line is None or _CONTROL.search(line):
             what = "not a PCD file" if not entries else "header is not ASCII text"
+            if "POINTS" in entries:  # the last keyword before DATA: binary data follows?
+                what = "no DATA line before what looks like the point data"
             raise bad_pcd(path, f"{what} (line {line_no}: {raw[:40]!r})")
         tokens = line.split()
         key = tokens[0]

@@ -75,6 +75,8 @@ def parse_header(path: str, raw: bytes) -> tuple[str, list[PlyElement], tuple[st
     # may hold the word too.
     found = END_HEADER.search(raw)
     if found is None:
+        if raw.startswith(b"ply\r") and b"\n" not in raw.split(b"end_header", 1)[0]:
+            raise bad_ply(path, "its header's lines end in CR alone; PLY's end in LF (or CR LF)")
         raise bad_ply(path, "no 'end_header' line (header truncated or not a PLY file)")
     end, end_len = found.start(), len(found.group())
     try:
