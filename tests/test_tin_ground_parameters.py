@@ -14,6 +14,7 @@ from hypothesis import strategies as st
 from tin_ground_helpers import ISPRS, LIDAR360, isprs, run_core, scene
 
 import pcl_rg
+from pcl_rg import reference
 from pcl_rg.datasets import synthetic_scene
 from pcl_rg.evaluation import ground_errors
 from pcl_rg.reference.tin_ground import seeds
@@ -233,3 +234,40 @@ def test_opening_rank_keeps_the_seeds_around_single_multipath_points(seed: int) 
     ranked_loss = seeds_of(0.0, 2) - seeds_of(0.002, 2)
     assert plain_loss > 0.1 * seeds_of(0.0, 1)
     assert ranked_loss < 0.5 * plain_loss
+
+
+# --------------------------------------------------------------------------
+# densify_lowest: the densification tests only the lowest point of each half final cell
+
+
+@pytest.mark.parametrize("source", ["scene 0", "scene 1", "samp21", "samp41"])
+def test_densify_lowest_core_equals_reference(source: str) -> None:
+    # Which point is a half cell's lowest is exact (heights as stored, ties by index),
+    # and the rest is the definition's: equal masks, as without the option.
+    kind, name = source.split(" ") if " " in source else ("isprs", source)
+    points = scene(int(name), density=4.0).points if kind == "scene" else isprs(name)[0]
+    params = dataclasses.replace(ISPRS, densify_lowest=True)
+    core = pcl_rg.tin_ground(points, params=params)
+    np.testing.assert_array_equal(core, reference.tin_ground(points, params=params))
+
+
+def test_densify_lowest_needs_the_final_pass() -> None:
+    # Without a final pass nothing would classify the points it leaves untested: the
+    # option is then ignored, as seed_tolerance is without seed_cell.
+    points = scene(2, density=4.0).points
+    alone = dataclasses.replace(ISPRS, final_cell=0.0)
+    np.testing.assert_array_equal(
+        pcl_rg.tin_ground(points, params=dataclasses.replace(alone, densify_lowest=True)),
+        pcl_rg.tin_ground(points, params=alone),
+    )
+
+
+def test_densify_lowest_tests_fewer_points_for_nearly_the_same_ground() -> None:
+    # The final TIN takes the lowest ground point of each final cell, nearly always the
+    # lowest of one of its four half cells: the ground barely moves while the
+    # densification tests a fraction of the points (8 pts/m^2, ~4 per half cell).
+    points = scene(3, size=120.0, density=8.0).points
+    plain, plain_stats = run_core(points, ISPRS)
+    thinned, thinned_stats = run_core(points, dataclasses.replace(ISPRS, densify_lowest=True))
+    assert thinned_stats["tests"] < 0.5 * plain_stats["tests"], (thinned_stats, plain_stats)
+    assert np.mean(thinned != plain) < 0.005

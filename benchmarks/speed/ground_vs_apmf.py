@@ -5,9 +5,10 @@ Usage:
 
 One synthetic scene (pcl_rg.datasets.synthetic_scene, seed 0, 4 points/m^2, sized
 for the requested number of points) is filtered by tin_ground (isprs preset, the
-defaults), grid_ground (defaults) and pcl::ApproximateProgressiveMorphologicalFilter
+defaults, and with densify_lowest), grid_ground (defaults) and
+pcl::ApproximateProgressiveMorphologicalFilter
 (PCL's tutorial parameters, as benchmarks/studies/ground_isprs.py runs PMF). The
-three run interleaved in one process, `repeats` rounds, so that the load of the
+four run interleaved in one process, `repeats` rounds, so that the load of the
 shared machine falls on all of them alike; the table gives each one's median wall
 time (input check included), its ratio to APMF's median, and tin_ground's and
 grid_ground's stage times from the core's clocks in their median runs. Targets
@@ -44,6 +45,9 @@ DENSITY = 4.0
 APMF = "PCL ApproximateProgressiveMorphologicalFilter (tutorial)"
 METHODS = {
     "tin_ground (isprs preset, the defaults)": lambda p: pcl_rg.tin_ground(p),
+    "tin_ground (isprs preset, densify_lowest=True)": lambda p: pcl_rg.tin_ground(
+        p, densify_lowest=True
+    ),
     "grid_ground (defaults)": lambda p: pcl_rg.grid_ground(p),
     APMF: lambda p: pcl_rg.pcl.progressive_morphological_filter(p, approximate=True),
 }
@@ -98,7 +102,7 @@ def main(argv: list[str] | None = None) -> int:
         )
         if stats is not None and "tin_vertices" in stats:
             splits.append(
-                f"tin_ground's split in its median run (core clocks): prepare "
+                f"{name}: split in its median run (core clocks): prepare "
                 f"{stats['prepare_seconds']:.2f} s, triangulation "
                 f"{stats['triangulation_seconds']:.2f} s, classification "
                 f"{stats['classification_seconds']:.2f} s; {stats['tin_vertices']:,} TIN "
@@ -107,13 +111,13 @@ def main(argv: list[str] | None = None) -> int:
             )
         elif stats is not None:
             splits.append(
-                f"grid_ground's split in its median run (core clocks): prepare "
+                f"{name}: split in its median run (core clocks): prepare "
                 f"{stats['prepare_seconds']:.2f} s, growth {stats['growth_seconds']:.2f} s, "
                 f"final pass {stats['final_pass_seconds']:.2f} s "
                 f"({stats['final_passes_run']} rounds)."
             )
     about = (
-        f"{conditions}. {scene_text}. The three run interleaved in one process, "
+        f"{conditions}. {scene_text}. The four run interleaved in one process, "
         f"{args.repeats} rounds; time is the median wall time of the whole call, "
         "x APMF its ratio to APMF's median (> 1: faster); CPU s: median CPU time of all "
         "threads (less sensitive to the other jobs on the machine than wall time). "

@@ -158,7 +158,7 @@ IMPROVEMENTS = {
 }
 
 # Options the preset leaves off, and the value the ablation switches each on at.
-OPTIONS_OFF = {"opening_rank": 2}
+OPTIONS_OFF = {"opening_rank": 2, "densify_lowest": True}
 
 
 def errors(samples, setting) -> list:

@@ -27,7 +27,8 @@ void bind_tin_ground(py::module_& m) {
         .def_readwrite("final_above", &TinGroundParams::final_above)
         .def_readwrite("final_below", &TinGroundParams::final_below)
         .def_readwrite("final_slope", &TinGroundParams::final_slope)
-        .def_readwrite("final_low_depth", &TinGroundParams::final_low_depth);
+        .def_readwrite("final_low_depth", &TinGroundParams::final_low_depth)
+        .def_readwrite("densify_lowest", &TinGroundParams::densify_lowest);
 
     m.def(
         "tin_ground",

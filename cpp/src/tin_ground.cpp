@@ -345,9 +345,19 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
     UnfilledVector<std::uint32_t> work, chosen;  // filled in full when sized: not zeroed first
     std::vector<std::uint32_t> waiting;          // skip_idle_iterations's
     std::int64_t idle_iterations = 0;            // iterations of the definition it did
-    // The first work: every point that is not a seed, in sorted order.
+    // The first work: every point that is not a seed (with densify_lowest, of those the
+    // lowest of their half final cells only), in sorted order.
+    std::vector<std::uint64_t> densified;  // bit i (input index): tested; empty: every point
+    for (const std::uint32_t i : tin_densified(points, params, origin, upper)) {
+        if (densified.empty()) densified.assign((n + 63) / 64, 0);
+        mark(densified, i);
+    }
     keep_in_order(
-        n, [&](std::size_t s) { return is_ground[s] == 0; }, [&](std::size_t m) { work.resize(m); },
+        n,
+        [&](std::size_t s) {
+            return is_ground[s] == 0 && (densified.empty() || marked(densified, order[s]));
+        },
+        [&](std::size_t m) { work.resize(m); },
         [&](std::size_t k, std::size_t s) { work[k] = static_cast<std::uint32_t>(s); });
     // Point a before point b as the choice of a triangle: smallest d, then smallest index.
     auto better = [&](std::int32_t a, std::int32_t b) {

@@ -429,6 +429,22 @@ std::vector<std::uint32_t> tin_seeds(PointsView points, const TinGroundParams& p
                                            static_cast<std::int64_t>(std::floor(sey / cell)) + 1});
 }
 
+std::vector<std::uint32_t> tin_densified(PointsView points, const TinGroundParams& params,
+                                         const std::array<double, 3>& origin,
+                                         const std::array<double, 3>& upper) {
+    if (!params.densify_lowest || !(*params.final_cell > 0.0)) return {};
+    const double size = *params.final_cell / 2.0;
+    const double x0 = lattice_floor(origin[0], size), y0 = lattice_floor(origin[1], size);
+    if (!((upper[0] - x0) / size < 0x1p40 && (upper[1] - y0) / size < 0x1p40))
+        throw std::invalid_argument(
+            "final_cell is too small for the extent of points: with densify_lowest, more than "
+            "2^40 cells of final_cell / 2 per axis");
+    return lowest_points(
+        points, CellLattice{x0, y0, 0.0, size,
+                            static_cast<std::int64_t>(std::floor((upper[0] - x0) / size)) + 1,
+                            static_cast<std::int64_t>(std::floor((upper[1] - y0) / size)) + 1});
+}
+
 std::invalid_argument unset_seed_cell_error(const std::invalid_argument& error, double spacing) {
     // An unset seed_cell follows the measured spacing, which counts every point: many at
     // one XY position (copies, poles, a scanner's footprint) make it tiny. Or, on a cloud

@@ -160,6 +160,11 @@ class TinGroundParams:
     final_below: float = final_pass_param("final_below", 5.0)
     final_slope: float = final_pass_param("final_slope", 1.0)
     final_low_depth: float = final_pass_param("final_low_depth", 2.0)
+    densify_lowest: bool = param(
+        False,
+        help="improvement (False: off; with final_cell): the densification tests only the "
+        "lowest point of each final_cell / 2 cell; the final pass classifies every point",
+    )
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -211,13 +216,11 @@ class TinGroundParams:
         the 2 m stop edge (the search picks 0.01 m: 3.1461 against 3.1464 %
         after the final pass, in twice the time) and switches six improvements
         on. On the seven ISPRS samples it scores 3.15 % fitted and 3.97 % left one
-        sample out (``benchmarks/studies/ground_isprs_cv.py``). Searches whose
-        lengths follow the point spacing did no better there (all of them 5.58 %;
-        stop edge and near-vertex distance 5.12 %), so the lengths are those fitted
-        on ISPRS where the data are as sparse (spacing of at least 0.95 m) and
-        shrink in proportion to the spacing on denser data, the stop edge only
-        below 0.475 m (:attr:`SPACING_CAPS`, :attr:`SPACING_MULTIPLES`; the four
-        are unset here). `overrides` replace single fields.
+        sample out (``benchmarks/studies/ground_isprs_cv.py``), better than the
+        searches whose lengths follow the point spacing; so the lengths are those
+        fitted on ISPRS at its spacing (0.95 m and more) and shrink with the
+        spacing on denser data (:attr:`SPACING_CAPS`, :attr:`SPACING_MULTIPLES`;
+        the four are unset here). `overrides` replace single fields.
 
         Examples
         --------
@@ -259,6 +262,7 @@ class TinGroundParams:
             "final_below": 5.0,
             "final_slope": 1.0,
             "final_low_depth": 0.0,
+            "densify_lowest": False,
         }
         return cls(**{**values, **overrides})
 
@@ -289,6 +293,7 @@ def tin_ground(
     final_below: float | None = None,
     final_slope: float | None = None,
     final_low_depth: float | None = None,
+    densify_lowest: bool | None = None,
     params: TinGroundParams | None = None,
 ) -> np.ndarray:
     """Classify ground points by progressive TIN densification.
@@ -344,15 +349,11 @@ def tin_ground(
         the foot of a step or low outliers shallower than ``outlier_depth``,
         cannot lower the opened surface, and drop the seeds, across a whole
         window: an erosion by a rank-order filter (Soille, "Morphological Image
-        Analysis", 2nd ed., 2003). Off in the preset: on ISPRS it scores
-        3.39 %, and its search, left one sample out, 4.10 % against the plain
-        search's 4.26 % (both before the border vertices), a gain that
-        mm-level noise on the coordinates turns into a loss
-        (``benchmarks/RESULTS.md``, "selection procedures"). On clouds
-        with multipath points less deep than ``outlier_depth`` below sloping
-        terrain, 2 keeps the seeds the plain opening loses around each (17-38 %
-        of them on three small synthetic scenes), and the densification runs
-        faster.
+        Analysis", 2nd ed., 2003). Off in the preset: its gain on ISPRS left one
+        sample out did not survive mm-level noise (``benchmarks/RESULTS.md``,
+        "selection procedures"). Under sloping terrain with multipath points
+        shallower than ``outlier_depth``, 2 keeps the seeds the plain opening
+        loses around each, and the densification runs faster.
     border_vertices : bool, optional
         Default True (LiDAR360: False, the corners only). Virtual vertices along
         the sides of the XY box too, each at the height of its nearest seed as
@@ -360,10 +361,8 @@ def tin_ground(
         65,536), ``s = max(max_building_size, the shorter XY extent)``, so a tile
         less than twice as long as wide gets none, a corridor one every ``s`` to
         ``2 s`` along its long sides. Without them a corridor's border triangles
-        reach to corners kilometres away, and on a slope the densification does
-        not recover the uphill strip where the seed window is clipped: on a 2 km
-        x 30 m corridor rising 0.25 across, it lost 31 % of the uphill 10 m's
-        ground, 1.1 % with them (``benchmarks/studies/tin_corridor.py``).
+        reach to corners kilometres away, and on a slope the uphill strip is lost
+        (``benchmarks/studies/tin_corridor.py``: 31 % of its ground, 1.1 % with).
     final_cell : float, optional
         Metres (default: unset, the largest 3 m x 2^(-j/8) at most 3.16 x the
         point spacing; 0: off). After TerraScan's practice of classifying the
@@ -381,6 +380,12 @@ def tin_ground(
     final_slope : float, optional
         Metres per unit gradient (default 1): see ``final_cell``.
     %(final_low_depth)s
+    densify_lowest : bool, optional
+        Default False (used with ``final_cell > 0``). The densification tests
+        only the lowest point (ties: index) of each ``final_cell / 2`` cell of the
+        world lattice, and the final pass classifies every point: its TIN takes
+        the lowest ground point of each final cell, nearly always one of those,
+        so on dense data the densification handles a fraction of the points.
     params : TinGroundParams, optional
         All parameters at once (defaults: the ``isprs`` preset); keywords given
         explicitly override it.

@@ -136,6 +136,13 @@ struct TinGroundParams {
     /// final TIN (final_pass.hpp), so that a patch of low points (multipath) pulls no
     /// surface down to it. 2 m: the ISPRS preset's (cross-validated).
     double final_low_depth = 2.0;
+    /// Improvement (false: off; used only with a final pass): the densification tests only
+    /// the lowest point (then smallest index) of each cell of side final_cell / 2 on the
+    /// world lattice of that size, and the final pass then classifies every point. The
+    /// final TIN takes the lowest ground point of each final cell, which is nearly always
+    /// one of those: on dense data the densification tests and inserts a fraction of the
+    /// points (tin_seeds.hpp: tin_densified).
+    bool densify_lowest = false;
 };
 
 /// Throws std::invalid_argument naming the parameter when a value is out of range.

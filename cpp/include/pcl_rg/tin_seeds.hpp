@@ -25,6 +25,15 @@ std::vector<std::uint32_t> tin_seeds(PointsView points, const TinGroundParams& p
                                      const std::array<double, 3>& origin,
                                      const std::array<double, 3>& upper);
 
+/// The points tin_ground's densification tests when params.densify_lowest is set and the
+/// final pass is on (params.final_cell, set, > 0): the lowest point (then smallest index;
+/// heights as stored) of each cell of side final_cell / 2 on the world lattice of that
+/// size, sorted by index. Otherwise empty: every point is tested. Throws
+/// std::invalid_argument when those cells would number more than 2^40 per axis.
+std::vector<std::uint32_t> tin_densified(PointsView points, const TinGroundParams& params,
+                                         const std::array<double, 3>& origin,
+                                         const std::array<double, 3>& upper);
+
 /// `error`, a refusal of tin_seeds with seed_cell left unset, told with the rule that set
 /// seed_cell from `spacing` (m, the measured point spacing) and what to do about it.
 std::invalid_argument unset_seed_cell_error(const std::invalid_argument& error, double spacing);

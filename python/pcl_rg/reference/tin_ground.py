@@ -27,6 +27,7 @@ from .._point_spacing import with_spacing_lengths
 from .._tin_ground import TinGroundParams
 from .._validation import as_points
 from ._delaunay import follow_perturbation, triangle_neighbours
+from ._lattice import lattice_floor
 from ._tin_seeds import seeds, seeds_of
 from .point_spacing import point_spacing
 
@@ -267,6 +268,26 @@ def _evaluate(tri, vx, vy, vz, q, px, py, pz, p: TinGroundParams):  # type: igno
     return accepted, stop, d
 
 
+def _lowest_of_half_final_cells(xyz: np.ndarray, final_cell: float) -> np.ndarray:
+    """Mask of the lowest point (heights as stored; ties: index) of each cell of side
+    final_cell / 2 on the world lattice of that size."""
+    size = final_cell / 2.0
+    lowest = xyz.min(axis=0)
+    x0, y0 = lattice_floor(float(lowest[0]), size), lattice_floor(float(lowest[1]), size)
+    if not ((xyz[:, 0].max() - x0) / size < 2.0**40 and (xyz[:, 1].max() - y0) / size < 2.0**40):
+        raise ValueError(
+            "final_cell is too small for the extent of points: with densify_lowest, more "
+            "than 2^40 cells of final_cell / 2 per axis"
+        )
+    cx = np.floor((xyz[:, 0] - x0) / size).astype(np.int64)
+    cy = np.floor((xyz[:, 1] - y0) / size).astype(np.int64)
+    order = np.lexsort((np.arange(len(xyz)), xyz[:, 2], cy, cx))
+    first = np.r_[True, (cx[order][1:] != cx[order][:-1]) | (cy[order][1:] != cy[order][:-1])]
+    tested = np.zeros(len(xyz), dtype=bool)
+    tested[order[first]] = True
+    return tested
+
+
 def tin_ground(
     points: npt.ArrayLike,
     *,
@@ -287,6 +308,7 @@ def tin_ground(
     final_below: float | None = None,
     final_slope: float | None = None,
     final_low_depth: float | None = None,
+    densify_lowest: bool | None = None,
     params: TinGroundParams | None = None,
 ) -> np.ndarray:
     """Reference progressive TIN densification: same signature and result as the core.
@@ -376,9 +398,13 @@ def tin_ground(
         border = border_points(width, height, ex, ey, max(p.max_building_size, min(ex, ey)))
     vx, vy, vz = with_corners(gx, gy, pz, seed, vertex_seeds, width, height, border)
 
-    # 3. Densify until an iteration adds no ground point.
+    # 3. Densify until an iteration adds no ground point; with densify_lowest, only the
+    # lowest point of each half final cell is tested (tin_seeds.cpp: tin_densified).
+    tested = np.ones(n, dtype=bool)
+    if p.densify_lowest and p.final_cell > 0:
+        tested = _lowest_of_half_final_cells(xyz, p.final_cell)
     while True:
-        unclassified = np.flatnonzero(~ground)
+        unclassified = np.flatnonzero(~ground & tested)
         if unclassified.size == 0:
             break
         tri, neighbors, vertex_to_simplex = triangulate(vx, vy, q)
