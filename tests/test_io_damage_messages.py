@@ -78,6 +78,18 @@ def test_an_extra_bytes_vlr_laspy_cannot_parse_is_warned_of(tmp_path, shorter_by
     assert "amplitude" not in cloud.fields and cloud.fields["ExtraBytes"].shape == (1000, 6)
 
 
+def test_an_unparsable_extra_bytes_vlr_of_points_without_extra_bytes_is_ignored(tmp_path):
+    header = laspy.LasHeader(version="1.4", point_format=6)
+    header.vlrs.append(laspy.VLR("LASF_Spec", 4, "", bytes(100)))
+    las = laspy.LasData(header)
+    las.x, las.y, las.z = POINTS.T
+    path = tmp_path / "odd.las"
+    las.write(path)
+    with pytest.warns(UserWarning, match=r"odd\.las.*Extra Bytes VLR \(100 bytes\).*ignored"):
+        cloud = read_points(path)
+    assert "ExtraBytes" not in cloud.fields
+
+
 def test_a_well_formed_extra_bytes_vlr_gives_no_warning(tmp_path, recwarn):
     path = _write(tmp_path / "fine.las", _las_with_extra_bytes(tmp_path))
     assert read_points(path).fields["tag"].dtype == np.uint16
@@ -85,14 +97,27 @@ def test_a_well_formed_extra_bytes_vlr_gives_no_warning(tmp_path, recwarn):
     assert laspy.read(path).header.point_format.extra_dimension_names
 
 
-def test_a_pcd_header_without_its_data_line_says_so(tmp_path):
+@pytest.mark.parametrize("points", [POINTS, POINTS[:10]], ids=["1000 points", "10 points"])
+@pytest.mark.parametrize("comment", [b"", b"# written by another tool\n"])
+def test_a_pcd_header_without_its_data_line_says_so(tmp_path, points, comment):
     # The header ran into the binary data: the file was called "binary data of an
-    # unknown format", which sent the user to the file's extension.
+    # unknown format", which sent the user to the file's extension. Ten points' data
+    # may hold no line feed at all, and a comment may come first.
+    source = tmp_path / "whole.pcd"
+    write_points(source, points)
+    lines = source.read_bytes().split(b"\n")
+    data = comment + b"\n".join(x for x in lines if x[:4] != b"DATA")
+    path = _write(tmp_path / "no_data.pcd", data)
+    with pytest.raises(ValueError, match=r"no_data\.pcd.*no DATA line before .*point data"):
+        read_points(path)
+
+
+def test_a_pcd_header_cut_inside_its_data_keyword_is_called_truncated(tmp_path):
     source = tmp_path / "whole.pcd"
     write_points(source, POINTS)
-    lines = source.read_bytes().split(b"\n")
-    path = _write(tmp_path / "no_data.pcd", b"\n".join(x for x in lines if x[:4] != b"DATA"))
-    with pytest.raises(ValueError, match=r"no_data\.pcd.*no DATA line before .*point data"):
+    data = source.read_bytes()
+    path = _write(tmp_path / "cut.pcd", data[: data.index(b"DATA") + 3])
+    with pytest.raises(ValueError, match=r"cut\.pcd.*header is truncated"):
         read_points(path)
 
 

@@ -5,11 +5,12 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 
 import numpy as np
 import pytest
 from conftest import examples
-from hypothesis import given, settings
+from hypothesis import given, reject, settings
 from hypothesis import strategies as st
 from tin_ground_helpers import ISPRS, LIDAR360, isprs, run_core, scene
 
@@ -17,7 +18,7 @@ import pcl_rg
 from pcl_rg import reference
 from pcl_rg.datasets import synthetic_scene
 from pcl_rg.evaluation import ground_errors
-from pcl_rg.reference.tin_ground import seeds
+from pcl_rg.reference.tin_ground import QhullPrecisionError, seeds
 
 # --------------------------------------------------------------------------
 # each parameter's effect, on a lattice with probes whose outcome the definition fixes
@@ -271,3 +272,43 @@ def test_densify_lowest_tests_fewer_points_for_nearly_the_same_ground() -> None:
     thinned, thinned_stats = run_core(points, dataclasses.replace(ISPRS, densify_lowest=True))
     assert thinned_stats["tests"] < 0.5 * plain_stats["tests"], (thinned_stats, plain_stats)
     assert np.mean(thinned != plain) < 0.005
+
+
+@pytest.mark.parametrize("cell", [5e-324, 1e-300])
+def test_densify_lowest_refuses_cells_too_small_for_the_extent_in_both(cell: float) -> None:
+    points = scene(4).points
+    params = dataclasses.replace(ISPRS, final_cell=cell, densify_lowest=True)
+    for run in (pcl_rg.tin_ground, reference.tin_ground):
+        with pytest.raises(ValueError, match=r"final_cell is too small .* densify_lowest"):
+            run(points, params=params)
+
+
+@settings(max_examples=examples(30), deadline=None)
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    n=st.integers(20, 400),
+    step=st.sampled_from([0.0, 0.01, 0.5]),
+    cell=st.sampled_from([None, 0.5, 1.0, 3.0, 7.3]),
+    far=st.booleans(),
+)
+def test_hypothesis_densify_lowest_core_equals_reference(seed, n, step, cell, far) -> None:
+    # Quantised coordinates (equal heights, copies), UTM offsets, and a few points far
+    # off, so that the half-cell lattice is sparse and the core sorts its cells.
+    rng = np.random.default_rng(seed)
+    points = np.c_[rng.uniform(0.0, 60.0, (n, 2)), rng.normal(0.0, 0.5, n)]
+    points[: n // 10, 2] += rng.uniform(1.0, 8.0, n // 10)
+    if step:
+        points = np.round(points / step) * step
+    if far:
+        points[-3:, :2] += rng.uniform(2e3, 5e3, (3, 2))
+    points += [4.5e5, 5.4e6, 100.0]
+    params = dataclasses.replace(ISPRS, final_cell=cell, densify_lowest=True)
+    try:
+        expected = reference.tin_ground(points, params=params)
+    except QhullPrecisionError:
+        reject()  # qhull has no answer there; the core does
+    except ValueError as error:  # the same refusal in both
+        with pytest.raises(ValueError, match=re.escape(str(error).split(":")[0])):
+            pcl_rg.tin_ground(points, params=params)
+        return
+    np.testing.assert_array_equal(pcl_rg.tin_ground(points, params=params), expected)

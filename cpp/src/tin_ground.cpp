@@ -58,6 +58,9 @@
 //     strip by the uphill side that the seeds' clipped opening leaves without seeds.
 //   * final_cell: a final pass (final_pass.cpp, shared with grid_ground) classifies every
 //     point again by its height above a TIN of the lowest ground point of each cell.
+//   * densify_lowest (off in both presets): with the final pass, only the lowest point of
+//     each final_cell / 2 cell (ties: smallest index, as the seeds) is tested in step 3
+//     (tin_seeds.cpp: tin_densified); the final pass classifies every point.
 //
 // Grids and tiles: the grids that decide which points are seeds are anchored on the
 // world lattice of the seed cells (seed_cell when > 0, else max_building_size): the

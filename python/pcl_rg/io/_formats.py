@@ -85,11 +85,14 @@ def sniff(head: bytes) -> str:
 
 
 def _starts_as_pcd(text: str) -> bool:
-    """Whether the first line of `text` that is not blank is a PCD header's."""
+    """Whether the first line of `text` that is neither blank nor a comment is a PCD
+    header's (or a comment is its "# .PCD" line), as sniff judges whole text."""
     for line in text.splitlines():
         line = line.strip()
-        if line:
-            return line.startswith("# .PCD") or line.split()[0] in _PCD_KEYWORDS
+        if line.startswith("# .PCD"):
+            return True
+        if line and not line.startswith("#"):
+            return line.split()[0] in _PCD_KEYWORDS
     return False
 
 

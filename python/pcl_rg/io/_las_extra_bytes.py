@@ -45,10 +45,16 @@ def check_extra_bytes(path: str, header) -> None:
         if (vlr.user_id, vlr.record_id) == ("LASF_Spec", 4) and not isinstance(vlr, ExtraBytesVlr):
             # laspy keeps a record it cannot parse as raw bytes, and the points' extra
             # bytes then come as one unnamed field: say so rather than lose the names.
+            raw = "ExtraBytes" in header.point_format.dimension_names
             warnings.warn(
                 f"LAS file {path!r}: its Extra Bytes VLR ({len(vlr.record_data)} bytes) is "
-                "not a whole number of 192-byte records; the extra bytes of each point are "
-                "read as one raw field, 'ExtraBytes', without their names and types",
+                "not a whole number of 192-byte records; "
+                + (
+                    "the extra bytes of each point are read as one raw field, "
+                    "'ExtraBytes', without their names and types"
+                    if raw
+                    else "it is ignored (the points have no extra bytes)"
+                ),
                 stacklevel=outside_stacklevel(),
             )
     taken = {"x", "y", "z", *laspy_aliases()}

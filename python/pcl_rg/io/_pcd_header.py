@@ -156,6 +156,12 @@ def parse_header(path: str, head: bytes) -> PcdHeader:
             raise bad_pcd(path, "not a PCD file (no header keywords found)")
         if len(head) >= MAX_HEADER_BYTES:
             raise bad_pcd(path, f"no DATA line within the first {MAX_HEADER_BYTES} bytes")
+        rest = head[pos:].strip()
+        if "POINTS" in entries and rest and not b"DATA".startswith(rest[:4]):
+            # Bytes after POINTS that end no line and start no DATA keyword: binary data.
+            raise bad_pcd(
+                path, f"no DATA line before what looks like the point data ({rest[:40]!r})"
+            )
         raise bad_pcd(path, "header is truncated (file ends before the DATA line)")
 
     version = entries.get("VERSION")

@@ -272,9 +272,12 @@ def _lowest_of_half_final_cells(xyz: np.ndarray, final_cell: float) -> np.ndarra
     """Mask of the lowest point (heights as stored; ties: index) of each cell of side
     final_cell / 2 on the world lattice of that size."""
     size = final_cell / 2.0
-    lowest = xyz.min(axis=0)
-    x0, y0 = lattice_floor(float(lowest[0]), size), lattice_floor(float(lowest[1]), size)
-    if not ((xyz[:, 0].max() - x0) / size < 2.0**40 and (xyz[:, 1].max() - y0) / size < 2.0**40):
+    lowest, upper = xyz.min(axis=0), xyz.max(axis=0)
+    x0 = lattice_floor(float(lowest[0]), size) if size > 0 else lowest[0]  # as the core:
+    y0 = lattice_floor(float(lowest[1]), size) if size > 0 else lowest[1]  # 0 cells refused
+    with np.errstate(divide="ignore", invalid="ignore"):
+        fits = (upper[0] - x0) / size < 2.0**40 and (upper[1] - y0) / size < 2.0**40
+    if not fits:
         raise ValueError(
             "final_cell is too small for the extent of points: with densify_lowest, more "
             "than 2^40 cells of final_cell / 2 per axis"
