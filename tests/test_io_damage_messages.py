@@ -21,6 +21,12 @@ def _write(path, data: bytes):
     return path
 
 
+def _bytes_as_written(path, points=POINTS) -> bytes:
+    """The bytes of `points` written by write_points to `path` (format by extension)."""
+    write_points(path, points)
+    return path.read_bytes()
+
+
 def test_laz_points_that_end_too_soon_are_called_damaged(tmp_path):
     # Zeros over a stretch of the compressed points: lazrs's "IoError: failed to fill
     # whole buffer" alone did not say that the file, not the reader, was at fault.
@@ -103,9 +109,7 @@ def test_a_pcd_header_without_its_data_line_says_so(tmp_path, points, comment):
     # The header ran into the binary data: the file was called "binary data of an
     # unknown format", which sent the user to the file's extension. Ten points' data
     # may hold no line feed at all, and a comment may come first.
-    source = tmp_path / "whole.pcd"
-    write_points(source, points)
-    lines = source.read_bytes().split(b"\n")
+    lines = _bytes_as_written(tmp_path / "whole.pcd", points).split(b"\n")
     data = comment + b"\n".join(x for x in lines if x[:4] != b"DATA")
     path = _write(tmp_path / "no_data.pcd", data)
     with pytest.raises(ValueError, match=r"no_data\.pcd.*no DATA line before .*point data"):
@@ -113,18 +117,14 @@ def test_a_pcd_header_without_its_data_line_says_so(tmp_path, points, comment):
 
 
 def test_a_pcd_header_cut_inside_its_data_keyword_is_called_truncated(tmp_path):
-    source = tmp_path / "whole.pcd"
-    write_points(source, POINTS)
-    data = source.read_bytes()
+    data = _bytes_as_written(tmp_path / "whole.pcd")
     path = _write(tmp_path / "cut.pcd", data[: data.index(b"DATA") + 3])
     with pytest.raises(ValueError, match=r"cut\.pcd.*header is truncated"):
         read_points(path)
 
 
 def test_a_ply_header_of_cr_line_ends_says_so(tmp_path):
-    source = tmp_path / "whole.ply"
-    write_points(source, POINTS)
-    data = source.read_bytes()
+    data = _bytes_as_written(tmp_path / "whole.ply")
     end = data.index(b"end_header\n") + len(b"end_header\n")
     path = _write(tmp_path / "cr.ply", data[:end].replace(b"\n", b"\r") + data[end:])
     with pytest.raises(ValueError, match=r"cr\.ply.*lines end in CR alone"):
