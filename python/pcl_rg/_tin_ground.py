@@ -386,9 +386,9 @@ def tin_ground(
         world lattice, and the final pass classifies every point: its TIN takes
         the lowest ground point of each final cell, nearly always one of those,
         so on dense data the densification handles a fraction of the points.
-        Ties go to the smaller index, as the seeds' do: where heights are rounded
-        (cm), reordering the points moves a few more labels (samp11: 181 of 38,010
-        against 32 without it).
+        Ties go to the smaller index, as the seeds' do. Leave ``final_cell`` unset
+        with it on dense data: a 3 m cell at 50 pts/m^2 (110 points per half
+        cell) misses ground, 11.2 % total error against 7.8 % without it.
     params : TinGroundParams, optional
         All parameters at once (defaults: the ``isprs`` preset); keywords given
         explicitly override it.
