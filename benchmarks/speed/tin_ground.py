@@ -9,7 +9,8 @@ TinGroundParams.isprs(), and isprs() with opening_rank 2 or densify_lowest) runs
 `repeats` times; the
 table gives the median wall time of the whole call (input check plus C++ core) and,
 from the core's own clocks in that run, the split between preparation (extent,
-spacing, snapping, Morton sort, seeds), triangulation (Delaunay insertions, in
+spacing, snapping, Morton sort, seeds, the densification's arrays and first work
+list), triangulation (Delaunay insertions, in
 parallel strips for large batches) and classification (point location and acceptance
 tests, parallel; the final pass), with the work done and the errors against the
 scene's labels. --write puts the table in benchmarks/RESULTS.md.
@@ -112,7 +113,8 @@ def main(argv: list[str] | None = None) -> int:
     about = (
         f"{run_conditions(load_before)}. {scene_text}. Median of {args.repeats} runs of the "
         "whole call; the split comes from the core's clocks (prepare: extent, spacing, snapping, "
-        "Morton sort, seeds; triangulation: Delaunay insertions, large batches in parallel "
+        "Morton sort, seeds, the densification's arrays and first work list; triangulation: "
+        "Delaunay insertions, large batches in parallel "
         "strips; classification: point location and acceptance tests, in parallel, and the "
         "final pass). Tests per point: acceptance "
         "tests evaluated, after skipping points whose triangle did not change. Peak memory "

@@ -313,6 +313,7 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
     stats.triangulation_seconds += seconds_since(clock);
 
     // --- 4. densification -------------------------------------------------------------
+    clock = std::chrono::steady_clock::now();  // its set-up counts as preparation
     const Limits lim{frame.quantum,
                      params.iteration_distance,
                      params.iteration_angle,
@@ -369,6 +370,7 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
 
     // Points not yet ground: none left ends the loop without an iteration of its own.
     auto unclassified = static_cast<std::int64_t>(work.size());
+    stats.prepare_seconds += seconds_since(clock);
     for (std::int32_t iteration = 0; unclassified > 0; ++iteration) {
         interruption.check_now();
         clock = std::chrono::steady_clock::now();

@@ -150,12 +150,13 @@ void validate(const TinGroundParams& params);
 
 /// What a run did, for benchmarks and tests.
 struct TinGroundStats {
-    std::int64_t seeds = 0;               ///< lowest points of the seed cells
-    std::int64_t iterations = 0;          ///< the definition's, the last adding nothing or
-                                          ///< leaving no point unclassified
-    std::int64_t tin_vertices = 0;        ///< final TIN vertices, the virtual ones included
-    std::int64_t tests = 0;               ///< point-in-triangle tests evaluated (after skipping)
-    double prepare_seconds = 0.0;         ///< extent, spacing, snapping, spatial sort, seeds
+    std::int64_t seeds = 0;         ///< lowest points of the seed cells
+    std::int64_t iterations = 0;    ///< the definition's, the last adding nothing or
+                                    ///< leaving no point unclassified
+    std::int64_t tin_vertices = 0;  ///< final TIN vertices, the virtual ones included
+    std::int64_t tests = 0;         ///< point-in-triangle tests evaluated (after skipping)
+    double prepare_seconds = 0.0;   ///< extent, spacing, snapping, spatial sort, seeds, and the
+                                    ///< densification's arrays and first work list
     double triangulation_seconds = 0.0;   ///< Delaunay insertions
     double classification_seconds = 0.0;  ///< point location and acceptance tests
     double point_spacing = 0.0;         ///< spacing the unset lengths took (m; NaN: all were given)
