@@ -429,7 +429,7 @@ std::vector<std::uint32_t> tin_seeds(PointsView points, const TinGroundParams& p
                                            static_cast<std::int64_t>(std::floor(sey / cell)) + 1});
 }
 
-std::vector<std::uint32_t> tin_densified(PointsView points, const TinGroundParams& params,
+std::vector<std::uint64_t> tin_densified(PointsView points, const TinGroundParams& params,
                                          const std::array<double, 3>& origin,
                                          const std::array<double, 3>& upper) {
     if (!params.densify_lowest || !(*params.final_cell > 0.0)) return {};
@@ -439,10 +439,14 @@ std::vector<std::uint32_t> tin_densified(PointsView points, const TinGroundParam
         throw std::invalid_argument(
             "final_cell is too small for the extent of points: with densify_lowest, more than "
             "2^40 cells of final_cell / 2 per axis");
-    return lowest_points(
-        points, CellLattice{x0, y0, 0.0, size,
-                            static_cast<std::int64_t>(std::floor((upper[0] - x0) / size)) + 1,
-                            static_cast<std::int64_t>(std::floor((upper[1] - y0) / size)) + 1});
+    std::vector<std::uint64_t> tested((points.size + 63) / 64, 0);
+    for (const std::uint32_t i : lowest_points(
+             points,
+             CellLattice{x0, y0, 0.0, size,
+                         static_cast<std::int64_t>(std::floor((upper[0] - x0) / size)) + 1,
+                         static_cast<std::int64_t>(std::floor((upper[1] - y0) / size)) + 1}))
+        mark(tested, i);
+    return tested;
 }
 
 std::invalid_argument unset_seed_cell_error(const std::invalid_argument& error, double spacing) {

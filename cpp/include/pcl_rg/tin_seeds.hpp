@@ -28,9 +28,10 @@ std::vector<std::uint32_t> tin_seeds(PointsView points, const TinGroundParams& p
 /// The points tin_ground's densification tests when params.densify_lowest is set and the
 /// final pass is on (params.final_cell, set, > 0): the lowest point (then smallest index;
 /// heights as stored) of each cell of side final_cell / 2 on the world lattice of that
-/// size, sorted by index. Otherwise empty: every point is tested. Throws
-/// std::invalid_argument when those cells would number more than 2^40 per axis.
-std::vector<std::uint32_t> tin_densified(PointsView points, const TinGroundParams& params,
+/// size, as a bitmap over the input's indices (index_bitmap.hpp). Otherwise empty: every
+/// point is tested. Throws std::invalid_argument when those cells would number more than
+/// 2^40 per axis.
+std::vector<std::uint64_t> tin_densified(PointsView points, const TinGroundParams& params,
                                          const std::array<double, 3>& origin,
                                          const std::array<double, 3>& upper);
 

@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from ._lattice import lattice_floor
+from ._lattice import lattice_floor, lowest_in_cells
 from .tin_ground import grid_quantum, locate, triangulate, with_corners
 
 __all__ = ["border_vertices", "final_pass", "heights_above_tin", "low_ground"]
@@ -174,9 +174,7 @@ def heights_above_tin(
         return None
     cx = np.floor((xyz[index, 0] - cell_x0) / cell).astype(np.int64)
     cy = np.floor((xyz[index, 1] - cell_y0) / cell).astype(np.int64)
-    order = np.lexsort((index, z[index], cy, cx))
-    first = np.r_[True, (cx[order][1:] != cx[order][:-1]) | (cy[order][1:] != cy[order][:-1])]
-    vertex = index[order[first]]
+    vertex = index[lowest_in_cells(z[index], cx, cy)]  # index ascends: ties by index
     order = np.lexsort((vertex, z[vertex], gy[vertex], gx[vertex]))
     vertex = vertex[order]
     first = np.r_[True, (gx[vertex][1:] != gx[vertex][:-1]) | (gy[vertex][1:] != gy[vertex][:-1])]

@@ -4,7 +4,20 @@ from __future__ import annotations
 
 import math
 
-__all__ = ["lattice_floor"]
+import numpy as np
+
+__all__ = ["lattice_floor", "lowest_in_cells"]
+
+
+def lowest_in_cells(z: np.ndarray, cx: np.ndarray, cy: np.ndarray) -> np.ndarray:
+    """Positions of the lowest of `z` (ties: the smaller position) in each cell (cx, cy)
+    that holds any, ordered by cell: as ``lowest_in_cells`` in ``cpp/src/cell_lowest.cpp``
+    (the final pass's vertices, tin_ground's densified points)."""
+    if len(z) == 0:
+        return np.zeros(0, dtype=np.intp)
+    order = np.lexsort((np.arange(len(z)), z, cy, cx))
+    first = np.r_[True, (cx[order][1:] != cx[order][:-1]) | (cy[order][1:] != cy[order][:-1])]
+    return order[first]
 
 
 def lattice_floor(low: float, size: float) -> float:

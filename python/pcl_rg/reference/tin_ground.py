@@ -27,7 +27,7 @@ from .._point_spacing import with_spacing_lengths
 from .._tin_ground import TinGroundParams
 from .._validation import as_points
 from ._delaunay import follow_perturbation, triangle_neighbours
-from ._lattice import lattice_floor
+from ._lattice import lattice_floor, lowest_in_cells
 from ._tin_seeds import seeds, seeds_of
 from .point_spacing import point_spacing
 
@@ -284,10 +284,8 @@ def _lowest_of_half_final_cells(xyz: np.ndarray, final_cell: float) -> np.ndarra
         )
     cx = np.floor((xyz[:, 0] - x0) / size).astype(np.int64)
     cy = np.floor((xyz[:, 1] - y0) / size).astype(np.int64)
-    order = np.lexsort((np.arange(len(xyz)), xyz[:, 2], cy, cx))
-    first = np.r_[True, (cx[order][1:] != cx[order][:-1]) | (cy[order][1:] != cy[order][:-1])]
     tested = np.zeros(len(xyz), dtype=bool)
-    tested[order[first]] = True
+    tested[lowest_in_cells(xyz[:, 2], cx, cy)] = True
     return tested
 
 
