@@ -118,9 +118,15 @@ def test_bad_points_are_refused() -> None:
 
 # ------------------------------------------------------------------ unset lengths
 
-TIN_LENGTHS = ("stop_edge", "near_vertex_distance", "seed_cell", "final_cell")
+TIN_LENGTHS = ("stop_edge", "near_vertex_distance", "seed_cell", "final_cell", "densify_cell")
 # The ISPRS preset's lengths, which an unset length never exceeds (the caps).
-ISPRS_LENGTHS = {"stop_edge": 2.0, "near_vertex_distance": 1.0, "seed_cell": 2.0, "final_cell": 3.0}
+ISPRS_LENGTHS = {
+    "stop_edge": 2.0,
+    "near_vertex_distance": 1.0,
+    "seed_cell": 2.0,
+    "final_cell": 3.0,
+    "densify_cell": 1.5,
+}
 
 
 def test_the_defaults_leave_the_spacing_lengths_unset() -> None:
@@ -183,7 +189,7 @@ def test_at_isprs_spacing_and_sparser_the_unset_lengths_are_the_isprs_ones(
     assert TinGroundParams().at_spacing(spacing) == TinGroundParams(**ISPRS_LENGTHS)
     denser = TinGroundParams().at_spacing(0.9 * 0.95)
     assert denser.stop_edge == 2.0 and denser.near_vertex_distance == pytest.approx(0.9)
-    for name in ("seed_cell", "final_cell"):  # 0.9 x cap: the rung cap x 2^(-2/8)
+    for name in ("seed_cell", "final_cell", "densify_cell"):  # 0.9 x cap: cap x 2^(-2/8)
         assert_rung(getattr(denser, name), name, 0.9 * 0.95)
         assert getattr(denser, name) == pytest.approx(ISPRS_LENGTHS[name] * 2**-0.25)
     for factor, stop_edge in ((1.01, 2.0), (0.9, 0.9 * 2.0)):
@@ -276,7 +282,7 @@ def test_the_lengths_scale_with_the_density() -> None:
     assert ratio == pytest.approx(0.5, rel=0.05)
     for name in TIN_LENGTHS:
         # The cells are rungs 2^(1/8) apart: in proportion up to that step.
-        step = 0.1 if name in ("seed_cell", "final_cell") else 1e-9
+        step = 0.1 if name.endswith("_cell") else 1e-9
         assert used[1][name] / used[0][name] == pytest.approx(ratio, rel=step)
 
 
@@ -298,7 +304,9 @@ def test_a_stray_point_moves_no_cell_of_tin_grounds_lattices_in_utm() -> None:
     stray = np.r_[points, [[500_100.0, 5_400_100.0, 1000.0]]]
     np.testing.assert_array_equal(pcl_rg.tin_ground(stray)[:-1], pcl_rg.tin_ground(points))
 
-    # The rule before, cells of min(cap, multiple x spacing), on the same two spacings.
+    # The rule before, cells of min(cap, multiple x spacing), on the same two spacings
+    # (densify_cell off, as it was then: the moved seed and final cells alone change
+    # 508 labels; with it on, 28).
     def proportional(cloud: np.ndarray) -> np.ndarray:
         spacing = pcl_rg.point_spacing(cloud)
         cells = {
@@ -306,7 +314,8 @@ def test_a_stray_point_moves_no_cell_of_tin_grounds_lattices_in_utm() -> None:
             for name, multiple in TinGroundParams.SPACING_MULTIPLES.items()
             if name in ("seed_cell", "final_cell")
         }
-        return pcl_rg.tin_ground(cloud, params=TinGroundParams(**cells).at_spacing(spacing))
+        params = TinGroundParams(**cells, densify_cell=0.0).at_spacing(spacing)
+        return pcl_rg.tin_ground(cloud, params=params)
 
     assert (proportional(stray)[:-1] != proportional(points)).sum() > 100
 

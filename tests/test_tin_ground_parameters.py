@@ -101,8 +101,8 @@ def test_stop_edge_accepts_without_inserting() -> None:
 
 
 def test_stop_edge_bounds_the_density_of_the_tin() -> None:
-    points = scene(3).points
-    params = dataclasses.replace(ISPRS, stop_edge=0.01)
+    points = scene(3).points  # densify_cell off: the TIN of every point the stop edge lets in
+    params = dataclasses.replace(ISPRS, stop_edge=0.01, densify_cell=0.0)
     vertices = [
         run_core(points, dataclasses.replace(params, stop_edge=e))[1]["tin_vertices"]
         for e in (0.01, 1.0, 2.0, 4.0)
@@ -238,48 +238,77 @@ def test_opening_rank_keeps_the_seeds_around_single_multipath_points(seed: int) 
 
 
 # --------------------------------------------------------------------------
-# densify_lowest: the densification tests only the lowest point of each half final cell
+# densify_cell: the densification tests only the lowest point of each densify cell
 
 
-@pytest.mark.parametrize("source", ["scene 0", "scene 1", "samp21", "samp41"])
-def test_densify_lowest_core_equals_reference(source: str) -> None:
-    # Which point is a half cell's lowest is exact (heights as stored, ties by index),
-    # and the rest is the definition's: equal masks, as without the option.
+@pytest.mark.parametrize(
+    ("source", "cell"),
+    [("scene 0", None), ("scene 1", None), ("scene 1", 0.4), ("samp21", None), ("samp41", None)],
+)
+def test_densify_cell_core_equals_reference(source: str, cell: float | None) -> None:
+    # Which point is a cell's lowest is exact (heights as stored, ties by index), and
+    # the rest is the definition's: equal masks, as without the option (None: the
+    # preset's, following the spacing).
     kind, name = source.split(" ") if " " in source else ("isprs", source)
     points = scene(int(name), density=4.0).points if kind == "scene" else isprs(name)[0]
-    params = dataclasses.replace(ISPRS, densify_lowest=True)
+    params = dataclasses.replace(ISPRS, densify_cell=cell)
     core = pcl_rg.tin_ground(points, params=params)
     np.testing.assert_array_equal(core, reference.tin_ground(points, params=params))
 
 
-def test_densify_lowest_needs_the_final_pass() -> None:
+def test_densify_cell_needs_the_final_pass() -> None:
     # Without a final pass nothing would classify the points it leaves untested: the
     # option is then ignored, as seed_tolerance is without seed_cell.
     points = scene(2, density=4.0).points
     alone = dataclasses.replace(ISPRS, final_cell=0.0)
     np.testing.assert_array_equal(
-        pcl_rg.tin_ground(points, params=dataclasses.replace(alone, densify_lowest=True)),
-        pcl_rg.tin_ground(points, params=alone),
+        pcl_rg.tin_ground(points, params=dataclasses.replace(alone, densify_cell=1.0)),
+        pcl_rg.tin_ground(points, params=dataclasses.replace(alone, densify_cell=0.0)),
     )
 
 
-def test_densify_lowest_tests_fewer_points_for_nearly_the_same_ground() -> None:
+def test_densify_cell_tests_fewer_points_for_nearly_the_same_ground() -> None:
     # The final TIN takes the lowest ground point of each final cell, nearly always the
     # lowest of one of its four half cells: the ground barely moves while the
     # densification tests a fraction of the points (8 pts/m^2, ~4 per half cell).
     points = scene(3, size=120.0, density=8.0).points
-    plain, plain_stats = run_core(points, ISPRS)
-    thinned, thinned_stats = run_core(points, dataclasses.replace(ISPRS, densify_lowest=True))
+    plain, plain_stats = run_core(points, dataclasses.replace(ISPRS, densify_cell=0.0))
+    thinned, thinned_stats = run_core(points, ISPRS)
     assert thinned_stats["tests"] < 0.5 * plain_stats["tests"], (thinned_stats, plain_stats)
     assert np.mean(thinned != plain) < 0.005
 
 
-@pytest.mark.parametrize("cell", [5e-324, 1e-300])
-def test_densify_lowest_refuses_cells_too_small_for_the_extent_in_both(cell: float) -> None:
+@pytest.mark.parametrize("density", [2.0, 8.0, 50.0])
+def test_densify_cell_follows_the_spacing_when_unset(density: float) -> None:
+    # Unset, it is half the unset final cell at every spacing, and it stays that when
+    # the final cell is fixed at the ISPRS 3 m: the lowest of the ~110 points of a
+    # 1.5 m cell at 50 pts/m^2 misses ground that the final pass cannot recover.
+    points = scene(5, size=80.0, density=density).points
+    spacing = pcl_rg.point_spacing(points)
+    expected = ISPRS.at_spacing(spacing)
+    assert expected.densify_cell == expected.final_cell / 2
+    for fixed in ({}, {"final_cell": 3.0}):
+        with pcl_rg.collect_diagnostics() as diagnostics:
+            pcl_rg.tin_ground(points, **fixed)
+        assert diagnostics["tin_ground"]["densify_cell"] == expected.densify_cell, fixed
+
+
+def test_densify_cell_is_at_most_half_the_final_cell() -> None:
+    points = scene(6, size=80.0).points
+    with pcl_rg.collect_diagnostics() as diagnostics:
+        pcl_rg.tin_ground(points, densify_cell=5.0, final_cell=2.0)
+    assert diagnostics["tin_ground"]["densify_cell"] == 1.0
+    with pcl_rg.collect_diagnostics() as diagnostics:
+        pcl_rg.tin_ground(points, densify_cell=0.0)
+    assert diagnostics["tin_ground"]["densify_cell"] == 0.0
+
+
+@pytest.mark.parametrize(("final", "densify"), [(5e-324, None), (1e-300, None), (3.0, 1e-300)])
+def test_densify_cell_refuses_cells_too_small_for_the_extent_in_both(final, densify) -> None:
     points = scene(4).points
-    params = dataclasses.replace(ISPRS, final_cell=cell, densify_lowest=True)
+    params = dataclasses.replace(ISPRS, final_cell=final, densify_cell=densify)
     for run in (pcl_rg.tin_ground, reference.tin_ground):
-        with pytest.raises(ValueError, match=r"final_cell is too small .* densify_lowest"):
+        with pytest.raises(ValueError, match=r"densify_cell is too small"):
             run(points, params=params)
 
 
@@ -289,9 +318,10 @@ def test_densify_lowest_refuses_cells_too_small_for_the_extent_in_both(cell: flo
     n=st.integers(20, 400),
     step=st.sampled_from([0.0, 0.01, 0.5]),
     cell=st.sampled_from([None, 0.5, 1.0, 3.0, 7.3]),
+    densify=st.sampled_from([None, 0.3, 2.0]),
     far=st.booleans(),
 )
-def test_hypothesis_densify_lowest_core_equals_reference(seed, n, step, cell, far) -> None:
+def test_hypothesis_densify_cell_core_equals_reference(seed, n, step, cell, densify, far) -> None:
     # Quantised coordinates (equal heights, copies), UTM offsets, and a few points far
     # off, so that the half-cell lattice is sparse and the core sorts its cells.
     rng = np.random.default_rng(seed)
@@ -302,7 +332,7 @@ def test_hypothesis_densify_lowest_core_equals_reference(seed, n, step, cell, fa
     if far:
         points[-3:, :2] += rng.uniform(2e3, 5e3, (3, 2))
     points += [4.5e5, 5.4e6, 100.0]
-    params = dataclasses.replace(ISPRS, final_cell=cell, densify_lowest=True)
+    params = dataclasses.replace(ISPRS, final_cell=cell, densify_cell=densify)
     try:
         expected = reference.tin_ground(points, params=params)
     except QhullPrecisionError:

@@ -97,7 +97,7 @@ def _jobs(c: dict[str, np.ndarray]) -> dict[str, Callable[[], str]]:
         "tin_ground_low_depth": lambda: _digest(
             pcl_rg.tin_ground(air, final_cell=1.0, final_low_depth=0.5)
         ),
-        "tin_ground_densify_lowest": lambda: _digest(pcl_rg.tin_ground(air, densify_lowest=True)),
+        "tin_ground_densify_off": lambda: _digest(pcl_rg.tin_ground(air, densify_cell=0.0)),
         "tin_ground_lidar360": lambda: _digest(
             pcl_rg.tin_ground(air, params=pcl_rg.TinGroundParams.lidar360())
         ),

@@ -5,7 +5,7 @@ Usage:
 
 One synthetic scene (pcl_rg.datasets.synthetic_scene, seed 0, 4 points/m^2, sized
 for the requested number of points) is filtered by tin_ground (isprs preset, the
-defaults, and with densify_lowest), grid_ground (defaults) and
+defaults, and with densify_cell off), grid_ground (defaults) and
 pcl::ApproximateProgressiveMorphologicalFilter
 (PCL's tutorial parameters, as benchmarks/studies/ground_isprs.py runs PMF). The
 four run interleaved in one process, `repeats` rounds, each round starting one
@@ -46,8 +46,8 @@ DENSITY = 4.0
 APMF = "PCL ApproximateProgressiveMorphologicalFilter (tutorial)"
 METHODS = {
     "tin_ground (isprs preset, the defaults)": lambda p: pcl_rg.tin_ground(p),
-    "tin_ground (isprs preset, densify_lowest=True)": lambda p: pcl_rg.tin_ground(
-        p, densify_lowest=True
+    "tin_ground (isprs preset, densify_cell=0: off)": lambda p: pcl_rg.tin_ground(
+        p, densify_cell=0.0
     ),
     "grid_ground (defaults)": lambda p: pcl_rg.grid_ground(p),
     APMF: lambda p: pcl_rg.pcl.progressive_morphological_filter(p, approximate=True),

@@ -5,7 +5,7 @@ Usage:
 
 The scene is pcl_rg.datasets.synthetic_scene at 4 points/m^2 (seed 0), sized for the
 requested number of points. Each parameter set (LiDAR360's defaults,
-TinGroundParams.isprs(), and isprs() with opening_rank 2 or densify_lowest) runs
+TinGroundParams.isprs(), and isprs() with opening_rank 2 or densify_cell off) runs
 `repeats` times; the
 table gives the median wall time of the whole call (input check plus C++ core) and,
 from the core's own clocks in that run, the split between preparation (extent,
@@ -71,7 +71,7 @@ def main(argv: list[str] | None = None) -> int:
         # cost the plain opening a fifth of its seeds, and the densification time
         ("isprs(opening_rank=2)", pcl_rg.TinGroundParams.isprs(opening_rank=2)),
         # the densification on the lowest point of each half final cell only
-        ("isprs(densify_lowest=True)", pcl_rg.TinGroundParams.isprs(densify_lowest=True)),
+        ("isprs(densify_cell=0.0)", pcl_rg.TinGroundParams.isprs(densify_cell=0.0)),
     ]:
         runs = [run_once(scene.points, params) for _ in range(args.repeats)]
         seconds = statistics.median(r[0] for r in runs)

@@ -55,9 +55,13 @@ OBJECT_CLASSES = [
 ]
 
 # The presets with their lengths fixed at the ISPRS values (what they are on ISPRS
-# data, and what main's presets were), for comparison.
+# data, and what main's presets were), for comparison: densify_cell first left to
+# follow the spacing, then fixed too (1.5 m, what it is on ISPRS data).
 TIN_FIXED = pcl_rg.TinGroundParams(
     stop_edge=2.0, near_vertex_distance=1.0, seed_cell=2.0, final_cell=3.0
+)
+TIN_FIXED_ALL = pcl_rg.TinGroundParams(
+    stop_edge=2.0, near_vertex_distance=1.0, seed_cell=2.0, final_cell=3.0, densify_cell=1.5
 )
 GRID_FIXED = pcl_rg.GridGroundParams(cell_size=3.0)
 # The "resolution" rule's pick on the seven ISPRS samples (tin_isprs_params.py --rule
@@ -71,8 +75,12 @@ GRID_FORMER = former_grid_default()
 METHODS: list[tuple[str, Callable[[np.ndarray], np.ndarray]]] = [
     ("tin_ground (defaults: isprs preset)", lambda points: pcl_rg.tin_ground(points)),
     (
-        "tin_ground (preset, lengths fixed at 2/1/2/3 m)",
+        "tin_ground (preset, lengths fixed at 2/1/2/3 m, densify_cell unset)",
         lambda points: pcl_rg.tin_ground(points, params=TIN_FIXED),
+    ),
+    (
+        "tin_ground (preset, lengths fixed at 2/1/2/3/1.5 m, densify_cell too)",
+        lambda points: pcl_rg.tin_ground(points, params=TIN_FIXED_ALL),
     ),
     (
         "tin_ground (resolution rule's pick)",
@@ -129,6 +137,7 @@ def run(densities, seeds, methods) -> tuple[list[list[str]], list[str]]:
                                 "near_vertex_distance",
                                 "seed_cell",
                                 "final_cell",
+                                "densify_cell",
                                 "cell_size",
                             )
                             if k in used

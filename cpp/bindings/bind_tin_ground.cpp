@@ -28,7 +28,7 @@ void bind_tin_ground(py::module_& m) {
         .def_readwrite("final_below", &TinGroundParams::final_below)
         .def_readwrite("final_slope", &TinGroundParams::final_slope)
         .def_readwrite("final_low_depth", &TinGroundParams::final_low_depth)
-        .def_readwrite("densify_lowest", &TinGroundParams::densify_lowest);
+        .def_readwrite("densify_cell", &TinGroundParams::densify_cell);
 
     m.def(
         "tin_ground",
@@ -49,6 +49,7 @@ void bind_tin_ground(py::module_& m) {
             info["near_vertex_distance"] = stats.near_vertex_distance;
             info["seed_cell"] = stats.seed_cell;
             info["final_cell"] = stats.final_cell;
+            info["densify_cell"] = stats.densify_cell;
             return py::make_tuple(ground, info);
         },
         py::arg("points").noconvert(), py::arg("params"),

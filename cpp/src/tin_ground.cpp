@@ -58,8 +58,8 @@
 //     strip by the uphill side that the seeds' clipped opening leaves without seeds.
 //   * final_cell: a final pass (final_pass.cpp, shared with grid_ground) classifies every
 //     point again by its height above a TIN of the lowest ground point of each cell.
-//   * densify_lowest (off in both presets): with the final pass, only the lowest point of
-//     each final_cell / 2 cell (ties: smallest index, as the seeds) is tested in step 3
+//   * densify_cell: with the final pass, only the lowest point of each densify_cell cell
+//     (at most final_cell / 2; ties: smallest index, as the seeds) is tested in step 3
 //     (tin_seeds.cpp: tin_densified); the final pass classifies every point.
 //
 // Grids and tiles: the grids that decide which points are seeds are anchored on the
@@ -134,13 +134,15 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
     const std::array<double, 3> origin = local_origin(points);
     const std::array<double, 3> upper = upper_corner(points, origin);
     stats.point_spacing = std::numeric_limits<double>::quiet_NaN();
-    if (!given.stop_edge || !given.near_vertex_distance || !given.seed_cell || !given.final_cell)
+    if (!given.stop_edge || !given.near_vertex_distance || !given.seed_cell || !given.final_cell ||
+        !given.densify_cell)
         stats.point_spacing = spacing_or_one_metre(points, origin, upper);
     const TinGroundParams params = with_spacing(given, stats.point_spacing);
     stats.stop_edge = *params.stop_edge;
     stats.near_vertex_distance = *params.near_vertex_distance;
     stats.seed_cell = *params.seed_cell;
     stats.final_cell = *params.final_cell;
+    stats.densify_cell = densify_cell(params);
     if (n < 3)
         throw std::invalid_argument("points must hold at least 3 points for a TIN, got " +
                                     std::to_string(n));
@@ -317,7 +319,7 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
     UnfilledVector<std::uint32_t> work, chosen;  // filled in full when sized: not zeroed first
     std::vector<std::uint32_t> waiting;          // skip_idle_iterations's
     std::int64_t idle_iterations = 0;            // iterations of the definition it did
-    // The first work: every point that is not a seed (with densify_lowest, of those the
+    // The first work: every point that is not a seed (with densify_cell, of those the
     // lowest of their half final cells only), in sorted order.
     // Bit i (input index): tested; empty: every point.
     const std::vector<std::uint64_t> densified = tin_densified(points, params, origin, upper);

@@ -24,6 +24,8 @@ void validate(const TinGroundParams& params) {
     check::real("outlier_depth", params.outlier_depth, check::non_negative());
     check::integer("opening_rank", params.opening_rank,
                    {1.0, std::nullopt, static_cast<double>(kTinMaxOpeningRank), std::nullopt});
+    if (params.densify_cell)
+        check::real("densify_cell", *params.densify_cell, check::non_negative());
     validate(final_pass_params(params));
 }
 
@@ -38,6 +40,8 @@ TinGroundParams with_spacing(const TinGroundParams& params, double spacing) {
     fill(resolved.seed_cell, tin_lattice_length(kTinSeedCellCap, kTinSeedCellPerSpacing, spacing));
     fill(resolved.final_cell,
          tin_lattice_length(kTinFinalCellCap, kTinFinalCellPerSpacing, spacing));
+    fill(resolved.densify_cell,
+         tin_lattice_length(kTinDensifyCellCap, kTinDensifyCellPerSpacing, spacing));
     return resolved;
 }
 

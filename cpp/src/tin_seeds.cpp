@@ -432,20 +432,29 @@ std::vector<std::uint32_t> tin_seeds(PointsView points, const TinGroundParams& p
 std::vector<std::uint64_t> tin_densified(PointsView points, const TinGroundParams& params,
                                          const std::array<double, 3>& origin,
                                          const std::array<double, 3>& upper) {
-    if (!params.densify_lowest || !(*params.final_cell > 0.0)) return {};
-    const double size = *params.final_cell / 2.0;
+    if (!(params.densify_cell.value_or(0.0) > 0.0) || !(params.final_cell.value_or(0.0) > 0.0))
+        return {};
+    const double size = densify_cell(params);  // 0 for a subnormal final cell: refused below
     const double x0 = lattice_floor(origin[0], size), y0 = lattice_floor(origin[1], size);
     if (!((upper[0] - x0) / size < 0x1p40 && (upper[1] - y0) / size < 0x1p40))
         throw std::invalid_argument(
-            "final_cell is too small for the extent of points: with densify_lowest, more than "
-            "2^40 cells of final_cell / 2 per axis");
+            "densify_cell is too small for the extent of points: more than 2^40 of its cells "
+            "(at most final_cell / 2) per axis");
+    const CellLattice lattice{x0,
+                              y0,
+                              0.0,
+                              size,
+                              static_cast<std::int64_t>(std::floor((upper[0] - x0) / size)) + 1,
+                              static_cast<std::int64_t>(std::floor((upper[1] - y0) / size)) + 1};
     std::vector<std::uint64_t> tested((points.size + 63) / 64, 0);
-    for (const std::uint32_t i : lowest_points(
-             points,
-             CellLattice{x0, y0, 0.0, size,
-                         static_cast<std::int64_t>(std::floor((upper[0] - x0) / size)) + 1,
-                         static_cast<std::int64_t>(std::floor((upper[1] - y0) / size)) + 1}))
-        mark(tested, i);
+    // Marked straight from the raster where there is one: lowest_points' list in index
+    // order would only be marked here again.
+    if (fits_raster(lattice, points.size)) {
+        for (const std::int64_t i : lowest_in_cells(points, lattice))
+            if (i >= 0) mark(tested, static_cast<std::uint32_t>(i));
+    } else {
+        for (const std::uint32_t i : lowest_points(points, lattice)) mark(tested, i);
+    }
     return tested;
 }
 

@@ -65,7 +65,7 @@ class TinGroundParams:
     final_below: float
     final_slope: float
     final_low_depth: float
-    densify_lowest: bool
+    densify_cell: float | None
     def __init__(self) -> None: ...
 
 def tin_ground(

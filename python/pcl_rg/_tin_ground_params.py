@@ -35,26 +35,33 @@ class TinGroundParams:
     pts/m^2; :meth:`lidar360` is LiDAR360's own set (the seed's definition), which
     keeps only a sparse key-point set as ground on such data (see the README).
 
-    The four lengths that depend on the point spacing (``stop_edge``,
-    ``near_vertex_distance``, ``seed_cell``, ``final_cell``) are None ("unset")
-    by default: each call takes ``m = SPACING_MULTIPLES[name] * spacing`` with
-    its points' spacing (:func:`pcl_rg.point_spacing`, 1 m where undefined), and
-    ``min(cap, m)`` with ``cap = SPACING_CAPS[name]``, or for the seed and final
-    cells (on the world lattice of their size, which one stray point nudging the
-    spacing must not move) the largest ``cap * 2**(-j / 8)``, j >= 0, at most m.
-    The caps are the ISPRS samples' lengths (2, 1, 2, 3 m) and each multiple
-    is its cap / 0.95 m: data as sparse as those samples (spacing 0.99-2.41 m)
-    gets the ISPRS lengths, denser data about its spacing's share. The stop
-    edge's multiple is a 4 m stop edge's (on ISPRS every one of 2-6 m scores
-    the same; a shorter one inserts far more points into the TIN on dense
-    data): it stays 2 m down to a spacing of 0.475 m (at 0.5 m: 2, 0.53, 1 and
-    1.5 m). A number fixes the length; 0 still switches the last three off.
+    The five lengths that depend on the point spacing (``stop_edge``,
+    ``near_vertex_distance``, ``seed_cell``, ``final_cell``, ``densify_cell``)
+    are None ("unset") by default: each call takes ``m = SPACING_MULTIPLES[name]
+    * spacing`` with its points' spacing (:func:`pcl_rg.point_spacing`, 1 m where
+    undefined), and ``min(cap, m)`` with ``cap = SPACING_CAPS[name]``, or for the
+    three cells (on the world lattice of their size, which one stray point
+    nudging the spacing must not move) the largest ``cap * 2**(-j / 8)``, j >= 0,
+    at most m. The caps are the ISPRS samples' lengths (2, 1, 2, 3 m; the
+    densify cell half the final cell's) and each multiple is its cap / 0.95 m:
+    data as sparse as those samples (spacing 0.99-2.41 m) gets the ISPRS
+    lengths, denser data about its spacing's share. The stop edge's multiple is
+    a 4 m stop edge's (on ISPRS every one of 2-6 m scores the same; a shorter
+    one inserts far more points into the TIN on dense data): it stays 2 m down
+    to a spacing of 0.475 m (at 0.5 m: 2, 0.53, 1, 1.5 and 0.75 m). A number
+    fixes the length; 0 still switches the last four off.
     :func:`pcl_rg.collect_diagnostics` gives the spacing and lengths a call
     used; :meth:`at_spacing` fixes them ahead (say for all tiles of a survey).
     """
 
     SPACING_CAPS: ClassVar[Mapping[str, float]] = MappingProxyType(
-        {"stop_edge": 2.0, "near_vertex_distance": 1.0, "seed_cell": 2.0, "final_cell": 3.0}
+        {
+            "stop_edge": 2.0,
+            "near_vertex_distance": 1.0,
+            "seed_cell": 2.0,
+            "final_cell": 3.0,
+            "densify_cell": 1.5,
+        }
     )
     """The unset lengths' largest values, m: the ISPRS preset's (C++: kTin*Cap)."""
     SPACING_MULTIPLES: ClassVar[Mapping[str, float]] = MappingProxyType(
@@ -154,10 +161,12 @@ class TinGroundParams:
     final_below: float = final_pass_param("final_below", 5.0)
     final_slope: float = final_pass_param("final_slope", 1.0)
     final_low_depth: float = final_pass_param("final_low_depth", 2.0)
-    densify_lowest: bool = param(
-        False,
-        help="improvement (False: off; with final_cell): the densification tests only the "
-        "lowest point of each final_cell / 2 cell; the final pass classifies every point",
+    densify_cell: float | None = spacing_length(
+        minimum=0.0,
+        help="improvement (0: off; with final_cell): the densification tests only the lowest "
+        "point of each cell of min(densify_cell, final_cell / 2); the final pass classifies "
+        "every point; unset: the largest 1.5 m x 2^(-j/8) at most 1.58 x the point spacing "
+        "(half the unset final cell)",
     )
 
     def __post_init__(self) -> None:
@@ -182,16 +191,17 @@ class TinGroundParams:
         --------
         >>> from pcl_rg import TinGroundParams
         >>> TinGroundParams().at_spacing(2.0) == TinGroundParams(
-        ...     stop_edge=2.0, near_vertex_distance=1.0, seed_cell=2.0, final_cell=3.0
+        ...     stop_edge=2.0, near_vertex_distance=1.0, seed_cell=2.0, final_cell=3.0,
+        ...     densify_cell=1.5,
         ... )  # ISPRS density: the caps
         True
         >>> dense = TinGroundParams().at_spacing(0.25)  # 16 points per m^2
-        >>> [round(v, 3) for v in (dense.stop_edge, dense.seed_cell, dense.final_cell)]
-        [1.053, 0.5, 0.75]
+        >>> [round(dense.stop_edge, 3), dense.seed_cell, dense.final_cell, dense.densify_cell]
+        [1.053, 0.5, 0.75, 0.375]
         """
         spacing = check_number("spacing", spacing, float, above=0.0)
         unset = {
-            name: (lattice_length if name in ("seed_cell", "final_cell") else min)(
+            name: (lattice_length if name.endswith("_cell") else min)(
                 self.SPACING_CAPS[name], multiple * spacing
             )
             for name, multiple in self.SPACING_MULTIPLES.items()
@@ -256,7 +266,7 @@ class TinGroundParams:
             "final_below": 5.0,
             "final_slope": 1.0,
             "final_low_depth": 0.0,
-            "densify_lowest": False,
+            "densify_cell": 0.0,
         }
         return cls(**{**values, **overrides})
 

@@ -11,8 +11,8 @@
 
 namespace pcl_rg {
 
-/// The lengths left unset take min(cap, multiple x the point spacing), the seed and final
-/// cells a rung below it (tin_lattice_length) (point_spacing.hpp:
+/// The lengths left unset take min(cap, multiple x the point spacing), the seed, final
+/// and densify cells a rung below it (tin_lattice_length) (point_spacing.hpp:
 /// spacing_or_one_metre). The caps are the lengths of the ISPRS preset, fixed lengths
 /// chosen and cross-validated on the seven ISPRS samples (benchmarks/studies/
 /// tin_isprs_params.py, ground_isprs_cv.py: no rule that scales them did better there);
@@ -24,8 +24,8 @@ namespace pcl_rg {
 /// data a stop edge half as long inserts 2-3 times the vertices (0.5 m spacing,
 /// 10M points: 7.4M vertices at 1.05 m, 2.7M at 2 m). It stays 2 m down to a
 /// spacing of 0.475 m (benchmarks/RESULTS.md, "Ground filters at 2-20 points per
-/// m^2"). The seed and final cells lie on the world lattice of their size, and their
-/// unset lengths are the rungs of a ladder below their caps (tin_lattice_length).
+/// m^2"). The seed, final and densify cells lie on the world lattice of their size, and
+/// their unset lengths are the rungs of a ladder below their caps (tin_lattice_length).
 /// Python mirror: TinGroundParams.SPACING_CAPS and SPACING_MULTIPLES.
 inline constexpr double kTinFullLengthSpacing = 0.95;
 inline constexpr double kTinStopEdgeCap = 2.0;
@@ -40,6 +40,9 @@ inline constexpr double kTinSeedCellPerSpacing = kTinSeedCellCap / kTinFullLengt
 /// 2^25 / opening_rank).
 inline constexpr std::int64_t kTinMaxOpeningRank = 8;
 inline constexpr double kTinFinalCellPerSpacing = kTinFinalCellCap / kTinFullLengthSpacing;
+/// densify_cell's: half the final cell's, so that unset both are on one ladder.
+inline constexpr double kTinDensifyCellCap = kTinFinalCellCap / 2.0;
+inline constexpr double kTinDensifyCellPerSpacing = kTinDensifyCellCap / kTinFullLengthSpacing;
 inline constexpr double kTinLatticeRungs = 8.0;  // rungs per halving (tin_lattice_length)
 
 /// An unset seed or final cell: the largest cap x 2^(-j / 8), j >= 0 whole, that is at
@@ -60,7 +63,7 @@ inline double tin_lattice_length(double cap, double multiple, double spacing) {
 
 /// The defaults are Python's TinGroundParams.isprs() preset (chosen on the ISPRS
 /// samples); TinGroundParams.lidar360() is LiDAR360's own set: 20, 88, 8, 1.4, 5, 2 and
-/// the improvements off. The four lengths that depend on the point spacing are unset
+/// the improvements off. The five lengths that depend on the point spacing are unset
 /// (std::nullopt) by default: each call then takes them from the spacing of its points
 /// (the constants above).
 struct TinGroundParams {
@@ -136,13 +139,17 @@ struct TinGroundParams {
     /// final TIN (final_pass.hpp), so that a patch of low points (multipath) pulls no
     /// surface down to it. 2 m: the ISPRS preset's (cross-validated).
     double final_low_depth = 2.0;
-    /// Improvement (false: off; used only with a final pass): the densification tests only
-    /// the lowest point (then smallest index) of each cell of side final_cell / 2 on the
-    /// world lattice of that size, and the final pass then classifies every point. The
-    /// final TIN takes the lowest ground point of each final cell, which is nearly always
-    /// one of those: on dense data the densification tests and inserts a fraction of the
-    /// points (tin_seeds.hpp: tin_densified).
-    bool densify_lowest = false;
+    /// Improvement (0: off; used only with a final pass): the densification tests only the
+    /// lowest point (then smallest index) of each cell of side min(densify_cell,
+    /// final_cell / 2) (m, >= 0) on the world lattice of that size, and the final pass then
+    /// classifies every point. The final TIN takes the lowest ground point of each final
+    /// cell, which is nearly always one of those: on dense data the densification tests and
+    /// inserts a fraction of the points (tin_seeds.hpp: tin_densified). Unset:
+    /// tin_lattice_length(kTinDensifyCellCap, kTinDensifyCellPerSpacing, the point
+    /// spacing), half the unset final cell: a cell that follows the spacing, because
+    /// the lowest of ~100 points (a 1.5 m cell at 50 pts/m^2) misses ground the final
+    /// pass cannot recover.
+    std::optional<double> densify_cell;
 };
 
 /// Throws std::invalid_argument naming the parameter when a value is out of range.
@@ -164,7 +171,19 @@ struct TinGroundStats {
     double near_vertex_distance = 0.0;  ///< (see stop_edge)
     double seed_cell = 0.0;             ///< (see stop_edge)
     double final_cell = 0.0;            ///< (see stop_edge)
+    double densify_cell = 0.0;          ///< (see stop_edge; 0: every point tested)
 };
+
+/// The side (m) of the cells whose lowest points the densification tests, of `params`
+/// with every length set: min(densify_cell, final_cell / 2), or 0 (every point tested)
+/// when either is 0 (without a final pass nothing else would classify the others). A
+/// subnormal final cell halves to 0 too; tin_densified refuses it.
+inline double densify_cell(const TinGroundParams& params) {
+    const double densify = params.densify_cell.value_or(0.0);
+    const double final_cell = params.final_cell.value_or(0.0);
+    if (!(densify > 0.0) || !(final_cell > 0.0)) return 0.0;
+    return std::min(densify, final_cell / 2.0);
+}
 
 /// `params` with every unset length set from `spacing` (m, > 0) as stated there.
 TinGroundParams with_spacing(const TinGroundParams& params, double spacing);

@@ -25,12 +25,11 @@ std::vector<std::uint32_t> tin_seeds(PointsView points, const TinGroundParams& p
                                      const std::array<double, 3>& origin,
                                      const std::array<double, 3>& upper);
 
-/// The points tin_ground's densification tests when params.densify_lowest is set and the
-/// final pass is on (params.final_cell, set, > 0): the lowest point (then smallest index;
-/// heights as stored) of each cell of side final_cell / 2 on the world lattice of that
-/// size, as a bitmap over the input's indices (index_bitmap.hpp). Otherwise empty: every
-/// point is tested. Throws std::invalid_argument when those cells would number more than
-/// 2^40 per axis.
+/// The points tin_ground's densification tests when densify_cell(params) (tin_ground.hpp;
+/// every length set) is > 0: the lowest point (then smallest index; heights as stored) of
+/// each cell of that side on the world lattice of that size, as a bitmap over the input's
+/// indices (index_bitmap.hpp). Otherwise empty: every point is tested. Throws
+/// std::invalid_argument when those cells would number more than 2^40 per axis.
 std::vector<std::uint64_t> tin_densified(PointsView points, const TinGroundParams& params,
                                          const std::array<double, 3>& origin,
                                          const std::array<double, 3>& upper);

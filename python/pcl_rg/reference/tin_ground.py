@@ -268,10 +268,10 @@ def _evaluate(tri, vx, vy, vz, q, px, py, pz, p: TinGroundParams):  # type: igno
     return accepted, stop, d
 
 
-def _lowest_of_half_final_cells(xyz: np.ndarray, final_cell: float) -> np.ndarray:
+def _lowest_of_densify_cells(xyz: np.ndarray, densify_cell: float, final_cell: float) -> np.ndarray:
     """Mask of the lowest point (heights as stored; ties: index) of each cell of side
-    final_cell / 2 on the world lattice of that size."""
-    size = final_cell / 2.0
+    min(densify_cell, final_cell / 2) on the world lattice of that size."""
+    size = min(densify_cell, final_cell / 2.0)
     lowest, upper = xyz.min(axis=0), xyz.max(axis=0)
     x0 = lattice_floor(float(lowest[0]), size) if size > 0 else lowest[0]  # as the core:
     y0 = lattice_floor(float(lowest[1]), size) if size > 0 else lowest[1]  # 0 cells refused
@@ -279,8 +279,8 @@ def _lowest_of_half_final_cells(xyz: np.ndarray, final_cell: float) -> np.ndarra
         fits = (upper[0] - x0) / size < 2.0**40 and (upper[1] - y0) / size < 2.0**40
     if not fits:
         raise ValueError(
-            "final_cell is too small for the extent of points: with densify_lowest, more "
-            "than 2^40 cells of final_cell / 2 per axis"
+            "densify_cell is too small for the extent of points: more than 2^40 of its cells "
+            "(at most final_cell / 2) per axis"
         )
     cx = np.floor((xyz[:, 0] - x0) / size).astype(np.int64)
     cy = np.floor((xyz[:, 1] - y0) / size).astype(np.int64)
@@ -309,7 +309,7 @@ def tin_ground(
     final_below: float | None = None,
     final_slope: float | None = None,
     final_low_depth: float | None = None,
-    densify_lowest: bool | None = None,
+    densify_cell: float | None = None,
     params: TinGroundParams | None = None,
 ) -> np.ndarray:
     """Reference progressive TIN densification: same signature and result as the core.
@@ -399,11 +399,11 @@ def tin_ground(
         border = border_points(width, height, ex, ey, max(p.max_building_size, min(ex, ey)))
     vx, vy, vz = with_corners(gx, gy, pz, seed, vertex_seeds, width, height, border)
 
-    # 3. Densify until an iteration adds no ground point; with densify_lowest, only the
-    # lowest point of each half final cell is tested (tin_seeds.cpp: tin_densified).
+    # 3. Densify until an iteration adds no ground point; with densify_cell, only the
+    # lowest point of each of its cells is tested (tin_seeds.cpp: tin_densified).
     tested = np.ones(n, dtype=bool)
-    if p.densify_lowest and p.final_cell > 0:
-        tested = _lowest_of_half_final_cells(xyz, p.final_cell)
+    if p.densify_cell > 0 and p.final_cell > 0:
+        tested = _lowest_of_densify_cells(xyz, p.densify_cell, p.final_cell)
     while True:
         unclassified = np.flatnonzero(~ground & tested)
         if unclassified.size == 0:
