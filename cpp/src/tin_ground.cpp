@@ -321,12 +321,12 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
     std::int64_t idle_iterations = 0;            // iterations of the definition it did
     // The first work: every point that is not a seed (with densify_cell, of those the
     // lowest of their half final cells only), in sorted order.
-    // Bit i (input index): tested; empty: every point.
-    const std::vector<std::uint64_t> densified = tin_densified(points, params, origin, upper);
+    // Bit s (sorted position): tested; empty: every point.
+    const std::vector<std::uint64_t> densified = tin_densified(snapped, params);
     keep_in_order(
         n,
         [&](std::size_t s) {
-            return is_ground[s] == 0 && (densified.empty() || marked(densified, order[s]));
+            return is_ground[s] == 0 && (densified.empty() || marked(densified, s));
         },
         [&](std::size_t m) { work.resize(m); },
         [&](std::size_t k, std::size_t s) { work[k] = static_cast<std::uint32_t>(s); });

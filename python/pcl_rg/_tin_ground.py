@@ -126,15 +126,18 @@ def tin_ground(
     densify_cell : float, optional
         Metres (default: unset, the largest 1.5 m x 2^(-j/8) at most 1.58 x the
         point spacing, half the unset final cell; 0: off; used with
-        ``final_cell > 0``). The densification tests only the lowest point
-        (ties: index, as the seeds') of each cell of side ``min(densify_cell,
-        final_cell / 2)`` on the world lattice of that size, and the final pass
-        classifies every point: its TIN takes the lowest ground point of each
-        final cell, nearly always one of those, so the densification handles a
-        fraction of the points (10M points at 4 pts/m^2: about 20 % faster, the
-        same ISPRS error; ``benchmarks/RESULTS.md``). The cell follows the
-        spacing: a 1.5 m cell at 50 pts/m^2, about 110 points, misses ground the
-        final pass cannot recover (11.2 % total error against 7.8 % off).
+        ``final_cell > 0``). The densification tests only the lowest point of
+        each cell of side ``min(densify_cell, final_cell / 2)`` on the world
+        lattice of that size (ties: index, as the seeds'; a point counts at its
+        place on the TIN's grid, whose step is the power of two at or above the
+        XY extent / 2^29, 4 um for 2 km), and the final pass classifies every
+        point: its TIN
+        takes the lowest ground point of each final cell, nearly always one of
+        those, so the densification handles a fraction of the points (the speed
+        and ISPRS figures are in ``benchmarks/RESULTS.md``). The cell follows the
+        spacing because a fixed one does not carry over: at 50 pts/m^2 a 1.5 m
+        cell holds about 110 points, and with the lengths fixed at the ISPRS
+        values the total error was 11.2 % with it, 7.5 % with it unset.
     params : TinGroundParams, optional
         All parameters at once (defaults: the ``isprs`` preset); keywords given
         explicitly override it.

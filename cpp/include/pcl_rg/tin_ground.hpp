@@ -140,8 +140,9 @@ struct TinGroundParams {
     /// surface down to it. 2 m: the ISPRS preset's (cross-validated).
     double final_low_depth = 2.0;
     /// Improvement (0: off; used only with a final pass): the densification tests only the
-    /// lowest point (then smallest index) of each cell of side min(densify_cell,
-    /// final_cell / 2) (m, >= 0) on the world lattice of that size, and the final pass then
+    /// lowest point (then smallest index; placed at its TIN grid position) of each cell of
+    /// side min(densify_cell, final_cell / 2) (m, >= 0) on the world lattice of that size,
+    /// and the final pass then
     /// classifies every point. The final TIN takes the lowest ground point of each final
     /// cell, which is nearly always one of those: on dense data the densification tests and
     /// inserts a fraction of the points (tin_seeds.hpp: tin_densified). Unset:

@@ -268,10 +268,13 @@ def _evaluate(tri, vx, vy, vz, q, px, py, pz, p: TinGroundParams):  # type: igno
     return accepted, stop, d
 
 
-def _lowest_of_densify_cells(xyz: np.ndarray, densify_cell: float, final_cell: float) -> np.ndarray:
-    """Mask of the lowest point (heights as stored; ties: index) of each cell of side
-    min(densify_cell, final_cell / 2) on the world lattice of that size."""
-    size = min(densify_cell, final_cell / 2.0)
+def _lowest_of_densify_cells(
+    xyz: np.ndarray, gx: np.ndarray, gy: np.ndarray, q: float, p: TinGroundParams
+) -> np.ndarray:
+    """Mask of the lowest point (z less the minimum z; ties: index) of each cell of side
+    min(densify_cell, final_cell / 2) on the world lattice of that size, each point
+    placed at its TIN grid position, origin + (grid - 1) * q, as the core places it."""
+    size = min(p.densify_cell, p.final_cell / 2.0)
     lowest, upper = xyz.min(axis=0), xyz.max(axis=0)
     x0 = lattice_floor(float(lowest[0]), size) if size > 0 else lowest[0]  # as the core:
     y0 = lattice_floor(float(lowest[1]), size) if size > 0 else lowest[1]  # 0 cells refused
@@ -282,10 +285,10 @@ def _lowest_of_densify_cells(xyz: np.ndarray, densify_cell: float, final_cell: f
             "densify_cell is too small for the extent of points: more than 2^40 of its cells "
             "(at most final_cell / 2) per axis"
         )
-    cx = np.floor((xyz[:, 0] - x0) / size).astype(np.int64)
-    cy = np.floor((xyz[:, 1] - y0) / size).astype(np.int64)
+    cx = np.floor((lowest[0] + (gx - 1).astype(np.float64) * q - x0) / size).astype(np.int64)
+    cy = np.floor((lowest[1] + (gy - 1).astype(np.float64) * q - y0) / size).astype(np.int64)
     tested = np.zeros(len(xyz), dtype=bool)
-    tested[lowest_in_cells(xyz[:, 2], cx, cy)] = True
+    tested[lowest_in_cells(xyz[:, 2] - lowest[2], cx, cy)] = True
     return tested
 
 
@@ -403,7 +406,7 @@ def tin_ground(
     # lowest point of each of its cells is tested (tin_seeds.cpp: tin_densified).
     tested = np.ones(n, dtype=bool)
     if p.densify_cell > 0 and p.final_cell > 0:
-        tested = _lowest_of_densify_cells(xyz, p.densify_cell, p.final_cell)
+        tested = _lowest_of_densify_cells(xyz, gx, gy, q, p)
     while True:
         unclassified = np.flatnonzero(~ground & tested)
         if unclassified.size == 0:
