@@ -84,7 +84,6 @@ FINAL_START = {
     "final_below": 1.0,
     "final_slope": 1.0,
     "final_low_depth": 0.0,
-    "densify_cell": 0.0,
 }
 
 # The same lengths as multiples of the point spacing (the ISPRS samples have 1.0-1.1 m
@@ -156,6 +155,7 @@ IMPROVEMENTS = {
     "border_vertices": False,
     "final_cell": 0.0,
     "final_low_depth": 0.0,
+    "densify_cell": 0.0,
 }
 
 # Options the preset leaves off, and the value the ablation switches each on at.
