@@ -134,8 +134,9 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
     const std::array<double, 3> origin = local_origin(points);
     const std::array<double, 3> upper = upper_corner(points, origin);
     stats.point_spacing = std::numeric_limits<double>::quiet_NaN();
+    // densify_cell alone needs none without a final pass, which switches it off.
     if (!given.stop_edge || !given.near_vertex_distance || !given.seed_cell || !given.final_cell ||
-        !given.densify_cell)
+        (!given.densify_cell && *given.final_cell > 0.0))
         stats.point_spacing = spacing_or_one_metre(points, origin, upper);
     const TinGroundParams params = with_spacing(given, stats.point_spacing);
     stats.stop_edge = *params.stop_edge;

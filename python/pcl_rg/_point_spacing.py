@@ -68,8 +68,8 @@ def point_spacing(points: npt.ArrayLike) -> float:
     measure on the box.
 
     The unset lengths of :class:`TinGroundParams` (``stop_edge``,
-    ``near_vertex_distance``, ``seed_cell``, ``final_cell``: the ISPRS
-    lengths, capped at a multiple of this) and :class:`GridGroundParams`
+    ``near_vertex_distance``, ``seed_cell``, ``final_cell``, ``densify_cell``:
+    the ISPRS lengths, capped at a multiple of this) and :class:`GridGroundParams`
     (``cell_size``: at most 2 of this) follow it (1 m where it is NaN),
     measured on the points of each call; the value used is in
     :func:`collect_diagnostics`. The C++ core computes it in O(N) (and a sort

@@ -185,16 +185,17 @@ def tin_ground(
        the TIN of the lowest ground point of each ``final_cell`` cell.
 
     The defaults are the :meth:`TinGroundParams.isprs` preset, the one set chosen
-    on the seven ISPRS samples, with six improvements on (``opening_rank`` off);
+    on the seven ISPRS samples, with seven improvements on (``opening_rank`` off);
     its scores are in ``benchmarks/RESULTS.md``. The lengths ``stop_edge``,
-    ``near_vertex_distance``, ``seed_cell`` and ``final_cell`` are unset there: each
-    call takes the ISPRS preset's lengths (2, 1, 2, 3 m) where the mean spacing of
-    its points (:func:`pcl_rg.point_spacing`, 2-D, airborne; 1 m where undefined) is
-    at least 0.95 m, and shorter ones in proportion to the spacing on denser data
-    (the stop edge only below 0.475 m: :class:`TinGroundParams`), so the preset
-    keeps its ISPRS results and works at 20 points per m^2 too.
+    ``near_vertex_distance``, ``seed_cell``, ``final_cell`` and ``densify_cell``
+    are unset there: each call takes the ISPRS preset's lengths (2, 1, 2, 3,
+    1.5 m) where the mean spacing of its points (:func:`pcl_rg.point_spacing`,
+    2-D, airborne; 1 m where undefined) is at least 0.95 m, and shorter ones in
+    proportion to the spacing on denser data (the stop edge only below 0.475 m:
+    :class:`TinGroundParams`), so the preset keeps its ISPRS results and works
+    at 50 points per m^2 too.
     ``collect_diagnostics()`` reports the spacing (``point_spacing``, NaN when every
-    length was given) and the four lengths used. :meth:`TinGroundParams.lidar360`,
+    length was given) and the five lengths used. :meth:`TinGroundParams.lidar360`,
     LiDAR360's own set, misses much ground on 1-3 m spaced data (8 degrees).
 
     The seed cells are anchored at multiples of their size in world

@@ -45,7 +45,7 @@ inline constexpr double kTinDensifyCellCap = kTinFinalCellCap / 2.0;
 inline constexpr double kTinDensifyCellPerSpacing = kTinDensifyCellCap / kTinFullLengthSpacing;
 inline constexpr double kTinLatticeRungs = 8.0;  // rungs per halving (tin_lattice_length)
 
-/// An unset seed or final cell: the largest cap x 2^(-j / 8), j >= 0 whole, that is at
+/// An unset seed, final or densify cell: the largest cap x 2^(-j / 8), j >= 0 whole, that is at
 /// most multiple x spacing (to rounding: at an exact rung, one either side). A cell in
 /// exact proportion to the spacing moved the lattice's cells far from the world origin
 /// by metres when one stray point nudged the spacing (UTM coordinates: 508 of 60,000

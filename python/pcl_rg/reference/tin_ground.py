@@ -278,7 +278,7 @@ def _lowest_of_densify_cells(
     lowest, upper = xyz.min(axis=0), xyz.max(axis=0)
     x0 = lattice_floor(float(lowest[0]), size) if size > 0 else lowest[0]  # as the core:
     y0 = lattice_floor(float(lowest[1]), size) if size > 0 else lowest[1]  # 0 cells refused
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         fits = (upper[0] - x0) / size < 2.0**40 and (upper[1] - y0) / size < 2.0**40
     if not fits:
         raise ValueError(
