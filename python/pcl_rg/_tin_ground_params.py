@@ -219,7 +219,7 @@ class TinGroundParams:
         reduction off (no ISPRS triangle has a longest edge under 1 cm), keeps
         the 2 m stop edge (the search picks 0.01 m: 3.1461 against 3.1464 %
         after the final pass, in twice the time) and switches seven improvements
-        on. On the seven ISPRS samples it scores 3.15 % fitted and 3.97 % left one
+        on. On the seven ISPRS samples it scores 3.18 % fitted and 3.95 % left one
         sample out (``benchmarks/studies/ground_isprs_cv.py``), better than the
         searches whose lengths follow the point spacing; so the lengths are those
         fitted on ISPRS at its spacing (0.95 m and more) and shrink with the
