@@ -60,7 +60,7 @@
 //     point again by its height above a TIN of the lowest ground point of each cell.
 //   * densify_cell: with the final pass, only the lowest point of each densify_cell cell
 //     (at most final_cell / 2; ties: smallest index, as the seeds) is tested in step 3
-//     (tin_seeds.cpp: tin_densified); the final pass classifies every point.
+//     (tin_densified.cpp); the final pass classifies every point.
 //
 // Grids and tiles: the grids that decide which points are seeds are anchored on the
 // world lattice of the seed cells (seed_cell when > 0, else max_building_size): the
@@ -110,6 +110,7 @@
 #include "pcl_rg/interrupt.hpp"
 #include "pcl_rg/point_spacing.hpp"
 #include "pcl_rg/timer.hpp"
+#include "pcl_rg/tin_densified.hpp"
 #include "pcl_rg/tin_seeds.hpp"
 #include "pcl_rg/unfilled_vector.hpp"
 #include "tin_acceptance.hpp"

@@ -145,7 +145,7 @@ struct TinGroundParams {
     /// and the final pass then
     /// classifies every point. The final TIN takes the lowest ground point of each final
     /// cell, which is nearly always one of those: on dense data the densification tests and
-    /// inserts a fraction of the points (tin_seeds.hpp: tin_densified). Unset:
+    /// inserts a fraction of the points (tin_densified.hpp). Unset:
     /// tin_lattice_length(kTinDensifyCellCap, kTinDensifyCellPerSpacing, the point
     /// spacing), half the unset final cell: a cell that follows the spacing, because
     /// the lowest of ~100 points (a 1.5 m cell at 50 pts/m^2) misses ground the final

@@ -8,7 +8,6 @@
 #include <stdexcept>
 #include <vector>
 
-#include "pcl_rg/delaunay.hpp"
 #include "pcl_rg/points.hpp"
 #include "pcl_rg/tin_ground.hpp"
 
@@ -25,15 +24,6 @@ namespace pcl_rg {
 std::vector<std::uint32_t> tin_seeds(PointsView points, const TinGroundParams& params,
                                      const std::array<double, 3>& origin,
                                      const std::array<double, 3>& upper);
-
-/// The points tin_ground's densification tests when densify_cell(params) (tin_ground.hpp;
-/// every length set) is > 0: the lowest (least z, then smallest index) of the points whose
-/// TIN grid positions (origin + (grid - 1) x quantum) fall in each cell of that side on the
-/// world lattice of that size, as a bitmap over the sorted positions s of `snapped`
-/// (index_bitmap.hpp). Otherwise empty: every point is tested. Throws
-/// std::invalid_argument when those cells would number more than 2^40 per axis.
-std::vector<std::uint64_t> tin_densified(const SnappedPoints& snapped,
-                                         const TinGroundParams& params);
 
 /// `error`, a refusal of tin_seeds with seed_cell left unset, told with the rule that set
 /// seed_cell from `spacing` (m, the measured point spacing) and what to do about it.

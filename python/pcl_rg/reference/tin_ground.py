@@ -403,7 +403,7 @@ def tin_ground(
     vx, vy, vz = with_corners(gx, gy, pz, seed, vertex_seeds, width, height, border)
 
     # 3. Densify until an iteration adds no ground point; with densify_cell, only the
-    # lowest point of each of its cells is tested (tin_seeds.cpp: tin_densified).
+    # lowest point of each of its cells is tested (tin_densified.cpp).
     tested = np.ones(n, dtype=bool)
     if p.densify_cell > 0 and p.final_cell > 0:
         tested = _lowest_of_densify_cells(xyz, gx, gy, q, p)
