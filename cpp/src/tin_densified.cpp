@@ -27,8 +27,8 @@ std::vector<std::uint64_t> tin_densified(const SnappedPoints& snapped,
     const double x0 = lattice_floor(origin[0], size), y0 = lattice_floor(origin[1], size);
     if (!((upper[0] - x0) / size < 0x1p40 && (upper[1] - y0) / size < 0x1p40))
         throw std::invalid_argument(
-            "densify_cell is too small for the extent of points: more than 2^40 of its cells "
-            "(at most final_cell / 2) per axis");
+            "densify_cell is too small for the extent of points: its cells, of side "
+            "min(densify_cell, final_cell / 2), would number more than 2^40 per axis");
     // A point's place is its TIN grid position, origin + (grid - 1) x quantum (exact but
     // for the sum's rounding, as the reference computes it): so the cells follow the
     // Morton order of the sorted points, and each update lands near the one before,

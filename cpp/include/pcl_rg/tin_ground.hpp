@@ -142,10 +142,10 @@ struct TinGroundParams {
     /// Improvement (0: off; used only with a final pass): the densification tests only the
     /// lowest point (then smallest index; placed at its TIN grid position) of each cell of
     /// side min(densify_cell, final_cell / 2) (m, >= 0) on the world lattice of that size,
-    /// and the final pass then
-    /// classifies every point. The final TIN takes the lowest ground point of each final
-    /// cell, which is nearly always one of those: on dense data the densification tests and
-    /// inserts a fraction of the points (tin_densified.hpp). Unset:
+    /// and the final pass then classifies every point. The final TIN takes the lowest
+    /// ground point of each final cell, which is nearly always one of those: on dense data
+    /// the densification tests and inserts a fraction of the points (tin_densified.hpp),
+    /// for the same held-out ISPRS error (benchmarks/RESULTS.md). Unset:
     /// tin_lattice_length(kTinDensifyCellCap, kTinDensifyCellPerSpacing, the point
     /// spacing), half the unset final cell: a cell that follows the spacing, because
     /// the lowest of ~100 points (a 1.5 m cell at 50 pts/m^2) misses ground the final

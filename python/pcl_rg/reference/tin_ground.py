@@ -282,8 +282,8 @@ def _lowest_of_densify_cells(
         fits = (upper[0] - x0) / size < 2.0**40 and (upper[1] - y0) / size < 2.0**40
     if not fits:
         raise ValueError(
-            "densify_cell is too small for the extent of points: more than 2^40 of its cells "
-            "(at most final_cell / 2) per axis"
+            "densify_cell is too small for the extent of points: its cells, of side "
+            "min(densify_cell, final_cell / 2), would number more than 2^40 per axis"
         )
     cx = np.floor((lowest[0] + (gx - 1).astype(np.float64) * q - x0) / size).astype(np.int64)
     cy = np.floor((lowest[1] + (gy - 1).astype(np.float64) * q - y0) / size).astype(np.int64)
