@@ -20,6 +20,7 @@ grid_ground default.
 
 from __future__ import annotations
 
+import dataclasses
 import sys
 import time
 from collections.abc import Callable
@@ -60,9 +61,7 @@ OBJECT_CLASSES = [
 TIN_FIXED = pcl_rg.TinGroundParams(
     stop_edge=2.0, near_vertex_distance=1.0, seed_cell=2.0, final_cell=3.0
 )
-TIN_FIXED_ALL = pcl_rg.TinGroundParams(
-    stop_edge=2.0, near_vertex_distance=1.0, seed_cell=2.0, final_cell=3.0, densify_cell=1.5
-)
+TIN_FIXED_ALL = dataclasses.replace(TIN_FIXED, densify_cell=1.5)
 GRID_FIXED = pcl_rg.GridGroundParams(cell_size=3.0)
 # The "resolution" rule's pick on the seven ISPRS samples (tin_isprs_params.py --rule
 # resolution): not the default, its CV error there is higher (RESULTS.md).

@@ -144,16 +144,13 @@ std::vector<std::uint32_t> lowest_points(PointsView points, const CellLattice& l
             if (b >= 0) lowest.push_back(static_cast<std::uint32_t>(b));
     } else {
         // By (column, row) pairs: up to 2^40 cells per axis, more than one key holds.
-        std::vector<std::pair<std::pair<std::int64_t, std::int64_t>, std::uint32_t>> keyed;
+        std::vector<CellKeyed> keyed;
         for (std::size_t i = 0; i < points.size; ++i)
             if (!take || take[i])
                 keyed.emplace_back(cell_of(points, lattice, i), static_cast<std::uint32_t>(i));
-        std::sort(keyed.begin(), keyed.end(), [&](const auto& a, const auto& b) {
-            return a.first < b.first ||
-                   (a.first == b.first && lower(points, lattice.z0, a.second, b.second));
+        lowest = lowest_by_sorting(std::move(keyed), [&](std::uint32_t a, std::uint32_t b) {
+            return lower(points, lattice.z0, a, b);
         });
-        for (std::size_t k = 0; k < keyed.size(); ++k)
-            if (k == 0 || keyed[k].first != keyed[k - 1].first) lowest.push_back(keyed[k].second);
     }
     return in_index_order(std::move(lowest), points.size);
 }

@@ -1,13 +1,11 @@
 // The points tin_ground's densification tests with densify_cell (see tin_densified.hpp).
 #include "pcl_rg/tin_densified.hpp"
 
-#include <algorithm>
 #include <array>
 #include <cstddef>
 #include <cstdint>
 #include <limits>
 #include <stdexcept>
-#include <utility>
 #include <vector>
 
 #include "pcl_rg/cell_lowest.hpp"
@@ -81,16 +79,11 @@ std::vector<std::uint64_t> tin_densified(const SnappedPoints& snapped,
             if (s != kNone) mark(tested, s);
     } else {
         // By (column, row) pairs: up to 2^40 cells per axis, more than one key holds.
-        using Keyed = std::pair<std::pair<std::int64_t, std::int64_t>, std::uint32_t>;
-        std::vector<Keyed> keyed(n);
+        std::vector<CellKeyed> keyed(n);
         for (std::size_t s = 0; s < n; ++s)
             keyed[s] = {{column(snapped.x[s]), row(snapped.y[s])}, static_cast<std::uint32_t>(s)};
         interruption.check();
-        std::sort(keyed.begin(), keyed.end(), [&](const Keyed& a, const Keyed& b) {
-            return a.first < b.first || (a.first == b.first && lower(a.second, b.second));
-        });
-        for (std::size_t k = 0; k < n; ++k)
-            if (k == 0 || keyed[k].first != keyed[k - 1].first) mark(tested, keyed[k].second);
+        for (const std::uint32_t s : lowest_by_sorting(std::move(keyed), lower)) mark(tested, s);
     }
     return tested;
 }

@@ -322,7 +322,7 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
     std::vector<std::uint32_t> waiting;          // skip_idle_iterations's
     std::int64_t idle_iterations = 0;            // iterations of the definition it did
     // The first work: every point that is not a seed (with densify_cell, of those the
-    // lowest of their half final cells only), in sorted order.
+    // lowest of their densify cells only), in sorted order.
     // Bit s (sorted position): tested; empty: every point.
     const std::vector<std::uint64_t> densified = tin_densified(snapped, params);
     keep_in_order(

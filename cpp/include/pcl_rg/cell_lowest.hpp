@@ -2,6 +2,7 @@
 // and the vertices of the ground filters' final pass (final_pass.cpp).
 #pragma once
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <utility>
@@ -44,6 +45,23 @@ inline std::pair<std::int64_t, std::int64_t> cell_of(PointsView points, const Ce
 /// the sharing. Polls for interruption.
 std::vector<std::int64_t> lowest_in_cells(PointsView points, const CellLattice& lattice,
                                           const bool* take = nullptr);
+
+/// An entry's (column, row) cell and its id (a point's index or sorted position).
+using CellKeyed = std::pair<std::pair<std::int64_t, std::int64_t>, std::uint32_t>;
+
+/// The id of the lowest entry of each cell of `keyed`, cells in (column, row) order, by
+/// sorting: the path for lattices too large for a raster (any cell count works).
+/// `lower(a, b)`: id a is lower than id b, a total order.
+template <class Lower>
+std::vector<std::uint32_t> lowest_by_sorting(std::vector<CellKeyed> keyed, Lower lower) {
+    std::sort(keyed.begin(), keyed.end(), [&](const CellKeyed& a, const CellKeyed& b) {
+        return a.first < b.first || (a.first == b.first && lower(a.second, b.second));
+    });
+    std::vector<std::uint32_t> lowest;
+    for (std::size_t k = 0; k < keyed.size(); ++k)
+        if (k == 0 || keyed[k].first != keyed[k - 1].first) lowest.push_back(keyed[k].second);
+    return lowest;
+}
 
 /// The lowest point of every occupied cell (as lowest_in_cells), sorted by index: through
 /// the dense grid when it holds at most about 4 cells per point, else by sorting
