@@ -87,6 +87,25 @@ def test_core_equals_reference_on_a_scene(core, ref, depth, density):
     np.testing.assert_array_equal(core(points[order], final_low_depth=depth), got[order])
 
 
+def test_core_equals_reference_beyond_the_serial_size():
+    """More than 64 Ki points: the core's parallel paths, where each thread gathers the
+    kept points of the cells with a threshold (the lowest of which is a vertex) and the
+    ground points of the outermost cells (final_pass_border.cpp). Three deep patches,
+    each over cells that also hold the plane's points. The choice among the gathered
+    points is held to the reference by the smaller scenes above and samp41."""
+    points, n = plane_with_patch(depth=9.0, size=140.0)
+    patches = [
+        plane_with_patch(depth=9.0, centre=c, seed=s, size=140.0)[0][n:]
+        for c, s in (((30.0, 100.0), 5), ((105.0, 40.0), 6))
+    ]
+    points = np.concatenate([points, *patches])
+    assert len(points) > 65536
+    got = pcl_rg.grid_ground(points)
+    np.testing.assert_array_equal(got, reference.grid_ground(points))
+    assert not got[n:].any()
+    assert (got != pcl_rg.grid_ground(points, final_low_depth=0.0)).any()
+
+
 @pytest.mark.parametrize(("core", "ref"), FILTERS, ids=IDS)
 def test_isprs_core_equals_reference(core, ref):
     """samp41: two ground levels 6 m apart, where the option acts most on ISPRS."""

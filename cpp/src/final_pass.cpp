@@ -171,14 +171,17 @@ void final_pass(PointsView points, const FinalPassParams& params, const SnappedP
     // filter's without its points far below their surroundings; every point, those
     // included, is classified as always.
     std::unique_ptr<bool[]> not_low;
+    std::vector<std::uint32_t> lowest;  // the lowest point of each cell of vertex_ground
+    bool have_lowest = false;
     if (params.low_depth > 0.0) {
         not_low.reset(new bool[n]);
-        final_pass_low::keep_not_low(points, cells, params.low_depth, ground, not_low.get());
+        have_lowest = final_pass_low::keep_not_low(points, cells, params.low_depth, ground,
+                                                   not_low.get(), &lowest);
     }
     const bool* vertex_ground = not_low ? not_low.get() : ground;
+    if (!have_lowest) lowest = lowest_points(points, cells, vertex_ground);
     std::vector<Vertex> candidates;
     {
-        const std::vector<std::uint32_t> lowest = lowest_points(points, cells, vertex_ground);
         const auto count = static_cast<std::ptrdiff_t>(lowest.size());
         if (lowest.size() < n / 16) {
             candidates.resize(lowest.size());

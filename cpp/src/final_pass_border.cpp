@@ -53,10 +53,26 @@ std::vector<BorderVertex> border_vertices(const std::vector<Vertex>& vertices,
         if (e.depth == 0) edge_cells[e.side].push_back(e.along);
     std::array<std::vector<Outermost>, 4> outermost;
     for (int side = 0; side < 4; ++side) outermost[side].resize(edge_cells[side].size());
-    for (std::size_t i = 0; i < points.size; ++i) {
-        if (!ground[i]) continue;
+    // The ground points of the outermost cells, found in parallel (a scan of every point,
+    // a few in a thousand kept); the nearest per cell below is under a total order, so
+    // the order in which they are gathered does not matter.
+    std::vector<std::size_t> rim;
+    const auto n = static_cast<std::ptrdiff_t>(points.size);
+#pragma omp parallel if (n > 65536)
+    {
+        std::vector<std::size_t> mine;
+#pragma omp for schedule(static) nowait
+        for (std::ptrdiff_t i = 0; i < n; ++i) {
+            if (!ground[i]) continue;
+            const auto [cx, cy] = cell_of(points, lattice, static_cast<std::size_t>(i));
+            if (cx == 0 || cx == columns - 1 || cy == 0 || cy == rows - 1)
+                mine.push_back(static_cast<std::size_t>(i));
+        }
+#pragma omp critical(pcl_rg_border_rim)
+        rim.insert(rim.end(), mine.begin(), mine.end());
+    }
+    for (const std::size_t i : rim) {
         const auto [cx, cy] = cell_of(points, lattice, i);
-        if (cx != 0 && cx != columns - 1 && cy != 0 && cy != rows - 1) continue;
         for (int side = 0; side < 4; ++side) {
             const bool along_x = side < 2, upper_side = side % 2 == 1;
             if ((along_x ? cy : cx) != (upper_side ? (along_x ? rows : columns) - 1 : 0)) continue;

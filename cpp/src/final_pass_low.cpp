@@ -6,8 +6,10 @@
 #include <cmath>
 #include <cstddef>
 #include <limits>
+#include <utility>
 #include <vector>
 
+#include "pcl_rg/index_bitmap.hpp"
 #include "pcl_rg/interrupt.hpp"
 
 namespace pcl_rg::final_pass_low {
@@ -45,8 +47,8 @@ double threshold(double z, double depth, double* values, std::size_t count) {
 
 }  // namespace
 
-void keep_not_low(PointsView points, const CellLattice& cells, double depth, const bool* ground,
-                  bool* kept) {
+bool keep_not_low(PointsView points, const CellLattice& cells, double depth, const bool* ground,
+                  bool* kept, std::vector<std::uint32_t>* lowest_kept) {
     const std::size_t n = points.size;
     const Interruption interruption;
     const std::int64_t rows = cells.rows;
@@ -57,9 +59,10 @@ void keep_not_low(PointsView points, const CellLattice& cells, double depth, con
     // the cells' lowest heights where the lattice is at most a few cells per point (as
     // lowest_points), else through the occupied cells sorted by place.
     std::vector<double> raster_threshold;
-    std::vector<Cell> low;  // sparse: the cells with points to drop, by place
+    std::vector<std::int64_t> lowest;  // raster: each cell's lowest ground point, -1: none
+    std::vector<Cell> low;             // sparse: the cells with points to drop, by place
     if (fits_raster(cells, n)) {
-        const std::vector<std::int64_t> lowest = lowest_in_cells(points, cells, ground);
+        lowest = lowest_in_cells(points, cells, ground);
         const auto count = static_cast<std::ptrdiff_t>(lowest.size());
         std::vector<double> height(lowest.size());
 #pragma omp parallel for schedule(static) if (count > 65536)
@@ -114,39 +117,78 @@ void keep_not_low(PointsView points, const CellLattice& cells, double depth, con
             if (cell_threshold[k] != kNotLow)
                 low.push_back({occupied[k].cx, occupied[k].cy, cell_threshold[k]});
     }
-    // A point is dropped only below its cell's threshold. Most points lie above the
-    // highest threshold of their column of cells (a small array; kNotLow in a column
-    // without a low cell), which a division tells without the raster's scattered reads.
+    // A point is dropped only below its cell's threshold. Raster: a column of cells
+    // without a threshold (a small array of flags) tells its points' fate after a
+    // division, without the raster's scattered reads; in a column with one, each ground
+    // point's cell is found, and the kept points of a cell with a threshold are the
+    // candidates for its lowest kept point. Sparse: most points lie above the highest
+    // threshold.
     double highest = kNotLow;
-    std::vector<double> column_highest;
+    std::vector<std::uint8_t> column_has_threshold;
     if (!raster_threshold.empty()) {
-        column_highest.assign(static_cast<std::size_t>(cells.columns), kNotLow);
-        for (std::size_t c = 0; c < raster_threshold.size(); ++c) {
-            double& bound = column_highest[c / static_cast<std::size_t>(rows)];
-            bound = std::max(bound, raster_threshold[c]);
-        }
+        column_has_threshold.assign(static_cast<std::size_t>(cells.columns), 0);
+        for (std::size_t c = 0; c < raster_threshold.size(); ++c)
+            if (raster_threshold[c] != kNotLow)
+                column_has_threshold[c / static_cast<std::size_t>(rows)] = 1;
     }
     for (const Cell& c : low) highest = std::max(highest, c.value);
+    struct Candidate {
+        std::size_t cell;
+        std::uint32_t i;
+    };
+    std::vector<Candidate> candidates;
     const auto m = static_cast<std::ptrdiff_t>(n);
-#pragma omp parallel for schedule(static) if (m > 65536)
-    for (std::ptrdiff_t i = 0; i < m; ++i) {
-        kept[i] = ground[i];
-        if (!ground[i]) continue;
-        const auto p = static_cast<std::size_t>(i);
-        const double z = z_of(p);
-        if (!raster_threshold.empty()) {
-            // cell_of's column, then its row only where the column's bound asks for it.
-            const std::int64_t cx = floor_to_int((points.coord(p, 0) - cells.x0) / cells.size);
-            if (!(z < column_highest[static_cast<std::size_t>(cx)])) continue;
-            const std::int64_t cy = floor_to_int((points.coord(p, 1) - cells.y0) / cells.size);
-            if (z < raster_threshold[static_cast<std::size_t>(cx * rows + cy)]) kept[i] = false;
+#pragma omp parallel if (m > 65536)
+    {
+        std::vector<Candidate> mine;
+#pragma omp for schedule(static) nowait
+        for (std::ptrdiff_t i = 0; i < m; ++i) {
+            kept[i] = ground[i];
+            if (!ground[i]) continue;
+            const auto p = static_cast<std::size_t>(i);
+            const double z = z_of(p);
+            if (!raster_threshold.empty()) {
+                // cell_of's column, then its row only where the column holds a threshold.
+                const std::int64_t cx = floor_to_int((points.coord(p, 0) - cells.x0) / cells.size);
+                if (!column_has_threshold[static_cast<std::size_t>(cx)]) continue;
+                const std::int64_t cy = floor_to_int((points.coord(p, 1) - cells.y0) / cells.size);
+                const auto c = static_cast<std::size_t>(cx * rows + cy);
+                if (raster_threshold[c] == kNotLow) continue;
+                if (z < raster_threshold[c])
+                    kept[i] = false;
+                else
+                    mine.push_back({c, static_cast<std::uint32_t>(p)});
+                continue;
+            }
+            if (!(z < highest)) continue;
+            const auto [cx, cy] = cell_of(points, cells, p);
+            const auto at = std::lower_bound(low.begin(), low.end(), Cell{cx, cy, 0.0}, by_place);
+            if (at != low.end() && at->cx == cx && at->cy == cy && z < at->value) kept[i] = false;
+        }
+#pragma omp critical(pcl_rg_keep_not_low)
+        candidates.insert(candidates.end(), mine.begin(), mine.end());
+    }
+    if (raster_threshold.empty()) return false;
+    // Each cell's lowest kept point: its lowest ground point where it has no threshold
+    // (kept), else the least of its candidates by (z - z0, index), a total order, so the
+    // order in which the threads gathered them does not matter. A cell has a threshold
+    // only when its lowest ground point lies below it, dropped.
+    for (std::size_t c = 0; c < raster_threshold.size(); ++c)
+        if (raster_threshold[c] != kNotLow) lowest[c] = -1;
+    for (const Candidate& k : candidates) {
+        std::int64_t& best = lowest[k.cell];
+        if (best < 0) {
+            best = k.i;
             continue;
         }
-        if (!(z < highest)) continue;
-        const auto [cx, cy] = cell_of(points, cells, p);
-        const auto at = std::lower_bound(low.begin(), low.end(), Cell{cx, cy, 0.0}, by_place);
-        if (at != low.end() && at->cx == cx && at->cy == cy && z < at->value) kept[i] = false;
+        const double zk = z_of(k.i), zb = z_of(static_cast<std::size_t>(best));
+        if (zk < zb || (zk == zb && k.i < best)) best = k.i;
     }
+    lowest_kept->clear();
+    for (const std::int64_t b : lowest)
+        if (b >= 0) lowest_kept->push_back(static_cast<std::uint32_t>(b));
+    *lowest_kept = in_index_order(std::move(*lowest_kept), n);
+    return true;
 }
 
 }  // namespace pcl_rg::final_pass_low
