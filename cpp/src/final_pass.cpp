@@ -50,6 +50,7 @@
 #include <cstdlib>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <tuple>
 #include <utility>
@@ -171,17 +172,20 @@ void final_pass(PointsView points, const FinalPassParams& params, const SnappedP
     // filter's without its points far below their surroundings; every point, those
     // included, is classified as always.
     std::unique_ptr<bool[]> not_low;
-    std::vector<std::uint32_t> lowest;  // the lowest point of each cell of vertex_ground
-    bool have_lowest = false;
+    std::optional<std::vector<std::uint32_t>> lowest_not_low;  // keep_not_low's, if it has them
     if (params.low_depth > 0.0) {
         not_low.reset(new bool[n]);
-        have_lowest = final_pass_low::keep_not_low(points, cells, params.low_depth, ground,
-                                                   not_low.get(), &lowest);
+        lowest_not_low =
+            final_pass_low::keep_not_low(points, cells, params.low_depth, ground, not_low.get());
     }
     const bool* vertex_ground = not_low ? not_low.get() : ground;
-    if (!have_lowest) lowest = lowest_points(points, cells, vertex_ground);
     std::vector<Vertex> candidates;
     {
+        // The lowest point of each cell of vertex_ground.
+        const std::vector<std::uint32_t> lowest = lowest_not_low
+                                                      ? std::move(*lowest_not_low)
+                                                      : lowest_points(points, cells, vertex_ground);
+        lowest_not_low.reset();
         const auto count = static_cast<std::ptrdiff_t>(lowest.size());
         if (lowest.size() < n / 16) {
             candidates.resize(lowest.size());

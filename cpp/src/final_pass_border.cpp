@@ -53,9 +53,10 @@ std::vector<BorderVertex> border_vertices(const std::vector<Vertex>& vertices,
         if (e.depth == 0) edge_cells[e.side].push_back(e.along);
     std::array<std::vector<Outermost>, 4> outermost;
     for (int side = 0; side < 4; ++side) outermost[side].resize(edge_cells[side].size());
-    // The ground points of the outermost cells, found in parallel (a scan of every point,
-    // a few in a thousand kept); the nearest per cell below is under a total order, so
-    // the order in which they are gathered does not matter.
+    // The ground points of the outermost cells, found in parallel by a scan of every
+    // point: typically a few in a thousand, but all of them in a lattice of a few cells.
+    // The nearest per cell below is under a total order, so the order in which they are
+    // gathered does not matter.
     std::vector<std::size_t> rim;
     const auto n = static_cast<std::ptrdiff_t>(points.size);
 #pragma omp parallel if (n > 65536)

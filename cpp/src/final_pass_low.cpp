@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstddef>
 #include <limits>
+#include <optional>
 #include <utility>
 #include <vector>
 
@@ -47,8 +48,9 @@ double threshold(double z, double depth, double* values, std::size_t count) {
 
 }  // namespace
 
-bool keep_not_low(PointsView points, const CellLattice& cells, double depth, const bool* ground,
-                  bool* kept, std::vector<std::uint32_t>* lowest_kept) {
+std::optional<std::vector<std::uint32_t>> keep_not_low(PointsView points, const CellLattice& cells,
+                                                       double depth, const bool* ground,
+                                                       bool* kept) {
     const std::size_t n = points.size;
     const Interruption interruption;
     const std::int64_t rows = cells.rows;
@@ -168,27 +170,26 @@ bool keep_not_low(PointsView points, const CellLattice& cells, double depth, con
 #pragma omp critical(pcl_rg_keep_not_low)
         candidates.insert(candidates.end(), mine.begin(), mine.end());
     }
-    if (raster_threshold.empty()) return false;
+    if (raster_threshold.empty()) return std::nullopt;
     // Each cell's lowest kept point: its lowest ground point where it has no threshold
     // (kept), else the least of its candidates by (z - z0, index), a total order, so the
     // order in which the threads gathered them does not matter. A cell has a threshold
     // only when its lowest ground point lies below it, dropped.
     for (std::size_t c = 0; c < raster_threshold.size(); ++c)
         if (raster_threshold[c] != kNotLow) lowest[c] = -1;
-    for (const Candidate& k : candidates) {
-        std::int64_t& best = lowest[k.cell];
+    for (const Candidate& candidate : candidates) {
+        std::int64_t& best = lowest[candidate.cell];
         if (best < 0) {
-            best = k.i;
+            best = candidate.i;
             continue;
         }
-        const double zk = z_of(k.i), zb = z_of(static_cast<std::size_t>(best));
-        if (zk < zb || (zk == zb && k.i < best)) best = k.i;
+        const double z = z_of(candidate.i), z_best = z_of(static_cast<std::size_t>(best));
+        if (z < z_best || (z == z_best && candidate.i < best)) best = candidate.i;
     }
-    lowest_kept->clear();
+    std::vector<std::uint32_t> lowest_kept;
     for (const std::int64_t b : lowest)
-        if (b >= 0) lowest_kept->push_back(static_cast<std::uint32_t>(b));
-    *lowest_kept = in_index_order(std::move(*lowest_kept), n);
-    return true;
+        if (b >= 0) lowest_kept.push_back(static_cast<std::uint32_t>(b));
+    return in_index_order(std::move(lowest_kept), n);
 }
 
 }  // namespace pcl_rg::final_pass_low

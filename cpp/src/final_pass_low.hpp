@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 #include "pcl_rg/cell_lowest.hpp"
@@ -38,12 +39,13 @@ inline std::int64_t window_stride(double size) {
 // `cells`) of the cells of the window around point i's cell c that hold ground, c
 // included (an even count: the mean of the two middle heights). depth > 0. Both
 // arrays hold points.size entries. Polls for interruption.
-// Where it works through a raster of the cells (fits_raster), it also sets *lowest_kept to
-// what lowest_points(points, cells, kept) returns, the lowest kept point of each cell
-// (index order), and returns true: it has every cell's lowest ground point at hand, which
-// is kept unless its cell has a threshold, so only the few cells with one need their
-// points. Elsewhere it returns false and leaves *lowest_kept as it was.
-bool keep_not_low(PointsView points, const CellLattice& cells, double depth, const bool* ground,
-                  bool* kept, std::vector<std::uint32_t>* lowest_kept);
+// Where it works through a raster of the cells (fits_raster), it also returns what
+// lowest_points(points, cells, kept) would, the lowest kept point of each cell (index
+// order): it has every cell's lowest ground point at hand, which is kept unless its
+// cell has a threshold, so only the few cells with one need their points. Elsewhere it
+// returns nothing, and the caller finds them.
+std::optional<std::vector<std::uint32_t>> keep_not_low(PointsView points, const CellLattice& cells,
+                                                       double depth, const bool* ground,
+                                                       bool* kept);
 
 }  // namespace pcl_rg::final_pass_low
