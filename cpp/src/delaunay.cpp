@@ -58,15 +58,29 @@ int orient_perturbed(std::int64_t ax, std::int64_t ay, std::int64_t bx, std::int
 
 }  // namespace
 
-Delaunay::Delaunay(std::int32_t width, std::int32_t height) {
+Delaunay::Delaunay(std::int32_t width, std::int32_t height) { reset(width, height); }
+
+void Delaunay::reset(std::int32_t width, std::int32_t height) {
     if (width < 2 || height < 2 || width > kMaxGridCoordinate || height > kMaxGridCoordinate)
         throw std::invalid_argument("Delaunay box must be within [2, 2^30] grid units, got " +
                                     std::to_string(width) + " x " + std::to_string(height));
-    xy_ = {{0, 0}, {width, 0}, {width, height}, {0, height}};
+    // Emptied and refilled, not reassigned, so that each array keeps its memory.
+    stamp_ = 0;
+    xy_.clear();
+    for (const Vertex corner :
+         {Vertex{0, 0}, Vertex{width, 0}, Vertex{width, height}, Vertex{0, height}})
+        xy_.push_back(corner);
     // (0, 1, 2) and (0, 2, 3), both counter-clockwise, sharing the diagonal 0-2.
-    tri_ = {{{0, 1, 2}, {-1, 1, -1}, stamp_, 0}, {{0, 2, 3}, {-1, -1, 0}, stamp_, 0}};
+    tri_.clear();
+    tri_.push_back({{0, 1, 2}, {-1, 1, -1}, stamp_, 0});
+    tri_.push_back({{0, 2, 3}, {-1, -1, 0}, stamp_, 0});
     triangles_ = 2;
-    vt_ = {0, 0, 0, 1};
+    vt_.clear();
+    for (const std::int32_t t : {0, 0, 0, 1}) vt_.push_back(t);
+    stack_.clear();
+    touched_.clear();
+    dead_vertices_ = 0;
+    broken_ = false;
 }
 
 void Delaunay::reserve(std::size_t vertices) {

@@ -139,7 +139,7 @@ void check_final_pass_extent(const std::array<double, 3>& origin,
 
 void final_pass(PointsView points, const FinalPassParams& params, const SnappedPoints& snapped,
                 bool* ground, FinalPassRounds* rounds,
-                const std::vector<std::uint32_t>& never_ground) {
+                const std::vector<std::uint32_t>& never_ground, Delaunay* tin_memory) {
     const std::size_t n = points.size;
     if (n == 0) return;
     if (rounds && rounds->ran && rounds->points != n)
@@ -278,7 +278,12 @@ void final_pass(PointsView points, const FinalPassParams& params, const SnappedP
         frame, vertices.size(), [&](std::size_t k) { return vertices[k].x; },
         [&](std::size_t k) { return vertices[k].y; }, [&](std::size_t k) { return vertices[k].z; },
         [&](std::size_t k) { return vertices[k].i; });
-    Delaunay tin(frame.width, frame.height);
+    std::optional<Delaunay> own_tin;
+    if (tin_memory)
+        tin_memory->reset(frame.width, frame.height);
+    else
+        own_tin.emplace(frame.width, frame.height);
+    Delaunay& tin = tin_memory ? *tin_memory : *own_tin;
     UnfilledVector<double> vz;  // each vertex's height
     for (const std::size_t k : nearest) vz.push_back(vertices[k].z);
     tin.reserve(vertices.size() + 4 + border.size());

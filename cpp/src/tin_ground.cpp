@@ -470,7 +470,10 @@ TinGroundStats tin_ground(PointsView points, const TinGroundParams& given, bool*
     stats.tin_vertices = static_cast<std::int64_t>(tin.vertex_count() - tin.dead_vertex_count());
     if (*params.final_cell > 0.0) {
         clock = std::chrono::steady_clock::now();
-        final_pass(points, final_pass_params(params), snapped, ground);
+        // Its TIN is built in the densification's, done with here, whose pages are in
+        // place: fresh ones cost the kernel's zeroing, and sometimes the host's backing
+        // (the pass's TIN of about 1.1M vertices on 10M points: 0.2 s of system time).
+        final_pass(points, final_pass_params(params), snapped, ground, nullptr, {}, &tin);
         stats.classification_seconds += seconds_since(clock);
     }
     return stats;

@@ -152,6 +152,12 @@ class Delaunay {
    public:
     Delaunay(std::int32_t width, std::int32_t height);
 
+    /// Back to the empty box [0, width] x [0, height], as constructed, with the memory of
+    /// its arrays kept: for another TIN built after this one is done with, whose arrays
+    /// then reuse pages already in place instead of faulting in fresh ones (the kernel
+    /// zeroes each, and a host may have to back it first).
+    void reset(std::int32_t width, std::int32_t height);
+
     /// The triangle containing p + (eps, eps^2) for an infinitesimal eps > 0: the one
     /// triangle holding p in its closure that is chosen the same way whatever the walk,
     /// so points on edges and vertices are located deterministically. Walks from

@@ -94,9 +94,13 @@ struct FinalPassRounds {
 /// round's TIN did not have, and none when its vertices are the last round's: a
 /// triangle of both TINs holds the same points and gives them the same verdict (its
 /// three vertices, and so its plane, are the same points), so the result is the full
-/// pass's, exactly.
+/// pass's, exactly. With `tin_memory`, a triangulation the caller no longer needs
+/// (tin_ground's), the pass builds its TIN in it (Delaunay::reset), reusing its memory;
+/// the result is the same. (grid_ground's rounds build TINs of a vertex per 4 m cell,
+/// too small for it to show.)
 void final_pass(PointsView points, const FinalPassParams& params, const SnappedPoints& snapped,
                 bool* ground, FinalPassRounds* rounds = nullptr,
-                const std::vector<std::uint32_t>& never_ground = {});
+                const std::vector<std::uint32_t>& never_ground = {},
+                Delaunay* tin_memory = nullptr);
 
 }  // namespace pcl_rg
