@@ -15,17 +15,6 @@
 
 namespace pcl_rg {
 
-namespace {
-
-// Point a comes before point b: lower z - z0, then smaller index. z0 is subtracted, not
-// left out, because the subtraction can round two heights to one.
-bool lower(PointsView points, double z0, std::size_t a, std::size_t b) {
-    const double za = points.coord(a, 2) - z0, zb = points.coord(b, 2) - z0;
-    return za < zb || (za == zb && a < b);
-}
-
-}  // namespace
-
 std::vector<std::int64_t> lowest_in_cells(PointsView points, const CellLattice& lattice,
                                           const bool* take) {
     // Each cell keeps its lowest point's height next to its index, so that a comparison
@@ -149,7 +138,7 @@ std::vector<std::uint32_t> lowest_points(PointsView points, const CellLattice& l
             if (!take || take[i])
                 keyed.emplace_back(cell_of(points, lattice, i), static_cast<std::uint32_t>(i));
         lowest = lowest_by_sorting(std::move(keyed), [&](std::uint32_t a, std::uint32_t b) {
-            return lower(points, lattice.z0, a, b);
+            return lower_in_cell(points, lattice.z0, a, b);
         });
     }
     return in_index_order(std::move(lowest), points.size);

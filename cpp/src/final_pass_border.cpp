@@ -8,6 +8,8 @@
 #include <limits>
 #include <vector>
 
+#include "pcl_rg/index_bitmap.hpp"
+
 namespace pcl_rg::final_pass_border {
 
 std::vector<BorderVertex> border_vertices(const std::vector<Vertex>& vertices,
@@ -53,26 +55,20 @@ std::vector<BorderVertex> border_vertices(const std::vector<Vertex>& vertices,
         if (e.depth == 0) edge_cells[e.side].push_back(e.along);
     std::array<std::vector<Outermost>, 4> outermost;
     for (int side = 0; side < 4; ++side) outermost[side].resize(edge_cells[side].size());
-    // The ground points of the outermost cells, found in parallel by a scan of every
-    // point: typically a few in a thousand, but all of them in a lattice of a few cells.
-    // The nearest per cell below is under a total order, so the order in which they are
-    // gathered does not matter.
-    std::vector<std::size_t> rim;
+    // The ground points of the outermost cells, marked in parallel by a scan of every
+    // point (typically a few in a thousand, but all of them in a lattice of a few cells).
+    std::vector<std::uint64_t> on_rim((points.size + 63) / 64, 0);
     const auto n = static_cast<std::ptrdiff_t>(points.size);
-#pragma omp parallel if (n > 65536)
-    {
-        std::vector<std::size_t> mine;
-#pragma omp for schedule(static) nowait
-        for (std::ptrdiff_t i = 0; i < n; ++i) {
-            if (!ground[i]) continue;
-            const auto [cx, cy] = cell_of(points, lattice, static_cast<std::size_t>(i));
-            if (cx == 0 || cx == columns - 1 || cy == 0 || cy == rows - 1)
-                mine.push_back(static_cast<std::size_t>(i));
-        }
-#pragma omp critical(pcl_rg_border_rim)
-        rim.insert(rim.end(), mine.begin(), mine.end());
+#pragma omp parallel for schedule(static) if (n > 65536)
+    for (std::ptrdiff_t i = 0; i < n; ++i) {
+        if (!ground[i]) continue;
+        const auto [cx, cy] = cell_of(points, lattice, static_cast<std::size_t>(i));
+        if (cx == 0 || cx == columns - 1 || cy == 0 || cy == rows - 1)
+            mark(on_rim, static_cast<std::uint32_t>(i));
     }
-    for (const std::size_t i : rim) {
+    std::vector<std::uint32_t> rim;
+    take_marked(on_rim, rim);
+    for (const std::uint32_t i : rim) {
         const auto [cx, cy] = cell_of(points, lattice, i);
         for (int side = 0; side < 4; ++side) {
             const bool along_x = side < 2, upper_side = side % 2 == 1;

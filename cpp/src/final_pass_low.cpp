@@ -134,57 +134,47 @@ std::optional<std::vector<std::uint32_t>> keep_not_low(PointsView points, const 
                 column_has_threshold[c / static_cast<std::size_t>(rows)] = 1;
     }
     for (const Cell& c : low) highest = std::max(highest, c.value);
-    struct Candidate {
-        std::size_t cell;
-        std::uint32_t i;
-    };
-    std::vector<Candidate> candidates;
+    // Raster: the kept points of the cells with a threshold, marked by any thread.
+    std::vector<std::uint64_t> in_threshold_cell;
+    if (!raster_threshold.empty()) in_threshold_cell.assign((n + 63) / 64, 0);
     const auto m = static_cast<std::ptrdiff_t>(n);
-#pragma omp parallel if (m > 65536)
-    {
-        std::vector<Candidate> mine;
-#pragma omp for schedule(static) nowait
-        for (std::ptrdiff_t i = 0; i < m; ++i) {
-            kept[i] = ground[i];
-            if (!ground[i]) continue;
-            const auto p = static_cast<std::size_t>(i);
-            const double z = z_of(p);
-            if (!raster_threshold.empty()) {
-                // cell_of's column, then its row only where the column holds a threshold.
-                const std::int64_t cx = floor_to_int((points.coord(p, 0) - cells.x0) / cells.size);
-                if (!column_has_threshold[static_cast<std::size_t>(cx)]) continue;
-                const std::int64_t cy = floor_to_int((points.coord(p, 1) - cells.y0) / cells.size);
-                const auto c = static_cast<std::size_t>(cx * rows + cy);
-                if (raster_threshold[c] == kNotLow) continue;
-                if (z < raster_threshold[c])
-                    kept[i] = false;
-                else
-                    mine.push_back({c, static_cast<std::uint32_t>(p)});
-                continue;
-            }
-            if (!(z < highest)) continue;
-            const auto [cx, cy] = cell_of(points, cells, p);
-            const auto at = std::lower_bound(low.begin(), low.end(), Cell{cx, cy, 0.0}, by_place);
-            if (at != low.end() && at->cx == cx && at->cy == cy && z < at->value) kept[i] = false;
+#pragma omp parallel for schedule(static) if (m > 65536)
+    for (std::ptrdiff_t i = 0; i < m; ++i) {
+        kept[i] = ground[i];
+        if (!ground[i]) continue;
+        const auto p = static_cast<std::size_t>(i);
+        const double z = z_of(p);
+        if (!raster_threshold.empty()) {
+            // cell_of's column, then its row only where the column holds a threshold.
+            const std::int64_t cx = floor_to_int((points.coord(p, 0) - cells.x0) / cells.size);
+            if (!column_has_threshold[static_cast<std::size_t>(cx)]) continue;
+            const std::int64_t cy = floor_to_int((points.coord(p, 1) - cells.y0) / cells.size);
+            const double t = raster_threshold[static_cast<std::size_t>(cx * rows + cy)];
+            if (t == kNotLow) continue;
+            if (z < t)
+                kept[i] = false;
+            else
+                mark(in_threshold_cell, static_cast<std::uint32_t>(p));
+            continue;
         }
-#pragma omp critical(pcl_rg_keep_not_low)
-        candidates.insert(candidates.end(), mine.begin(), mine.end());
+        if (!(z < highest)) continue;
+        const auto [cx, cy] = cell_of(points, cells, p);
+        const auto at = std::lower_bound(low.begin(), low.end(), Cell{cx, cy, 0.0}, by_place);
+        if (at != low.end() && at->cx == cx && at->cy == cy && z < at->value) kept[i] = false;
     }
     if (raster_threshold.empty()) return std::nullopt;
     // Each cell's lowest kept point: its lowest ground point where it has no threshold
-    // (kept), else the least of its candidates by (z - z0, index), a total order, so the
-    // order in which the threads gathered them does not matter. A cell has a threshold
-    // only when its lowest ground point lies below it, dropped.
+    // (kept), else the least of its marked points in the cells' order (lower_in_cell). A
+    // cell has a threshold only when its lowest ground point lies below it, dropped.
     for (std::size_t c = 0; c < raster_threshold.size(); ++c)
         if (raster_threshold[c] != kNotLow) lowest[c] = -1;
-    for (const Candidate& candidate : candidates) {
-        std::int64_t& best = lowest[candidate.cell];
-        if (best < 0) {
-            best = candidate.i;
-            continue;
-        }
-        const double z = z_of(candidate.i), z_best = z_of(static_cast<std::size_t>(best));
-        if (z < z_best || (z == z_best && candidate.i < best)) best = candidate.i;
+    std::vector<std::uint32_t> candidates;
+    take_marked(in_threshold_cell, candidates);
+    for (const std::uint32_t i : candidates) {
+        const auto [cx, cy] = cell_of(points, cells, i);
+        std::int64_t& best = lowest[static_cast<std::size_t>(cx * rows + cy)];
+        if (best < 0 || lower_in_cell(points, cells.z0, i, static_cast<std::size_t>(best)))
+            best = i;
     }
     std::vector<std::uint32_t> lowest_kept;
     for (const std::int64_t b : lowest)

@@ -29,6 +29,14 @@ inline bool fits_raster(const CellLattice& lattice, std::size_t n) {
     return lattice.columns <= (4 * static_cast<std::int64_t>(n) + 4096) / lattice.rows;
 }
 
+/// Point a comes before point b in its cell: lower z - z0, then smaller index (the order
+/// of lowest_in_cells and lowest_points). z0 is subtracted, not left out, because the
+/// subtraction can round two heights to one.
+inline bool lower_in_cell(PointsView points, double z0, std::size_t a, std::size_t b) {
+    const double za = points.coord(a, 2) - z0, zb = points.coord(b, 2) - z0;
+    return za < zb || (za == zb && a < b);
+}
+
 /// Column and row of point i's cell.
 inline std::pair<std::int64_t, std::int64_t> cell_of(PointsView points, const CellLattice& lattice,
                                                      std::size_t i) {
