@@ -20,6 +20,8 @@ import pytest
 
 PROBE = Path(__file__).with_name("thread_probe.py")
 OMP_VARIABLES = ("OMP_NUM_THREADS", "OMP_THREAD_LIMIT", "OMP_DYNAMIC", "OMP_MAX_ACTIVE_LEVELS")
+# Set only by the conditions that ask for them, never inherited.
+CONDITION_VARIABLES = (*OMP_VARIABLES, "PCL_RG_BLOCK_CACHE_CHECK")
 
 # The plain run has as many threads as cores (2 on CI): one thread, an odd count and
 # more threads than cores are the counts that differ from it.
@@ -31,6 +33,11 @@ CONDITIONS = {
     "OMP_DYNAMIC=true": ({"OMP_DYNAMIC": "true", "OMP_NUM_THREADS": "8"}, "plain"),
     "inside an OpenMP parallel region": ({}, "parallel-region"),
     "3 Python threads at once": ({}, "python-threads"),
+    # The core's kept blocks (block_cache.cpp): none kept, and every block handed out
+    # filled with 0xA5 bytes from 64 KiB up, so a read of what a block held before it
+    # was written would change a digest.
+    "no blocks kept between calls": ({}, "no-kept-blocks"),
+    "PCL_RG_BLOCK_CACHE_CHECK=1": ({"PCL_RG_BLOCK_CACHE_CHECK": "1"}, "plain"),
 }
 
 
@@ -47,7 +54,7 @@ class _Probes:
         self.outcome: dict[str, dict[str, str] | str] = {}  # digests, or why there are none
         for name in names:
             environment, mode = ({}, "plain") if name == "plain" else CONDITIONS[name]
-            env = {k: v for k, v in os.environ.items() if k not in OMP_VARIABLES}
+            env = {k: v for k, v in os.environ.items() if k not in CONDITION_VARIABLES}
             env.update(environment)
             self.running[name] = subprocess.Popen(
                 [sys.executable, str(PROBE), mode],
@@ -122,6 +129,8 @@ def test_probe_covers_every_public_algorithm(probes: _Probes) -> None:
             if callable(getattr(module, name)) and not name[0].isupper()
         }
 
-    # collect_diagnostics is no algorithm; PCL's classes (pcl_rg.pcl) are probed too.
-    algorithms = functions(pcl_rg, "") - {"collect_diagnostics"} | functions(pcl_rg.pcl, "pcl.")
+    # collect_diagnostics and the memory settings are no algorithms; PCL's classes
+    # (pcl_rg.pcl) are probed too.
+    settings = {"collect_diagnostics", "release_memory", "set_memory_cache_limit"}
+    algorithms = functions(pcl_rg, "") - settings | functions(pcl_rg.pcl, "pcl.")
     assert algorithms <= set(probes.digests("plain"))

@@ -152,9 +152,12 @@ def _from_python_threads(job: Callable[[], str], count: int = 3) -> str:
 
 
 def main(mode: str) -> None:
+    if mode == "no-kept-blocks":
+        pcl_rg.set_memory_cache_limit(0)
     jobs = _jobs(_clouds())
     call = {
         "plain": lambda job: job(),
+        "no-kept-blocks": lambda job: job(),
         "parallel-region": _in_parallel_region,
         "python-threads": _from_python_threads,
     }[mode]

@@ -16,5 +16,6 @@ void bind_tin_ground(pybind11::module_& m);
 void bind_delaunay(pybind11::module_& m);
 void bind_point_spacing(pybind11::module_& m);
 void bind_points(pybind11::module_& m);
+void bind_block_cache(pybind11::module_& m);
 
 }  // namespace pcl_rg::bindings

@@ -19,4 +19,5 @@ PYBIND11_MODULE(_core, m) {
     pcl_rg::bindings::bind_delaunay(m);
     pcl_rg::bindings::bind_point_spacing(m);
     pcl_rg::bindings::bind_points(m);
+    pcl_rg::bindings::bind_block_cache(m);
 }

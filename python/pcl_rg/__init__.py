@@ -41,6 +41,8 @@ _NAMES = {
     "Diagnostics": "_diagnostics",
     "collect_diagnostics": "_diagnostics",
     "FarPointsWarning": "_far_points",
+    "release_memory": "_memory",
+    "set_memory_cache_limit": "_memory",
 }
 _SUBMODULES = (
     "batch",
@@ -78,6 +80,7 @@ if TYPE_CHECKING:  # what type checkers and IDEs see; nothing runs here
     from ._diagnostics import Diagnostics, collect_diagnostics
     from ._far_points import FarPointsWarning
     from ._grid_ground import GridGroundParams, grid_ground
+    from ._memory import release_memory, set_memory_cache_limit
     from ._normals import NormalsParams, NormalsResult, normals
     from ._point_scale import PointScale, point_scale
     from ._point_spacing import point_spacing

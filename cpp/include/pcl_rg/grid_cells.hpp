@@ -40,21 +40,21 @@ struct CellBox {
 
 // The points in cell order (a CSR grid) with everything the passes read.
 struct CellGrid {
-    // The per-position arrays that build_grid writes in full (the scatter, then the block
-    // numbers) are not zero-filled when sized (UnfilledVector): hundreds of MiB at 10M
-    // points, a serial pass otherwise.
+    // The arrays that build_grid writes in full (the scatter, the cells' starts band by
+    // band, the block numbers and members) are not zero-filled when sized
+    // (UnfilledVector): hundreds of MiB at 10M points, a serial pass otherwise.
     UnfilledVector<Local> p;                      // local coordinates, by sorted position
     UnfilledVector<std::uint32_t> id;             // input index of each position
     UnfilledVector<std::uint32_t> block;          // block number of each position
     UnfilledVector<std::uint32_t> cell;           // cell number of each position
     UnfilledVector<std::int32_t> snap_x, snap_y;  // XY on the final pass's grid (if asked)
-    std::vector<std::size_t> start;               // positions of cell c: [start[c], start[c + 1])
+    UnfilledVector<std::size_t> start;            // positions of cell c: [start[c], start[c + 1])
     bool by_height = false;                       // a cell's points by (z, x, y), else input order
     std::vector<std::size_t> crowded;             // the crowded cells, ascending
     std::vector<CellBox> crowded_box;             // and the XY box of each one's points
     std::size_t blocks = 0;
-    std::vector<std::size_t> block_start;     // members of block b: block_member[
-    std::vector<std::uint32_t> block_member;  //   block_start[b] .. block_start[b + 1])
+    std::vector<std::size_t> block_start;        // members of block b: block_member[
+    UnfilledVector<std::uint32_t> block_member;  //   block_start[b] .. block_start[b + 1])
     // Cell numbering: dense c = cy * width + cx, or the index in `occupied` (sorted).
     bool dense = true;
     std::int64_t width = 0, height = 0;

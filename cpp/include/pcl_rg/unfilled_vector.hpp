@@ -1,5 +1,6 @@
 // Vectors for the core's large arrays: not zero-filled when sized (a parallel loop
-// writes them in full right after), and on huge pages when the kernel gives them.
+// writes them in full right after), on huge pages when the kernel gives them, and kept
+// for the next call when freed (block_cache.hpp).
 #pragma once
 
 #include <cstddef>
@@ -8,6 +9,8 @@
 #include <type_traits>
 #include <utility>
 #include <vector>
+
+#include "pcl_rg/block_cache.hpp"
 
 namespace pcl_rg {
 
@@ -21,8 +24,8 @@ void advise_huge_pages(void* p, std::size_t bytes) noexcept;
 /// std::allocator, but resize() default-initializes new elements (leaves integers, plain
 /// structs and, in C++17, std::atomic unwritten) instead of zeroing them: for large
 /// arrays that a parallel loop writes in full first, where a zero fill would be one more
-/// serial pass, faulting in every fresh page on one core. Its allocations ask for huge
-/// pages (advise_huge_pages).
+/// serial pass, faulting in every fresh page on one core. Its blocks from 4 MiB up come
+/// from the block cache (block_cache.hpp), on huge pages, kept between calls.
 template <class T>
 struct DefaultInitAllocator : std::allocator<T> {
     template <class U>
@@ -33,9 +36,15 @@ struct DefaultInitAllocator : std::allocator<T> {
     template <class U>
     DefaultInitAllocator(const DefaultInitAllocator<U>&) noexcept {}
     T* allocate(std::size_t n) {
-        T* p = std::allocator<T>::allocate(n);
-        advise_huge_pages(p, n * sizeof(T));
-        return p;
+        if (n > std::size_t(-1) / sizeof(T)) throw std::bad_array_new_length();
+        if (n * sizeof(T) < block_cache::min_bytes()) return std::allocator<T>::allocate(n);
+        return static_cast<T*>(block_cache::take(n * sizeof(T)));
+    }
+    void deallocate(T* p, std::size_t n) noexcept {
+        if (n * sizeof(T) < block_cache::min_bytes())
+            std::allocator<T>::deallocate(p, n);
+        else
+            block_cache::give(p, n * sizeof(T));
     }
     template <class U>
     void construct(U* p) noexcept(std::is_nothrow_default_constructible_v<U>) {

@@ -1,0 +1,113 @@
+"""The core keeps its large freed arrays for the next call (block_cache.cpp), within a
+limit and within the process's own peak, and gives them back when asked.
+
+The counters are the process's, so each scenario runs in a fresh interpreter. That
+results never depend on the kept memory is tests/test_thread_independence.py's
+("no blocks kept between calls" and PCL_RG_BLOCK_CACHE_CHECK=1 against the plain run).
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import textwrap
+
+import pytest
+
+import pcl_rg
+
+# A cloud whose per-point arrays pass the cache's 4 MiB (about 250 k points: 24-byte
+# local coordinates, 4-byte indices from 1.05 M points up).
+SCENARIO_HEAD = """
+import json, numpy as np, pcl_rg
+from pcl_rg import _core
+points = pcl_rg.datasets.synthetic_scene(seed=1, size=520.0, density=4.0).points
+stats = _core.block_cache_stats
+"""
+
+
+def run_scenario(body: str) -> dict:
+    code = SCENARIO_HEAD + textwrap.dedent(body)
+    done = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=600, check=False
+    )
+    assert done.returncode == 0, done.stderr
+    return json.loads(done.stdout)
+
+
+def test_a_repeated_call_reuses_every_block_and_the_peak_bounds_what_is_kept() -> None:
+    out = run_scenario(
+        """
+        first_mask = pcl_rg.tin_ground(points)
+        first = stats()
+        second_mask = pcl_rg.tin_ground(points)
+        second = stats()
+        grid = pcl_rg.grid_ground(points)
+        third = stats()
+        print(json.dumps({"first": first, "second": second, "third": third,
+                          "same": bool((first_mask == second_mask).all())}))
+        """
+    )
+    first, second, third = out["first"], out["second"], out["third"]
+    assert out["same"]
+    assert first["allocated"] > 0 and first["live_bytes"] == 0
+    assert first["kept_bytes"] > 0
+    # The same call again: every block from the first call's.
+    assert second["allocated"] == first["allocated"]
+    assert second["reused"] > first["reused"]
+    assert second["peak_bytes"] == first["peak_bytes"]
+    # Another filter: whatever it maps anew, kept + live never passes the peak.
+    for s in (first, second, third):
+        assert s["kept_bytes"] <= min(s["peak_bytes"], s["limit"])
+
+
+def test_release_and_a_zero_limit_keep_nothing() -> None:
+    out = run_scenario(
+        """
+        pcl_rg.grid_ground(points)
+        kept = stats()["kept_bytes"]
+        released = pcl_rg.release_memory()
+        after_release = stats()
+        previous = pcl_rg.set_memory_cache_limit(0)
+        pcl_rg.grid_ground(points)
+        off = stats()
+        pcl_rg.grid_ground(points)
+        off_again = stats()
+        restored = pcl_rg.set_memory_cache_limit(previous)
+        print(json.dumps({"kept": kept, "released": released, "after": after_release,
+                          "previous": previous, "off": off, "off_again": off_again,
+                          "restored": restored}))
+        """
+    )
+    assert out["kept"] > 0 and out["released"] == out["kept"]
+    assert out["after"]["kept_bytes"] == 0
+    assert out["previous"] > 0 and out["restored"] == 0
+    # Limit 0: the calls map all their blocks, and nothing stays.
+    assert out["off"]["kept_bytes"] == 0 and out["off_again"]["kept_bytes"] == 0
+    assert out["off_again"]["reused"] == out["off"]["reused"]
+    assert out["off_again"]["allocated"] > out["off"]["allocated"]
+
+
+def test_a_lower_limit_frees_what_lies_above_it() -> None:
+    out = run_scenario(
+        """
+        pcl_rg.tin_ground(points)
+        kept = stats()["kept_bytes"]
+        pcl_rg.set_memory_cache_limit(kept // 2)
+        print(json.dumps({"kept": kept, "after": stats()}))
+        """
+    )
+    assert 0 < out["after"]["kept_bytes"] <= out["kept"] // 2
+
+
+@pytest.mark.parametrize(
+    ("value", "error"),
+    [(-1, ValueError), (2**64, ValueError), (1.5, TypeError), (True, TypeError), ("1", TypeError)],
+)
+def test_the_limit_must_be_a_byte_count(value, error) -> None:
+    before = pcl_rg.set_memory_cache_limit(0)
+    pcl_rg.set_memory_cache_limit(before)
+    with pytest.raises(error, match="nbytes"):
+        pcl_rg.set_memory_cache_limit(value)
+    assert pcl_rg.set_memory_cache_limit(before) == before  # unchanged by the refusal
