@@ -98,7 +98,35 @@ def test_a_lower_limit_frees_what_lies_above_it() -> None:
         print(json.dumps({"kept": kept, "after": stats()}))
         """
     )
-    assert 0 < out["after"]["kept_bytes"] <= out["kept"] // 2
+    assert out["kept"] > 0 and out["after"]["kept_bytes"] <= out["kept"] // 2
+
+
+def test_threads_at_once_keep_no_more_than_the_peak() -> None:
+    # Three threads taking and giving blocks of different sizes at once: kept and live
+    # bytes together stay within the peak of live bytes, and the masks are each
+    # cloud's own.
+    out = run_scenario(
+        """
+        from concurrent.futures import ThreadPoolExecutor
+        clouds = [points, points[::2].copy(), points[::3].copy()]
+        alone = [pcl_rg.tin_ground(c).tobytes() for c in clouds]
+        def job(k):
+            got = []
+            for r in range(4):
+                c = (k + r) % 3
+                f = pcl_rg.tin_ground if r % 2 == 0 else pcl_rg.grid_ground
+                mask = f(clouds[c])
+                got.append(f is pcl_rg.grid_ground or mask.tobytes() == alone[c])
+            return all(got)
+        with ThreadPoolExecutor(3) as pool:
+            same = all(pool.map(job, range(3)))
+        print(json.dumps({"same": same, "end": stats()}))
+        """
+    )
+    end = out["end"]
+    assert out["same"]
+    assert end["live_bytes"] == 0
+    assert end["kept_bytes"] <= end["peak_bytes"]
 
 
 @pytest.mark.parametrize(

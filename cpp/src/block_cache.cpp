@@ -1,18 +1,20 @@
 // The block cache of block_cache.hpp.
 //
-// Why: on 10M points tin_ground's large arrays come to about 950 MiB and grid_ground's
-// to 650 MiB. Freed, they went back to the kernel (glibc maps blocks this large on their
-// own), and the next call had the kernel map and zero them again: a second of system
-// time per tin_ground call, a sixth of its CPU time, on the 2-core hosts we measure on.
-// Kept, a repeated call reuses them.
+// Why: on 10M points tin_ground's large arrays come to about 1.3 GB at their peak and
+// grid_ground's to 0.85 GB. Freed, they went back to the kernel (glibc maps blocks this large on
+// their own), and the next call had the kernel map and zero them again: a second of system time per
+// tin_ground call, a sixth of its CPU time, on the 2-core hosts we measure on. Kept, a repeated
+// call reuses them.
 //
 // How much is kept. A freed block is kept unless that would pass the limit (an eighth
-// of the physical memory by default), in which case the blocks kept longest are freed
-// first. When a take() finds no kept block that fits and must map new memory, kept
-// blocks are freed first, the oldest first, until the live and kept bytes together stay
-// within the most live bytes this process has ever had: so the cache never raises the
-// process's peak memory, it only holds on to what an earlier call already used.
-// release() and set_limit(0) give everything back.
+// of the physical memory, or of a cgroup's cap, by default), in which case the blocks kept longest
+// are freed first. When a take() finds no kept block that fits and must map new memory, kept blocks
+// are freed first, the oldest first, until the live and kept bytes together stay within the most
+// live bytes this process has ever had: so the core's arrays, kept or not, never take more than
+// their own peak, and the cache holds on to what an earlier call already used. (Other memory taken
+// between calls, a NumPy array or the next tile read, then comes on top of the kept blocks:
+// pcl_rg.batch gives them back after each task.) When new memory cannot be had, the kept blocks go
+// back and the allocation is tried once more. release() and set_limit(0) give everything back.
 //
 // Results do not depend on it: UnfilledVector's contract is that every element is
 // written before it is read, and with PCL_RG_BLOCK_CACHE_CHECK set every block is
@@ -22,12 +24,12 @@
 
 #include <algorithm>
 #include <array>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <mutex>
 #include <new>
 #include <unordered_map>
-#include <vector>
 
 #include "pcl_rg/unfilled_vector.hpp"
 
@@ -70,16 +72,32 @@ std::size_t rounded(std::size_t bytes) noexcept {
     return (bytes + align - 1) / align * align;
 }
 
+// The memory this process may use: the physical memory, or less where a cgroup (v2,
+// as containers and batch schedulers set) caps it; 0 when neither is known.
+std::size_t usable_memory() noexcept {
+    std::size_t bytes = 0;
+#if defined(_SC_PHYS_PAGES) && defined(_SC_PAGE_SIZE)
+    const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGE_SIZE);
+    if (pages > 0 && page > 0)
+        bytes = static_cast<std::size_t>(pages) * static_cast<std::size_t>(page);
+#endif
+#if defined(__linux__)
+    if (std::FILE* f = std::fopen("/sys/fs/cgroup/memory.max", "r")) {
+        unsigned long long cap = 0;
+        if (std::fscanf(f, "%llu", &cap) == 1 && cap > 0 && (bytes == 0 || cap < bytes))
+            bytes = static_cast<std::size_t>(cap);  // "max" (no cap) reads as no number
+        std::fclose(f);
+    }
+#endif
+    return bytes;
+}
+
 std::size_t default_limit() noexcept {
 #if defined(PCL_RG_ADDRESS_SANITIZER)
     return 0;  // every block freed, so that a use after free is seen
-#elif defined(_SC_PHYS_PAGES) && defined(_SC_PAGE_SIZE)
-    const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGE_SIZE);
-    if (pages > 0 && page > 0)
-        return static_cast<std::size_t>(pages) / 8 * static_cast<std::size_t>(page);
-    return std::size_t{2} << 30;
 #else
-    return std::size_t{2} << 30;
+    const std::size_t usable = usable_memory();
+    return usable > 0 ? usable / 8 : std::size_t{2} << 30;
 #endif
 }
 
@@ -87,6 +105,23 @@ struct Kept {
     void* block;
     std::size_t bytes;
     std::uint64_t age;  // when it was kept: the smallest goes first
+};
+
+// Blocks dropped under the mutex, freed after it: a list that never allocates, so that
+// nothing here fails for want of memory.
+struct Dropped {
+    std::array<Kept, kMaxKept> blocks{};
+    std::size_t count = 0;
+
+    std::size_t bytes() const noexcept {
+        std::size_t total = 0;
+        for (std::size_t k = 0; k < count; ++k) total += blocks[k].bytes;
+        return total;
+    }
+    void free_all() noexcept {
+        for (std::size_t k = 0; k < count; ++k) std::free(blocks[k].block);
+        count = 0;
+    }
 };
 
 struct State {
@@ -99,14 +134,18 @@ struct State {
 
     State() { stats.limit = default_limit(); }
 
-    // Drops the oldest kept block into `freed`.
-    void drop_oldest(std::vector<Kept>& freed) {
+    void drop_oldest(Dropped& dropped) noexcept {
         std::size_t oldest = 0;
         for (std::size_t k = 1; k < kept_count; ++k)
             if (kept[k].age < kept[oldest].age) oldest = k;
-        freed.push_back(kept[oldest]);
+        dropped.blocks[dropped.count++] = kept[oldest];
         stats.kept_bytes -= kept[oldest].bytes;
         kept[oldest] = kept[--kept_count];
+    }
+    // Drops the oldest kept blocks while `too_many()` holds.
+    template <class Predicate>
+    void drop_while(Dropped& dropped, Predicate too_many) noexcept {
+        while (kept_count > 0 && too_many()) drop_oldest(dropped);
     }
 };
 
@@ -125,8 +164,11 @@ State& state() {
     return *s;
 }
 
-void free_all(const std::vector<Kept>& blocks) noexcept {
-    for (const Kept& k : blocks) std::free(k.block);
+// New memory for a block of `size` bytes, or nullptr.
+void* map_block(std::size_t size) noexcept {
+    void* block = std::aligned_alloc(alignment_of(size), size);
+    if (block != nullptr) advise_huge_pages(block, size);
+    return block;
 }
 
 }  // namespace
@@ -137,7 +179,7 @@ void* take(std::size_t bytes) {
     const std::size_t size = rounded(bytes);
     if (size < bytes) throw std::bad_alloc();  // rounding wrapped around
     State& s = state();
-    std::vector<Kept> freed;
+    Dropped dropped;
     void* block = nullptr;
     {
         std::lock_guard<std::mutex> lock(s.mutex);
@@ -158,27 +200,37 @@ void* take(std::size_t bytes) {
             ++s.stats.reused;
             block = found.block;
         } else {
-            // New memory: first free kept blocks so that live + kept stays within the peak.
-            const std::size_t live_after = s.stats.live_bytes + size;
-            s.stats.peak_bytes = std::max(s.stats.peak_bytes, live_after);
-            freed.reserve(s.kept_count);
-            while (s.kept_count > 0 && live_after + s.stats.kept_bytes > s.stats.peak_bytes)
-                s.drop_oldest(freed);
+            // New memory, counted live at once (so that a take in another thread meanwhile
+            // sees it): first drop kept blocks so that live + kept stays within the peak of
+            // live bytes, this block's included. The peak itself moves only once the
+            // memory is there.
+            s.stats.live_bytes += size;
+            const std::size_t bound = std::max(s.stats.peak_bytes, s.stats.live_bytes);
+            s.drop_while(dropped, [&] { return s.stats.live_bytes + s.stats.kept_bytes > bound; });
         }
     }
-    free_all(freed);
+    dropped.free_all();
     if (block == nullptr) {
-        block = std::aligned_alloc(alignment_of(size), size);
-        if (block == nullptr) throw std::bad_alloc();
-        advise_huge_pages(block, size);
-        std::lock_guard<std::mutex> lock(s.mutex);
-        try {
-            s.live.emplace(block, size);
-        } catch (...) {
-            std::free(block);
-            throw;
+        block = map_block(size);
+        if (block == nullptr) {
+            // Short of memory: what is kept goes back first, then one more try.
+            release();
+            block = map_block(size);
         }
-        s.stats.live_bytes += size;
+        std::lock_guard<std::mutex> lock(s.mutex);
+        if (block != nullptr) {
+            try {
+                s.live.emplace(block, size);
+            } catch (...) {
+                std::free(block);
+                block = nullptr;
+            }
+        }
+        if (block == nullptr) {
+            s.stats.live_bytes -= size;
+            throw std::bad_alloc();
+        }
+        s.stats.peak_bytes = std::max(s.stats.peak_bytes, s.stats.live_bytes);
         ++s.stats.allocated;
     }
     if (check_mode()) std::memset(block, kCheckFill, size);
@@ -188,66 +240,53 @@ void* take(std::size_t bytes) {
 void give(void* p, std::size_t bytes) noexcept {
     if (p == nullptr) return;
     State& s = state();
-    std::vector<Kept> freed;
+    Dropped dropped;
     bool keep = false;
     {
         std::lock_guard<std::mutex> lock(s.mutex);
         const auto it = s.live.find(p);
-        const std::size_t size = it != s.live.end() ? it->second : rounded(bytes);
-        if (it != s.live.end()) s.live.erase(it);
-        s.stats.live_bytes -= std::min(s.stats.live_bytes, size);
-        if (size <= s.stats.limit) {
-            try {
-                freed.reserve(s.kept_count + 1);
-                while (s.kept_count > 0 &&
-                       (s.kept_count == kMaxKept || s.stats.kept_bytes + size > s.stats.limit))
-                    s.drop_oldest(freed);
+        if (it != s.live.end()) {  // else not take()'s (a bug elsewhere): freed, not kept
+            const std::size_t size = it->second;
+            s.live.erase(it);
+            s.stats.live_bytes -= size;
+            if (size <= s.stats.limit) {
+                s.drop_while(dropped, [&] {
+                    return s.kept_count == kMaxKept || s.stats.kept_bytes + size > s.stats.limit;
+                });
                 s.kept[s.kept_count++] = Kept{p, size, ++s.clock};
                 s.stats.kept_bytes += size;
                 keep = true;
-            } catch (const std::bad_alloc&) {
-                // No room to list what to free: free this block instead of keeping it.
             }
         }
     }
-    free_all(freed);
+    (void)bytes;
+    dropped.free_all();
     if (!keep) std::free(p);
 }
 
 std::size_t release() noexcept {
     State& s = state();
-    std::vector<Kept> freed;
+    Dropped dropped;
     {
         std::lock_guard<std::mutex> lock(s.mutex);
-        try {
-            freed.reserve(s.kept_count);
-        } catch (const std::bad_alloc&) {
-            return 0;
-        }
-        while (s.kept_count > 0) s.drop_oldest(freed);
+        s.drop_while(dropped, [] { return true; });
     }
-    std::size_t bytes = 0;
-    for (const Kept& k : freed) bytes += k.bytes;
-    free_all(freed);
+    const std::size_t bytes = dropped.bytes();
+    dropped.free_all();
     return bytes;
 }
 
 std::size_t set_limit(std::size_t bytes) noexcept {
     State& s = state();
-    std::vector<Kept> freed;
+    Dropped dropped;
     std::size_t previous;
     {
         std::lock_guard<std::mutex> lock(s.mutex);
         previous = s.stats.limit;
         s.stats.limit = bytes;
-        try {
-            freed.reserve(s.kept_count);
-            while (s.kept_count > 0 && s.stats.kept_bytes > bytes) s.drop_oldest(freed);
-        } catch (const std::bad_alloc&) {
-            // Nothing dropped: the blocks stay kept until the next give() or take().
-        }
+        s.drop_while(dropped, [&] { return s.stats.kept_bytes > bytes; });
     }
-    free_all(freed);
+    dropped.free_all();
     return previous;
 }
 

@@ -3,10 +3,12 @@
 The core's large arrays (4 MiB and up: on 10M points tin_ground's come to about
 1.3 GB at their peak) are kept when a call frees them, so that the next call reuses
 them instead of having the kernel map and zero fresh memory. On the 2-core hosts of
-benchmarks/RESULTS.md that saved tin_ground about a second of system time per call on
-10M points. The cache never holds more than the most the core's arrays have ever
-taken at once in this process, so it does not raise the process's peak memory; it
-keeps the memory of the largest call after the call returns.
+benchmarks/RESULTS.md that saved tin_ground up to a second of system time per call on
+10M points. Kept and live together, the core's arrays never take more than the most
+they have taken at once in this process; but what other code allocates between calls
+(the next tile read, NumPy's arrays) comes on top of the kept blocks, so call
+`release_memory` before such work when the peak matters. ``pcl_rg.batch`` does so after
+each task.
 """
 
 from __future__ import annotations
@@ -31,9 +33,10 @@ def release_memory() -> int:
     The core keeps each freed array of 4 MiB or more for a later call, within the
     limit of `set_memory_cache_limit` and within the most memory its arrays have
     ever taken at once in this process. Call this after the last filter of a
-    session, before work that needs the memory; the next call maps fresh memory
-    again, as it would without the cache. Results never depend on the cache: a
-    reused array is written in full before it is read.
+    session, or before other work that needs much memory (the kept arrays would lie
+    under it); the next call maps fresh memory again, as it would without the cache.
+    Results never depend on the cache: a reused array is written in full before it
+    is read.
 
     Examples
     --------
@@ -54,7 +57,8 @@ def set_memory_cache_limit(nbytes: int) -> int:
     nbytes : int
         Bytes, at least 0. 0 keeps nothing: every array is freed when its call
         ends, and every call maps fresh memory. The default is an eighth of the
-        physical memory (0 in an AddressSanitizer build).
+        physical memory, or of a cgroup's memory cap when that is lower (0 in an
+        AddressSanitizer build).
 
     Returns
     -------

@@ -16,7 +16,8 @@ std::size_t min_bytes() noexcept;
 /// A block of at least `bytes` (>= min_bytes()), aligned to 2 MiB from 4 MiB up so that
 /// the kernel can back it with huge pages. A kept block of a fitting size when there is
 /// one (its contents are whatever its last user left: write before reading), else new
-/// memory. Throws std::bad_alloc.
+/// memory (when none can be had, the kept blocks are freed and it is tried once more).
+/// Throws std::bad_alloc.
 void* take(std::size_t bytes);
 
 /// Returns a block from take(p's `bytes`): kept for a later take(), or freed.
@@ -26,8 +27,9 @@ void give(void* p, std::size_t bytes) noexcept;
 std::size_t release() noexcept;
 
 /// Sets the most bytes kept at once (0: keep nothing) and frees kept blocks above it;
-/// returns the previous limit. The default is an eighth of the physical memory (0 under
-/// AddressSanitizer, which must see every block freed).
+/// returns the previous limit. The default is an eighth of the physical memory, or of
+/// the cgroup's cap when lower (0 under AddressSanitizer, which must see every block
+/// freed).
 std::size_t set_limit(std::size_t bytes) noexcept;
 
 struct Stats {

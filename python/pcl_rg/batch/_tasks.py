@@ -23,7 +23,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from .. import grid_ground, tin_ground, voxel_grid
+from .. import grid_ground, release_memory, tin_ground, voxel_grid
 from .._classification import (
     existing_classes,
     ground_classes,
@@ -128,6 +128,10 @@ def guarded(work: Callable[[], dict[str, Any]]) -> dict[str, Any]:
             result = work()
         except Exception as error:  # noqa: BLE001 - any failure is this tile's, and reported
             return dict(_failure(error), warnings=found)
+        finally:
+            # The core's arrays kept for a next call would lie under the next task's tile
+            # (read first) and count as Dask's unmanaged memory while the worker idles.
+            release_memory()
     result.update(ok=True, seconds=time.perf_counter() - start, peak_mib=_peak_mib())
     return dict(result, warnings=found)
 
