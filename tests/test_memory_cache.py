@@ -24,6 +24,8 @@ import json, numpy as np, pcl_rg
 from pcl_rg import _core
 points = pcl_rg.datasets.synthetic_scene(seed=1, size=520.0, density=4.0).points
 stats = _core.block_cache_stats
+# A limit of its own: the default is 0 in an AddressSanitizer build (make sanitize).
+pcl_rg.set_memory_cache_limit(4 << 30)
 """
 
 
