@@ -59,7 +59,7 @@ struct DefaultInitAllocator : std::allocator<T> {
 
 /// A vector whose new elements are not zeroed (DefaultInitAllocator): write each one
 /// before reading it. Also the type of the per-point arrays that are filled with a value
-/// (assign(n, v)), for the huge pages its allocations ask for.
+/// (assign(n, v)), for the huge pages and the kept blocks of its allocations.
 template <class T>
 using UnfilledVector = std::vector<T, DefaultInitAllocator<T>>;
 
