@@ -8,15 +8,26 @@
 
 #include "bindings.hpp"
 #include "pcl_rg/block_cache.hpp"
+#include "without_gil.hpp"
 
 namespace pcl_rg::bindings {
 
 void bind_block_cache(pybind11::module_& m) {
     m.def(
-        "block_cache_release", [] { return block_cache::release(); },
+        "block_cache_release",
+        [] {
+            std::size_t bytes = 0;  // freeing a gigabyte takes a tenth of a second
+            without_gil([&] { bytes = block_cache::release(); });
+            return bytes;
+        },
         "Free every kept block; return their bytes.");
     m.def(
-        "block_cache_set_limit", [](std::size_t bytes) { return block_cache::set_limit(bytes); },
+        "block_cache_set_limit",
+        [](std::size_t bytes) {
+            std::size_t previous = 0;
+            without_gil([&] { previous = block_cache::set_limit(bytes); });
+            return previous;
+        },
         pybind11::arg("bytes"), "Set the most bytes kept at once; return the previous limit.");
     m.def(
         "block_cache_stats",

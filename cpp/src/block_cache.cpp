@@ -72,8 +72,9 @@ std::size_t rounded(std::size_t bytes) noexcept {
     return (bytes + align - 1) / align * align;
 }
 
-// The memory this process may use: the physical memory, or less where a cgroup (v2,
-// as containers and batch schedulers set) caps it; 0 when neither is known.
+// The memory this process may use: the physical memory, or less where the cgroup v2
+// root it sees caps it (a container's own); 0 when neither is known. (A cap on a cgroup
+// below the root, or a cgroup v1 cap, is not read.)
 std::size_t usable_memory() noexcept {
     std::size_t bytes = 0;
 #if defined(_SC_PHYS_PAGES) && defined(_SC_PAGE_SIZE)
@@ -130,6 +131,7 @@ struct State {
     std::size_t kept_count = 0;
     std::uint64_t clock = 0;
     std::unordered_map<void*, std::size_t> live;  // taken blocks and their true sizes
+    std::size_t pending_bytes = 0;                // counted in live_bytes, not yet mapped
     Stats stats;
 
     State() { stats.limit = default_limit(); }
@@ -201,11 +203,14 @@ void* take(std::size_t bytes) {
             block = found.block;
         } else {
             // New memory, counted live at once (so that a take in another thread meanwhile
-            // sees it): first drop kept blocks so that live + kept stays within the peak of
-            // live bytes, this block's included. The peak itself moves only once the
-            // memory is there.
+            // sees it) and pending until it is there: first drop kept blocks so that live +
+            // kept stays within the peak of mapped live bytes, this block's included. The
+            // peak itself moves only once the memory is there, and never by another
+            // thread's pending bytes, which may yet fail.
             s.stats.live_bytes += size;
-            const std::size_t bound = std::max(s.stats.peak_bytes, s.stats.live_bytes);
+            s.pending_bytes += size;
+            const std::size_t bound =
+                std::max(s.stats.peak_bytes, s.stats.live_bytes - s.pending_bytes + size);
             s.drop_while(dropped, [&] { return s.stats.live_bytes + s.stats.kept_bytes > bound; });
         }
     }
@@ -226,11 +231,12 @@ void* take(std::size_t bytes) {
                 block = nullptr;
             }
         }
+        s.pending_bytes -= size;
         if (block == nullptr) {
             s.stats.live_bytes -= size;
             throw std::bad_alloc();
         }
-        s.stats.peak_bytes = std::max(s.stats.peak_bytes, s.stats.live_bytes);
+        s.stats.peak_bytes = std::max(s.stats.peak_bytes, s.stats.live_bytes - s.pending_bytes);
         ++s.stats.allocated;
     }
     if (check_mode()) std::memset(block, kCheckFill, size);
