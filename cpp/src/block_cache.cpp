@@ -243,7 +243,7 @@ void* take(std::size_t bytes) {
     return block;
 }
 
-void give(void* p, std::size_t bytes) noexcept {
+void give(void* p) noexcept {
     if (p == nullptr) return;
     State& s = state();
     Dropped dropped;
@@ -265,7 +265,6 @@ void give(void* p, std::size_t bytes) noexcept {
             }
         }
     }
-    (void)bytes;
     dropped.free_all();
     if (!keep) std::free(p);
 }

@@ -13,9 +13,8 @@ each task.
 
 from __future__ import annotations
 
-import operator
-
 from . import _core
+from ._params import check_number
 
 __all__ = ["release_memory", "set_memory_cache_limit"]
 
@@ -68,7 +67,7 @@ def set_memory_cache_limit(nbytes: int) -> int:
     Raises
     ------
     ValueError
-        If `nbytes` is negative or larger than 2**64 - 1.
+        If `nbytes` is negative or does not fit a 64-bit integer.
     TypeError
         If `nbytes` is not an integer (a bool or a float included).
 
@@ -84,14 +83,5 @@ def set_memory_cache_limit(nbytes: int) -> int:
     >>> pcl_rg.set_memory_cache_limit(previous)
     0
     """
-    if isinstance(nbytes, bool):
-        raise TypeError("nbytes must be an integer number of bytes, got a bool")
-    try:
-        value = operator.index(nbytes)
-    except TypeError:
-        raise TypeError(
-            f"nbytes must be an integer number of bytes, got {type(nbytes).__name__}"
-        ) from None
-    if not 0 <= value < 2**64:
-        raise ValueError(f"nbytes must be in [0, 2**64 - 1], got {value}")
+    value = check_number("nbytes", nbytes, int, minimum=0)
     return int(_core.block_cache_set_limit(value))

@@ -20,8 +20,8 @@ std::size_t min_bytes() noexcept;
 /// Throws std::bad_alloc.
 void* take(std::size_t bytes);
 
-/// Returns a block from take(p's `bytes`): kept for a later take(), or freed.
-void give(void* p, std::size_t bytes) noexcept;
+/// Returns a block from take() (its size is known): kept for a later take(), or freed.
+void give(void* p) noexcept;
 
 /// Frees every kept block; returns their bytes.
 std::size_t release() noexcept;

@@ -44,7 +44,7 @@ struct DefaultInitAllocator : std::allocator<T> {
         if (n * sizeof(T) < block_cache::min_bytes())
             std::allocator<T>::deallocate(p, n);
         else
-            block_cache::give(p, n * sizeof(T));
+            block_cache::give(p);
     }
     template <class U>
     void construct(U* p) noexcept(std::is_nothrow_default_constructible_v<U>) {
