@@ -127,6 +127,25 @@ def test_core_equals_reference_beyond_the_serial_size():
     assert (got != pcl_rg.grid_ground(points, **{**options, "final_low_depth": 0.0})).any()
 
 
+@pytest.mark.parametrize(
+    ("final_cell", "by_position"), [(2.0, True), (0.75, False)], ids=["by-position", "by-input"]
+)
+@pytest.mark.parametrize("depth", [0.5, 0.0])
+def test_grid_final_pass_scans_either_order_as_the_reference(final_cell, by_position, depth):
+    """grid_ground hands the final pass each point's cell in its grid's order when the
+    cells hold 8 points or more on average (final_cells_by_position), and the pass then
+    scans that order; with smaller cells it scans the input. Both are the reference's,
+    with the low-point test on and off (on: many cells have a threshold here)."""
+    points = rough_survey()
+    cells = (np.ptp(points[:, 0]) / final_cell + 1) * (np.ptp(points[:, 1]) / final_cell + 1)
+    assert (len(points) / cells >= 8) == by_position  # the side of the rule this case is on
+    options = {"final_cell": final_cell, "final_low_depth": depth, "final_passes": 2}
+    got = pcl_rg.grid_ground(points, **options)
+    np.testing.assert_array_equal(got, reference.grid_ground(points, **options))
+    if depth > 0.0:
+        assert (got != pcl_rg.grid_ground(points, **{**options, "final_low_depth": 0.0})).any()
+
+
 @pytest.mark.parametrize(("core", "ref"), FILTERS, ids=IDS)
 def test_isprs_core_equals_reference(core, ref):
     """samp41: two ground levels 6 m apart, where the option acts most on ISPRS."""

@@ -125,6 +125,40 @@ std::vector<std::int64_t> lowest_in_cells(PointsView points, const CellLattice& 
     return index;
 }
 
+std::vector<std::int64_t> lowest_in_cells(const std::uint32_t* cell, const double* z,
+                                          const std::uint32_t* id, const unsigned char* take,
+                                          std::size_t n, std::size_t cells) {
+    struct Lowest {
+        double z;
+        std::int64_t i;  // -1: none yet
+    };
+    const auto keep_lower = [](Lowest& b, const Lowest& p) {
+        if (b.i < 0 || p.z < b.z || (p.z == b.z && p.i < b.i)) b = p;
+    };
+    UnfilledVector<Lowest> lowest(cells, Lowest{0.0, -1});
+    const auto count = static_cast<std::ptrdiff_t>(n);
+    const Interruption interruption;
+#pragma omp parallel if (n > 65536) firstprivate(interruption)
+    {
+        // The entries come in place order, so their cells are read and written in runs.
+        UnfilledVector<Lowest> mine(cells, Lowest{0.0, -1});
+        bool stop = false;
+#pragma omp for schedule(static) nowait
+        for (std::ptrdiff_t s = 0; s < count; ++s) {
+            if (s % 4096 == 0) stop = stop || interruption.requested();
+            if (stop || !take[s]) continue;
+            keep_lower(mine[cell[s]], Lowest{z[s], id[s]});
+        }
+#pragma omp critical(pcl_rg_lowest_in_cells)
+        for (std::size_t k = 0; k < cells; ++k)
+            if (mine[k].i >= 0) keep_lower(lowest[k], mine[k]);
+    }
+    interruption.check();
+    std::vector<std::int64_t> index(cells);
+    for (std::size_t k = 0; k < cells; ++k) index[k] = lowest[k].i;
+    return index;
+}
+
 std::vector<std::uint32_t> lowest_points(PointsView points, const CellLattice& lattice,
                                          const bool* take) {
     std::vector<std::uint32_t> lowest;

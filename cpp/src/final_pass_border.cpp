@@ -12,9 +12,49 @@
 
 namespace pcl_rg::final_pass_border {
 
+std::vector<std::uint32_t> rim_points(PointsView points, const bool* ground,
+                                      const CellLattice& lattice) {
+    const std::int64_t columns = lattice.columns, rows = lattice.rows;
+    if (columns == 1 || rows == 1) return {};
+    // Marked in parallel by a scan of every point (typically a few in a thousand are on
+    // the rim, but all of them in a lattice of a few cells).
+    std::vector<std::uint64_t> on_rim((points.size + 63) / 64, 0);
+    const auto n = static_cast<std::ptrdiff_t>(points.size);
+#pragma omp parallel for schedule(static) if (n > 65536)
+    for (std::ptrdiff_t i = 0; i < n; ++i) {
+        if (!ground[i]) continue;
+        const auto [cx, cy] = cell_of(points, lattice, static_cast<std::size_t>(i));
+        if (cx == 0 || cx == columns - 1 || cy == 0 || cy == rows - 1)
+            mark(on_rim, static_cast<std::uint32_t>(i));
+    }
+    std::vector<std::uint32_t> rim;
+    take_marked(on_rim, rim);
+    return rim;
+}
+
+std::vector<std::uint32_t> rim_points(const SnappedPoints& snapped, const unsigned char* ground,
+                                      const CellLattice& lattice) {
+    const std::int64_t columns = lattice.columns, rows = lattice.rows;
+    if (columns == 1 || rows == 1) return {};
+    // Which cells are outermost, by cell number: no division per point.
+    std::vector<unsigned char> outermost(static_cast<std::size_t>(columns * rows), 0);
+    for (std::int64_t cy = 0; cy < rows; ++cy)
+        outermost[cy] = outermost[(columns - 1) * rows + cy] = 1;
+    for (std::int64_t cx = 0; cx < columns; ++cx)
+        outermost[cx * rows] = outermost[cx * rows + rows - 1] = 1;
+    std::vector<std::uint64_t> on_rim((snapped.order.size() + 63) / 64, 0);
+    const auto n = static_cast<std::ptrdiff_t>(snapped.order.size());
+#pragma omp parallel for schedule(static) if (n > 65536)
+    for (std::ptrdiff_t s = 0; s < n; ++s)
+        if (ground[s] && outermost[snapped.cell[s]]) mark(on_rim, snapped.order[s]);
+    std::vector<std::uint32_t> rim;
+    take_marked(on_rim, rim);
+    return rim;
+}
+
 std::vector<BorderVertex> border_vertices(const std::vector<Vertex>& vertices,
                                           const std::vector<std::array<std::int64_t, 2>>& cells,
-                                          PointsView points, const bool* ground,
+                                          const std::vector<std::uint32_t>& rim, PointsView points,
                                           const CellLattice& lattice,
                                           const SnappedPoints& snapped) {
     const std::int64_t columns = lattice.columns, rows = lattice.rows;
@@ -55,19 +95,8 @@ std::vector<BorderVertex> border_vertices(const std::vector<Vertex>& vertices,
         if (e.depth == 0) edge_cells[e.side].push_back(e.along);
     std::array<std::vector<Outermost>, 4> outermost;
     for (int side = 0; side < 4; ++side) outermost[side].resize(edge_cells[side].size());
-    // The ground points of the outermost cells, marked in parallel by a scan of every
-    // point (typically a few in a thousand, but all of them in a lattice of a few cells).
-    std::vector<std::uint64_t> on_rim((points.size + 63) / 64, 0);
-    const auto n = static_cast<std::ptrdiff_t>(points.size);
-#pragma omp parallel for schedule(static) if (n > 65536)
-    for (std::ptrdiff_t i = 0; i < n; ++i) {
-        if (!ground[i]) continue;
-        const auto [cx, cy] = cell_of(points, lattice, static_cast<std::size_t>(i));
-        if (cx == 0 || cx == columns - 1 || cy == 0 || cy == rows - 1)
-            mark(on_rim, static_cast<std::uint32_t>(i));
-    }
-    std::vector<std::uint32_t> rim;
-    take_marked(on_rim, rim);
+    // The ground points of the outermost cells (any order: the cap is the least under a
+    // total order).
     for (const std::uint32_t i : rim) {
         const auto [cx, cy] = cell_of(points, lattice, i);
         for (int side = 0; side < 4; ++side) {

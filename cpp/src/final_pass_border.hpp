@@ -47,11 +47,22 @@ struct Vertex {
 // (vertices of neighbouring cells snapped to one grid line), the lower cell's stays.
 // Returned around the box (bottom, right, top, left, each in that direction), so that
 // each lies next to the one before. `cells` (per vertex): its cell's column and row in
-// `lattice`; `ground`: the filter's ground, read as the final pass reads it.
+// `lattice`; `rim`: rim_points' list, the filter's ground (as the final pass reads it)
+// in the outermost cells.
 std::vector<BorderVertex> border_vertices(const std::vector<Vertex>& vertices,
                                           const std::vector<std::array<std::int64_t, 2>>& cells,
-                                          PointsView points, const bool* ground,
+                                          const std::vector<std::uint32_t>& rim, PointsView points,
                                           const CellLattice& lattice, const SnappedPoints& snapped);
+
+// The points i with ground[i] in the outermost cells of `lattice` (none when it is one
+// cell wide or high), in index order.
+std::vector<std::uint32_t> rim_points(PointsView points, const bool* ground,
+                                      const CellLattice& lattice);
+
+// The same for points in a SnappedPoints' order with their cells (snapped.cell on
+// `lattice`), ground by position; their input indices, in no particular order.
+std::vector<std::uint32_t> rim_points(const SnappedPoints& snapped, const unsigned char* ground,
+                                      const CellLattice& lattice);
 
 // Whether a lies before b by place (x, then y).
 bool by_place(const BorderVertex& a, const BorderVertex& b);

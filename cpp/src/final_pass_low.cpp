@@ -46,6 +46,41 @@ double threshold(double z, double depth, double* values, std::size_t count) {
     return z < median - depth ? median - depth : kNotLow;
 }
 
+// Per cell of the raster, its threshold (kNotLow: no point of it is dropped), from each
+// cell's lowest ground point (`lowest`, lowest_in_cells's, -1: none). Polls.
+std::vector<double> raster_thresholds(PointsView points, const CellLattice& cells, double depth,
+                                      const std::vector<std::int64_t>& lowest) {
+    const Interruption interruption;
+    const std::int64_t rows = cells.rows;
+    const std::int64_t stride = window_stride(cells.size);
+    const auto count = static_cast<std::ptrdiff_t>(lowest.size());
+    std::vector<double> height(lowest.size());
+#pragma omp parallel for schedule(static) if (count > 65536)
+    for (std::ptrdiff_t c = 0; c < count; ++c)
+        height[c] = lowest[c] >= 0 ? points.coord(static_cast<std::size_t>(lowest[c]), 2) - cells.z0
+                                   : std::numeric_limits<double>::quiet_NaN();
+    std::vector<double> threshold_of(lowest.size(), kNotLow);
+#pragma omp parallel for schedule(static) if (count > 65536) firstprivate(interruption)
+    for (std::ptrdiff_t c = 0; c < count; ++c) {
+        if (lowest[c] < 0 || interruption.requested()) continue;
+        const std::int64_t cx = c / rows, cy = c % rows;
+        std::array<double, kWindowCells> window;
+        std::size_t size = 0;
+        for (std::int64_t dx = -kWindowReach; dx <= kWindowReach; ++dx) {
+            const std::int64_t x = cx + dx * stride;
+            if (x < 0 || x >= cells.columns) continue;
+            for (std::int64_t dy = -kWindowReach; dy <= kWindowReach; ++dy) {
+                const std::int64_t y = cy + dy * stride;
+                if (y >= 0 && y < rows && lowest[x * rows + y] >= 0)
+                    window[size++] = height[x * rows + y];
+            }
+        }
+        threshold_of[c] = threshold(height[c], depth, window.data(), size);
+    }
+    interruption.check();
+    return threshold_of;
+}
+
 }  // namespace
 
 std::optional<std::vector<std::uint32_t>> keep_not_low(PointsView points, const CellLattice& cells,
@@ -65,31 +100,7 @@ std::optional<std::vector<std::uint32_t>> keep_not_low(PointsView points, const 
     std::vector<Cell> low;             // sparse: the cells with points to drop, by place
     if (fits_raster(cells, n)) {
         lowest = lowest_in_cells(points, cells, ground);
-        const auto count = static_cast<std::ptrdiff_t>(lowest.size());
-        std::vector<double> height(lowest.size());
-#pragma omp parallel for schedule(static) if (count > 65536)
-        for (std::ptrdiff_t c = 0; c < count; ++c)
-            height[c] = lowest[c] >= 0 ? z_of(static_cast<std::size_t>(lowest[c]))
-                                       : std::numeric_limits<double>::quiet_NaN();
-        raster_threshold.assign(lowest.size(), kNotLow);
-#pragma omp parallel for schedule(static) if (count > 65536) firstprivate(interruption)
-        for (std::ptrdiff_t c = 0; c < count; ++c) {
-            if (lowest[c] < 0 || interruption.requested()) continue;
-            const std::int64_t cx = c / rows, cy = c % rows;
-            std::array<double, kWindowCells> window;
-            std::size_t size = 0;
-            for (std::int64_t dx = -kWindowReach; dx <= kWindowReach; ++dx) {
-                const std::int64_t x = cx + dx * stride;
-                if (x < 0 || x >= cells.columns) continue;
-                for (std::int64_t dy = -kWindowReach; dy <= kWindowReach; ++dy) {
-                    const std::int64_t y = cy + dy * stride;
-                    if (y >= 0 && y < rows && lowest[x * rows + y] >= 0)
-                        window[size++] = height[x * rows + y];
-                }
-            }
-            raster_threshold[c] = threshold(height[c], depth, window.data(), size);
-        }
-        interruption.check();
+        raster_threshold = raster_thresholds(points, cells, depth, lowest);
     } else {
         std::vector<Cell> occupied;
         for (const std::uint32_t i : lowest_points(points, cells, ground)) {
@@ -180,6 +191,79 @@ std::optional<std::vector<std::uint32_t>> keep_not_low(PointsView points, const 
     for (const std::int64_t b : lowest)
         if (b >= 0) lowest_kept.push_back(static_cast<std::uint32_t>(b));
     return in_index_order(std::move(lowest_kept), n);
+}
+
+namespace {
+
+// keep_not_low on points by position (lowest_by_position's case with a depth): ground and
+// kept by position; returns the lowest kept point of each cell (input indices, in index
+// order), reading the points' coordinates only for those.
+std::vector<std::uint32_t> keep_not_low_by_position(PointsView points, const SnappedPoints& snapped,
+                                                    const CellLattice& cells, double depth,
+                                                    const unsigned char* ground,
+                                                    unsigned char* kept) {
+    const std::size_t n = snapped.order.size();
+    const auto cell_count = static_cast<std::size_t>(cells.columns * cells.rows);
+    std::vector<std::int64_t> lowest = lowest_in_cells(snapped.cell.data(), snapped.z.data(),
+                                                       snapped.order.data(), ground, n, cell_count);
+    const std::vector<double> threshold_of = raster_thresholds(points, cells, depth, lowest);
+    // The kept positions of the cells with a threshold, marked by any thread: the
+    // candidates for those cells' lowest kept points.
+    std::vector<std::uint64_t> in_threshold_cell((n + 63) / 64, 0);
+    const auto count = static_cast<std::ptrdiff_t>(n);
+#pragma omp parallel for schedule(static) if (count > 65536)
+    for (std::ptrdiff_t s = 0; s < count; ++s) {
+        kept[s] = ground[s];
+        if (!ground[s]) continue;
+        const double t = threshold_of[snapped.cell[s]];
+        if (t == kNotLow) continue;
+        if (snapped.z[s] < t)
+            kept[s] = 0;
+        else
+            mark(in_threshold_cell, static_cast<std::uint32_t>(s));
+    }
+    poll_interrupt();
+    // As the input-order version: a cell's lowest ground point where it has no threshold,
+    // else the least of its kept points by (z, index).
+    for (std::size_t c = 0; c < cell_count; ++c)
+        if (threshold_of[c] != kNotLow) lowest[c] = -1;
+    std::vector<std::uint32_t> marked_positions;
+    take_marked(in_threshold_cell, marked_positions);
+    for (const std::uint32_t s : marked_positions) {
+        std::int64_t& best = lowest[snapped.cell[s]];
+        const std::uint32_t i = snapped.order[s];
+        if (best < 0 || lower_in_cell(points, cells.z0, i, static_cast<std::size_t>(best)))
+            best = i;
+    }
+    std::vector<std::uint32_t> lowest_kept;
+    for (const std::int64_t b : lowest)
+        if (b >= 0) lowest_kept.push_back(static_cast<std::uint32_t>(b));
+    return in_index_order(std::move(lowest_kept), n);
+}
+
+}  // namespace
+
+std::vector<std::uint32_t> lowest_by_position(PointsView points, const SnappedPoints& snapped,
+                                              const CellLattice& cells, double depth,
+                                              const bool* ground,
+                                              std::vector<unsigned char>& vertex_ground) {
+    const std::size_t n = snapped.order.size();
+    std::vector<unsigned char> ground_at(n);
+    const auto count = static_cast<std::ptrdiff_t>(n);
+#pragma omp parallel for schedule(static) if (count > 65536)
+    for (std::ptrdiff_t s = 0; s < count; ++s) ground_at[s] = ground[snapped.order[s]];
+    if (depth > 0.0) {
+        vertex_ground.resize(n);
+        return keep_not_low_by_position(points, snapped, cells, depth, ground_at.data(),
+                                        vertex_ground.data());
+    }
+    std::vector<std::uint32_t> lowest;
+    for (const std::int64_t b :
+         lowest_in_cells(snapped.cell.data(), snapped.z.data(), snapped.order.data(),
+                         ground_at.data(), n, static_cast<std::size_t>(cells.columns * cells.rows)))
+        if (b >= 0) lowest.push_back(static_cast<std::uint32_t>(b));
+    vertex_ground = std::move(ground_at);
+    return in_index_order(std::move(lowest), n);
 }
 
 }  // namespace pcl_rg::final_pass_low

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "pcl_rg/cell_lowest.hpp"
+#include "pcl_rg/delaunay.hpp"
 #include "pcl_rg/points.hpp"
 
 namespace pcl_rg::final_pass_low {
@@ -47,5 +48,16 @@ inline std::int64_t window_stride(double size) {
 std::optional<std::vector<std::uint32_t>> keep_not_low(PointsView points, const CellLattice& cells,
                                                        double depth, const bool* ground,
                                                        bool* kept);
+
+// For points in a SnappedPoints' order with their cells (snapped.cell on `cells`, where
+// final_cells_by_position holds): the ground that may give vertices, by position, in
+// `vertex_ground` (with depth > 0 keep_not_low's kept points, else the ground), and
+// the lowest of it in each cell (input indices, in index order), as lowest_points or
+// keep_not_low give them. Every scan of the points reads the snapped arrays in order;
+// `ground` is by input index, and the coordinates are read only for the lowest points.
+std::vector<std::uint32_t> lowest_by_position(PointsView points, const SnappedPoints& snapped,
+                                              const CellLattice& cells, double depth,
+                                              const bool* ground,
+                                              std::vector<unsigned char>& vertex_ground);
 
 }  // namespace pcl_rg::final_pass_low

@@ -89,7 +89,7 @@ void positions_in(const std::vector<T>& sorted, const std::vector<T>& values, st
 // Steps 1 and 2: block and cell of every point, and the counting sorts.
 CellGrid build_grid(PointsView points, const GridGroundParams& params,
                     const std::array<double, 3>& origin, const std::array<double, 2>& extent,
-                    const SnappedPoints* snap) {
+                    const SnappedPoints* snap, const CellLattice* final_cells) {
     const std::size_t n = points.size;
     const auto count = static_cast<std::ptrdiff_t>(n);
     const bool parallel = n >= kGridParallelMin;
@@ -166,6 +166,8 @@ CellGrid build_grid(PointsView points, const GridGroundParams& params,
         grid.snap_x.resize(n);
         grid.snap_y.resize(n);
     }
+    if (final_cells) grid.final_cell.resize(n);
+    const CellOf final_cell_of(final_cells ? *final_cells : CellLattice{});
     const Interruption interruption;
     interruption.check_now();
 #pragma omp parallel if (parallel) firstprivate(interruption)
@@ -204,6 +206,10 @@ CellGrid build_grid(PointsView points, const GridGroundParams& params,
                     grid.snap_x[s] = snap->grid_x(points, static_cast<std::size_t>(i));
                     grid.snap_y[s] = snap->grid_y(points, static_cast<std::size_t>(i));
                 }
+                if (final_cells) {
+                    const auto [cx, cy] = final_cell_of(points, static_cast<std::size_t>(i));
+                    grid.final_cell[s] = static_cast<std::uint32_t>(cx * final_cells->rows + cy);
+                }
             }
         }
     }
@@ -215,10 +221,12 @@ CellGrid build_grid(PointsView points, const GridGroundParams& params,
     std::vector<std::vector<std::pair<std::size_t, CellBox>>> crowded_in_band(bands);
 #pragma omp parallel if (parallel) firstprivate(interruption)
     {
+        // A point's cell is not carried: the cells' runs give it back (40 bytes, not 48).
         struct Record {
             Local p;
-            std::uint32_t id, cell;
+            std::uint32_t id;
             std::int32_t snap_x, snap_y;
+            std::uint32_t final_cell;
         };
         std::vector<std::size_t> fill;
         std::vector<Record> sorted;
@@ -240,8 +248,8 @@ CellGrid build_grid(PointsView points, const GridGroundParams& params,
                 Record& r = sorted[fill[grid.cell[s] - first_cell]++];
                 r.p = grid.p[s];
                 r.id = grid.id[s];
-                r.cell = grid.cell[s];
                 if (snap) r.snap_x = grid.snap_x[s], r.snap_y = grid.snap_y[s];
+                if (final_cells) r.final_cell = grid.final_cell[s];
             }
             for (std::size_t k = 0, from = 0; k < band_cells; from = fill[k++]) {
                 const std::size_t size = fill[k] - from;
@@ -270,12 +278,16 @@ CellGrid build_grid(PointsView points, const GridGroundParams& params,
                 const Record& r = sorted[k];
                 grid.p[begin + k] = r.p;
                 grid.id[begin + k] = r.id;
-                grid.cell[begin + k] = r.cell;
                 if (snap) {
                     grid.snap_x[begin + k] = r.snap_x;
                     grid.snap_y[begin + k] = r.snap_y;
                 }
+                if (final_cells) grid.final_cell[begin + k] = r.final_cell;
             }
+            for (std::size_t k = 0, from = 0; k < band_cells; from = fill[k++])
+                std::fill(grid.cell.begin() + static_cast<std::ptrdiff_t>(begin + from),
+                          grid.cell.begin() + static_cast<std::ptrdiff_t>(begin + fill[k]),
+                          static_cast<std::uint32_t>(first_cell + k));
         }
     }
     interruption.check();

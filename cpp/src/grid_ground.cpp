@@ -41,7 +41,8 @@
 // them. A pre-filter pass that only adds candidates (pass 2 always: pass 1 tested
 // against every point) adds their links to the last pass's components instead of
 // labelling anew. The final pass classifies the points in the grid's order, snapped
-// while the grid is built, instead of sorting them once more.
+// while the grid is built, instead of sorting them once more; their final cells are
+// found there too, so that its scans of every point read the grid's arrays in order.
 #include "pcl_rg/grid_ground.hpp"
 
 #include <algorithm>
@@ -50,6 +51,7 @@
 #include <cmath>
 #include <cstddef>
 #include <limits>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -382,15 +384,20 @@ void grid_ground(PointsView points, const GridGroundParams& given, bool* ground,
     // The final pass's frame (snap_frame), so that build_grid snaps the points for it:
     // the pass then classifies them in the grid's order, whose neighbours lie close
     // together as in a Morton order, instead of sorting them once more.
+    // And each point's final cell, so that the pass's scans of every point read the
+    // grid's arrays in order instead of the input with a cell found per point.
     const bool final_pass_runs = params.final_cell > 0.0;
     SnappedPoints snapped;
+    std::optional<CellLattice> final_lattice;
     if (final_pass_runs) {
         check_final_pass_extent(lower, upper);
         snapped = snap_frame(lower, upper);
+        const CellLattice lattice = final_cells(snapped, params.final_cell);
+        if (final_cells_by_position(lattice, n)) final_lattice = lattice;
     }
     poll_interrupt();
-    CellGrid grid =
-        build_grid(points, params, origin, extent, final_pass_runs ? &snapped : nullptr);
+    CellGrid grid = build_grid(points, params, origin, extent, final_pass_runs ? &snapped : nullptr,
+                               final_lattice ? &*final_lattice : nullptr);
     stats.prepare_seconds = seconds_since(clock);
     clock = std::chrono::steady_clock::now();
     std::vector<unsigned char> candidate(n, 1), against(n, 1), result(n, 0), kept_by_all, before;
@@ -437,6 +444,10 @@ void grid_ground(PointsView points, const GridGroundParams& given, bool* ground,
     snapped.order = std::move(grid.id);
     snapped.x = std::move(grid.snap_x);
     snapped.y = std::move(grid.snap_y);
+    if (final_lattice) {
+        snapped.cell = std::move(grid.final_cell);
+        snapped.cell_size = params.final_cell;
+    }
     grid = CellGrid{};
     std::vector<unsigned char> last_round;  // the ground a round started from
     // What a round leaves for the next, which then locates again only the points near

@@ -235,17 +235,27 @@ void label_components(const CellGrid& grid, const GridGroundParams& params,
             // heights. (The cells in a fixed order made every point link into its
             // lower-left cell's lowest points: diagonal strips, a small giant.)
             int found = 0;
-            // 32-bit remainders: a cell holds far fewer than 2^32 points, and they divide
-            // faster than 64-bit ones.
-            const auto hash = static_cast<std::uint32_t>((s * std::size_t{2654435761u}) >> 8);
+            // The first cell and the place in a cell from two multiplicative hashes of s,
+            // scaled by a multiplication and a shift instead of a remainder (a division
+            // each). Their high bits are taken: the low bits of s times an odd constant
+            // repeat with s's, and the high bits of a smaller product barely move from one
+            // s to the next (each cell's points then all tried the same neighbour first:
+            // strips, a small giant, grid_ground 1.4 -> 2.2 s).
+            const auto hash_cell =
+                static_cast<std::uint32_t>((std::uint64_t{s} * 0x9E3779B97F4A7C15u) >> 32);
+            const auto hash_place =
+                static_cast<std::uint32_t>((std::uint64_t{s} * 0xC2B2AE3D27D4EB4Fu) >> 32);
+            const auto scaled = [](std::uint32_t hash, std::size_t range) {
+                return static_cast<std::size_t>((std::uint64_t{hash} * range) >> 32);
+            };
             const auto link = [&](std::size_t q) {
                 if (q == s || !joinable(s, q)) return false;
                 sets.unite(static_cast<std::uint32_t>(s), static_cast<std::uint32_t>(q));
                 return ++found == kSampledLinks;
             };
-            for (int j = 0; j < k && found < kSampledLinks; ++j) {
-                const std::ptrdiff_t cell =
-                    around[(static_cast<std::uint32_t>(j) + hash) % static_cast<std::uint32_t>(k)];
+            for (int j = 0, at = static_cast<int>(scaled(hash_cell, static_cast<std::size_t>(k)));
+                 j < k && found < kSampledLinks; ++j, at = at + 1 == k ? 0 : at + 1) {
+                const std::ptrdiff_t cell = around[at];
                 const std::size_t first = grid.start[cell], size = grid.start[cell + 1] - first;
                 if (grid.is_crowded(static_cast<std::size_t>(cell))) {
                     sample_crowded(grid, cell, s,
@@ -253,7 +263,7 @@ void label_components(const CellGrid& grid, const GridGroundParams& params,
                                    link);
                     continue;
                 }
-                const std::size_t offset = hash % static_cast<std::uint32_t>(size);
+                const std::size_t offset = scaled(hash_place, size);
                 for (std::size_t i = 0; i < size; ++i)
                     if (link(first + (offset + i < size ? offset + i : offset + i - size))) break;
             }

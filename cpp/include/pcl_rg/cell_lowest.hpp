@@ -3,6 +3,7 @@
 #pragma once
 
 #include <algorithm>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <utility>
@@ -44,6 +45,34 @@ inline std::pair<std::int64_t, std::int64_t> cell_of(PointsView points, const Ce
             floor_to_int((points.coord(i, 1) - lattice.y0) / lattice.size)};
 }
 
+/// cell_of for loops over every point: the quotient through a multiplication by the
+/// reciprocal of the cell size, which needs no division. The two quotients differ by a
+/// few units in the last place at most (each rounding is relatively within 2^-53), so
+/// their floors differ only when a whole number lies that close; within a relative
+/// 2^-40 of one the division decides. The same cells as cell_of, bit for bit, on a
+/// lattice of at most 2^40 cells per axis (final_cells checks that).
+class CellOf {
+   public:
+    explicit CellOf(const CellLattice& lattice) : lattice_(lattice), inverse_(1.0 / lattice.size) {}
+
+    std::pair<std::int64_t, std::int64_t> operator()(PointsView points, std::size_t i) const {
+        return {index(points.coord(i, 0) - lattice_.x0), index(points.coord(i, 1) - lattice_.y0)};
+    }
+
+   private:
+    std::int64_t index(double offset) const {
+        const double q = offset * inverse_;
+        const double below = static_cast<double>(floor_to_int(q));
+        const double margin = 0x1p-40 * std::fabs(q);
+        if (q - below < margin || (below + 1.0) - q < margin)
+            return floor_to_int(offset / lattice_.size);
+        return static_cast<std::int64_t>(below);
+    }
+
+    CellLattice lattice_;
+    double inverse_;
+};
+
 /// Lowest point (then smallest index) of every cell, row-major by column then row
 /// (cell cx * rows + cy); -1 for a cell with no point. Only the points i with take[i]
 /// count (all when take is null). In parallel beyond 65536 points: with at most N / 8
@@ -53,6 +82,15 @@ inline std::pair<std::int64_t, std::int64_t> cell_of(PointsView points, const Ce
 /// the sharing. Polls for interruption.
 std::vector<std::int64_t> lowest_in_cells(PointsView points, const CellLattice& lattice,
                                           const bool* take = nullptr);
+
+/// lowest_in_cells for entries in another order (grid_ground's, SnappedPoints::cell):
+/// entry s of n is point id[s], in cell cell[s] (< cells) at height z[s] (z - z0), and
+/// counts when take[s] is set. Each thread keeps the lowest of its share in a raster of
+/// its own, merged at the end, so it is meant for at most about n / 8 cells; the lowest
+/// (z, then smallest id) does not depend on the sharing. Polls for interruption.
+std::vector<std::int64_t> lowest_in_cells(const std::uint32_t* cell, const double* z,
+                                          const std::uint32_t* id, const unsigned char* take,
+                                          std::size_t n, std::size_t cells);
 
 /// An entry's (column, row) cell and its id (a point's index or sorted position).
 using CellKeyed = std::pair<std::pair<std::int64_t, std::int64_t>, std::uint32_t>;

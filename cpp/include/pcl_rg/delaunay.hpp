@@ -46,6 +46,11 @@ struct SnappedPoints {
     UnfilledVector<std::uint32_t> order;  ///< morton_order_2d of the grid XY (index order)
     UnfilledVector<std::int32_t> x, y;    ///< grid XY of point order[s], by sorted position s
     UnfilledVector<double> z;             ///< z - origin[2] of point order[s]
+    /// Optional (grid_ground fills it while building its grid; empty otherwise): the final
+    /// pass's cell of position s, cx * rows + cy on final_cells(*this, cell_size), so that
+    /// the pass scans the points in this order instead of finding each one's cell again.
+    UnfilledVector<std::uint32_t> cell;
+    double cell_size = 0.0;  ///< the final cell (m) that `cell` numbers
 
     /// Point i's grid x or y on `frame` (as snap_points snaps it).
     std::int32_t grid_x(PointsView points, std::size_t i) const {

@@ -8,6 +8,7 @@
 #include <optional>
 #include <vector>
 
+#include "pcl_rg/cell_lowest.hpp"
 #include "pcl_rg/delaunay.hpp"
 #include "pcl_rg/points.hpp"
 
@@ -64,6 +65,19 @@ void final_pass(PointsView points, const FinalPassParams& params, bool* ground);
 /// that snap the points themselves (snap_frame, snap_points).
 void check_final_pass_extent(const std::array<double, 3>& origin,
                              const std::array<double, 3>& upper);
+/// The final pass's cells of `cell` metres (> 0) over the snapped points' box: anchored
+/// at multiples of `cell` in world coordinates, heights from snapped.origin[2]. Throws
+/// std::invalid_argument when more than 2^40 cells lie on an axis.
+CellLattice final_cells(const SnappedPoints& snapped, double cell);
+
+/// Whether a caller may fill SnappedPoints::cell for the lattice `cells` of N points:
+/// the pass scans by position only where a raster of the cells holds at most an eighth
+/// of a cell per point (each thread keeps its own; the presets' 4 m cells hold about 64
+/// points each), and every cell number fits 32 bits.
+inline bool final_cells_by_position(const CellLattice& cells, std::size_t n) {
+    return cells.columns <= static_cast<std::int64_t>(n / 8) / cells.rows;
+}
+
 /// A virtual vertex of the final pass's TIN on a side of its box: grid XY and height.
 struct BorderVertex {
     std::int32_t x, y;

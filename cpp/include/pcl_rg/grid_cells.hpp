@@ -9,6 +9,7 @@
 #include <utility>
 #include <vector>
 
+#include "pcl_rg/cell_lowest.hpp"
 #include "pcl_rg/delaunay.hpp"
 #include "pcl_rg/grid_ground.hpp"
 #include "pcl_rg/points.hpp"
@@ -48,6 +49,7 @@ struct CellGrid {
     UnfilledVector<std::uint32_t> block;          // block number of each position
     UnfilledVector<std::uint32_t> cell;           // cell number of each position
     UnfilledVector<std::int32_t> snap_x, snap_y;  // XY on the final pass's grid (if asked)
+    UnfilledVector<std::uint32_t> final_cell;     // the final pass's cell (if asked)
     UnfilledVector<std::size_t> start;            // positions of cell c: [start[c], start[c + 1])
     bool by_height = false;                       // a cell's points by (z, x, y), else input order
     std::vector<std::size_t> crowded;             // the crowded cells, ascending
@@ -123,9 +125,11 @@ struct CellGrid {
 /// and the counting sorts. `extent` is the largest l in x and y; `params` must have
 /// cell_size set (grid_ground passes with_spacing(...)). With `snap` (the final pass's
 /// frame, snap_frame), also each position's snapped XY (snap_x, snap_y, as
-/// snap->grid_x and grid_y give them), so that the final pass needs no sort of its own.
+/// snap->grid_x and grid_y give them), so that the final pass needs no sort of its own;
+/// with `final_cells` too, each position's cell on that lattice (final_cell, cx * rows +
+/// cy as cell_of gives them; the caller checks final_cells_by_position).
 CellGrid build_grid(PointsView points, const GridGroundParams& params,
                     const std::array<double, 3>& origin, const std::array<double, 2>& extent,
-                    const SnappedPoints* snap = nullptr);
+                    const SnappedPoints* snap = nullptr, const CellLattice* final_cells = nullptr);
 
 }  // namespace pcl_rg
