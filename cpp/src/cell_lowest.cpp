@@ -159,23 +159,28 @@ std::vector<std::int64_t> lowest_in_cells(const std::uint32_t* cell, const doubl
     return index;
 }
 
+std::vector<std::uint32_t> raster_in_index_order(const std::vector<std::int64_t>& lowest,
+                                                 std::size_t n) {
+    std::vector<std::uint32_t> points;
+    for (const std::int64_t b : lowest)
+        if (b >= 0) points.push_back(static_cast<std::uint32_t>(b));
+    return in_index_order(std::move(points), n);
+}
+
 std::vector<std::uint32_t> lowest_points(PointsView points, const CellLattice& lattice,
                                          const bool* take) {
-    std::vector<std::uint32_t> lowest;
-    if (fits_raster(lattice, points.size)) {
-        for (const std::int64_t b : lowest_in_cells(points, lattice, take))
-            if (b >= 0) lowest.push_back(static_cast<std::uint32_t>(b));
-    } else {
-        // By (column, row) pairs: up to 2^40 cells per axis, more than one key holds.
-        std::vector<CellKeyed> keyed;
-        for (std::size_t i = 0; i < points.size; ++i)
-            if (!take || take[i])
-                keyed.emplace_back(cell_of(points, lattice, i), static_cast<std::uint32_t>(i));
-        lowest = lowest_by_sorting(std::move(keyed), [&](std::uint32_t a, std::uint32_t b) {
-            return lower_in_cell(points, lattice.z0, a, b);
-        });
-    }
-    return in_index_order(std::move(lowest), points.size);
+    if (fits_raster(lattice, points.size))
+        return raster_in_index_order(lowest_in_cells(points, lattice, take), points.size);
+    // By (column, row) pairs: up to 2^40 cells per axis, more than one key holds.
+    std::vector<CellKeyed> keyed;
+    for (std::size_t i = 0; i < points.size; ++i)
+        if (!take || take[i])
+            keyed.emplace_back(cell_of(points, lattice, i), static_cast<std::uint32_t>(i));
+    return in_index_order(lowest_by_sorting(std::move(keyed),
+                                            [&](std::uint32_t a, std::uint32_t b) {
+                                                return lower_in_cell(points, lattice.z0, a, b);
+                                            }),
+                          points.size);
 }
 
 }  // namespace pcl_rg

@@ -187,10 +187,7 @@ std::optional<std::vector<std::uint32_t>> keep_not_low(PointsView points, const 
         if (best < 0 || lower_in_cell(points, cells.z0, i, static_cast<std::size_t>(best)))
             best = i;
     }
-    std::vector<std::uint32_t> lowest_kept;
-    for (const std::int64_t b : lowest)
-        if (b >= 0) lowest_kept.push_back(static_cast<std::uint32_t>(b));
-    return in_index_order(std::move(lowest_kept), n);
+    return raster_in_index_order(lowest, n);
 }
 
 namespace {
@@ -235,10 +232,7 @@ std::vector<std::uint32_t> keep_not_low_by_position(PointsView points, const Sna
         if (best < 0 || lower_in_cell(points, cells.z0, i, static_cast<std::size_t>(best)))
             best = i;
     }
-    std::vector<std::uint32_t> lowest_kept;
-    for (const std::int64_t b : lowest)
-        if (b >= 0) lowest_kept.push_back(static_cast<std::uint32_t>(b));
-    return in_index_order(std::move(lowest_kept), n);
+    return raster_in_index_order(lowest, n);
 }
 
 }  // namespace
@@ -257,13 +251,12 @@ std::vector<std::uint32_t> lowest_by_position(PointsView points, const SnappedPo
         return keep_not_low_by_position(points, snapped, cells, depth, ground_at.data(),
                                         vertex_ground.data());
     }
-    std::vector<std::uint32_t> lowest;
-    for (const std::int64_t b :
-         lowest_in_cells(snapped.cell.data(), snapped.z.data(), snapped.order.data(),
-                         ground_at.data(), n, static_cast<std::size_t>(cells.columns * cells.rows)))
-        if (b >= 0) lowest.push_back(static_cast<std::uint32_t>(b));
+    std::vector<std::uint32_t> lowest = raster_in_index_order(
+        lowest_in_cells(snapped.cell.data(), snapped.z.data(), snapped.order.data(),
+                        ground_at.data(), n, static_cast<std::size_t>(cells.columns * cells.rows)),
+        n);
     vertex_ground = std::move(ground_at);
-    return in_index_order(std::move(lowest), n);
+    return lowest;
 }
 
 }  // namespace pcl_rg::final_pass_low

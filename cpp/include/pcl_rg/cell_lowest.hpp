@@ -92,6 +92,11 @@ std::vector<std::int64_t> lowest_in_cells(const std::uint32_t* cell, const doubl
                                           const std::uint32_t* id, const unsigned char* take,
                                           std::size_t n, std::size_t cells);
 
+/// The points of a raster of lowest points (lowest_in_cells's; -1: an empty cell) of a
+/// cloud of n points, in index order.
+std::vector<std::uint32_t> raster_in_index_order(const std::vector<std::int64_t>& lowest,
+                                                 std::size_t n);
+
 /// An entry's (column, row) cell and its id (a point's index or sorted position).
 using CellKeyed = std::pair<std::pair<std::int64_t, std::int64_t>, std::uint32_t>;
 
