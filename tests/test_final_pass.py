@@ -135,6 +135,22 @@ def test_too_small_a_cell_for_the_extent():
         reference.grid_ground(points, block_size=1e9, cell_size=1e9, final_cell=1e-6)
 
 
+@pytest.mark.parametrize("final_cell", [1e-320, 5e-324])
+def test_subnormal_cells_on_a_subnormal_box(final_cell):
+    """Final cells of subnormal size, whose reciprocal is infinite, over points within
+    5e-320 m: grid_ground finds each point's final cell while building its grid
+    (CellOf, by a multiplication), and must then take the division, not turn the NaN
+    of 0 x inf into a cell number (undefined behaviour, which `make sanitize` reports),
+    giving the reference's mask."""
+    rng = np.random.default_rng(2)
+    points = np.c_[rng.uniform(0.0, 5e-320, (400, 2)), rng.uniform(0.0, 1.0, 400)]
+    got = pcl_rg.grid_ground(points, final_cell=final_cell, cell_size=1.0)
+    np.testing.assert_array_equal(
+        got, reference.grid_ground(points, final_cell=final_cell, cell_size=1.0)
+    )
+    assert 0 < got.sum() < len(points)
+
+
 # --------------------------------------------------------------------------
 # the same pass as an option of tin_ground
 

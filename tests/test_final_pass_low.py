@@ -87,12 +87,19 @@ def test_core_equals_reference_on_a_scene(core, ref, depth, density):
     np.testing.assert_array_equal(core(points[order], final_low_depth=depth), got[order])
 
 
-def rough_survey(seed: int = 18, n: int = 90_000, size: float = 120.0) -> np.ndarray:
-    """A sloping `size` m square at about 6 points per m^2 with four buildings (30 % of
-    the points under each left on the ground), five patches of multipath points 3-9 m
-    under the terrain, XY on a 0.25 m lattice and 5,000 copies, shuffled."""
+def rough_survey(
+    seed: int = 18,
+    n: int = 90_000,
+    size: float = 120.0,
+    tilt: tuple[float, float] = (0.2, -0.1),
+    z_step: float = 0.0,
+) -> np.ndarray:
+    """A `size` m square sloping by `tilt` at about 6 points per m^2 with four buildings
+    (30 % of the points under each left on the ground), five patches of multipath points
+    3-9 m under the terrain, XY on a 0.25 m lattice (z too on a lattice of `z_step` when
+    it is > 0) and 5,000 copies, shuffled."""
     rng = np.random.default_rng(seed)
-    tilt = np.array([0.2, -0.1])
+    tilt = np.array(tilt)
     xy = rng.uniform(0.0, size, (n, 2))
     z = xy @ tilt + rng.normal(0.0, 0.05, n)
     for _ in range(4):
@@ -107,6 +114,8 @@ def rough_survey(seed: int = 18, n: int = 90_000, size: float = 120.0) -> np.nda
         parts.append(np.c_[pxy, pxy @ tilt - depth + rng.normal(0.0, 0.1, len(pxy))])
     points = np.concatenate(parts)
     points[:, :2] = np.round(points[:, :2] / 0.25) * 0.25
+    if z_step > 0.0:
+        points[:, 2] = np.round(points[:, 2] / z_step) * z_step
     points = np.concatenate([points, points[rng.integers(0, len(points), 5000)]])
     return points[rng.permutation(len(points))]
 
@@ -128,17 +137,29 @@ def test_core_equals_reference_beyond_the_serial_size():
 
 
 @pytest.mark.parametrize(
-    ("final_cell", "by_position"), [(2.0, True), (0.75, False)], ids=["by-position", "by-input"]
+    ("final_cell", "by_position"), [(1.5, True), (0.75, False)], ids=["by-position", "by-input"]
 )
-@pytest.mark.parametrize("depth", [0.5, 0.0])
+@pytest.mark.parametrize("depth", [0.25, 0.0])
 def test_grid_final_pass_scans_either_order_as_the_reference(final_cell, by_position, depth):
     """grid_ground hands the final pass each point's cell in its grid's order when the
     cells hold 8 points or more on average (final_cells_by_position), and the pass then
-    scans that order; with smaller cells it scans the input. Both are the reference's,
-    with the low-point test on and off (on: many cells have a threshold here)."""
-    points = rough_survey()
+    scans that order; with smaller cells it scans the input. Both must be the
+    reference's, with the low-point test on and off. The cloud rises towards every
+    side but one (the side vertices' caps then matter), has low vegetation near the
+    final pass's threshold above the TIN, and its XY lie on a 0.25 m lattice,
+    so that many points lie on the edges of 1.5 and 0.75 m cells, where the grid's cell
+    finding falls back on a division (CellOf), and its heights on a 0.25 m one, so that
+    distinct points tie in height and with a cell's threshold, median - depth."""
+    points = rough_survey(seed=19, n=70_000, size=100.0, tilt=(0.15, 0.25), z_step=0.25)
+    # Low vegetation, 0.25-2 m up: points on either side of the final pass's threshold
+    # above the TIN, whose verdicts a vertex a step higher or lower moves.
+    rng = np.random.default_rng(20)
+    shrubs = points[rng.integers(0, len(points), 4000)] + [0.0, 0.0, 0.0]
+    shrubs[:, 2] += np.round(rng.uniform(0.25, 2.0, len(shrubs)) / 0.25) * 0.25
+    points = np.concatenate([points, shrubs])
+    assert len(points) > 65536  # the parallel paths
     cells = (np.ptp(points[:, 0]) / final_cell + 1) * (np.ptp(points[:, 1]) / final_cell + 1)
-    assert (len(points) / cells >= 8) == by_position  # the side of the rule this case is on
+    assert (len(points) / cells >= 8) == by_position  # the side of the rule, about
     options = {"final_cell": final_cell, "final_low_depth": depth, "final_passes": 2}
     got = pcl_rg.grid_ground(points, **options)
     np.testing.assert_array_equal(got, reference.grid_ground(points, **options))

@@ -15,19 +15,43 @@
 
 namespace pcl_rg {
 
+namespace {
+
+// A cell's lowest point so far: its height next to its index, so that a comparison
+// reads no other point (the points of a cell are scattered over the input).
+struct Lowest {
+    double z;
+    std::int64_t i;  // -1: none yet
+};
+
+// b becomes p when p is lower (then of smaller index): a total order, so the lowest
+// does not depend on the order the points come in.
+void keep_lower(Lowest& b, const Lowest& p) {
+    if (b.i < 0 || p.z < b.z || (p.z == b.z && p.i < b.i)) b = p;
+}
+
+// Merges a thread's raster into the shared one (in a critical section: one at a time).
+void merge_lowest(UnfilledVector<Lowest>& lowest, const UnfilledVector<Lowest>& mine) {
+#pragma omp critical(pcl_rg_lowest_in_cells)
+    for (std::size_t k = 0; k < lowest.size(); ++k)
+        if (mine[k].i >= 0) keep_lower(lowest[k], mine[k]);
+}
+
+// Each cell's lowest point's index (-1: none).
+std::vector<std::int64_t> indices_of(const UnfilledVector<Lowest>& lowest) {
+    std::vector<std::int64_t> index(lowest.size());
+    const auto count = static_cast<std::ptrdiff_t>(lowest.size());
+#pragma omp parallel for schedule(static) if (count > 65536)
+    for (std::ptrdiff_t k = 0; k < count; ++k) index[k] = lowest[k].i;
+    return index;
+}
+
+}  // namespace
+
 std::vector<std::int64_t> lowest_in_cells(PointsView points, const CellLattice& lattice,
                                           const bool* take) {
-    // Each cell keeps its lowest point's height next to its index, so that a comparison
-    // reads no other point (the points of a cell are scattered over the input).
-    struct Lowest {
-        double z;
-        std::int64_t i;  // -1: none yet
-    };
     const auto cells = static_cast<std::size_t>(lattice.columns * lattice.rows);
     UnfilledVector<Lowest> lowest(cells, Lowest{0.0, -1});
-    auto keep_lower = [](Lowest& b, const Lowest& p) {
-        if (b.i < 0 || p.z < b.z || (p.z == b.z && p.i < b.i)) b = p;
-    };
     const auto n = static_cast<std::int64_t>(points.size);
     const Interruption interruption;
     auto cell_index = [&](std::int64_t i) {
@@ -69,9 +93,7 @@ std::vector<std::int64_t> lowest_in_cells(PointsView points, const CellLattice& 
                             mine[cell[i - first]],
                             Lowest{points.coord(static_cast<std::size_t>(i), 2) - lattice.z0, i});
             }
-#pragma omp critical(pcl_rg_lowest_in_cells)
-            for (std::size_t k = 0; k < cells; ++k)
-                if (mine[k].i >= 0) keep_lower(lowest[k], mine[k]);
+            merge_lowest(lowest, mine);
         }
     } else {
         // Many cells, where a grid per thread would cost more than the points: first
@@ -118,23 +140,12 @@ std::vector<std::int64_t> lowest_in_cells(PointsView points, const CellLattice& 
         }
     }
     interruption.check();
-    std::vector<std::int64_t> index(cells);
-    const auto cell_count = static_cast<std::ptrdiff_t>(cells);
-#pragma omp parallel for schedule(static) if (cell_count > 65536)
-    for (std::ptrdiff_t k = 0; k < cell_count; ++k) index[k] = lowest[k].i;
-    return index;
+    return indices_of(lowest);
 }
 
 std::vector<std::int64_t> lowest_in_cells(const std::uint32_t* cell, const double* z,
                                           const std::uint32_t* id, const unsigned char* take,
                                           std::size_t n, std::size_t cells) {
-    struct Lowest {
-        double z;
-        std::int64_t i;  // -1: none yet
-    };
-    const auto keep_lower = [](Lowest& b, const Lowest& p) {
-        if (b.i < 0 || p.z < b.z || (p.z == b.z && p.i < b.i)) b = p;
-    };
     UnfilledVector<Lowest> lowest(cells, Lowest{0.0, -1});
     const auto count = static_cast<std::ptrdiff_t>(n);
     const Interruption interruption;
@@ -149,14 +160,10 @@ std::vector<std::int64_t> lowest_in_cells(const std::uint32_t* cell, const doubl
             if (stop || !take[s]) continue;
             keep_lower(mine[cell[s]], Lowest{z[s], id[s]});
         }
-#pragma omp critical(pcl_rg_lowest_in_cells)
-        for (std::size_t k = 0; k < cells; ++k)
-            if (mine[k].i >= 0) keep_lower(lowest[k], mine[k]);
+        merge_lowest(lowest, mine);
     }
     interruption.check();
-    std::vector<std::int64_t> index(cells);
-    for (std::size_t k = 0; k < cells; ++k) index[k] = lowest[k].i;
-    return index;
+    return indices_of(lowest);
 }
 
 std::vector<std::uint32_t> raster_in_index_order(const std::vector<std::int64_t>& lowest,

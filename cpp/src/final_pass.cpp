@@ -23,9 +23,10 @@
 //      (final_pass_low.hpp). grid_ground hands over each point's cell in its grid's
 //      order (SnappedPoints::cell, where cells hold 8 points or more on average): the
 //      scans of every point for step 2 and the side vertices then read its compact
-//      arrays in order (13 bytes a point) instead of each point's coordinates in input
-//      order (24 bytes and two divisions): at 10M points its two rounds took 0.47
-//      instead of 0.58 s, and its grid 0.39 instead of 0.36 s to build (medians of 40).
+//      arrays in order (cell, height, index and ground: 17 bytes a point, after one
+//      gather of the ground) instead of each point's coordinates in input order (24
+//      bytes and two divisions): at 10M points its two rounds took 0.47 instead of
+//      0.58 s, and its grid 0.39 instead of 0.36 s to build (medians of 40 calls).
 //   3. Delaunay TIN of the vertices inside the frame's box, whose four corners are
 //      virtual vertices at the height of their nearest vertex (exact squared grid
 //      distance, ties: the lowest), and whose sides hold one virtual vertex for each
@@ -194,7 +195,8 @@ void final_pass(PointsView points, const FinalPassParams& params, const SnappedP
         lowest_not_low =
             final_pass_low::keep_not_low(points, cells, params.low_depth, ground, not_low.get());
     }
-    const bool* vertex_ground = not_low ? not_low.get() : ground;
+    // By input index (by position: vertex_ground_at instead).
+    const bool* vertex_ground = by_position ? nullptr : not_low ? not_low.get() : ground;
     std::vector<Vertex> candidates;
     {
         // The lowest point of each cell of the vertex ground.

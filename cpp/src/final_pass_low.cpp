@@ -81,6 +81,63 @@ std::vector<double> raster_thresholds(PointsView points, const CellLattice& cell
     return threshold_of;
 }
 
+// Each cell's lowest kept point, in index order: its lowest ground point (`lowest`, as
+// raster_thresholds took it) where it has no threshold, as that point is then kept;
+// else the least (lower_in_cell) of its kept points, the set bits of `marked` (cleared),
+// for each of which place(bit) gives the cell and the point's index. A cell has a
+// threshold only when its lowest ground point lies below it, dropped.
+template <class Place>
+std::vector<std::uint32_t> lowest_kept(std::vector<std::int64_t> lowest,
+                                       const std::vector<double>& threshold_of,
+                                       std::vector<std::uint64_t>& marked, PointsView points,
+                                       double z0, std::size_t n, Place place) {
+    for (std::size_t c = 0; c < threshold_of.size(); ++c)
+        if (threshold_of[c] != kNotLow) lowest[c] = -1;
+    std::vector<std::uint32_t> bits;
+    take_marked(marked, bits);
+    for (const std::uint32_t bit : bits) {
+        const auto [cell, i] = place(bit);
+        std::int64_t& best = lowest[cell];
+        if (best < 0 || lower_in_cell(points, z0, i, static_cast<std::size_t>(best))) best = i;
+    }
+    return raster_in_index_order(lowest, n);
+}
+
+// keep_not_low on points by position (lowest_by_position's case with a depth): ground and
+// kept by position; returns the lowest kept point of each cell (input indices, in index
+// order), reading the points' coordinates only for those.
+std::vector<std::uint32_t> keep_not_low_by_position(PointsView points, const SnappedPoints& snapped,
+                                                    const CellLattice& cells, double depth,
+                                                    const unsigned char* ground,
+                                                    unsigned char* kept) {
+    const std::size_t n = snapped.order.size();
+    const auto cell_count = static_cast<std::size_t>(cells.columns * cells.rows);
+    std::vector<std::int64_t> lowest = lowest_in_cells(snapped.cell.data(), snapped.z.data(),
+                                                       snapped.order.data(), ground, n, cell_count);
+    const std::vector<double> threshold_of = raster_thresholds(points, cells, depth, lowest);
+    // The kept positions of the cells with a threshold, marked by any thread: the
+    // candidates for those cells' lowest kept points.
+    std::vector<std::uint64_t> in_threshold_cell((n + 63) / 64, 0);
+    const auto count = static_cast<std::ptrdiff_t>(n);
+#pragma omp parallel for schedule(static) if (count > 65536)
+    for (std::ptrdiff_t s = 0; s < count; ++s) {
+        kept[s] = ground[s];
+        if (!ground[s]) continue;
+        const double t = threshold_of[snapped.cell[s]];
+        if (t == kNotLow) continue;
+        if (snapped.z[s] < t)
+            kept[s] = 0;
+        else
+            mark(in_threshold_cell, static_cast<std::uint32_t>(s));
+    }
+    poll_interrupt();
+    return lowest_kept(
+        std::move(lowest), threshold_of, in_threshold_cell, points, cells.z0, n,
+        [&](std::uint32_t s) {
+            return std::pair{static_cast<std::size_t>(snapped.cell[s]), snapped.order[s]};
+        });
+}
+
 }  // namespace
 
 std::optional<std::vector<std::uint32_t>> keep_not_low(PointsView points, const CellLattice& cells,
@@ -174,68 +231,12 @@ std::optional<std::vector<std::uint32_t>> keep_not_low(PointsView points, const 
         if (at != low.end() && at->cx == cx && at->cy == cy && z < at->value) kept[i] = false;
     }
     if (raster_threshold.empty()) return std::nullopt;
-    // Each cell's lowest kept point: its lowest ground point where it has no threshold
-    // (kept), else the least of its marked points in the cells' order (lower_in_cell). A
-    // cell has a threshold only when its lowest ground point lies below it, dropped.
-    for (std::size_t c = 0; c < raster_threshold.size(); ++c)
-        if (raster_threshold[c] != kNotLow) lowest[c] = -1;
-    std::vector<std::uint32_t> candidates;
-    take_marked(in_threshold_cell, candidates);
-    for (const std::uint32_t i : candidates) {
-        const auto [cx, cy] = cell_of(points, cells, i);
-        std::int64_t& best = lowest[static_cast<std::size_t>(cx * rows + cy)];
-        if (best < 0 || lower_in_cell(points, cells.z0, i, static_cast<std::size_t>(best)))
-            best = i;
-    }
-    return raster_in_index_order(lowest, n);
+    return lowest_kept(std::move(lowest), raster_threshold, in_threshold_cell, points, cells.z0, n,
+                       [&](std::uint32_t i) {
+                           const auto [cx, cy] = cell_of(points, cells, i);
+                           return std::pair{static_cast<std::size_t>(cx * rows + cy), i};
+                       });
 }
-
-namespace {
-
-// keep_not_low on points by position (lowest_by_position's case with a depth): ground and
-// kept by position; returns the lowest kept point of each cell (input indices, in index
-// order), reading the points' coordinates only for those.
-std::vector<std::uint32_t> keep_not_low_by_position(PointsView points, const SnappedPoints& snapped,
-                                                    const CellLattice& cells, double depth,
-                                                    const unsigned char* ground,
-                                                    unsigned char* kept) {
-    const std::size_t n = snapped.order.size();
-    const auto cell_count = static_cast<std::size_t>(cells.columns * cells.rows);
-    std::vector<std::int64_t> lowest = lowest_in_cells(snapped.cell.data(), snapped.z.data(),
-                                                       snapped.order.data(), ground, n, cell_count);
-    const std::vector<double> threshold_of = raster_thresholds(points, cells, depth, lowest);
-    // The kept positions of the cells with a threshold, marked by any thread: the
-    // candidates for those cells' lowest kept points.
-    std::vector<std::uint64_t> in_threshold_cell((n + 63) / 64, 0);
-    const auto count = static_cast<std::ptrdiff_t>(n);
-#pragma omp parallel for schedule(static) if (count > 65536)
-    for (std::ptrdiff_t s = 0; s < count; ++s) {
-        kept[s] = ground[s];
-        if (!ground[s]) continue;
-        const double t = threshold_of[snapped.cell[s]];
-        if (t == kNotLow) continue;
-        if (snapped.z[s] < t)
-            kept[s] = 0;
-        else
-            mark(in_threshold_cell, static_cast<std::uint32_t>(s));
-    }
-    poll_interrupt();
-    // As the input-order version: a cell's lowest ground point where it has no threshold,
-    // else the least of its kept points by (z, index).
-    for (std::size_t c = 0; c < cell_count; ++c)
-        if (threshold_of[c] != kNotLow) lowest[c] = -1;
-    std::vector<std::uint32_t> marked_positions;
-    take_marked(in_threshold_cell, marked_positions);
-    for (const std::uint32_t s : marked_positions) {
-        std::int64_t& best = lowest[snapped.cell[s]];
-        const std::uint32_t i = snapped.order[s];
-        if (best < 0 || lower_in_cell(points, cells.z0, i, static_cast<std::size_t>(best)))
-            best = i;
-    }
-    return raster_in_index_order(lowest, n);
-}
-
-}  // namespace
 
 std::vector<std::uint32_t> lowest_by_position(PointsView points, const SnappedPoints& snapped,
                                               const CellLattice& cells, double depth,

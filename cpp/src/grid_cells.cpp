@@ -221,7 +221,8 @@ CellGrid build_grid(PointsView points, const GridGroundParams& params,
     std::vector<std::vector<std::pair<std::size_t, CellBox>>> crowded_in_band(bands);
 #pragma omp parallel if (parallel) firstprivate(interruption)
     {
-        // A point's cell is not carried: the cells' runs give it back (40 bytes, not 48).
+        // A point's cell is not carried: the cells' runs give it back, and a record with
+        // the final pass's cell stays at 40 bytes.
         struct Record {
             Local p;
             std::uint32_t id;

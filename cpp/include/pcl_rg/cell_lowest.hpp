@@ -46,11 +46,12 @@ inline std::pair<std::int64_t, std::int64_t> cell_of(PointsView points, const Ce
 }
 
 /// cell_of for loops over every point: the quotient through a multiplication by the
-/// reciprocal of the cell size, which needs no division. The two quotients differ by a
-/// few units in the last place at most (each rounding is relatively within 2^-53), so
-/// their floors differ only when a whole number lies that close; within a relative
-/// 2^-40 of one the division decides. The same cells as cell_of, bit for bit, on a
-/// lattice of at most 2^40 cells per axis (final_cells checks that).
+/// reciprocal of the cell size, which needs no division. Where both are finite and
+/// below 2^40, the two quotients differ by a few units in the last place at most (each
+/// rounding is relatively within 2^-53), so their floors differ only when a whole
+/// number lies that close; within a relative 2^-40 of one, and wherever the product is
+/// not such a number (a subnormal size, whose reciprocal is infinite), the division
+/// decides. So the same cells as cell_of, bit for bit.
 class CellOf {
    public:
     explicit CellOf(const CellLattice& lattice) : lattice_(lattice), inverse_(1.0 / lattice.size) {}
@@ -62,6 +63,7 @@ class CellOf {
    private:
     std::int64_t index(double offset) const {
         const double q = offset * inverse_;
+        if (!(std::fabs(q) < 0x1p40)) return floor_to_int(offset / lattice_.size);
         const double below = static_cast<double>(floor_to_int(q));
         const double margin = 0x1p-40 * std::fabs(q);
         if (q - below < margin || (below + 1.0) - q < margin)
