@@ -42,22 +42,6 @@
 
 namespace pcl_rg {
 
-namespace {
-
-// Orientation of (a, b, p + (eps, eps^2)): the exact orientation when non-zero, else
-// the sign of its eps term (ay - by), else of its eps^2 term (bx - ax). Never zero for
-// a != b, and antisymmetric in (a, b), so the perturbed point is on one side of
-// every edge.
-int orient_perturbed(std::int64_t ax, std::int64_t ay, std::int64_t bx, std::int64_t by,
-                     std::int64_t px, std::int64_t py) {
-    const std::int64_t o = orient2d(ax, ay, bx, by, px, py);
-    if (o != 0) return o > 0 ? 1 : -1;
-    if (ay != by) return ay > by ? 1 : -1;
-    return bx > ax ? 1 : -1;
-}
-
-}  // namespace
-
 Delaunay::Delaunay(std::int32_t width, std::int32_t height) { reset(width, height); }
 
 void Delaunay::reset(std::int32_t width, std::int32_t height) {
@@ -164,15 +148,6 @@ std::int32_t Delaunay::walk(std::int32_t x, std::int32_t y, std::int32_t t,
         t = tr.n[cross];
     }
     throw std::logic_error("Delaunay: point location did not terminate");
-}
-
-bool Delaunay::holds(std::int32_t t, std::int32_t x, std::int32_t y) const {
-    const Triangle& tr = tri_[t];
-    for (int e = 0; e < 3; ++e) {
-        const Vertex a = xy_[tr.v[e == 2 ? 0 : e + 1]], b = xy_[tr.v[e == 0 ? 2 : e - 1]];
-        if (orient_perturbed(a.x, a.y, b.x, b.y, x, y) < 0) return false;
-    }
-    return true;
 }
 
 std::int32_t Delaunay::insert(std::int32_t x, std::int32_t y, std::int32_t start, bool* inserted) {

@@ -16,14 +16,6 @@
 
 namespace pcl_rg {
 
-std::int32_t GridFrame::grid_x(double x) const {
-    return static_cast<std::int32_t>(std::nearbyint((x - lower_x) / quantum)) + 1;
-}
-
-std::int32_t GridFrame::grid_y(double y) const {
-    return static_cast<std::int32_t>(std::nearbyint((y - lower_y) / quantum)) + 1;
-}
-
 GridFrame make_grid_frame(double lower_x, double lower_y, double upper_x, double upper_y) {
     if (!std::isfinite(lower_x) || !std::isfinite(lower_y) || !std::isfinite(upper_x) ||
         !std::isfinite(upper_y))

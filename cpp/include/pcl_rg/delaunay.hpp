@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <vector>
@@ -17,6 +18,17 @@ namespace pcl_rg {
 /// [0, kMaxGridCoordinate], which keeps the predicates exact (see delaunay.cpp).
 inline constexpr std::int32_t kMaxGridCoordinate = std::int32_t{1} << 30;
 
+/// std::nearbyint(v) in the default rounding mode (to nearest, ties to even), up to the
+/// sign of a zero, without a call: the x86-64 baseline has no rounding instruction, so
+/// std::nearbyint is a call into libm, two per point snapped. Adding then subtracting
+/// 2^52 rounds a v below 2^52 in magnitude to a whole number in that mode (the sum's
+/// last place is 1); from 2^52 on v is whole already.
+inline double nearest_whole(double v) {
+    constexpr double kWhole = 0x1p52;
+    if (!(std::fabs(v) < kWhole)) return v;
+    return v >= 0.0 ? (v + kWhole) - kWhole : (v - kWhole) + kWhole;
+}
+
 /// Maps XY coordinates in [lower, upper] (metres, float64) to the integer grid of a
 /// Delaunay box: g = rint((v - lower) / quantum) + 1, so every point of the extent
 /// lies strictly inside the box [0, width] x [0, height].
@@ -27,8 +39,12 @@ struct GridFrame {
     std::int32_t width = 2;   ///< box corner x (grid units): rint(extent_x / quantum) + 2
     std::int32_t height = 2;  ///< box corner y (grid units): rint(extent_y / quantum) + 2
 
-    std::int32_t grid_x(double x) const;
-    std::int32_t grid_y(double y) const;
+    std::int32_t grid_x(double x) const {
+        return static_cast<std::int32_t>(nearest_whole((x - lower_x) / quantum)) + 1;
+    }
+    std::int32_t grid_y(double y) const {
+        return static_cast<std::int32_t>(nearest_whole((y - lower_y) / quantum)) + 1;
+    }
 };
 
 /// Frame of the extent [lower_x, upper_x] x [lower_y, upper_y] (m). The quantum is the
@@ -76,6 +92,18 @@ SnappedPoints snap_points(PointsView points, const std::array<double, 3>& origin
 inline std::int64_t orient2d(std::int64_t ax, std::int64_t ay, std::int64_t bx, std::int64_t by,
                              std::int64_t cx, std::int64_t cy) {
     return (bx - ax) * (cy - ay) - (by - ay) * (cx - ax);
+}
+
+/// Orientation of (a, b, p + (eps, eps^2)): the exact orientation when non-zero, else
+/// the sign of its eps term (ay - by), else of its eps^2 term (bx - ax). Never zero for
+/// a != b, and antisymmetric in (a, b), so the perturbed point is on one side of
+/// every edge.
+inline int orient_perturbed(std::int64_t ax, std::int64_t ay, std::int64_t bx, std::int64_t by,
+                            std::int64_t px, std::int64_t py) {
+    const std::int64_t o = orient2d(ax, ay, bx, by, px, py);
+    if (o != 0) return o > 0 ? 1 : -1;
+    if (ay != by) return ay > by ? 1 : -1;
+    return bx > ax ? 1 : -1;
 }
 
 /// > 0 when d lies strictly inside the circumcircle of the counter-clockwise triangle
@@ -170,7 +198,15 @@ class Delaunay {
     std::int32_t locate(std::int32_t x, std::int32_t y, std::int32_t start) const;
 
     /// Whether triangle t holds p + (eps, eps^2) (see locate): then locate returns t.
-    bool holds(std::int32_t t, std::int32_t x, std::int32_t y) const;
+    /// Inline: the filters' classifications ask it for nearly every point.
+    bool holds(std::int32_t t, std::int32_t x, std::int32_t y) const {
+        const Triangle& tr = tri_[t];
+        for (int e = 0; e < 3; ++e) {
+            const Vertex a = xy_[tr.v[e == 2 ? 0 : e + 1]], b = xy_[tr.v[e == 0 ? 2 : e - 1]];
+            if (orient_perturbed(a.x, a.y, b.x, b.y, x, y) < 0) return false;
+        }
+        return true;
+    }
 
     /// Inserts p (strictly inside the box) and restores the Delaunay property; returns
     /// its vertex id. A point equal to an existing vertex is not inserted: that
