@@ -12,24 +12,37 @@
 
 namespace pcl_rg::final_pass_border {
 
+namespace {
+
+// The indices index(k) of the entries k < count with on_rim(k), in increasing order,
+// marked in parallel by a scan of every entry (typically a few in a thousand are on the
+// rim, but all of them in a lattice of a few cells); indices are below n.
+template <class OnRim, class Index>
+std::vector<std::uint32_t> rim_of(std::size_t count, std::size_t n, OnRim on_rim, Index index) {
+    std::vector<std::uint64_t> marked((n + 63) / 64, 0);
+    const auto entries = static_cast<std::ptrdiff_t>(count);
+#pragma omp parallel for schedule(static) if (entries > 65536)
+    for (std::ptrdiff_t k = 0; k < entries; ++k)
+        if (on_rim(static_cast<std::size_t>(k))) mark(marked, index(static_cast<std::size_t>(k)));
+    std::vector<std::uint32_t> rim;
+    take_marked(marked, rim);
+    return rim;
+}
+
+}  // namespace
+
 std::vector<std::uint32_t> rim_points(PointsView points, const bool* ground,
                                       const CellLattice& lattice) {
     const std::int64_t columns = lattice.columns, rows = lattice.rows;
     if (columns == 1 || rows == 1) return {};
-    // Marked in parallel by a scan of every point (typically a few in a thousand are on
-    // the rim, but all of them in a lattice of a few cells).
-    std::vector<std::uint64_t> on_rim((points.size + 63) / 64, 0);
-    const auto n = static_cast<std::ptrdiff_t>(points.size);
-#pragma omp parallel for schedule(static) if (n > 65536)
-    for (std::ptrdiff_t i = 0; i < n; ++i) {
-        if (!ground[i]) continue;
-        const auto [cx, cy] = cell_of(points, lattice, static_cast<std::size_t>(i));
-        if (cx == 0 || cx == columns - 1 || cy == 0 || cy == rows - 1)
-            mark(on_rim, static_cast<std::uint32_t>(i));
-    }
-    std::vector<std::uint32_t> rim;
-    take_marked(on_rim, rim);
-    return rim;
+    return rim_of(
+        points.size, points.size,
+        [&](std::size_t i) {
+            if (!ground[i]) return false;
+            const auto [cx, cy] = cell_of(points, lattice, i);
+            return cx == 0 || cx == columns - 1 || cy == 0 || cy == rows - 1;
+        },
+        [](std::size_t i) { return static_cast<std::uint32_t>(i); });
 }
 
 std::vector<std::uint32_t> rim_points(const SnappedPoints& snapped, const unsigned char* ground,
@@ -42,14 +55,10 @@ std::vector<std::uint32_t> rim_points(const SnappedPoints& snapped, const unsign
         outermost[cy] = outermost[(columns - 1) * rows + cy] = 1;
     for (std::int64_t cx = 0; cx < columns; ++cx)
         outermost[cx * rows] = outermost[cx * rows + rows - 1] = 1;
-    std::vector<std::uint64_t> on_rim((snapped.order.size() + 63) / 64, 0);
-    const auto n = static_cast<std::ptrdiff_t>(snapped.order.size());
-#pragma omp parallel for schedule(static) if (n > 65536)
-    for (std::ptrdiff_t s = 0; s < n; ++s)
-        if (ground[s] && outermost[snapped.cell[s]]) mark(on_rim, snapped.order[s]);
-    std::vector<std::uint32_t> rim;
-    take_marked(on_rim, rim);
-    return rim;
+    return rim_of(
+        snapped.order.size(), snapped.order.size(),
+        [&](std::size_t s) { return ground[s] && outermost[snapped.cell[s]]; },
+        [&](std::size_t s) { return snapped.order[s]; });
 }
 
 std::vector<BorderVertex> border_vertices(const std::vector<Vertex>& vertices,
