@@ -9,6 +9,7 @@ results never depend on the kept memory is tests/test_thread_independence.py's
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 import textwrap
@@ -29,10 +30,15 @@ pcl_rg.set_memory_cache_limit(4 << 30)
 """
 
 
-def run_scenario(body: str) -> dict:
+def run_scenario(body: str, env: dict[str, str] | None = None) -> dict:
     code = SCENARIO_HEAD + textwrap.dedent(body)
     done = subprocess.run(
-        [sys.executable, "-c", code], capture_output=True, text=True, timeout=600, check=False
+        [sys.executable, "-c", code],
+        capture_output=True,
+        text=True,
+        timeout=600,
+        check=False,
+        env={**os.environ, **(env or {})},
     )
     assert done.returncode == 0, done.stderr
     return json.loads(done.stdout)
@@ -62,6 +68,30 @@ def test_a_repeated_call_reuses_every_block_and_the_peak_bounds_what_is_kept() -
     # Another filter: whatever it maps anew, kept + live never passes the peak.
     for s in (first, second, third):
         assert s["kept_bytes"] <= min(s["peak_bytes"], s["limit"])
+
+
+@pytest.mark.parametrize("function", ["grid_ground", "tin_ground"])
+def test_a_call_repeated_maps_no_new_memory(function) -> None:
+    # PCL_RG_BLOCK_CACHE_CHECK makes the cache serve blocks from 64 KiB, so that this
+    # cloud's arrays meet it as 10M points' meet it by default. A small array asked for
+    # while the block of its size was still live used to drop the oldest kept block and
+    # map new memory, every call (grid_ground: 10 blocks per call here, 3 on 10M points).
+    out = run_scenario(
+        f"""
+        run = pcl_rg.{function}
+        counts = []
+        for _ in range(3):
+            run(points)
+            counts.append(stats())
+        print(json.dumps(counts))
+        """,
+        env={"PCL_RG_BLOCK_CACHE_CHECK": "1"},
+    )
+    first, second, third = out
+    assert first["allocated"] > 0
+    assert third["allocated"] == second["allocated"] == first["allocated"]
+    assert third["peak_bytes"] == first["peak_bytes"]
+    assert all(s["kept_bytes"] <= s["peak_bytes"] for s in out)
 
 
 def test_release_and_a_zero_limit_keep_nothing() -> None:

@@ -5,10 +5,13 @@ The core's large arrays (4 MiB and up: on 10M points tin_ground's come to about
 them instead of having the kernel map and zero fresh memory. On the 2-core hosts of
 benchmarks/RESULTS.md that saved tin_ground up to a second of system time per call on
 10M points. Kept and live together, the core's arrays never take more than the most
-they have taken at once in this process; but what other code allocates between calls
-(the next tile read, NumPy's arrays) comes on top of the kept blocks, so call
-`release_memory` before such work when the peak matters. ``pcl_rg.batch`` does so after
-each task.
+they have taken at once in this process. (A call may be handed a kept block larger than
+it asked for, rather than have kept blocks dropped and new ones mapped, so over tiles of
+different sizes that most can pass what the largest tile needs: grid_ground on 12 tiles
+of 2-10M points kept up to 884 MiB where the largest needed 666 MiB.) But what other
+code allocates between calls (the next tile read, NumPy's arrays) comes on top of the
+kept blocks, so call `release_memory` before such work when the peak matters.
+``pcl_rg.batch`` does so after each task.
 """
 
 from __future__ import annotations

@@ -15,8 +15,9 @@ std::size_t min_bytes() noexcept;
 
 /// A block of at least `bytes` (>= min_bytes()), aligned to 2 MiB from 4 MiB up so that
 /// the kernel can back it with huge pages. A kept block of a fitting size when there is
-/// one (its contents are whatever its last user left: write before reading), else new
-/// memory (when none can be had, the kept blocks are freed and it is tried once more).
+/// one (its contents are whatever its last user left: write before reading), or a larger
+/// kept one when new memory would mean dropping kept blocks, else new memory (when none
+/// can be had, the kept blocks are freed and it is tried once more).
 /// Throws std::bad_alloc.
 void* take(std::size_t bytes);
 
