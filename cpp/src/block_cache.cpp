@@ -207,7 +207,7 @@ void* take(std::size_t bytes) {
         // block of its size is still live would otherwise drop the oldest kept block, which
         // may be the largest: grid_ground mapped and zeroed 280 MiB afresh per call on 10M
         // points (then 0), and after a pause of a second or more, when the host had taken
-        // the freed pages back, that cost 0.2-0.4 s of system time per call.
+        // the freed pages back, that cost 0.4-0.5 s of system time per call.
         std::size_t best = smallest_holding(size / 4 + alignment_of(size));
         const std::size_t mapped = s.stats.live_bytes - s.pending_bytes;
         if (best == s.kept_count && s.stats.live_bytes + size + s.stats.kept_bytes >
