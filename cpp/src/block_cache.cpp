@@ -201,17 +201,20 @@ void* take(std::size_t bytes) {
             }
             return best;
         };
+        // What live + kept may come to if this take maps new memory: the peak of mapped
+        // live bytes, this block's included. The peak itself moves only once the memory is
+        // there, and never by another thread's pending bytes, which may yet fail.
+        const std::size_t bound =
+            std::max(s.stats.peak_bytes, s.stats.live_bytes - s.pending_bytes + size);
         // One that fits, wasting at most a quarter; failing that, when new memory would
-        // have to drop kept blocks to stay within the peak (below), any that holds it. A
+        // have to drop kept blocks to stay within that bound, any that holds it. A
         // call asks for its arrays in its own order, and a small one asked for while the
         // block of its size is still live would otherwise drop the oldest kept block, which
         // may be the largest: grid_ground mapped and zeroed 280 MiB afresh per call on 10M
         // points (then 0), and after a pause of a second or more, when the host had taken
         // the freed pages back, that cost 0.4-0.5 s of system time per call.
         std::size_t best = smallest_holding(size / 4 + alignment_of(size));
-        const std::size_t mapped = s.stats.live_bytes - s.pending_bytes;
-        if (best == s.kept_count && s.stats.live_bytes + size + s.stats.kept_bytes >
-                                        std::max(s.stats.peak_bytes, mapped + size))
+        if (best == s.kept_count && s.stats.live_bytes + size + s.stats.kept_bytes > bound)
             best = smallest_holding(std::numeric_limits<std::size_t>::max());
         if (best < s.kept_count) {
             const Kept found = s.kept[best];
@@ -224,13 +227,9 @@ void* take(std::size_t bytes) {
         } else {
             // New memory, counted live at once (so that a take in another thread meanwhile
             // sees it) and pending until it is there: first drop kept blocks so that live +
-            // kept stays within the peak of mapped live bytes, this block's included. The
-            // peak itself moves only once the memory is there, and never by another
-            // thread's pending bytes, which may yet fail.
+            // kept stays within the bound.
             s.stats.live_bytes += size;
             s.pending_bytes += size;
-            const std::size_t bound =
-                std::max(s.stats.peak_bytes, s.stats.live_bytes - s.pending_bytes + size);
             s.drop_while(dropped, [&] { return s.stats.live_bytes + s.stats.kept_bytes > bound; });
         }
     }

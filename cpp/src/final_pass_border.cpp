@@ -16,10 +16,11 @@ namespace {
 
 // The indices index(k) of the entries k < count with on_rim(k), in increasing order,
 // marked in parallel by a scan of every entry (typically a few in a thousand are on the
-// rim, but all of them in a lattice of a few cells); indices are below n.
+// rim, but all of them in a lattice of a few cells); indices are below count (each
+// entry is one point).
 template <class OnRim, class Index>
-std::vector<std::uint32_t> rim_of(std::size_t count, std::size_t n, OnRim on_rim, Index index) {
-    std::vector<std::uint64_t> marked((n + 63) / 64, 0);
+std::vector<std::uint32_t> rim_of(std::size_t count, OnRim on_rim, Index index) {
+    std::vector<std::uint64_t> marked((count + 63) / 64, 0);
     const auto entries = static_cast<std::ptrdiff_t>(count);
 #pragma omp parallel for schedule(static) if (entries > 65536)
     for (std::ptrdiff_t k = 0; k < entries; ++k)
@@ -36,7 +37,7 @@ std::vector<std::uint32_t> rim_points(PointsView points, const bool* ground,
     const std::int64_t columns = lattice.columns, rows = lattice.rows;
     if (columns == 1 || rows == 1) return {};
     return rim_of(
-        points.size, points.size,
+        points.size,
         [&](std::size_t i) {
             if (!ground[i]) return false;
             const auto [cx, cy] = cell_of(points, lattice, i);
@@ -56,7 +57,7 @@ std::vector<std::uint32_t> rim_points(const SnappedPoints& snapped, const unsign
     for (std::int64_t cx = 0; cx < columns; ++cx)
         outermost[cx * rows] = outermost[cx * rows + rows - 1] = 1;
     return rim_of(
-        snapped.order.size(), snapped.order.size(),
+        snapped.order.size(),
         [&](std::size_t s) { return ground[s] && outermost[snapped.cell[s]]; },
         [&](std::size_t s) { return snapped.order[s]; });
 }
