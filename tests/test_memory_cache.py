@@ -1,5 +1,6 @@
 """The core keeps its large freed arrays for the next call (block_cache.cpp), within a
-limit and within the process's own peak, and gives them back when asked.
+limit and within a quarter above the most its arrays asked for at once (the peak), and
+gives them back when asked.
 
 The counters are the process's, so each scenario runs in a fresh interpreter. That
 results never depend on the kept memory is tests/test_thread_independence.py's
@@ -28,6 +29,12 @@ stats = _core.block_cache_stats
 # A limit of its own: the default is 0 in an AddressSanitizer build (make sanitize).
 pcl_rg.set_memory_cache_limit(4 << 30)
 """
+
+
+def room(peak: int) -> int:
+    """The most live + kept bytes for a peak (block_cache.cpp's with_room): a quarter
+    more, so that larger blocks lent to smaller requests can be kept."""
+    return peak + peak // 4
 
 
 def run_scenario(body: str, env: dict[str, str] | None = None) -> dict:
@@ -65,9 +72,9 @@ def test_a_repeated_call_reuses_every_block_and_the_peak_bounds_what_is_kept() -
     assert second["allocated"] == first["allocated"]
     assert second["reused"] > first["reused"]
     assert second["peak_bytes"] == first["peak_bytes"]
-    # Another filter: whatever it maps anew, kept + live never passes the peak.
+    # Another filter: whatever it maps anew, kept stays within the room above the peak.
     for s in (first, second, third):
-        assert s["kept_bytes"] <= min(s["peak_bytes"], s["limit"])
+        assert s["kept_bytes"] <= min(room(s["peak_bytes"]), s["limit"])
 
 
 @pytest.mark.parametrize("function", ["grid_ground", "tin_ground"])
@@ -93,7 +100,35 @@ def test_a_call_repeated_maps_no_new_memory(function) -> None:
     assert first["allocated"] > 0
     assert third["allocated"] == second["allocated"] == first["allocated"]
     assert third["peak_bytes"] == first["peak_bytes"]
-    assert all(s["kept_bytes"] <= s["peak_bytes"] for s in out)
+    assert all(s["kept_bytes"] <= room(s["peak_bytes"]) for s in out)
+
+
+@pytest.mark.parametrize("function", ["grid_ground", "tin_ground"])
+def test_the_peak_is_what_was_asked_for_not_what_was_lent(function) -> None:
+    # Crops of the cloud, of varying sizes, in one process: the peak is the whole cloud's
+    # alone (its calls ask for the most), and what is kept stays within the room above
+    # it. When the peak counted the whole of a larger block lent to a smaller request,
+    # the unused tails raised it (and with it what could be kept) from call to call.
+    # Check mode and one thread, as above: every array goes through the cache, in one
+    # order.
+    def crops(shares: list[float]) -> list[dict]:
+        return run_scenario(
+            f"""
+            x = points[:, 0]
+            out = []
+            for share in {shares}:
+                pcl_rg.{function}(points[x <= np.quantile(x, share)] if share < 1 else points)
+                out.append(stats())
+            print(json.dumps(out))
+            """,
+            env={"PCL_RG_BLOCK_CACHE_CHECK": "1", "OMP_NUM_THREADS": "1"},
+        )
+
+    alone = crops([1.0])
+    mixed = crops([0.3, 1.0, 0.5, 0.8, 0.2, 1.0, 0.6, 0.9, 0.4, 1.0])
+    assert alone[0]["allocated"] > 0
+    assert mixed[-1]["peak_bytes"] == alone[0]["peak_bytes"]
+    assert all(s["kept_bytes"] <= room(s["peak_bytes"]) for s in alone + mixed)
 
 
 def test_release_and_a_zero_limit_keep_nothing() -> None:
@@ -136,9 +171,8 @@ def test_a_lower_limit_frees_what_lies_above_it() -> None:
 
 
 def test_threads_at_once_keep_no_more_than_the_peak() -> None:
-    # Three threads taking and giving blocks of different sizes at once: kept and live
-    # bytes together stay within the peak of live bytes, and the masks are each
-    # cloud's own.
+    # Three threads taking and giving blocks of different sizes at once: what is kept
+    # stays within the room above the peak, and the masks are each cloud's own.
     out = run_scenario(
         """
         from concurrent.futures import ThreadPoolExecutor
@@ -160,7 +194,7 @@ def test_threads_at_once_keep_no_more_than_the_peak() -> None:
     end = out["end"]
     assert out["same"]
     assert end["live_bytes"] == 0
-    assert end["kept_bytes"] <= end["peak_bytes"]
+    assert end["kept_bytes"] <= room(end["peak_bytes"])
 
 
 @pytest.mark.parametrize(

@@ -6,23 +6,27 @@
 // tin_ground call, a sixth of its CPU time, on the 2-core hosts we measure on. Kept, a repeated
 // call reuses them.
 //
-// How much is kept. A freed block is kept unless that would pass the limit (an eighth
-// of the physical memory, or of a cgroup's cap, by default), in which case the blocks kept longest
-// are freed first. When a take() finds no kept block that fits and must map new memory, kept blocks
-// are freed first, the oldest first, until the live and kept bytes together stay within the most
-// live bytes this process has ever had: so the core's arrays, kept or not, never take more than
-// their own peak, and the cache holds on to what an earlier call already used. Rather than drop
-// kept blocks and map new memory, a take() then uses a kept block larger than it asked for: the
-// live and kept bytes stay as they were, but the peak may later rise by such a block's unused tail
-// (grid_ground on 12 tiles of 2-10M points: 36 blocks mapped instead of 98, a peak of 884 instead
-// of 666 MiB, a maximum RSS of 1.49 instead of 1.30-1.34 GB). (Other memory taken
-// between calls, a NumPy array or the next tile read, then comes on top of the kept blocks:
-// pcl_rg.batch gives them back after each task.) When new memory cannot be had, the kept blocks go
-// back and the allocation is tried once more. release() and set_limit(0) give everything back.
+// How much is kept. The peak is the most bytes the core's arrays have asked for at once
+// (each rounded to its alignment). Live and kept blocks together stay within a quarter more
+// than that peak (with_room), except for the unused tails of larger blocks lent to smaller
+// requests while those are live: so between calls the cache holds at most 1.25 x the
+// most ever asked for at once, and a freed block is not kept beyond that or beyond the
+// limit (an eighth of the physical memory, or of a cgroup's cap, by default); the blocks
+// kept longest go first. When a take() finds no kept block that fits, and new memory
+// would pass the peak, it uses a larger kept block rather than drop kept blocks and map
+// new memory: a repeated call then maps nothing. Before the peak counted what was asked
+// rather than what was taken, a lent block's tail raised it, and with it what could be
+// kept: grid_ground on 12 tiles of 2-10M points kept 884 MiB for a peak of 666 MiB
+// asked (now 812 MiB, 40 blocks mapped instead of 36; 98 before lending), and calls that
+// each asked for one more small array than the last grew it without bound, up to the
+// limit. (Other memory taken between calls, a NumPy array or the next tile read, comes on
+// top of the kept blocks: pcl_rg.batch gives them back after each task.) When new memory
+// cannot be had, the kept blocks go back and the allocation is tried once more. release()
+// and set_limit(0) give everything back.
 //
 // Results do not depend on it: UnfilledVector's contract is that every element is
-// written before it is read, and with PCL_RG_BLOCK_CACHE_CHECK set every block is
-// filled with 0xA5 bytes before it is handed out (and the cache serves blocks from
+// written before it is read, and with PCL_RG_BLOCK_CACHE_CHECK set the bytes asked for
+// are filled with 0xA5 before a block is handed out (and the cache serves blocks from
 // 64 KiB up), which the tests use to show that no result reads what a block held.
 #include "pcl_rg/block_cache.hpp"
 
@@ -70,6 +74,13 @@ bool check_mode() noexcept {
 // Blocks from 4 MiB up are whole 2 MiB pages, aligned, for the kernel's huge pages.
 std::size_t alignment_of(std::size_t bytes) noexcept {
     return bytes >= kMinBytes ? kHugePage : kPage;
+}
+
+// What live + kept blocks may come to for a peak of `asked` bytes: a quarter more, the
+// most a fitting block may waste, so that blocks lent to smaller requests (whose tails the
+// peak does not count) can still be kept for the next call.
+std::size_t with_room(std::size_t asked) noexcept {
+    return asked > std::numeric_limits<std::size_t>::max() / 5 * 4 ? asked : asked + asked / 4;
 }
 
 std::size_t rounded(std::size_t bytes) noexcept {
@@ -135,8 +146,14 @@ struct State {
     std::array<Kept, kMaxKept> kept{};
     std::size_t kept_count = 0;
     std::uint64_t clock = 0;
-    std::unordered_map<void*, std::size_t> live;  // taken blocks and their true sizes
-    std::size_t pending_bytes = 0;                // counted in live_bytes, not yet mapped
+    // Taken blocks: their true sizes, and the sizes asked for (rounded), less when a
+    // larger kept block was lent.
+    struct Taken {
+        std::size_t bytes, asked;
+    };
+    std::unordered_map<void*, Taken> live;
+    std::size_t asked_bytes = 0;    // of the live blocks, as asked for: what the peak counts
+    std::size_t pending_bytes = 0;  // counted in asked_bytes and live_bytes, not yet mapped
     Stats stats;
 
     State() { stats.limit = default_limit(); }
@@ -188,6 +205,7 @@ void* take(std::size_t bytes) {
     State& s = state();
     Dropped dropped;
     void* block = nullptr;
+    std::size_t bound = 0;
     {
         std::lock_guard<std::mutex> lock(s.mutex);
         // The smallest kept block that holds `size` bytes and wastes at most `slack`.
@@ -201,36 +219,42 @@ void* take(std::size_t bytes) {
             }
             return best;
         };
-        // What live + kept may come to if this take maps new memory: the peak of mapped
-        // live bytes, this block's included. The peak itself moves only once the memory is
-        // there, and never by another thread's pending bytes, which may yet fail.
-        const std::size_t bound =
-            std::max(s.stats.peak_bytes, s.stats.live_bytes - s.pending_bytes + size);
+        // What live + kept may come to if this take maps new memory: the most bytes asked
+        // for at once, this block's included, but not another thread's pending ones, which
+        // may yet fail. Asked, not taken: a lent block's unused tail would otherwise raise
+        // the bound for the next take, and each call could lend and map more than the last.
+        bound = std::max(s.stats.peak_bytes, s.asked_bytes - s.pending_bytes + size);
+        const std::size_t room = with_room(bound);
         // One that fits, wasting at most a quarter; failing that, when new memory would
-        // have to drop kept blocks to stay within that bound, any that holds it. A
-        // call asks for its arrays in its own order, and a small one asked for while the
-        // block of its size is still live would otherwise drop the oldest kept block, which
-        // may be the largest: grid_ground mapped and zeroed 280 MiB afresh per call on 10M
-        // points (then 0), and after a pause of a second or more, when the host had taken
-        // the freed pages back, that cost 0.4-0.5 s of system time per call.
+        // pass that bound, any that holds it (the room above the bound is for keeping
+        // blocks, not for mapping: mapping into it, tin_ground's second call mapped a block
+        // more than its first). A call asks for its arrays in its own order, and a small
+        // one asked for while the block of its size is still live would otherwise drop the
+        // oldest kept block, which may be the largest: grid_ground mapped and zeroed 280 MiB
+        // afresh per call on 10M points (then 0), and after a pause of a second or more,
+        // when the host had taken the freed pages back, that cost 0.4-0.5 s of system time
+        // per call.
         std::size_t best = smallest_holding(size / 4 + alignment_of(size));
         if (best == s.kept_count && s.stats.live_bytes + size + s.stats.kept_bytes > bound)
             best = smallest_holding(std::numeric_limits<std::size_t>::max());
         if (best < s.kept_count) {
             const Kept found = s.kept[best];
-            s.live.emplace(found.block, found.bytes);  // may throw: nothing changed yet
+            s.live.emplace(found.block, State::Taken{found.bytes, size});  // may throw first
             s.kept[best] = s.kept[--s.kept_count];
             s.stats.kept_bytes -= found.bytes;
             s.stats.live_bytes += found.bytes;
+            s.asked_bytes += size;
+            s.stats.peak_bytes = std::max(s.stats.peak_bytes, s.asked_bytes - s.pending_bytes);
             ++s.stats.reused;
             block = found.block;
         } else {
             // New memory, counted live at once (so that a take in another thread meanwhile
             // sees it) and pending until it is there: first drop kept blocks so that live +
-            // kept stays within the bound.
+            // kept stays within the room above the bound.
             s.stats.live_bytes += size;
+            s.asked_bytes += size;
             s.pending_bytes += size;
-            s.drop_while(dropped, [&] { return s.stats.live_bytes + s.stats.kept_bytes > bound; });
+            s.drop_while(dropped, [&] { return s.stats.live_bytes + s.stats.kept_bytes > room; });
         }
     }
     dropped.free_all();
@@ -244,7 +268,7 @@ void* take(std::size_t bytes) {
         std::lock_guard<std::mutex> lock(s.mutex);
         if (block != nullptr) {
             try {
-                s.live.emplace(block, size);
+                s.live.emplace(block, State::Taken{size, size});
             } catch (...) {
                 std::free(block);
                 block = nullptr;
@@ -253,9 +277,13 @@ void* take(std::size_t bytes) {
         s.pending_bytes -= size;
         if (block == nullptr) {
             s.stats.live_bytes -= size;
+            s.asked_bytes -= size;
             throw std::bad_alloc();
         }
-        s.stats.peak_bytes = std::max(s.stats.peak_bytes, s.stats.live_bytes - s.pending_bytes);
+        // The bound, not what is asked now: kept blocks were dropped down to its room, and
+        // a block given back by another thread meanwhile must not leave more kept than that
+        // (it did, when the peak was taken from the live bytes here).
+        s.stats.peak_bytes = std::max(s.stats.peak_bytes, bound);
         ++s.stats.allocated;
     }
     if (check_mode()) std::memset(block, kCheckFill, size);
@@ -271,13 +299,21 @@ void give(void* p) noexcept {
         std::lock_guard<std::mutex> lock(s.mutex);
         const auto it = s.live.find(p);
         if (it != s.live.end()) {  // else not take()'s (a bug elsewhere): freed, not kept
-            const std::size_t size = it->second;
+            const std::size_t size = it->second.bytes;
+            s.asked_bytes -= it->second.asked;
             s.live.erase(it);
             s.stats.live_bytes -= size;
-            if (size <= s.stats.limit) {
-                s.drop_while(dropped, [&] {
-                    return s.kept_count == kMaxKept || s.stats.kept_bytes + size > s.stats.limit;
-                });
+            // Kept within the limit, and with live + kept within the room above the peak,
+            // as take() leaves them when it maps: only the tails of lent blocks still live
+            // can pass it, and a lent block that comes back is not kept beyond it. (Another
+            // thread's pending bytes are not in the peak yet: not counted.)
+            const std::size_t others = s.stats.live_bytes - s.pending_bytes;
+            const auto too_many = [&] {
+                return s.kept_count == kMaxKept || s.stats.kept_bytes + size > s.stats.limit ||
+                       others + s.stats.kept_bytes + size > with_room(s.stats.peak_bytes);
+            };
+            if (size <= s.stats.limit && others + size <= with_room(s.stats.peak_bytes)) {
+                s.drop_while(dropped, too_many);
                 s.kept[s.kept_count++] = Kept{p, size, ++s.clock};
                 s.stats.kept_bytes += size;
                 keep = true;

@@ -4,12 +4,12 @@ The core's large arrays (4 MiB and up: on 10M points tin_ground's come to about
 1.3 GB at their peak) are kept when a call frees them, so that the next call reuses
 them instead of having the kernel map and zero fresh memory. On the 2-core hosts of
 benchmarks/RESULTS.md that saved tin_ground up to a second of system time per call on
-10M points. Kept and live together, the core's arrays never take more than the most
-they have taken at once in this process. (A call may be handed a kept block larger than
-it asked for, rather than have kept blocks dropped and new ones mapped, so over tiles of
-different sizes that most can pass what the largest tile needs: grid_ground on 12 tiles
-of 2-10M points kept up to 884 MiB where the largest needed 666 MiB.) But what other
-code allocates between calls (the next tile read, NumPy's arrays) comes on top of the
+10M points. Between calls the cache keeps at most a quarter more than the most the
+core's arrays have asked for at once in this process. (A call may be handed a kept
+block larger than it asked for, rather than have kept blocks dropped and new ones
+mapped; the quarter leaves room to keep such blocks for the next call: grid_ground on
+12 tiles of 2-10M points kept 812 MiB where the largest asked for 666 MiB at once.)
+But what other code allocates between calls (the next tile read, NumPy's arrays) comes on top of the
 kept blocks, so call `release_memory` before such work when the peak matters.
 ``pcl_rg.batch`` does so after each task.
 """
@@ -33,8 +33,8 @@ def release_memory() -> int:
     Notes
     -----
     The core keeps each freed array of 4 MiB or more for a later call, within the
-    limit of `set_memory_cache_limit` and within the most memory its arrays have
-    ever taken at once in this process. Call this after the last filter of a
+    limit of `set_memory_cache_limit` and within a quarter more than the most memory
+    its arrays have asked for at once in this process. Call this after the last filter of a
     session, or before other work that needs much memory (the kept arrays would lie
     under it); the next call maps fresh memory again, as it would without the cache.
     Results never depend on the cache: a reused array is written in full before it

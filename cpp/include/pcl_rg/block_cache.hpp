@@ -16,8 +16,8 @@ std::size_t min_bytes() noexcept;
 /// A block of at least `bytes` (>= min_bytes()), aligned to 2 MiB from 4 MiB up so that
 /// the kernel can back it with huge pages. A kept block of a fitting size when there is
 /// one (its contents are whatever its last user left: write before reading), or a larger
-/// kept one when new memory would mean dropping kept blocks, else new memory (when none
-/// can be had, the kept blocks are freed and it is tried once more).
+/// kept one when new memory would pass the peak, else new memory (when none can be had,
+/// the kept blocks are freed and it is tried once more).
 /// Throws std::bad_alloc.
 void* take(std::size_t bytes);
 
@@ -36,7 +36,8 @@ std::size_t set_limit(std::size_t bytes) noexcept;
 struct Stats {
     std::size_t kept_bytes = 0;   // held for a later take()
     std::size_t live_bytes = 0;   // taken and not yet given back
-    std::size_t peak_bytes = 0;   // the most live bytes there ever were
+    std::size_t peak_bytes = 0;   // the most bytes asked for at once (live + kept stay
+                                  // within 1.25 x that, but for lent blocks' tails)
     std::size_t limit = 0;        // set_limit's
     std::uint64_t reused = 0;     // takes served by a kept block
     std::uint64_t allocated = 0;  // takes served by new memory
