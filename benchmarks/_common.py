@@ -133,6 +133,25 @@ def run_conditions(load_before: float) -> str:
     )
 
 
+def carryover_balanced_orders(count: int) -> list[list[int]]:
+    """Orders of `count` interleaved methods in which each follows every other equally
+    often (Williams' design): a call's time depends on the call before it (memory it
+    freed, caches it filled), and rotating one order keeps every method's predecessor.
+
+    For an even `count`, `count` orders, each ordered pair once next to each other; for
+    an odd one, those orders and their reverses, each pair twice.
+    """
+    if count < 1:
+        raise ValueError(f"count must be at least 1, got {count}")
+    # The first order goes 0, 1, n-1, 2, n-2, ...: its steps are 1, -2, 3, -4, ... (mod n),
+    # every nonzero difference once when n is even; the others add a constant.
+    first = [0]
+    for step in range(1, count):
+        first.append((first[-1] + (step if step % 2 else -step)) % count)
+    orders = [[(m + shift) % count for m in first] for shift in range(count)]
+    return orders if count % 2 == 0 else orders + [order[::-1] for order in orders]
+
+
 def airborne_scene(points: int, density: float = 4.0) -> tuple[Any, str]:
     """The speed runs' synthetic_scene(seed=0) of about `points` points at `density`
     per m^2, and its description."""

@@ -1,13 +1,22 @@
-"""benchmarks/_common.write_section: generated sections replaced, notes by hand kept."""
+"""benchmarks/_common: generated sections replaced and notes by hand kept (write_section);
+interleaved methods in orders balanced for the call before (carryover_balanced_orders)."""
 
 from __future__ import annotations
 
 import sys
+from collections import Counter
 from pathlib import Path
+
+import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 
-from _common import KEPT_END, KEPT_START, write_section  # noqa: E402
+from _common import (  # noqa: E402
+    KEPT_END,
+    KEPT_START,
+    carryover_balanced_orders,
+    write_section,
+)
 
 KEPT = f"{KEPT_START}\nBefore the change: 4.25 %.\n\nA second paragraph.\n{KEPT_END}\n"
 
@@ -44,3 +53,19 @@ def test_a_section_without_notes_is_replaced_whole(tmp_path: Path) -> None:
     path = results(tmp_path, "# Benchmark results\n\n## A\n\nold\n\nold note\n\n## B\n\nb\n")
     write_section("## A\n\nnew\n", "## A", path)
     assert path.read_text() == "# Benchmark results\n\n## A\n\nnew\n\n## B\n\nb\n"
+
+
+@pytest.mark.parametrize("count", range(1, 9))
+def test_each_method_follows_every_other_equally_often(count: int) -> None:
+    orders = carryover_balanced_orders(count)
+    assert len(orders) == (count if count % 2 == 0 else 2 * count)
+    assert all(sorted(order) == list(range(count)) for order in orders)
+    pairs = Counter((a, b) for order in orders for a, b in zip(order, order[1:]))
+    expected = {(a, b) for a in range(count) for b in range(count) if a != b}
+    assert set(pairs) == expected
+    assert set(pairs.values()) <= {1 if count % 2 == 0 else 2}
+
+
+def test_no_orders_of_no_methods() -> None:
+    with pytest.raises(ValueError, match="at least 1"):
+        carryover_balanced_orders(0)

@@ -8,9 +8,10 @@ for the requested number of points) is filtered by tin_ground (isprs preset, the
 defaults, and with densify_cell off), grid_ground (defaults) and
 pcl::ApproximateProgressiveMorphologicalFilter
 (PCL's tutorial parameters, as benchmarks/studies/ground_isprs.py runs PMF). The
-four run interleaved in one process, `repeats` rounds, each round starting one
-method later, so that the load of the shared machine and the place after another
-method's call fall on all of them alike; the table gives each one's median wall
+four run interleaved in one process, `repeats` rounds, in orders where each method
+follows every other equally often (carryover_balanced_orders), so that the load of
+the shared machine and the place after another method's call fall on all of them
+alike; the table gives each one's median wall
 time (input check included), its ratio to APMF's median, and tin_ground's and
 grid_ground's stage times from the core's clocks in their median runs. Targets
 (issue 14): tin_ground >= 1.5x and grid_ground >= 4x faster than APMF. --write puts
@@ -30,6 +31,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/_common.py
 from _common import (  # noqa: E402
     airborne_scene,
+    carryover_balanced_orders,
     command_of,
     publish_report,
     run_conditions,
@@ -52,6 +54,7 @@ METHODS = {
     "grid_ground (defaults)": lambda p: pcl_rg.grid_ground(p),
     APMF: lambda p: pcl_rg.pcl.progressive_morphological_filter(p, approximate=True),
 }
+SHORT = dict(zip(METHODS, ["tin_ground", "tin_ground off", "grid_ground", "APMF"]))
 
 
 def run_once(run, points: np.ndarray) -> tuple[float, np.ndarray, dict | None, float]:
@@ -75,13 +78,18 @@ def main(argv: list[str] | None = None) -> int:
     truth = scene.labels == GROUND
     load_before = os.getloadavg()[0]
     runs: dict[str, list] = {name: [] for name in METHODS}
+    after: dict[tuple[str, str], list[float]] = {}  # (method, the one called before it)
     names = list(METHODS)
+    orders = carryover_balanced_orders(len(names))
+    previous = None
     for round_ in range(args.repeats):
-        # Each round starts one method later: a call right after APMF's (which frees
-        # much memory) ran up to 0.7 s slower, so a fixed order favoured some methods.
-        for name in names[round_ % len(names) :] + names[: round_ % len(names)]:
-            run = METHODS[name]
-            runs[name].append(run_once(run, points))
+        # A call right after APMF's (which frees much memory) ran up to 0.7 s slower, so
+        # each method follows every other equally often (a rotated order would not).
+        for name in (names[m] for m in orders[round_ % len(orders)]):
+            runs[name].append(run_once(METHODS[name], points))
+            if previous is not None:
+                after.setdefault((name, previous), []).append(runs[name][-1][0])
+            previous = name
             print(f"round {round_ + 1} {name}: {runs[name][-1][0]:.2f} s", file=sys.stderr)
     conditions = run_conditions(load_before)
 
@@ -121,10 +129,23 @@ def main(argv: list[str] | None = None) -> int:
                 f"final pass {stats['final_pass_seconds']:.2f} s "
                 f"({stats['final_passes_run']} rounds)."
             )
+    splits.append(
+        "Median s by the method called just before it: "
+        + "; ".join(
+            f"{SHORT[name]} after "
+            + ", ".join(
+                f"{SHORT[before]} {statistics.median(times):.2f}"
+                for (method, before), times in sorted(after.items())
+                if method == name
+            )
+            for name in names
+        )
+        + "."
+    )
     about = (
         f"{conditions}. {scene_text}. The four run interleaved in one process, "
-        f"{args.repeats} rounds, each starting one method later; time is the median wall "
-        "time of the whole call, "
+        f"{args.repeats} rounds, in orders where each method follows every other equally "
+        "often (Williams' design); time is the median wall time of the whole call, "
         "x APMF its ratio to APMF's median (> 1: faster); CPU s: median CPU time of all "
         "threads (less sensitive to the other jobs on the machine than wall time). "
         "Targets (issue 14): tin_ground >= 1.5x, grid_ground >= 4x (wall time)."
