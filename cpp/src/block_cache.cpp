@@ -226,13 +226,13 @@ void* take(std::size_t bytes) {
         bound = std::max(s.stats.peak_bytes, s.asked_bytes - s.pending_bytes + size);
         const std::size_t room = with_room(bound);
         // One that fits, wasting at most a quarter; failing that, when new memory would
-        // pass that bound, any that holds it (the room above the bound is for keeping
-        // blocks, not for mapping: mapping into it, tin_ground's second call mapped a block
-        // more than its first). A call asks for its arrays in its own order, and a small
-        // one asked for while the block of its size is still live would otherwise drop the
-        // oldest kept block, which may be the largest: grid_ground mapped and zeroed 280 MiB
-        // afresh per call on 10M points (then 0), and after a pause of a second or more,
-        // when the host had taken the freed pages back, that cost 0.4-0.5 s of system time
+        // pass that bound, any that holds it (the room above the bound does not make new
+        // memory preferable to a lent block: with the room as this test, tin_ground's
+        // second call mapped a block more than its first). A call asks for its arrays in its own
+        // order, and a small one asked for while the block of its size is still live would
+        // otherwise drop the oldest kept block, which may be the largest: grid_ground mapped and
+        // zeroed 280 MiB afresh per call on 10M points (then 0), and after a pause of a second or
+        // more, when the host had taken the freed pages back, that cost 0.4-0.5 s of system time
         // per call.
         std::size_t best = smallest_holding(size / 4 + alignment_of(size));
         if (best == s.kept_count && s.stats.live_bytes + size + s.stats.kept_bytes > bound)
