@@ -170,7 +170,7 @@ def test_a_lower_limit_frees_what_lies_above_it() -> None:
     assert out["kept"] > 0 and out["after"]["kept_bytes"] <= out["kept"] // 2
 
 
-def test_threads_at_once_keep_no_more_than_the_peak() -> None:
+def test_threads_at_once_keep_within_the_room_above_the_peak() -> None:
     # Three threads taking and giving blocks of different sizes at once: what is kept
     # stays within the room above the peak, and the masks are each cloud's own.
     out = run_scenario(

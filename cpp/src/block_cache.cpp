@@ -228,12 +228,12 @@ void* take(std::size_t bytes) {
         // One that fits, wasting at most a quarter; failing that, when new memory would
         // pass that bound, any that holds it (the room above the bound does not make new
         // memory preferable to a lent block: with the room as this test, tin_ground's
-        // second call mapped a block more than its first). A call asks for its arrays in its own
-        // order, and a small one asked for while the block of its size is still live would
-        // otherwise drop the oldest kept block, which may be the largest: grid_ground mapped and
-        // zeroed 280 MiB afresh per call on 10M points (then 0), and after a pause of a second or
-        // more, when the host had taken the freed pages back, that cost 0.4-0.5 s of system time
-        // per call.
+        // second call mapped a block more than its first). A call asks for its arrays in
+        // its own order, and a small one asked for while the block of its size is still
+        // live would otherwise drop the oldest kept block, which may be the largest:
+        // grid_ground mapped and zeroed 280 MiB afresh per call on 10M points (then 0),
+        // and after a pause of a second or more, when the host had taken the freed pages
+        // back, that cost 0.4-0.5 s of system time per call.
         std::size_t best = smallest_holding(size / 4 + alignment_of(size));
         if (best == s.kept_count && s.stats.live_bytes + size + s.stats.kept_bytes > bound)
             best = smallest_holding(std::numeric_limits<std::size_t>::max());
@@ -308,11 +308,12 @@ void give(void* p) noexcept {
             // can pass it, and a lent block that comes back is not kept beyond it. (Another
             // thread's pending bytes are not in the peak yet: not counted.)
             const std::size_t others = s.stats.live_bytes - s.pending_bytes;
+            const std::size_t room = with_room(s.stats.peak_bytes);
             const auto too_many = [&] {
                 return s.kept_count == kMaxKept || s.stats.kept_bytes + size > s.stats.limit ||
-                       others + s.stats.kept_bytes + size > with_room(s.stats.peak_bytes);
+                       others + s.stats.kept_bytes + size > room;
             };
-            if (size <= s.stats.limit && others + size <= with_room(s.stats.peak_bytes)) {
+            if (size <= s.stats.limit && others + size <= room) {
                 s.drop_while(dropped, too_many);
                 s.kept[s.kept_count++] = Kept{p, size, ++s.clock};
                 s.stats.kept_bytes += size;
